@@ -1,0 +1,378 @@
+"""The paper's parametric model: barycentric vectors, theta_z, theta_d, theta_b and regressors.
+
+Bodies k = 0..n (0 = base). The absolute angle of body k is
+``phi_k = q_b + sum_{j<=k} s_j q_j + const_k``, i.e. ``dphi = S w`` with the constant
+lower-triangular ``S``. Positions about the system CoM are sums of vectors fixed in the
+bodies (Vafa & Dubowsky's virtual manipulator, the paper's ref. [12]; MODEL.md section 2):
+
+* ``c_i - p_com = sum_k R(phi_k) W_ik``, ``p_e - p_com = sum_k R(phi_k) V_k``;
+* reduced kinetic energy ``T = 1/2 dphi^T M_phi dphi`` with
+  ``M_phi[k, l] = Dc_kl cos(phi_l - phi_k) - Ds_kl sin(phi_l - phi_k)``,
+  ``Dc_kl = sum_i m_i W_ik . W_il + I_k delta_kl``, ``Ds_kl = sum_i m_i W_ik x W_il``;
+* ``M(q) = S^T M_phi S`` is the paper's M (Eq. 9a), the Schur complement of Pinocchio's CRBA.
+
+Parameter vectors (sizes for n links):
+
+* ``theta_z = col(v_0, V_0, ..., V_n)`` (Eq. 4). When the geometry is *collinear* (every
+  body's CoM, child joint and end effector on one line through its own joint) each V_k is a
+  scalar along that line: 2 + (n+1) entries (7 for the paper's robot). Otherwise each V_k is
+  a 2-vector in body k's frame: 2 + 2(n+1) entries.
+* ``theta_d = (Dc_00 .. Dc_nn, Dc_kl for k<l row-major, [Ds_kl for k<l])`` (Eq. 12):
+  (n+1)(n+2)/2 entries collinear (15), plus n(n+1)/2 otherwise.
+* ``theta_b = col(A_0, theta_d)`` (Eq. 14), with ``Y_b = [-1, y(q, w)]``.
+
+The attitude row of ``z_e`` (the end-effector angle) is parameter-free: its rate is
+``S[ee] w``, a sum of +-1 joint rates; it is added as a known term and not estimated.
+
+Everything is vectorised over the pairs k < l; the regressors are the three products of
+Eq. (12) the controller needs (MODEL.md section 3): ``M(q) a``, ``dM/dt(q, w) s`` and
+``C(q, w) w``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import ParameterError
+from .robot import PlanarGeometry
+
+_COLLINEAR_TOL = 1e-12
+
+
+@dataclass(frozen=True)
+class ParameterLayout:
+    """Sizes and meaning of the parameter vectors."""
+
+    n_bodies: int  # n + 1
+    collinear: bool
+
+    @property
+    def n_pairs(self) -> int:
+        return self.n_bodies * (self.n_bodies - 1) // 2
+
+    @property
+    def n_z(self) -> int:
+        """n_1, size of theta_z."""
+        return 2 + self.n_bodies * (1 if self.collinear else 2)
+
+    @property
+    def n_d(self) -> int:
+        """n_2, size of theta_d."""
+        return self.n_bodies + self.n_pairs * (1 if self.collinear else 2)
+
+    @property
+    def n_b(self) -> int:
+        """n_3, size of theta_b."""
+        return 1 + self.n_d
+
+    def theta_d_names(self) -> list[str]:
+        nb = self.n_bodies
+        names = [f"Dc{k}{k}" for k in range(nb)]
+        pairs = [(k, l) for k in range(nb) for l in range(k + 1, nb)]
+        names += [f"Dc{k}{l}" for k, l in pairs]
+        if not self.collinear:
+            names += [f"Ds{k}{l}" for k, l in pairs]
+        return names
+
+    def theta_z_names(self) -> list[str]:
+        names = ["v0x", "v0y"]
+        for k in range(self.n_bodies):
+            names += [f"V{k}"] if self.collinear else [f"V{k}x", f"V{k}y"]
+        return names
+
+
+class BarycentricModel:
+    """The reduced, parametric free-floating model of a planar serial chain.
+
+    Configuration arguments ``q_b`` [rad] and ``q_m`` [rad] are the base attitude and the
+    joint angles; velocity arguments ``w = (w_b, w_m)`` [rad/s].
+    """
+
+    def __init__(self, geometry: PlanarGeometry):
+        g = geometry
+        n = g.n_joints
+        nb = n + 1
+        self.geometry = g
+        self.n_joints = n
+        mu = g.masses / g.total_mass
+        # a_k (child joint of body k), zero for the last body
+        a = np.zeros((nb, 2))
+        a[:n] = g.child_joints
+        # G[i, k]: body i's CoM written along the chain; W = G - sum_j mu_j G_j
+        G = np.zeros((nb, nb, 2))
+        for i in range(nb):
+            G[i, :i] = a[:i]
+            G[i, i] = g.coms[i]
+        W = G - np.einsum("j,jkd->kd", mu, G)[None]
+        E = np.zeros((nb, 2))
+        m = g.ee_body
+        E[:m] = a[:m]
+        E[m] = g.ee_position
+        V = E - np.einsum("j,jkd->kd", mu, G)
+
+        # collinear: every body's vectors (c_k, a_k, e) span at most a line u_k
+        scale = max(1.0, float(np.abs(np.concatenate([a.ravel(), g.coms.ravel()])).max()))
+        alpha = np.zeros(nb)
+        collinear = True
+        for k in range(nb):
+            vecs = [g.coms[k]]
+            if k < n:
+                vecs.append(a[k])
+            if k == m:
+                vecs.append(g.ee_position)
+            vecs = np.array(vecs)
+            sv = np.linalg.svd(vecs, compute_uv=False)
+            if len(sv) > 1 and sv[1] > _COLLINEAR_TOL * scale:
+                collinear = False
+                break
+            longest = vecs[np.argmax(np.linalg.norm(vecs, axis=1))]
+            if np.linalg.norm(longest) > _COLLINEAR_TOL * scale:
+                alpha[k] = np.arctan2(longest[1], longest[0])
+        if not collinear:
+            alpha[:] = 0.0
+        self.layout = ParameterLayout(n_bodies=nb, collinear=collinear)
+        self.direction_angles = alpha  # alpha_k: angle of body k's line u_k (collinear form)
+
+        # S: dphi = S w, lower-triangular; the ee attitude rate is S[m] w
+        S = np.zeros((nb, nb))
+        S[:, 0] = 1.0
+        for k in range(1, nb):
+            S[k, 1 : k + 1] = g.axis_signs[:k]
+        self.S = S
+        self._ST = np.ascontiguousarray(S.T)
+        # phi_k = S q + offset_k; offsets include the fixed joint yaws and alpha_k
+        cum_yaw = np.concatenate(([0.0], np.cumsum(g.joint_yaws)))
+        self._phi_offset = cum_yaw + alpha
+        self._ee_angle_offset = cum_yaw[m] + g.ee_yaw
+        self._ee_row = S[m].copy()
+
+        # rotate each body's vectors into its line frame (alpha) for the collinear form
+        def to_line(vec, k):
+            c, s = np.cos(alpha[k]), np.sin(alpha[k])
+            return np.array([c * vec[0] + s * vec[1], -s * vec[0] + c * vec[1]])
+
+        Wl = np.array([[to_line(W[i, k], k) for k in range(nb)] for i in range(nb)])
+        Vl = np.array([to_line(V[k], k) for k in range(nb)])
+        dc = np.einsum("i,ikd,ild->kl", g.masses, Wl, Wl) + np.diag(g.inertias)
+        ds = np.einsum("i,ik,il->kl", g.masses, Wl[..., 0], Wl[..., 1])
+        ds = ds - ds.T  # sum_i m_i (W_ik x W_il)
+        self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
+        self._P = len(self._K)
+        theta_d = [np.diag(dc), dc[self._K, self._L]]
+        if not collinear:
+            theta_d.append(ds[self._K, self._L])
+        self.theta_d = _ro(np.concatenate(theta_d))
+        self._V_body = _ro(Vl[:, 0].copy() if collinear else Vl.reshape(-1).copy())
+        self.barycentric_W = _ro(Wl)
+        self.barycentric_V = _ro(Vl)
+
+        # column index helpers
+        self._diag_cols = np.arange(nb)
+        self._pc_cols = nb + np.arange(self._P)
+        self._ps_cols = nb + self._P + np.arange(self._P)
+        self._ar = np.arange(nb)
+
+    # ------------------------------------------------------------------ sizes, truth
+    @property
+    def n_z(self) -> int:
+        return self.layout.n_z
+
+    @property
+    def n_d(self) -> int:
+        return self.layout.n_d
+
+    @property
+    def n_b(self) -> int:
+        return self.layout.n_b
+
+    def true_theta_z(self, com_velocity) -> np.ndarray:
+        """theta_z for a CoM velocity v_0 [m/s] (the kinematic parameters of Eq. 4)."""
+        v0 = np.asarray(com_velocity, dtype=float).reshape(2)
+        return _ro(np.concatenate((v0, self._V_body)))
+
+    def true_theta_b(self, angular_momentum: float) -> np.ndarray:
+        """theta_b = col(A_0, theta_d) for the angular momentum A_0 about the CoM [kg m^2/s]."""
+        return _ro(np.concatenate(([float(angular_momentum)], self.theta_d)))
+
+    # ------------------------------------------------------------------ kinematics
+    def angles(self, q_b: float, q_m) -> np.ndarray:
+        """phi_k [rad], absolute angle of each body's line frame."""
+        q = np.empty(self.n_joints + 1)
+        q[0] = q_b
+        q[1:] = q_m
+        return self.S @ q + self._phi_offset
+
+    def ee_angle(self, q_b: float, q_m) -> float:
+        """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m)."""
+        return float(self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m)) + float(
+            self._ee_angle_offset
+        )
+
+    def _check(self, theta, size, name):
+        theta = np.asarray(theta, dtype=float)
+        if theta.shape != (size,):
+            raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
+        return theta
+
+    def _Vcols(self, phi):
+        """Columns R(phi_k) u for the V parameters: (2, n_V) positions, (2, n_V) rates."""
+        c, s = np.cos(phi), np.sin(phi)
+        if self.layout.collinear:
+            pos = np.array([c, s])  # R(phi) e_x
+            rate = np.array([-s, c])  # R(phi) J e_x
+        else:
+            nb = len(phi)
+            pos = np.empty((2, 2 * nb))
+            rate = np.empty((2, 2 * nb))
+            pos[0, 0::2], pos[1, 0::2] = c, s  # R e_x
+            pos[0, 1::2], pos[1, 1::2] = -s, c  # R e_y
+            rate[0, 0::2], rate[1, 0::2] = -s, c  # R J e_x
+            rate[0, 1::2], rate[1, 1::2] = -c, -s  # R J e_y
+        return pos, rate
+
+    def _expand_rates(self, dphi):
+        return dphi if self.layout.collinear else np.repeat(dphi, 2)
+
+    def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
+        """p_e - p_com [m] = sum_k R(phi_k) V_k."""
+        theta_z = self._check(theta_z, self.n_z, "theta_z")
+        pos, _ = self._Vcols(self.angles(q_b, q_m))
+        return pos @ theta_z[2:]
+
+    def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
+        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m]."""
+        p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
+        return np.array([p[0], p[1], self.ee_angle(q_b, q_m)])
+
+    def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
+        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z."""
+        theta_z = self._check(theta_z, self.n_z, "theta_z")
+        _, rate = self._Vcols(self.angles(q_b, q_m))
+        nb = self.n_joints + 1
+        # d p_e / d phi_k = R(phi_k) J V_k ; chain rule with dphi = S w
+        if self.layout.collinear:
+            dp_dphi = rate * theta_z[2:]
+        else:
+            dp_dphi = (rate * theta_z[2:]).reshape(2, nb, 2).sum(axis=2)
+        J = np.empty((3, nb))
+        J[:2] = dp_dphi @ self.S
+        J[2] = self._ee_row
+        return J[:, :1], J[:, 1:]
+
+    def Y_z(self, q_b: float, q_m, w) -> np.ndarray:
+        """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, 0, dq_e/dt).
+
+        Shape (3, n_z); the attitude row is zero (parameter-free, see
+        :meth:`ee_attitude_rate`).
+        """
+        w = np.asarray(w, dtype=float)
+        _, rate = self._Vcols(self.angles(q_b, q_m))
+        Y = np.zeros((3, self.n_z))
+        Y[0, 0] = Y[1, 1] = 1.0
+        Y[:2, 2:] = rate * self._expand_rates(self.S @ w)
+        return Y
+
+    def ee_attitude_rate(self, w) -> float:
+        """dq_e/dt [rad/s], the parameter-free attitude row of Eq. (3)."""
+        return float(self._ee_row @ np.asarray(w, dtype=float))
+
+    # ------------------------------------------------------------------ dynamics
+    def _split(self, phi):
+        d = phi[self._L] - phi[self._K]
+        return np.cos(d), np.sin(d)
+
+    def mass_matrix(self, theta_d, q_b: float, q_m) -> np.ndarray:
+        """M(q, theta_d) of Eq. (9a), (n+1) x (n+1)."""
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        nb = self.n_joints + 1
+        c, s = self._split(self.angles(q_b, q_m))
+        off = theta_d[self._pc_cols] * c
+        if not self.layout.collinear:
+            off = off - theta_d[self._ps_cols] * s
+        Mphi = np.zeros((nb, nb))
+        Mphi[self._ar, self._ar] = theta_d[:nb]
+        Mphi[self._K, self._L] = off
+        Mphi[self._L, self._K] = off
+        return self._ST @ Mphi @ self.S
+
+    def _pair_scatter(self, vals_k, vals_l, col_block, Y):
+        Y[self._K, col_block] = vals_k
+        Y[self._L, col_block] = vals_l
+
+    def Y_M(self, q_b: float, q_m, a) -> np.ndarray:
+        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d)."""
+        nb = self.n_joints + 1
+        b = self.S @ np.asarray(a, dtype=float)
+        c, s = self._split(self.angles(q_b, q_m))
+        Yp = np.zeros((nb, self.n_d))
+        Yp[self._ar, self._diag_cols] = b
+        bl, bk = b[self._L], b[self._K]
+        self._pair_scatter(c * bl, c * bk, self._pc_cols, Yp)
+        if not self.layout.collinear:
+            self._pair_scatter(-s * bl, -s * bk, self._ps_cols, Yp)
+        return self._ST @ Yp
+
+    def Y_Mdot(self, q_b: float, q_m, w, s_vec) -> np.ndarray:
+        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
+        nb = self.n_joints + 1
+        w = np.asarray(w, dtype=float)
+        dphi = self.S @ w
+        b = self.S @ np.asarray(s_vec, dtype=float)
+        c, s = self._split(self.angles(q_b, q_m))
+        dd = dphi[self._L] - dphi[self._K]
+        Yp = np.zeros((nb, self.n_d))
+        bl, bk = b[self._L], b[self._K]
+        f = -s * dd
+        self._pair_scatter(f * bl, f * bk, self._pc_cols, Yp)
+        if not self.layout.collinear:
+            f = -c * dd
+            self._pair_scatter(f * bl, f * bk, self._ps_cols, Yp)
+        return self._ST @ Yp
+
+    def Y_h(self, q_b: float, q_m, w) -> np.ndarray:
+        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
+        nb = self.n_joints + 1
+        dphi = self.S @ np.asarray(w, dtype=float)
+        c, s = self._split(self.angles(q_b, q_m))
+        Yp = np.zeros((nb, self.n_d))
+        dk2, dl2 = dphi[self._K] ** 2, dphi[self._L] ** 2
+        self._pair_scatter(-s * dl2, s * dk2, self._pc_cols, Yp)
+        if not self.layout.collinear:
+            self._pair_scatter(-c * dl2, c * dk2, self._ps_cols, Yp)
+        return self._ST @ Yp
+
+    def Y_d(self, q_b: float, q_m, w, s1, s2) -> np.ndarray:
+        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``."""
+        return self.Y_M(q_b, q_m, s1) - self.Y_Mdot(q_b, q_m, w, s2) + self.Y_h(q_b, q_m, w)
+
+    def velocity_product(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
+        """C(q, w, theta_d) w."""
+        return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
+
+    def mass_matrix_rate(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
+        """dM/dt (q, w, theta_d), (n+1) x (n+1), column j = Y_Mdot(e_j) theta_d."""
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        nb = self.n_joints + 1
+        return np.column_stack([self.Y_Mdot(q_b, q_m, w, e) @ theta_d for e in np.eye(nb)])
+
+    # ------------------------------------------------------------------ momentum
+    def Y_b(self, q_b: float, q_m, w) -> np.ndarray:
+        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b)."""
+        Y = np.empty((1, self.n_b))
+        Y[0, 0] = -1.0
+        Y[0, 1:] = self.Y_M(q_b, q_m, w)[0]
+        return Y
+
+    def momentum_matrices(self, theta_b, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray, float]:
+        """(H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b."""
+        theta_b = self._check(theta_b, self.n_b, "theta_b")
+        row = self.mass_matrix(theta_b[1:], q_b, q_m)[0]
+        return row[None, :1], row[None, 1:], float(theta_b[0])
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a)
+    a.flags.writeable = False
+    return a

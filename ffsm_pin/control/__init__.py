@@ -1,0 +1,1 @@
+"""The adaptive prescribed-performance coordinated controller (Lu & Jia 2019, Section 3)."""

@@ -1,0 +1,75 @@
+"""One exception hierarchy for everything ffsm-pin refuses.
+
+Every error names the offending item and, where there is a finite set of valid
+choices, lists them. Subclasses also derive from the matching builtin
+(`ValueError`, `FileNotFoundError`, `KeyError`) so generic handlers still work.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+
+class FfsmError(Exception):
+    """Base class of every error raised on purpose by ffsm-pin."""
+
+
+class RobotFileError(FfsmError, FileNotFoundError):
+    """A robot description file does not exist or cannot be read."""
+
+
+class UrdfError(FfsmError, ValueError):
+    """A URDF is malformed or describes a robot the model does not support."""
+
+
+class UnsupportedJointError(UrdfError):
+    """A joint type, axis or placement outside planar revolute-z chains."""
+
+
+class InertiaError(UrdfError):
+    """A body with non-positive mass or rotational inertia."""
+
+
+class FrameNotFoundError(FfsmError, ValueError):
+    """A frame name that is not in the robot model."""
+
+
+class ParameterError(FfsmError, ValueError):
+    """A gain, funnel, parameter vector or option with a bad value or shape."""
+
+
+class InfeasibleTaskError(FfsmError, ValueError):
+    """The robot cannot serve the requested task plus attitude regulation."""
+
+
+class ScenarioError(FfsmError, ValueError):
+    """A scenario file that is missing, malformed or inconsistent with its robot."""
+
+
+class SimulationError(FfsmError, RuntimeError):
+    """A run that had to stop: funnel left, singular arm, non-finite numbers.
+
+    Attributes
+    ----------
+    time:
+        Simulated time [s] at which the run stopped.
+    cause:
+        Short machine-readable cause (``"funnel"``, ``"singular"``, ``"nonfinite"``).
+    """
+
+    def __init__(self, message: str, *, time: float, cause: str):
+        super().__init__(message)
+        self.time = float(time)
+        self.cause = cause
+
+
+def did_you_mean(name: str, choices: Iterable[str]) -> str:
+    """Return ``" (did you mean 'x'?)"`` for the closest choice, or ``""``."""
+    close = difflib.get_close_matches(name, list(choices), n=1, cutoff=0.5)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def choices_text(choices: Iterable[str]) -> str:
+    """Format valid choices for an error message."""
+    return ", ".join(repr(c) for c in choices)

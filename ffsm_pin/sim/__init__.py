@@ -1,0 +1,1 @@
+"""Simulation: momentum-exact plant, scenarios, closed-loop runs, outputs and replay."""
