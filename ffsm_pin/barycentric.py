@@ -199,19 +199,20 @@ class BarycentricModel:
     # ------------------------------------------------------------------ kinematics
     def angles(self, q_b: float, q_m) -> np.ndarray:
         """phi_k [rad], absolute angle of each body's line frame."""
-        q = np.empty(self.n_joints + 1)
+        q_m = np.asarray(q_m)
+        q = np.empty(self.n_joints + 1, dtype=np.result_type(q_b, q_m, float))
         q[0] = q_b
         q[1:] = q_m
         return self.S @ q + self._phi_offset
 
     def ee_angle(self, q_b: float, q_m) -> float:
         """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m)."""
-        return float(self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m)) + float(
-            self._ee_angle_offset
-        )
+        return self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m) + self._ee_angle_offset
 
     def _check(self, theta, size, name):
-        theta = np.asarray(theta, dtype=float)
+        theta = np.asarray(theta)
+        if theta.dtype.kind not in "fc":
+            theta = theta.astype(float)
         if theta.shape != (size,):
             raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
         return theta
@@ -224,8 +225,8 @@ class BarycentricModel:
             rate = np.array([-s, c])  # R(phi) J e_x
         else:
             nb = len(phi)
-            pos = np.empty((2, 2 * nb))
-            rate = np.empty((2, 2 * nb))
+            pos = np.empty((2, 2 * nb), dtype=phi.dtype)
+            rate = np.empty((2, 2 * nb), dtype=phi.dtype)
             pos[0, 0::2], pos[1, 0::2] = c, s  # R e_x
             pos[0, 1::2], pos[1, 1::2] = -s, c  # R e_y
             rate[0, 0::2], rate[1, 0::2] = -s, c  # R J e_x
@@ -256,7 +257,7 @@ class BarycentricModel:
             dp_dphi = rate * theta_z[2:]
         else:
             dp_dphi = (rate * theta_z[2:]).reshape(2, nb, 2).sum(axis=2)
-        J = np.empty((3, nb))
+        J = np.empty((3, nb), dtype=dp_dphi.dtype)
         J[:2] = dp_dphi @ self.S
         J[2] = self._ee_row
         return J[:, :1], J[:, 1:]
@@ -291,7 +292,7 @@ class BarycentricModel:
         off = theta_d[self._pc_cols] * c
         if not self.layout.collinear:
             off = off - theta_d[self._ps_cols] * s
-        Mphi = np.zeros((nb, nb))
+        Mphi = np.zeros((nb, nb), dtype=off.dtype)
         Mphi[self._ar, self._ar] = theta_d[:nb]
         Mphi[self._K, self._L] = off
         Mphi[self._L, self._K] = off
@@ -366,10 +367,14 @@ class BarycentricModel:
         return Y
 
     def momentum_matrices(self, theta_b, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray, float]:
-        """(H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b."""
+        """(H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b.
+
+        Like :meth:`angles`, :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`,
+        this accepts complex arguments (used for complex-step derivatives).
+        """
         theta_b = self._check(theta_b, self.n_b, "theta_b")
         row = self.mass_matrix(theta_b[1:], q_b, q_m)[0]
-        return row[None, :1], row[None, 1:], float(theta_b[0])
+        return row[None, :1], row[None, 1:], theta_b[0]
 
 
 def _ro(a: np.ndarray) -> np.ndarray:

@@ -1,0 +1,173 @@
+"""Prescribed-performance funnels and the error transformation (Eqs. 16-24).
+
+Element-wise, for an error e_i(t) with performance function
+``rho_i(t) = (rho0_i - rhoinf_i) exp(-beta_i t) + rhoinf_i`` (Eq. 18), the constraint is
+(Eq. 16/17)::
+
+    -sigma_i rho_i < e_i < rho_i        if e_i(0) >= 0
+    -rho_i < e_i < sigma_i rho_i        if e_i(0) < 0
+
+and with ``s = e / rho`` the transformation (Eq. 21) is::
+
+    R(s) = ln((sigma + s) / (sigma - sigma s))       if e_i(0) >= 0
+    R(s) = ln((sigma + sigma s) / (sigma - s))       if e_i(0) < 0
+
+``psi = R(s)`` (Eq. 20), ``Phi = dR/ds / rho`` (Eq. 22), so that
+``dpsi/dt = Phi (de/dt - drho/dt s)``. The logarithm is refused outside the funnel
+(:class:`FunnelExit`); the caller decides what happens then.
+
+:class:`Funnel` evaluation is written with plain arithmetic so that it also works on
+complex numbers (the controller differentiates through it by complex step).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import ParameterError
+
+
+class FunnelExit(Exception):
+    """An error component left its funnel: psi is undefined there."""
+
+    def __init__(self, index: int, value: float, lower: float, upper: float):
+        super().__init__(f"component {index} = {value:.6g} outside ({lower:.6g}, {upper:.6g})")
+        self.index, self.value, self.lower, self.upper = index, value, lower, upper
+
+
+@dataclass(frozen=True)
+class FunnelParams:
+    """Parameters of one funnel, one entry per error component.
+
+    rho0 > rhoinf > 0 [error units], beta > 0 [1/s], 0 < sigma <= 1.
+    """
+
+    rho0: tuple[float, ...]
+    rhoinf: tuple[float, ...]
+    beta: tuple[float, ...]
+    sigma: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        arrays = {}
+        for name in ("rho0", "rhoinf", "beta", "sigma"):
+            value = tuple(float(x) for x in np.atleast_1d(getattr(self, name)))
+            object.__setattr__(self, name, value)
+            arrays[name] = np.array(value)
+        sizes = {name: len(a) for name, a in arrays.items()}
+        if len(set(sizes.values())) != 1:
+            raise ParameterError(f"funnel parameters have different lengths: {sizes}")
+        if not np.all(np.isfinite(np.concatenate(list(arrays.values())))):
+            raise ParameterError("funnel parameters must be finite")
+        r0, ri, b, s = arrays["rho0"], arrays["rhoinf"], arrays["beta"], arrays["sigma"]
+        if np.any(ri <= 0) or np.any(ri >= r0):
+            raise ParameterError(
+                f"funnel needs 0 < rhoinf < rho0, got rho0={self.rho0}, rhoinf={self.rhoinf}"
+            )
+        if np.any(b <= 0):
+            raise ParameterError(f"funnel beta must be > 0, got {self.beta}")
+        if np.any(s <= 0) or np.any(s > 1):
+            raise ParameterError(f"funnel sigma must be in (0, 1], got {self.sigma}")
+
+    @property
+    def size(self) -> int:
+        return len(self.rho0)
+
+    def rho(self, t: float) -> np.ndarray:
+        """rho(t), Eq. (18)."""
+        r0, ri, b = np.array(self.rho0), np.array(self.rhoinf), np.array(self.beta)
+        return (r0 - ri) * np.exp(-b * t) + ri
+
+    def rho_dot(self, t: float) -> np.ndarray:
+        """d rho / dt, Eq. (19)."""
+        r0, ri, b = np.array(self.rho0), np.array(self.rhoinf), np.array(self.beta)
+        return -b * (r0 - ri) * np.exp(-b * t)
+
+
+class FunnelEval(NamedTuple):
+    """A funnel evaluated at one time (all element-wise arrays)."""
+
+    error: np.ndarray  # e
+    rho: np.ndarray  # rho(t)
+    rho_dot: np.ndarray  # d rho / dt
+    s: np.ndarray  # e / rho
+    psi: np.ndarray  # transformed error, Eq. (20)
+    Phi: np.ndarray  # diagonal of Phi, Eq. (22)
+    margin: np.ndarray  # distance to the nearer bound, in units of rho (> 0 inside)
+
+
+class Funnel:
+    """A funnel with its sides fixed by the sign of the error at t = 0.
+
+    ``Funnel(params, e0)``; ``evaluate(t, e)`` returns a :class:`FunnelEval` or raises
+    :class:`FunnelExit`; ``inside(t, e)`` only checks.
+    """
+
+    def __init__(self, params: FunnelParams, initial_error):
+        e0 = np.asarray(initial_error, dtype=float)
+        if e0.shape != (params.size,):
+            raise ParameterError(
+                f"funnel has {params.size} components, initial error has shape {e0.shape}"
+            )
+        self.params = params
+        self._r0 = np.array(params.rho0)
+        self._ri = np.array(params.rhoinf)
+        self._b = np.array(params.beta)
+        self.sigma = np.array(params.sigma)
+        self.positive_side = e0 >= 0  # e(0) >= 0: upper bound 1, lower -sigma
+        self.upper = np.where(self.positive_side, 1.0, self.sigma)  # bounds on s
+        self.lower = np.where(self.positive_side, -self.sigma, -1.0)
+
+    def rho(self, t: float) -> np.ndarray:
+        return (self._r0 - self._ri) * np.exp(-self._b * t) + self._ri
+
+    def rho_dot(self, t: float) -> np.ndarray:
+        return -self._b * (self._r0 - self._ri) * np.exp(-self._b * t)
+
+    def bounds(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) bounds on the error at time t."""
+        r = self.rho(t)
+        return self.lower * r, self.upper * r
+
+    def margin(self, t: float, error) -> np.ndarray:
+        """Distance of s = e / rho to the nearer bound (> 0 strictly inside)."""
+        s = np.real(np.asarray(error)) / self.rho(t)
+        return np.minimum(self.upper - s, s - self.lower)
+
+    def inside(self, t: float, error) -> bool:
+        return bool(np.all(self.margin(t, error) > 0))
+
+    def evaluate(self, t, error) -> FunnelEval:
+        """psi and Phi at (t, e). ``t`` and ``error`` may be complex (complex step)."""
+        rho = (self._r0 - self._ri) * np.exp(-self._b * t) + self._ri
+        rho_dot = -self._b * (self._r0 - self._ri) * np.exp(-self._b * t)
+        s = error / rho
+        margin = np.minimum(self.upper - s.real, s.real - self.lower)
+        if np.any(margin <= 0):
+            i = int(np.argmin(margin))
+            r = float(np.real(rho[i]))
+            raise FunnelExit(i, float(np.real(error[i])), self.lower[i] * r, self.upper[i] * r)
+        sg = self.sigma
+        pos = self.positive_side
+        # Eq. (21): ln((sigma + s) / (sigma - sigma s)) or ln((sigma + sigma s) / (sigma - s))
+        num = np.where(pos, sg + s, sg + sg * s)
+        den = np.where(pos, sg - sg * s, sg - s)
+        psi = np.log(num / den)
+        dR = np.where(pos, 1.0 / (sg + s) + 1.0 / (1.0 - s), 1.0 / (1.0 + s) + 1.0 / (sg - s))
+        return FunnelEval(error, rho, rho_dot, s, psi, dR / rho, margin)
+
+
+class IdentityFunnel(Funnel):
+    """Case 2 of the paper (no prescribed performance): psi = e, Phi = 1, rho_dot = 0.
+
+    The funnel is still checked (``inside``/``margin``) for reporting, but ``evaluate``
+    never refuses.
+    """
+
+    def evaluate(self, t, error) -> FunnelEval:
+        one = np.ones(len(self._r0))
+        zero = np.zeros(len(self._r0))
+        margin = self.margin(np.real(t), np.real(error))
+        return FunnelEval(error, one, zero, error, error, one, margin)

@@ -1,0 +1,186 @@
+"""What a run needs, as frozen dataclasses (the TOML form is in :mod:`ffsm_pin.sim.scenario_file`).
+
+A :class:`Scenario` names a robot, an initial condition, a reference, a controller (scheme,
+gains, funnels, initial estimates, singularity policy) and the simulation horizon. The
+paper's cases are scenario files shipped in ``ffsm_pin/sim/scenarios/``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..control.funnel import FunnelParams
+from ..control.gains import Gains, SingularityPolicy
+from ..errors import ParameterError, choices_text
+
+SCHEMES = ("ppc", "no-ppc", "no-attitude", "known-model")
+ESTIMATE_KINDS = ("paper", "true", "perturbed", "explicit")
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """One term ``amplitude * cos(frequency t)`` or ``amplitude * sin(frequency t)``."""
+
+    amplitude: float
+    frequency: float  # [rad/s]
+
+
+@dataclass(frozen=True)
+class ComponentReference:
+    """``value(t) = c + sum a_i cos(w_i t) + sum b_j sin(w_j t)`` for one task component."""
+
+    c: float = 0.0
+    cos: tuple[Harmonic, ...] = ()
+    sin: tuple[Harmonic, ...] = ()
+
+    def derivative(self, t, order: int = 0):
+        """d^order value / dt^order at t (t may be complex, for complex-step derivatives)."""
+        out = self.c if order == 0 else 0.0
+        for h in self.cos:  # d^k/dt^k cos(wt) = w^k cos(wt + k pi/2)
+            out = out + h.amplitude * h.frequency**order * np.cos(
+                h.frequency * t + order * np.pi / 2
+            )
+        for h in self.sin:
+            out = out + h.amplitude * h.frequency**order * np.sin(
+                h.frequency * t + order * np.pi / 2
+            )
+        return out
+
+
+@dataclass(frozen=True)
+class Reference:
+    """Desired end-effector pose z_e,d(t) (Eq. 80 form) and base attitude q_b,d."""
+
+    ee: tuple[ComponentReference, ...]
+    base_attitude: tuple[float, ...] = (0.0,)
+
+    def ee_pose(self, t):
+        """z_e,d(t) [m, m, rad]."""
+        return np.array([c.derivative(t, 0) for c in self.ee])
+
+    def ee_rate(self, t):
+        """dz_e,d/dt [m/s, m/s, rad/s]."""
+        return np.array([c.derivative(t, 1) for c in self.ee])
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
+    base: str = "planar"
+    end_effector: str = "ee"
+    relative_to: str | None = None  # folder of the scenario file
+
+
+@dataclass(frozen=True)
+class InitialCondition:
+    """Initial plant state.
+
+    base_pose: (x, y, q_b) [m, m, rad], base frame origin in the inertial frame.
+    com_at_origin: shift (x, y) so that the *system* CoM starts at the inertial origin.
+    joints, joint_rates: q_m(0) [rad], w_m(0) [rad/s].
+    Base velocity, exactly one of:
+      * base_twist = (v_x, v_y, w_b), linear part in the inertial frame [m/s, m/s, rad/s];
+      * com_velocity = (v_x, v_y) [m/s] with base_rate = w_b [rad/s];
+      * com_velocity with angular_momentum = A_0 about the system CoM [kg m^2/s].
+    """
+
+    base_pose: tuple[float, float, float]
+    joints: tuple[float, ...]
+    joint_rates: tuple[float, ...]
+    com_at_origin: bool = False
+    base_twist: tuple[float, float, float] | None = None
+    com_velocity: tuple[float, float] | None = None
+    base_rate: float | None = None
+    angular_momentum: float | None = None
+
+    def __post_init__(self) -> None:
+        by_twist = self.base_twist is not None
+        by_com = self.com_velocity is not None
+        n_rate = (self.base_rate is not None) + (self.angular_momentum is not None)
+        if by_twist and (by_com or n_rate):
+            raise ParameterError(
+                "initial velocity: give either base_twist, or com_velocity with one of "
+                "base_rate / angular_momentum, not both"
+            )
+        if by_com and n_rate != 1:
+            raise ParameterError(
+                "initial velocity: com_velocity needs exactly one of base_rate or angular_momentum"
+            )
+        if not by_twist and not by_com:
+            raise ParameterError(
+                "initial velocity: give base_twist = [v_x, v_y, w_b], or com_velocity = "
+                "[v_x, v_y] with base_rate or angular_momentum"
+            )
+
+
+@dataclass(frozen=True)
+class Estimates:
+    """Initial parameter estimates: 'paper' (Table 2), 'true', 'perturbed' (every true
+    parameter times 1 + U(-spread, spread), seeded) or 'explicit' vectors."""
+
+    initial: str = "paper"
+    spread: float = 0.3
+    seed: int = 0
+    theta_z: tuple[float, ...] | None = None
+    theta_d: tuple[float, ...] | None = None
+    theta_b: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if self.initial not in ESTIMATE_KINDS:
+            raise ParameterError(
+                f"estimates.initial {self.initial!r} unknown; valid choices: "
+                f"{choices_text(ESTIMATE_KINDS)}"
+            )
+        if self.initial == "explicit" and None in (self.theta_z, self.theta_d, self.theta_b):
+            raise ParameterError("estimates.initial = 'explicit' needs theta_z, theta_d, theta_b")
+        if not 0 <= self.spread < 1:
+            raise ParameterError(f"estimates.spread must be in [0, 1), got {self.spread}")
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    scheme: str = "ppc"
+    gains: Gains = field(default_factory=Gains)
+    funnel_b: FunnelParams = field(
+        default_factory=lambda: FunnelParams((0.4,), (0.03,), (0.22,), (0.8,))
+    )
+    funnel_z: FunnelParams = field(
+        default_factory=lambda: FunnelParams(
+            (1.0, 1.0, 0.2), (0.08, 0.08, 0.05), (0.22,) * 3, (0.8,) * 3
+        )
+    )
+    estimates: Estimates = field(default_factory=Estimates)
+    singularity: SingularityPolicy = field(default_factory=SingularityPolicy)
+
+    def __post_init__(self) -> None:
+        if self.scheme not in SCHEMES:
+            raise ParameterError(
+                f"controller.scheme {self.scheme!r} unknown; valid choices: {choices_text(SCHEMES)}"
+            )
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything one run needs."""
+
+    robot: RobotSpec
+    initial: InitialCondition
+    reference: Reference
+    controller: ControllerSpec
+    duration: float = 30.0  # [s]
+    dt: float = 1e-3  # [s]
+    name: str = "scenario"
+    source: Path | None = None  # the file it was read from, if any
+
+    def __post_init__(self) -> None:
+        if not (self.dt > 0 and np.isfinite(self.dt)):
+            raise ParameterError(f"sim.dt must be > 0, got {self.dt}")
+        if not (self.duration > 0 and np.isfinite(self.duration)):
+            raise ParameterError(f"sim.duration must be > 0, got {self.duration}")
+        if self.dt > self.duration:
+            raise ParameterError(
+                f"sim.dt = {self.dt} is longer than sim.duration = {self.duration}"
+            )
