@@ -12,11 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..control.controller import SCHEMES
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
 from ..errors import ParameterError, choices_text
 
-SCHEMES = ("ppc", "no-ppc", "no-attitude", "known-model")
 ESTIMATE_KINDS = ("paper", "true", "perturbed", "explicit")
 
 

@@ -1,0 +1,291 @@
+"""The adaptive prescribed-performance coordinated controller (Lu & Jia 2019, Section 3).
+
+:class:`CoordinatedController` runs one control period in :meth:`~CoordinatedController.step`:
+
+1. adaptation of theta_b (Eq. 28) and theta_z (Eq. 42), closed form;
+2. kinematic level: w_mc and dw_mc/dt (Eqs. 25+36, or 81), exact by complex step;
+3. dynamic level: filter (46) with eta_x (52), input u_m (60-64), filtered regressor (50),
+   adaptation of theta_d (51), semi-implicit.
+
+Schemes (Section 4): ``"ppc"`` (case 1), ``"no-ppc"`` (case 2: psi = e, Phi = 1,
+drho/dt = 0), ``"no-attitude"`` (case 3: Eq. 81), and ``"known-model"`` (the baseline: true
+parameters, no adaptation, and a computed-torque dynamic level with Pinocchio's reduced M and
+C w in place of the filter).
+
+A run stops in a controlled way (:class:`~ffsm_pin.errors.SimulationError`, with time and
+cause) when a funnel whose transformation the scheme uses is left, when the arm stays near a
+singularity longer than the policy allows, when an estimate degenerates, or when a number
+becomes non-finite. Damping of the pseudo-inverse is announced by a
+:class:`SingularityWarning`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import NamedTuple
+
+import numpy as np
+
+from ..barycentric import BarycentricModel
+from ..errors import InfeasibleTaskError, SimulationError
+from .adaptation import (
+    regressor_filter_step,
+    theta_b_step,
+    theta_d_increment,
+    theta_z_step,
+)
+from .funnel import Funnel, FunnelEval, FunnelExit, FunnelParams, IdentityFunnel
+from .gains import Gains, SingularityPolicy
+from .kinematic import KinematicInputs, KinematicLaw, task_errors
+from .manifold import manifold_input
+
+SCHEMES = ("ppc", "no-ppc", "no-attitude", "known-model")
+TASK_SIZE = 3  # planar end-effector pose (x, y, attitude): m2 + m3
+ATTITUDE_SIZE = 1  # planar base attitude: m3
+_COMPONENT_NAMES = ("x", "y", "attitude")
+
+
+class SingularityWarning(UserWarning):
+    """The damped pseudo-inverse of the kinematic law became active."""
+
+
+class Measurement(NamedTuple):
+    """What the controller measures at time t."""
+
+    t: float  # [s]
+    q_b: float  # base attitude, continuous [rad]
+    q_m: np.ndarray  # joint angles [rad]
+    w: np.ndarray  # (w_b, w_m) [rad/s]
+    z_e: np.ndarray  # end-effector pose (x, y, q_e), q_e continuous [m, m, rad]
+    z_e_dot: np.ndarray  # end-effector velocity [m/s, m/s, rad/s]
+    M: np.ndarray | None = None  # true reduced inertia (known-model scheme only)
+    h: np.ndarray | None = None  # true C(q, w) w (known-model scheme only)
+
+
+class ControlOutput(NamedTuple):
+    """Everything computed in one control period (values at the start of the period)."""
+
+    u_m: np.ndarray  # joint torques [N m]
+    w_mc: np.ndarray  # kinematic command [rad/s]
+    w_mc_dot: np.ndarray  # its time derivative [rad/s^2]
+    err_b: np.ndarray  # attitude error [rad]
+    err_z: np.ndarray  # end-effector pose error [m, m, rad]
+    funnel_b: FunnelEval | None
+    funnel_z: FunnelEval
+    w_tilde: np.ndarray  # w - w-hat [rad/s]
+    sigma_min: float
+    damping: float
+
+
+def check_feasibility(n_joints: int, scheme: str) -> None:
+    """Refuse a robot whose joints cannot serve the task (plus the attitude, if regulated).
+
+    MODEL.md section 5: m_1 >= (m_2 + m_3) + m_3 = 4 for the planar pose task with attitude
+    regulation; m_1 >= 3 for Eq. (81), which does not regulate the attitude.
+    """
+    if scheme not in SCHEMES:
+        raise InfeasibleTaskError(f"unknown scheme {scheme!r}; valid choices: {SCHEMES}")
+    need = TASK_SIZE + (0 if scheme == "no-attitude" else ATTITUDE_SIZE)
+    if n_joints < need:
+        what = "the 3-D pose task" + ("" if scheme == "no-attitude" else " plus base attitude")
+        raise InfeasibleTaskError(
+            f"scheme {scheme!r} needs at least {need} manipulator joints for {what} "
+            f"({TASK_SIZE} task + {need - TASK_SIZE} attitude), the robot has {n_joints}"
+        )
+
+
+class CoordinatedController:
+    """Adaptive prescribed-performance coordinated controller for a planar FFSM.
+
+    Parameters
+    ----------
+    model:
+        The barycentric model of the robot (regressors and estimate evaluators).
+    scheme:
+        One of :data:`SCHEMES`.
+    theta_z0, theta_d0, theta_b0:
+        Initial estimates (the true vectors for ``"known-model"``).
+    initial:
+        The measurement at t = 0; fixes the side of each funnel (Eqs. 16-17).
+    """
+
+    def __init__(
+        self,
+        model: BarycentricModel,
+        *,
+        scheme: str,
+        gains: Gains,
+        funnel_b: FunnelParams,
+        funnel_z: FunnelParams,
+        reference,
+        base_attitude_ref: float,
+        singularity: SingularityPolicy,
+        theta_z0,
+        theta_d0,
+        theta_b0,
+        initial: Measurement,
+    ):
+        check_feasibility(model.n_joints, scheme)
+        self.model = model
+        self.scheme = scheme
+        self.gains = gains
+        self.policy = singularity
+        self.reference = reference
+        self.q_bd = float(base_attitude_ref)
+        err_b, err_z = task_errors(reference, self.q_bd, initial.t, initial.q_b, initial.z_e)
+        funnel_cls = IdentityFunnel if scheme == "no-ppc" else Funnel
+        self.funnel_b = funnel_cls(funnel_b, err_b)
+        self.funnel_z = funnel_cls(funnel_z, err_z)
+        self.kinematic = KinematicLaw(
+            model,
+            gains,
+            self.funnel_b,
+            self.funnel_z,
+            reference,
+            self.q_bd,
+            singularity.threshold,
+            attitude=scheme != "no-attitude",
+        )
+        self.theta_z = np.array(theta_z0, dtype=float)
+        self.theta_d = np.array(theta_d0, dtype=float)
+        self.theta_b = np.array(theta_b0, dtype=float)
+        for name, vec, size in (
+            ("theta_z", self.theta_z, model.n_z),
+            ("theta_d", self.theta_d, model.n_d),
+            ("theta_b", self.theta_b, model.n_b),
+        ):
+            if vec.shape != (size,):
+                raise InfeasibleTaskError(
+                    f"{name} estimate has {vec.size} entries, the robot's layout needs {size}"
+                )
+        nb = model.n_joints + 1
+        self.w_hat = np.zeros(nb)  # Table 2: w-hat(0) = 0
+        self.Y_df = np.zeros((nb, model.n_d))  # Table 2: Y_df(0) = 0
+        self.adaptive = scheme != "known-model"
+        self.events: list[str] = []
+        self._damped_since: float | None = None
+        self._last_warning = -np.inf
+
+    # ------------------------------------------------------------------ one period
+    def step(self, meas: Measurement, dt: float) -> ControlOutput:
+        """Compute u_m for the period [t, t + dt) and advance the controller's states."""
+        m, g = self.model, self.gains
+        t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
+
+        # 1. kinematic-level adaptation, Eqs. (28) and (42)
+        if self.adaptive:
+            theta_b = theta_b_step(self.theta_b, m.Y_b(q_b, q_m, w), g.gamma_1, dt)
+            Y_z = m.Y_z(q_b, q_m, w)[:2]  # the attitude row is parameter-free
+            theta_z = theta_z_step(self.theta_z, Y_z, meas.z_e_dot[:2], g.gamma_2, dt)
+        else:
+            theta_b, theta_z = self.theta_b, self.theta_z
+
+        # 2. kinematic level, Eqs. (25)+(36) or (81), and d w_mc / dt
+        x = KinematicInputs(t, q_b, q_m, meas.z_e, self.theta_b, self.theta_z, w[0])
+        rates = KinematicInputs(
+            1.0, w[0], w[1:], meas.z_e_dot,
+            (theta_b - self.theta_b) / dt, (theta_z - self.theta_z) / dt, 0.0,
+        )  # fmt: skip
+        try:
+            kc = self.kinematic.command(x, rates)
+        except FunnelExit as exc:
+            raise self._funnel_stop(meas, exc) from None
+        self._singularity_bookkeeping(t, kc.sigma_min, kc.damping)
+        if self.scheme != "no-attitude" and not kc.H_bm_norm > 1e-9:
+            raise SimulationError(
+                f"t = {t:.4f} s: the estimate theta_b-hat collapsed (|H_bm-hat| = "
+                f"{kc.H_bm_norm:.3g}); Eq. (25) is undefined",
+                time=t,
+                cause="estimate",
+            )
+
+        # 3. dynamic level, Eqs. (46), (50)-(52), (60)-(64)
+        if self.adaptive:
+            w_tilde = w - self.w_hat
+            M_hat = m.mass_matrix(self.theta_d, q_b, q_m)
+            if np.any(np.linalg.eigvalsh(M_hat) <= 0):
+                raise SimulationError(
+                    f"t = {t:.4f} s: the estimated inertia M(q, theta_d-hat) is not positive "
+                    "definite; the filter (46) is undefined",
+                    time=t,
+                    cause="estimate",
+                )
+            Y_Mdot = m.Y_Mdot(q_b, q_m, w, w_tilde)
+            Y_h = m.Y_h(q_b, q_m, w)
+            d_theta_d = theta_d_increment(self.Y_df, w_tilde, M_hat, g.gamma_3, dt)
+            eta_x = -self.Y_df @ d_theta_d / dt  # Eq. (52)
+            r = (Y_Mdot - Y_h) @ self.theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
+            w_hat = self.w_hat
+        else:  # known model: computed torque on the true reduced dynamics
+            w_tilde = np.zeros_like(w)
+            M_hat, r, w_hat = meas.M, -meas.h, w
+        mi = manifold_input(M_hat, r, w_hat, kc.w_mc, kc.w_mc_dot, kc.dwmc_dwb, g.k_d, t)
+        if not np.all(np.isfinite(mi.u_m)):
+            raise SimulationError(
+                f"t = {t:.4f} s: the joint torque became non-finite", time=t, cause="nonfinite"
+            )
+
+        # advance the controller's states to t + dt
+        if self.adaptive:
+            Y_dc = m.Y_M(q_b, q_m, mi.w_hat_dot - g.k_de * w_tilde) - Y_Mdot + Y_h  # Eq. (49)
+            self.Y_df = regressor_filter_step(self.Y_df, Y_dc, g.k_de, dt)  # Eq. (50)
+            self.theta_d = self.theta_d + d_theta_d  # Eq. (51)
+            self.w_hat = self.w_hat + dt * mi.w_hat_dot  # Eq. (46)
+            self.theta_b, self.theta_z = theta_b, theta_z
+        else:
+            self.w_hat = w + dt * mi.w_hat_dot
+        return ControlOutput(
+            u_m=mi.u_m,
+            w_mc=kc.w_mc,
+            w_mc_dot=mi.w_mc_dot,
+            err_b=self.kinematic.errors(t, q_b, meas.z_e)[0],
+            err_z=kc.funnel_z.error,
+            funnel_b=kc.funnel_b,
+            funnel_z=kc.funnel_z,
+            w_tilde=w_tilde,
+            sigma_min=kc.sigma_min,
+            damping=kc.damping,
+        )
+
+    # ------------------------------------------------------------------ stops
+    def _singularity_bookkeeping(self, t: float, sigma_min: float, damping: float) -> None:
+        thr = self.policy.threshold
+        if damping > 0:
+            if self._damped_since is None:
+                self._damped_since = t
+                if t - self._last_warning > 1.0:
+                    msg = (
+                        f"t = {t:.3f} s: the arm is near a singularity (sigma_min = "
+                        f"{sigma_min:.4f} < {thr}); damped least squares is active"
+                    )
+                    self.events.append(msg)
+                    warnings.warn(msg, SingularityWarning, stacklevel=3)
+                    self._last_warning = t
+            elif t - self._damped_since > self.policy.max_damped_time:
+                raise SimulationError(
+                    f"t = {t:.3f} s: the arm stayed singular for more than "
+                    f"{self.policy.max_damped_time} s (sigma_min = {sigma_min:.4f} < {thr} since "
+                    f"t = {self._damped_since:.3f} s)",
+                    time=t,
+                    cause="singular",
+                )
+        else:
+            self._damped_since = None
+
+    def _funnel_stop(self, meas: Measurement, exc: FunnelExit) -> SimulationError:
+        t = meas.t
+        # which funnel: the attitude funnel is evaluated after the end-effector one
+        err_b, err_z = task_errors(self.reference, self.q_bd, t, meas.q_b, meas.z_e)
+        if not self.funnel_z.inside(t, err_z):
+            what = f"end-effector error component {exc.index} ({_COMPONENT_NAMES[exc.index]})"
+        else:
+            what = "base attitude error"
+        note = ""
+        if self._damped_since is not None:
+            note = f"; the arm has been near a singularity since t = {self._damped_since:.3f} s"
+        return SimulationError(
+            f"t = {t:.4f} s: {what} = {exc.value:.5g} left its funnel "
+            f"({exc.lower:.5g}, {exc.upper:.5g}); the transformation (21) is undefined{note}",
+            time=t,
+            cause="funnel",
+        )

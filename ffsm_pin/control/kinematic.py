@@ -1,0 +1,160 @@
+"""Kinematic level: the joint-rate command w_mc and its exact time derivative.
+
+Coordinated law (Eqs. 25 and 36, ``L_b = 1`` for the planar attitude angle)::
+
+    a_b   = A0-hat + k_b H_bb-hat Phi_b psi_b
+    w_mc  = H_bm-hat^+ a_b + U-hat xi,              U-hat = I - H_bm-hat^+ H_bm-hat   # Eq. (25)
+    xi    = (J_m-hat U-hat)^+ (-v0bar-hat + dz_ed/dt - k_z Phi_z psi_z - J_m-hat H_bm-hat^+ a_b)
+                                                                                      # Eq. (36)
+
+so that ``H_bm-hat w_mc = a_b`` (Eq. 26) and ``J_m-hat w_mc = -v0bar-hat + dz_ed/dt -
+k_z Phi_z psi_z`` (Eq. 37). Case 3 of the paper (no attitude regulation) uses Eq. (81)::
+
+    w_mc = J_m-hat^+ (-v0bar-hat + dz_ed/dt - J_b-hat w_b - k_z Phi_z psi_z)
+
+``w_mc`` depends on (t, q, z_e, theta_b-hat, theta_z-hat) only (and on w_b for Eq. 81), so its
+time derivative, needed by Eq. (64), is a directional derivative along known rates
+(MODEL.md section 5). It is computed *exactly* by one complex-step evaluation
+(``f(x + i h dx)``, ``df = Im / h``), which also returns the value as the real part: no
+algebraic loop, no differencing of recorded values. Everything below is written with
+analytic operations (plain transposes, explicit inverses) to keep that valid; the damping
+of the pseudo-inverse is computed from the real part and held constant.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..barycentric import BarycentricModel
+from .funnel import Funnel, FunnelEval
+from .gains import Gains
+from .linalg import damped_row_pinv, row_pinv
+
+_H = 1e-30  # complex step; any tiny h works (no subtractive cancellation)
+_TWO_PI = 2.0 * np.pi
+
+
+def wrap_angle(d):
+    """Angle difference mapped to (-pi, pi] using the real part (complex-step safe)."""
+    return d - _TWO_PI * np.round(np.real(d) / _TWO_PI)
+
+
+def task_errors(reference, base_attitude_ref: float, t, q_b, z_e):
+    """(err_b, err_z): attitude error q_b - q_bd (Eq. 16) and pose error z_e - z_ed(t)
+    (Eq. 17), angles wrapped to (-pi, pi]. Complex-step safe."""
+    err_b = np.atleast_1d(wrap_angle(q_b - base_attitude_ref))
+    err_z = np.array(z_e) - reference.ee_pose(t)
+    err_z[2] = wrap_angle(err_z[2])
+    return err_b, err_z
+
+
+class KinematicInputs(NamedTuple):
+    """Arguments of w_mc (all may be complex for the complex step)."""
+
+    t: float  # [s]
+    q_b: float  # base attitude [rad]
+    q_m: np.ndarray  # joint angles [rad]
+    z_e: np.ndarray  # measured end-effector pose [m, m, rad]
+    theta_b: np.ndarray
+    theta_z: np.ndarray
+    w_b: float  # base rate [rad/s] (Eq. 81 only)
+
+
+class KinematicCommand(NamedTuple):
+    """w_mc, its time derivative and the diagnostics of one evaluation."""
+
+    w_mc: np.ndarray  # [rad/s]
+    w_mc_dot: np.ndarray  # [rad/s^2] (for Eq. 81: without the w_b contribution)
+    dwmc_dwb: np.ndarray  # d w_mc / d w_b (zero except for Eq. 81)
+    funnel_b: FunnelEval | None
+    funnel_z: FunnelEval
+    sigma_min: float  # smallest singular value of J_m-hat U-hat (or J_m-hat)
+    damping: float  # lambda^2 of the damped inverse, 0 when undamped
+    H_bm_norm: float  # |H_bm-hat|, guards against theta_b-hat collapsing
+
+
+class KinematicLaw:
+    """Eqs. (25)+(36) (``attitude=True``) or Eq. (81) (``attitude=False``)."""
+
+    def __init__(
+        self,
+        model: BarycentricModel,
+        gains: Gains,
+        funnel_b: Funnel,
+        funnel_z: Funnel,
+        reference,
+        base_attitude_ref: float,
+        threshold: float,
+        attitude: bool = True,
+    ):
+        self.model = model
+        self.k_b, self.k_z = gains.k_b, gains.k_z
+        self.funnel_b, self.funnel_z = funnel_b, funnel_z
+        self.reference = reference
+        self.q_bd = float(base_attitude_ref)
+        self.threshold = threshold
+        self.attitude = attitude
+        self.n = model.n_joints
+
+    def errors(self, t, q_b, z_e):
+        """(err_b, err_z), see :func:`task_errors`."""
+        return task_errors(self.reference, self.q_bd, t, q_b, z_e)
+
+    def evaluate(self, x: KinematicInputs):
+        """w_mc at x; returns (w_mc, funnel_b, funnel_z, sigma_min, damping, |H_bm|, J_pinv_Jb)."""
+        m = self.model
+        err_b, err_z = self.errors(x.t, x.q_b, np.array(x.z_e))
+        fz = self.funnel_z.evaluate(x.t, err_z)
+        J_b, J_m = m.jacobians(x.theta_z, x.q_b, x.q_m)
+        v0bar = np.zeros(3, dtype=J_m.dtype)
+        v0bar[:2] = x.theta_z[:2]
+        target = -v0bar + self.reference.ee_rate(x.t) - self.k_z * fz.Phi * fz.psi
+        if not self.attitude:  # Eq. (81)
+            inv = damped_row_pinv(J_m, self.threshold)
+            w_mc = inv.pinv @ (target - J_b[:, 0] * x.w_b)
+            sens = -(inv.pinv @ J_b[:, 0])
+            return w_mc, None, fz, inv.sigma_min, inv.damping, np.nan, sens
+        fb = self.funnel_b.evaluate(x.t, err_b)
+        H_bb, H_bm, A0 = m.momentum_matrices(x.theta_b, x.q_b, x.q_m)
+        a_b = A0 + self.k_b * H_bb[0, 0] * fb.Phi * fb.psi  # (1,), Eq. (25)
+        Hp = row_pinv(H_bm)  # (n, 1)
+        U = np.eye(self.n) - Hp @ H_bm
+        inv = damped_row_pinv(J_m @ U, self.threshold)
+        Hp_ab = Hp @ a_b
+        xi = inv.pinv @ (target - J_m @ Hp_ab)  # Eq. (36)
+        w_mc = Hp_ab + U @ xi  # Eq. (25)
+        h_norm = float(np.sqrt(np.real(H_bm @ H_bm.T)[0, 0]))
+        return w_mc, fb, fz, inv.sigma_min, inv.damping, h_norm, np.zeros(self.n)
+
+    def command(self, x: KinematicInputs, rates: KinematicInputs) -> KinematicCommand:
+        """w_mc at x and d w_mc / dt along ``rates`` (dt/dt = 1, dq/dt, dz_e/dt, ...).
+
+        ``rates.w_b`` is ignored: for Eq. (81) the contribution of dw_b/dt is returned as the
+        sensitivity ``dwmc_dwb`` and added by the caller, who knows dw_b/dt.
+        """
+        xc = KinematicInputs(
+            x.t + 1j * _H * rates.t,
+            x.q_b + 1j * _H * rates.q_b,
+            np.asarray(x.q_m) + 1j * _H * np.asarray(rates.q_m),
+            np.asarray(x.z_e) + 1j * _H * np.asarray(rates.z_e),
+            np.asarray(x.theta_b) + 1j * _H * np.asarray(rates.theta_b),
+            np.asarray(x.theta_z) + 1j * _H * np.asarray(rates.theta_z),
+            x.w_b + 0j,
+        )
+        w_mc, fb, fz, sigma, damping, h_norm, sens = self.evaluate(xc)
+        return KinematicCommand(
+            w_mc=w_mc.real.copy(),
+            w_mc_dot=w_mc.imag / _H,
+            dwmc_dwb=np.real(sens),
+            funnel_b=None if fb is None else _real_eval(fb),
+            funnel_z=_real_eval(fz),
+            sigma_min=sigma,
+            damping=damping,
+            H_bm_norm=h_norm,
+        )
+
+
+def _real_eval(f: FunnelEval) -> FunnelEval:
+    return FunnelEval(*(np.real(np.asarray(a)) for a in f))

@@ -1,0 +1,62 @@
+"""Dynamic level: the attractive-manifold filter w-hat (Eq. 46) and the input u_m (Eqs. 60-64).
+
+The filter (typo-corrected, MODEL.md section 5)::
+
+    M-hat dw-hat/dt - dM-hat/dt w~ + C-hat w = k_de M-hat w~ + eta_x + u,   u = (0, u_m)  # (46)
+
+Write ``r = dM-hat/dt w~ - C-hat w + k_de M-hat w~ + eta_x`` so that ``M-hat dw-hat/dt = r + u``.
+The input (64) makes ``d w-hat_{m,r}/dt = -k_d w-hat_{m,r}`` (Eq. 65) with
+``w-hat_{m,r} = w-hat_m - w_mc``: the joint rows of the filter are prescribed,
+``dw-hat_m/dt = dw_mc/dt - k_d w-hat_{m,r}``, the base row (60a) gives ``dw-hat_b/dt``
+and the joint rows (60b) give ``u_m`` (Eqs. 62-64 are this elimination written out).
+
+For Eq. (81) ``dw_mc/dt`` contains ``(d w_mc / d w_b) dw_b/dt``; ``dw_b/dt`` is taken as the
+filter's own ``dw-hat_b/dt`` and solved for together with (60a) (MODEL.md section 5).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import SimulationError
+
+
+class ManifoldInput(NamedTuple):
+    """u_m and the filter's rates for one step."""
+
+    u_m: np.ndarray  # joint torques [N m]
+    w_hat_dot: np.ndarray  # d w-hat / dt, Eq. (46) [rad/s^2]
+    w_mc_dot: np.ndarray  # d w_mc / dt actually used (incl. the w_b term of Eq. 81)
+
+
+def manifold_input(
+    M_hat: np.ndarray,
+    r: np.ndarray,
+    w_hat: np.ndarray,
+    w_mc: np.ndarray,
+    w_mc_dot: np.ndarray,
+    dwmc_dwb: np.ndarray,
+    k_d: float,
+    t: float = float("nan"),
+) -> ManifoldInput:
+    """Solve Eqs. (60a) and (64)-(65) for ``dw-hat/dt`` and ``u_m``.
+
+    M_hat: estimated reduced inertia, (n+1) x (n+1); r: right-hand side of Eq. (46) without u.
+    """
+    Mbb, Mbm = M_hat[0, 0], M_hat[0, 1:]
+    target = w_mc_dot - k_d * (w_hat[1:] - w_mc)  # Eq. (65), without the w_b term
+    denom = Mbb + Mbm @ dwmc_dwb
+    if not abs(denom) > 1e-12 * abs(Mbb):
+        raise SimulationError(
+            f"t = {t:.4f} s: base row of the filter is singular (M_bb-hat + M_bm-hat dw_mc/dw_b "
+            f"= {denom:.3g})",
+            time=t,
+            cause="singular",
+        )
+    wb_dot = (r[0] - Mbm @ target) / denom  # Eq. (60a)
+    wm_dot = target + dwmc_dwb * wb_dot
+    w_hat_dot = np.concatenate(([wb_dot], wm_dot))
+    u_m = M_hat[1:] @ w_hat_dot - r[1:]  # Eq. (60b) = (64)
+    return ManifoldInput(u_m, w_hat_dot, w_mc_dot + dwmc_dwb * wb_dot)

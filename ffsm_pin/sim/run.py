@@ -1,0 +1,367 @@
+"""Closed-loop runs: build everything a scenario needs, then simulate and record.
+
+``prepare(scenario)`` does every check that can fail *before* simulating (robot, frame,
+feasibility, parameter sizes, initial errors inside the funnels, reachability horizon) and
+raises :class:`~ffsm_pin.errors.FfsmError` subclasses. ``simulate(setup)`` never raises on
+numerical trouble: a run that has to stop returns ``completed=False`` with the time and the
+reason, and everything recorded so far.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .. import paper
+from ..barycentric import BarycentricModel
+from ..control.controller import CoordinatedController, Measurement, check_feasibility
+from ..control.funnel import Funnel
+from ..control.kinematic import task_errors
+from ..errors import ScenarioError, SimulationError
+from ..robot import FreeFloatingRobot, load_robot
+from ..state import FloatingBaseState, base_twist_to_local
+from .plant import Plant
+from .result import RunResult
+from .scenario import InitialCondition, Scenario
+
+
+class ReachWarning(UserWarning):
+    """The reference leaves the arm's reach before the end of the run."""
+
+
+@dataclass
+class Setup:
+    """A scenario made concrete: robot, models, initial state, truths and controller."""
+
+    scenario: Scenario
+    robot: FreeFloatingRobot
+    model: BarycentricModel
+    q0: np.ndarray
+    v0: np.ndarray
+    theta_z: np.ndarray  # true parameters
+    theta_d: np.ndarray
+    theta_b: np.ndarray
+    controller: CoordinatedController
+    reach_horizon: float | None  # time the reference leaves the reach [s], None if never
+    events: list[str]
+
+
+# ---------------------------------------------------------------------- initial state
+def initial_state(
+    robot: FreeFloatingRobot, init: InitialCondition
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
+    model = robot.model
+    data = model.createData()
+    n = robot.n_joints
+    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
+        if len(vec) != n:
+            raise ScenarioError(
+                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints"
+            )
+    q = robot.configuration(init.base_pose, init.joints)
+    if init.com_at_origin:
+        com = pin.centerOfMass(model, data, q)
+        q[0] -= com[0]
+        q[1] -= com[1]
+    v = np.zeros(model.nv)
+    v[3:] = init.joint_rates
+    if init.base_twist is not None:
+        v[:3] = base_twist_to_local(q, init.base_twist)
+        return q, v
+    # unknown base twist (local) from CoM velocity and base rate or angular momentum
+    Jcom = pin.jacobianCenterOfMass(model, data, q)[:2]
+    Ag = pin.computeCentroidalMap(model, data, q)[5]
+    vcom = np.asarray(init.com_velocity, dtype=float)
+    if init.base_rate is not None:
+        v[2] = init.base_rate
+        v[:2] = np.linalg.solve(Jcom[:, :2], vcom - Jcom[:, 2:] @ v[2:])
+    else:
+        A = np.vstack((Jcom[:, :3], Ag[None, :3]))
+        rhs = np.concatenate((vcom - Jcom[:, 3:] @ v[3:], [init.angular_momentum - Ag[3:] @ v[3:]]))
+        v[:3] = np.linalg.solve(A, rhs)
+    return q, v
+
+
+# ---------------------------------------------------------------------- measurement
+class Sensor:
+    """Measures what the controller needs from the plant state (Pinocchio kinematics)."""
+
+    def __init__(self, robot: FreeFloatingRobot, model: BarycentricModel, full_model: bool):
+        self.robot = robot
+        self.pmodel = robot.model
+        self.data = self.pmodel.createData()
+        self.model = model
+        self.fid = robot.ee_frame_id
+        self.full_model = full_model
+        self.state = FloatingBaseState(robot) if full_model else None
+        self._q_b_prev: float | None = None
+
+    def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
+        q_b = math.atan2(q[3], q[2])
+        if self._q_b_prev is not None:  # continuous attitude
+            q_b += 2 * math.pi * round((self._q_b_prev - q_b) / (2 * math.pi))
+        self._q_b_prev = q_b
+        pin.forwardKinematics(self.pmodel, self.data, q, v)
+        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
+        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        q_m = q[4:].copy()
+        z_e = np.array([oMf.translation[0], oMf.translation[1], self.model.ee_angle(q_b, q_m)])
+        z_e_dot = np.array([vel.linear[0], vel.linear[1], vel.angular[2]])
+        M = h = None
+        if self.full_model:
+            self.state.update(q, v)
+            M, h = self.state.M, self.state.h
+        return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
+
+
+# ---------------------------------------------------------------------- prepare
+def _initial_estimates(scenario: Scenario, model: BarycentricModel, truth):
+    est = scenario.controller.estimates
+    tz, td, tb = truth
+    if scenario.controller.scheme == "known-model" or est.initial == "true":
+        return tz.copy(), td.copy(), tb.copy()
+    if est.initial == "paper":
+        sizes = (model.n_z, model.n_d, model.n_b)
+        paper_sizes = (len(paper.THETA_Z_HAT0), len(paper.THETA_D_HAT0), len(paper.THETA_B_HAT0))
+        if sizes != paper_sizes:
+            raise ScenarioError(
+                f"controller.estimates.initial = 'paper' (Table 2) has sizes {paper_sizes} for "
+                f"(theta_z, theta_d, theta_b), this robot needs {sizes}; use 'perturbed', "
+                "'true' or 'explicit'"
+            )
+        return (
+            np.array(paper.THETA_Z_HAT0, float),
+            np.array(paper.THETA_D_HAT0, float),
+            np.array(paper.THETA_B_HAT0, float),
+        )
+    if est.initial == "perturbed":
+        rng = np.random.default_rng(est.seed)
+
+        def perturb(x):
+            return x * (1.0 + rng.uniform(-est.spread, est.spread, size=x.shape))
+
+        tz_hat = perturb(tz)
+        td_hat = perturb(td)
+        tb_hat = np.concatenate(([perturb(tb[:1])[0]], perturb(td)))
+        return tz_hat, td_hat, tb_hat
+    out = []
+    for name, vec, size in (
+        ("theta_z", est.theta_z, model.n_z),
+        ("theta_d", est.theta_d, model.n_d),
+        ("theta_b", est.theta_b, model.n_b),
+    ):
+        vec = np.asarray(vec, dtype=float)
+        if vec.shape != (size,):
+            raise ScenarioError(
+                f"controller.estimates.{name} has {vec.size} entries, this robot needs {size} "
+                f"(layout: {'collinear' if model.layout.collinear else 'general 2-D'})"
+            )
+        out.append(vec)
+    return tuple(out)
+
+
+def reach_horizon(model: BarycentricModel, theta_z, com0, reference, duration: float, dt=0.01):
+    """First time at which the reference position is farther from the (drifting) system CoM
+    than the arm can reach (sum of |V_k|), or None."""
+    reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))
+    ts = np.arange(0.0, duration + dt, dt)
+    com = np.asarray(com0)[None, :] + ts[:, None] * np.asarray(theta_z[:2])[None, :]
+    ref = np.array([reference.ee_pose(t)[:2] for t in ts])
+    far = np.linalg.norm(ref - com, axis=1) > reach
+    return float(ts[np.argmax(far)]) if far.any() else None
+
+
+def prepare(scenario: Scenario) -> Setup:
+    """Load, validate and build everything for ``scenario``; raise FfsmError on bad input."""
+    spec = scenario.robot
+    robot = load_robot(spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to)
+    ctrl = scenario.controller
+    check_feasibility(robot.n_joints, ctrl.scheme)
+    model = BarycentricModel(robot.geometry)
+    for name, fp, size in (("b", ctrl.funnel_b, 1), ("z", ctrl.funnel_z, 3)):
+        if fp.size != size:
+            raise ScenarioError(f"funnel {name} has {fp.size} components, the task needs {size}")
+    if len(scenario.reference.ee) != 3:
+        raise ScenarioError(
+            f"reference.ee has {len(scenario.reference.ee)} components; the planar task needs 3 "
+            "(x, y, attitude)"
+        )
+    q0, v0 = initial_state(robot, scenario.initial)
+    st = FloatingBaseState(robot).update(q0, v0)
+    truth = (
+        np.array(model.true_theta_z(st.com_velocity)),
+        np.array(model.theta_d),
+        np.array(model.true_theta_b(st.angular_momentum)),
+    )
+    estimates = _initial_estimates(scenario, model, truth)
+
+    sensor = Sensor(robot, model, full_model=False)
+    meas0 = sensor.measure(0.0, q0, v0)
+    q_bd = scenario.reference.base_attitude[0]
+    err_b, err_z = task_errors(scenario.reference, q_bd, 0.0, meas0.q_b, meas0.z_e)
+    for label, key, fp, err in (
+        ("base attitude", "rho_b0", ctrl.funnel_b, err_b),
+        ("end-effector", "rho_z0", ctrl.funnel_z, err_z),
+    ):
+        funnel = Funnel(fp, err)
+        if not funnel.inside(0.0, err):
+            lo, hi = funnel.bounds(0.0)
+            raise ScenarioError(
+                f"initial {label} error {np.round(err, 4).tolist()} is not strictly inside its "
+                f"funnel at t = 0 (bounds {np.round(lo, 4).tolist()} .. "
+                f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key}"
+            )
+    controller = CoordinatedController(
+        model,
+        scheme=ctrl.scheme,
+        gains=ctrl.gains,
+        funnel_b=ctrl.funnel_b,
+        funnel_z=ctrl.funnel_z,
+        reference=scenario.reference,
+        base_attitude_ref=q_bd,
+        singularity=ctrl.singularity,
+        theta_z0=estimates[0],
+        theta_d0=estimates[1],
+        theta_b0=estimates[2],
+        initial=meas0,
+    )
+    events = []
+    horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)
+    if horizon is not None:
+        msg = (
+            f"the reference leaves the arm's reach at t = {horizon:.1f} s (the system CoM drifts "
+            f"with v_0 = {np.round(truth[0][:2], 4).tolist()} m/s); no controller can track it "
+            "beyond that"
+        )
+        events.append(msg)
+        warnings.warn(msg, ReachWarning, stacklevel=2)
+    return Setup(scenario, robot, model, q0, v0, *truth, controller, horizon, events)
+
+
+# ---------------------------------------------------------------------- simulate
+class _Recorder:
+    def __init__(self, n_samples: int, setup: Setup):
+        m = setup.model
+        nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
+        shapes = {
+            "t": (), "q": (nq,), "v": (nv,), "w": (n + 1,), "u_m": (n,), "z_e": (3,),
+            "z_e_d": (3,), "err_z": (3,), "rho_z": (3,), "q_b": (1,), "err_b": (1,),
+            "rho_b": (1,), "P": (2,), "L": (), "F_r": (), "w_tilde": (n + 1,), "e": (n + 1,),
+            "theta_z_hat": (m.n_z,), "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,),
+            "z_e_dot": (3,), "z_e_d_dot": (3,), "w_mc": (n,), "w_hat": (n + 1,),
+            "sigma_min": (), "damping": (), "bound_b_lower": (1,), "bound_b_upper": (1,),
+            "bound_z_lower": (3,), "bound_z_upper": (3,),
+        }  # fmt: skip
+        self.arrays = {k: np.full((n_samples, *s), np.nan) for k, s in shapes.items()}
+        self.k = 0
+
+    def finish(self, setup: Setup) -> dict[str, np.ndarray]:
+        out = {k: a[: self.k] for k, a in self.arrays.items()}
+        out["theta_z"], out["theta_d"], out["theta_b"] = setup.theta_z, setup.theta_d, setup.theta_b
+        return out
+
+
+def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
+    """Run the closed loop for the scenario's duration; see the module docstring."""
+    sc = setup.scenario
+    dt, duration = sc.dt, sc.duration
+    n_steps = int(round(duration / dt))
+    record_every = max(1, int(record_every))
+    ctrl = setup.controller
+    model = setup.model
+    plant = Plant(setup.robot)
+    sensor = Sensor(setup.robot, model, full_model=ctrl.scheme == "known-model")
+    rec = _Recorder(n_steps // record_every + 2, setup)
+    A = rec.arrays
+    q, v = setup.q0.copy(), setup.v0.copy()
+    plant.reset(q, v)
+    theta_d = setup.theta_d
+    e0_b = np.zeros(model.n_joints + 1)
+    e0_b[0] = 1.0
+    completed, stop_reason, stop_time = True, None, None
+    next_progress = 0.0
+    wall0 = time.perf_counter()
+    k = 0
+    for k in range(n_steps + 1):
+        t = k * dt
+        if progress is not None and t >= next_progress:
+            progress(t)
+            next_progress += 0.1
+        meas = sensor.measure(t, q, v)
+        state = (ctrl.theta_z.copy(), ctrl.theta_d.copy(), ctrl.theta_b.copy(),
+                 ctrl.w_hat.copy(), ctrl.Y_df.copy())  # fmt: skip
+        try:
+            out = ctrl.step(meas, dt)
+        except SimulationError as exc:
+            completed, stop_reason, stop_time = False, str(exc), exc.time
+            break
+        final = k == n_steps
+        if not final:
+            q_new, v_new, a = plant.step(q, v, out.u_m, dt)
+        else:
+            a = plant.acceleration(q, v, out.u_m)
+        if k % record_every == 0 or final:
+            i = rec.k
+            A["t"][i] = t
+            A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, out.u_m
+            A["z_e"][i], A["z_e_dot"][i] = meas.z_e, meas.z_e_dot
+            A["z_e_d"][i] = sc.reference.ee_pose(t)
+            A["z_e_d_dot"][i] = sc.reference.ee_rate(t)
+            A["err_z"][i], A["err_b"][i] = out.err_z, out.err_b
+            A["q_b"][i] = meas.q_b
+            A["rho_b"][i], A["rho_z"][i] = ctrl.funnel_b.rho(t), ctrl.funnel_z.rho(t)
+            lo, hi = ctrl.funnel_b.bounds(t)
+            A["bound_b_lower"][i], A["bound_b_upper"][i] = lo, hi
+            lo, hi = ctrl.funnel_z.bounds(t)
+            A["bound_z_lower"][i], A["bound_z_upper"][i] = lo, hi
+            mom = plant.momentum(q, v)
+            A["P"][i], A["L"][i] = mom[:2], mom[2]
+            M_true = model.mass_matrix(theta_d, meas.q_b, meas.q_m)
+            Mbb_dot = (model.Y_Mdot(meas.q_b, meas.q_m, meas.w, e0_b) @ theta_d)[0]
+            A["F_r"][i] = M_true[0, 0] * a[2] + 0.5 * Mbb_dot * meas.w[0]  # Eqs. (6)-(7)
+            w_tilde = out.w_tilde
+            A["w_tilde"][i] = w_tilde
+            A["e"][i] = M_true @ w_tilde + state[4] @ (theta_d - state[1])  # Eq. (54)
+            A["theta_z_hat"][i], A["theta_d_hat"][i], A["theta_b_hat"][i] = state[:3]
+            A["w_mc"][i], A["w_hat"][i] = out.w_mc, state[3]
+            A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
+            rec.k += 1
+        if final:
+            break
+        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
+            completed, stop_time = False, t + dt
+            stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
+            break
+        if np.max(np.abs(v_new[2:])) > 1e4:
+            completed, stop_time = False, t + dt
+            stop_reason = (
+                f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
+                f"(max |w| = {np.max(np.abs(v_new[2:])):.3g})"
+            )
+            break
+        q, v = q_new, v_new
+    wall = time.perf_counter() - wall0
+    if progress is not None:
+        progress(min(k * dt, duration))
+    return RunResult(
+        scheme=ctrl.scheme,
+        robot=setup.robot.name,
+        dt=dt,
+        duration=duration,
+        steps=k,
+        wall_time_s=wall,
+        completed=completed,
+        stop_reason=stop_reason,
+        signals=rec.finish(setup),
+        scenario_name=sc.name,
+        stop_time=stop_time,
+        events=setup.events + ctrl.events,
+        rhoinf_b=sc.controller.funnel_b.rhoinf,
+        rhoinf_z=sc.controller.funnel_z.rhoinf,
+    )

@@ -1,0 +1,589 @@
+"""Scenario files (TOML, CONTRACT.md) -> :class:`~ffsm_pin.sim.scenario.Scenario`.
+
+Validation is strict: unknown sections or keys, wrong types, wrong lengths and values out of
+range are :class:`~ffsm_pin.errors.ScenarioError` whose message starts with the TOML key path
+(``controller.funnel.rho_b0[0]: ...``) and, for unknown keys, suggests the closest valid key
+and lists all of them.
+
+Optional keys and their defaults (everything else in CONTRACT.md is required):
+
+* ``name`` (top level): the scenario's name, default the file's stem;
+* ``[robot]``: ``urdf = "ffsm_planar4.urdf"``, ``base = "planar"``, ``end_effector = "ee"``;
+* ``[initial]``: ``com_at_origin = false``, ``joint_rates`` = zeros;
+* ``[reference]``: ``base_attitude = [0.0]``;
+* ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
+  a funnel entry may be a single number, used for every component;
+* ``[controller.singularity]``: ``threshold = 0.05`` [m], ``max_damped_time = 3.0`` [s];
+* ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s].
+
+The paper's cases ship as files in ``ffsm_pin/sim/scenarios/`` (:data:`BUILTIN`).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Mapping
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from ..control.funnel import FunnelParams
+from ..control.gains import Gains, SingularityPolicy
+from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
+from .scenario import (
+    ESTIMATE_KINDS,
+    SCHEMES,
+    ComponentReference,
+    ControllerSpec,
+    Estimates,
+    Harmonic,
+    InitialCondition,
+    Reference,
+    RobotSpec,
+    Scenario,
+)
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+# Built-in scenarios: name -> file in ffsm_pin/sim/scenarios/.
+BUILTIN: dict[str, str] = {
+    "case1": "case1.toml",
+    "case1-paper": "case1_paper.toml",
+    "case2": "case2.toml",
+    "case3": "case3.toml",
+    "known-model": "known_model.toml",
+}
+
+# Allowed keys per table. A nested dict is a sub-table; a string is a type tag.
+_NUM, _INT, _BOOL, _STR, _VEC, _NUMVEC, _TERMS = (
+    "number", "integer", "boolean", "string", "list of numbers",
+    "number or list of numbers", "list of [amplitude, frequency] pairs",
+)  # fmt: skip
+_FUNNEL_KEYS = (
+    "rho_b0",
+    "rho_binf",
+    "beta_b",
+    "sigma_b",
+    "rho_z0",
+    "rho_zinf",
+    "beta_z",
+    "sigma_z",
+)
+_GAIN_KEYS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
+SCHEMA: dict[str, Any] = {
+    "name": _STR,
+    "description": _STR,
+    "robot": {"urdf": _STR, "base": _STR, "end_effector": _STR},
+    "initial": {
+        "base_pose": _VEC,
+        "com_at_origin": _BOOL,
+        "joints": _VEC,
+        "joint_rates": _VEC,
+        "base_twist": _VEC,
+        "com_velocity": _VEC,
+        "base_rate": _NUM,
+        "angular_momentum": _NUM,
+    },
+    "reference": {"base_attitude": _VEC, "ee": "list of tables"},
+    "controller": {
+        "scheme": _STR,
+        **{k: _NUM for k in _GAIN_KEYS},
+        "funnel": {k: _NUMVEC for k in _FUNNEL_KEYS},
+        "estimates": {
+            "initial": _STR,
+            "spread": _NUM,
+            "seed": _INT,
+            "theta_z": _VEC,
+            "theta_d": _VEC,
+            "theta_b": _VEC,
+        },
+        "singularity": {"threshold": _NUM, "max_damped_time": _NUM},
+    },
+    "sim": {"duration": _NUM, "dt": _NUM},
+}
+_EE_KEYS = {"c": _NUM, "cos": _TERMS, "sin": _TERMS}
+_REQUIRED = ("initial.base_pose", "initial.joints", "reference.ee")
+# Task sizes for each supported base: (end-effector pose components, base attitude components).
+_TASK_SIZE = {"planar": (3, 1)}
+
+
+# ------------------------------------------------------------------------------ public API
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file.
+
+    Relative ``robot.urdf`` paths resolve against the file's folder.
+
+    Raises
+    ------
+    ScenarioError
+        Missing or unreadable file, bad TOML (with line and column), unknown or misspelt keys,
+        wrong types, lengths or ranges (the message starts with the TOML key path).
+    """
+    path = Path(path)
+    if not path.is_file():
+        what = "is a folder, not a file" if path.is_dir() else "not found"
+        raise ScenarioError(f"scenario file {str(path)!r} {what}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"cannot read scenario file {str(path)!r}: {exc}") from None
+    return scenario_from_toml(text, source=path)
+
+
+def scenario_from_toml(text: str, source: str | Path | None = None) -> Scenario:
+    """Parse TOML text into a validated :class:`Scenario` (see :func:`scenario_from_dict`)."""
+    where = str(source) if source is not None else "scenario"
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{where}: invalid TOML: {exc}") from None
+    return scenario_from_dict(data, source=source)
+
+
+def builtin_scenario(name: str) -> Scenario:
+    """One of the shipped scenarios (:data:`BUILTIN`): ``"case1"``, ``"case2"``, ..."""
+    if name not in BUILTIN:
+        raise ScenarioError(
+            f"no built-in scenario {name!r}{did_you_mean(name, BUILTIN)}; "
+            f"valid choices: {choices_text(BUILTIN)}"
+        )
+    return load_scenario(builtin_path(name))
+
+
+def builtin_path(name: str) -> Path:
+    """Path of a shipped scenario file."""
+    return Path(str(resources.files("ffsm_pin.sim.scenarios").joinpath(BUILTIN[name])))
+
+
+def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -> Scenario:
+    """Validate a parsed TOML document and build the :class:`Scenario`.
+
+    ``source`` is the file the document came from (relative URDF paths resolve against its
+    folder, and it names the scenario when there is no top-level ``name``).
+    """
+    if not isinstance(d, Mapping):
+        raise ScenarioError(f"a scenario is a table of sections, got {type(d).__name__}")
+    _check_keys(d, SCHEMA, "")
+    for key in _REQUIRED:
+        section, name = key.split(".")
+        if name not in d.get(section, {}):
+            raise ScenarioError(f"{key}: missing (required key)")
+    src = Path(source) if source is not None else None
+    try:
+        robot = _robot(d.get("robot", {}), src)
+        n_ee, n_b = _TASK_SIZE[robot.base]
+        initial = _initial(d["initial"])
+        reference = _reference(d["reference"], n_ee, n_b)
+        controller = _controller(d.get("controller", {}), n_ee, n_b)
+        sim = d.get("sim", {})
+        duration = _number(sim, "duration", "sim", default=30.0, positive=True)
+        dt = _number(sim, "dt", "sim", default=1e-3, positive=True)
+        if dt > duration:
+            raise ScenarioError(f"sim.dt = {dt} is longer than sim.duration = {duration}")
+        name = d.get("name") or (src.stem if src is not None else "scenario")
+        return Scenario(
+            robot=robot,
+            initial=initial,
+            reference=reference,
+            controller=controller,
+            duration=duration,
+            dt=dt,
+            name=name,
+            source=src,
+        )
+    except ScenarioError as exc:
+        if src is not None and not str(exc).startswith(str(src)):
+            raise ScenarioError(f"{src}: {exc}") from None
+        raise
+
+
+def check_against_robot(scenario: Scenario, n_joints: int, robot_name: str = "robot") -> None:
+    """Check the joint-count-dependent lengths of a scenario against its robot.
+
+    Raises :class:`ScenarioError` naming the key (``initial.joints``, ``initial.joint_rates``).
+    """
+    for key in ("joints", "joint_rates"):
+        value = getattr(scenario.initial, key)
+        if len(value) != n_joints:
+            raise ScenarioError(
+                f"initial.{key}: {len(value)} values, but robot {robot_name!r} has "
+                f"{n_joints} joints"
+            )
+
+
+def scenario_to_toml(scenario: Scenario) -> str:
+    """A scenario file (TOML text) that loads back into an equal scenario.
+
+    A URDF given as a path is written as an absolute path, so the file can be moved.
+    """
+    r, ini, ref, c = scenario.robot, scenario.initial, scenario.reference, scenario.controller
+    urdf = r.urdf
+    if r.relative_to is not None and (Path(r.relative_to) / urdf).is_file():
+        urdf = str((Path(r.relative_to) / urdf).resolve())
+    lines = [
+        f"name = {_toml(scenario.name)}",
+        "",
+        "[robot]",
+        f"urdf = {_toml(urdf)}",
+        f"base = {_toml(r.base)}",
+        f"end_effector = {_toml(r.end_effector)}",
+        "",
+        "[initial]",
+        f"base_pose = {_toml(ini.base_pose)}",
+        f"com_at_origin = {_toml(ini.com_at_origin)}",
+        f"joints = {_toml(ini.joints)}",
+        f"joint_rates = {_toml(ini.joint_rates)}",
+    ]
+    for key in ("base_twist", "com_velocity", "base_rate", "angular_momentum"):
+        if getattr(ini, key) is not None:
+            lines.append(f"{key} = {_toml(getattr(ini, key))}")
+    lines += ["", "[reference]", f"base_attitude = {_toml(ref.base_attitude)}", "ee = ["]
+    for comp in ref.ee:
+        parts = [f"c = {_toml(comp.c)}"]
+        for kind in ("cos", "sin"):
+            terms = getattr(comp, kind)
+            if terms:
+                parts.append(f"{kind} = {_toml([[h.amplitude, h.frequency] for h in terms])}")
+        lines.append("  { " + ", ".join(parts) + " },")
+    lines += ["]", "", "[controller]", f"scheme = {_toml(c.scheme)}"]
+    lines += [f"{k} = {_toml(getattr(c.gains, k))}" for k in _GAIN_KEYS]
+    lines += ["", "[controller.funnel]"]
+    for fun, tag in ((c.funnel_b, "b"), (c.funnel_z, "z")):
+        lines += [
+            f"rho_{tag}0 = {_toml(fun.rho0)}",
+            f"rho_{tag}inf = {_toml(fun.rhoinf)}",
+            f"beta_{tag} = {_toml(fun.beta)}",
+            f"sigma_{tag} = {_toml(fun.sigma)}",
+        ]
+    e = c.estimates
+    lines += [
+        "",
+        "[controller.estimates]",
+        f"initial = {_toml(e.initial)}",
+        f"spread = {_toml(e.spread)}",
+        f"seed = {e.seed}",
+    ]
+    for key in ("theta_z", "theta_d", "theta_b"):
+        if getattr(e, key) is not None:
+            lines.append(f"{key} = {_toml(getattr(e, key))}")
+    lines += [
+        "",
+        "[controller.singularity]",
+        f"threshold = {_toml(c.singularity.threshold)}",
+        f"max_damped_time = {_toml(c.singularity.max_damped_time)}",
+        "",
+        "[sim]",
+        f"duration = {_toml(scenario.duration)}",
+        f"dt = {_toml(scenario.dt)}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------ sections
+def _robot(sec: Mapping, src: Path | None) -> RobotSpec:
+    urdf = _string(sec, "urdf", "robot", default=RobotSpec.urdf)
+    base = _string(sec, "base", "robot", default=RobotSpec.base)
+    if base not in _TASK_SIZE:
+        raise ScenarioError(
+            f"robot.base: {base!r} is not supported{did_you_mean(base, _TASK_SIZE)}; "
+            f"valid choices: {choices_text(_TASK_SIZE)}"
+        )
+    ee = _string(sec, "end_effector", "robot", default=RobotSpec.end_effector)
+    rel = str(src.parent.resolve()) if src is not None else None
+    return RobotSpec(urdf=urdf, base=base, end_effector=ee, relative_to=rel)
+
+
+def _initial(sec: Mapping) -> InitialCondition:
+    p = "initial"
+    base_pose = _vector(sec, "base_pose", p, length=3)
+    joints = _vector(sec, "joints", p)
+    if not joints:
+        raise ScenarioError("initial.joints: empty; give one angle [rad] per joint")
+    rates = _vector(sec, "joint_rates", p, length=len(joints), default=(0.0,) * len(joints))
+    twist = _vector(sec, "base_twist", p, length=3, default=None)
+    com_v = _vector(sec, "com_velocity", p, length=2, default=None)
+    rate = _number(sec, "base_rate", p, default=None)
+    mom = _number(sec, "angular_momentum", p, default=None)
+    com = _bool(sec, "com_at_origin", p, default=False)
+    try:
+        return InitialCondition(
+            base_pose=base_pose,
+            joints=joints,
+            joint_rates=rates,
+            com_at_origin=com,
+            base_twist=twist,
+            com_velocity=com_v,
+            base_rate=rate,
+            angular_momentum=mom,
+        )
+    except ParameterError as exc:
+        raise ScenarioError(f"[initial] {exc}") from None
+
+
+def _reference(sec: Mapping, n_ee: int, n_b: int) -> Reference:
+    base = _vector(sec, "base_attitude", "reference", length=n_b, default=(0.0,) * n_b)
+    ee = sec["ee"]
+    if not isinstance(ee, list) or not all(isinstance(x, Mapping) for x in ee):
+        raise ScenarioError(
+            "reference.ee: expected a list of tables like { c = 3.9, cos = [[0.1, 0.35]] }, "
+            f"got {_describe(ee)}"
+        )
+    if len(ee) != n_ee:
+        raise ScenarioError(
+            f"reference.ee: {len(ee)} entries, expected {n_ee} (one per task component: "
+            "x, y, attitude)"
+        )
+    comps = []
+    for i, entry in enumerate(ee):
+        where = f"reference.ee[{i}]"
+        _check_keys(entry, _EE_KEYS, where)
+        c = _number(entry, "c", where, default=0.0)
+        terms = {kind: _terms(entry, kind, where) for kind in ("cos", "sin")}
+        comps.append(ComponentReference(c=c, **terms))
+    return Reference(ee=tuple(comps), base_attitude=base)
+
+
+def _terms(entry: Mapping, kind: str, where: str) -> tuple[Harmonic, ...]:
+    value = entry.get(kind, [])
+    key = f"{where}.{kind}"
+    if not isinstance(value, list):
+        raise ScenarioError(f"{key}: expected {_TERMS}, got {_describe(value)}")
+    out = []
+    for j, term in enumerate(value):
+        if not (isinstance(term, list) and len(term) == 2 and all(_is_number(x) for x in term)):
+            raise ScenarioError(
+                f"{key}[{j}]: expected [amplitude, angular_frequency] (two numbers), "
+                f"got {_describe(term)}"
+            )
+        a, w = (float(x) for x in term)
+        if not (math.isfinite(a) and math.isfinite(w)):
+            raise ScenarioError(f"{key}[{j}]: must be finite, got {term}")
+        out.append(Harmonic(amplitude=a, frequency=w))
+    return tuple(out)
+
+
+def _controller(sec: Mapping, n_ee: int, n_b: int) -> ControllerSpec:
+    p = "controller"
+    scheme = _string(sec, "scheme", p, default="ppc")
+    if scheme not in SCHEMES:
+        raise ScenarioError(
+            f"controller.scheme: {scheme!r} unknown{did_you_mean(scheme, SCHEMES)}; "
+            f"valid choices: {choices_text(SCHEMES)}"
+        )
+    defaults = Gains()
+    gains = {k: _number(sec, k, p, default=getattr(defaults, k), positive=True) for k in _GAIN_KEYS}
+    fsec = sec.get("funnel", {})
+    dflt = ControllerSpec()
+    funnel_b = _funnel(fsec, "b", n_b, dflt.funnel_b)
+    funnel_z = _funnel(fsec, "z", n_ee, dflt.funnel_z)
+    estimates = _estimates(sec.get("estimates", {}))
+    ssec = sec.get("singularity", {})
+    sp = SingularityPolicy()
+    sing = {
+        k: _number(ssec, k, "controller.singularity", default=getattr(sp, k), positive=True)
+        for k in ("threshold", "max_damped_time")
+    }
+    try:
+        return ControllerSpec(
+            scheme=scheme,
+            gains=Gains(**gains),
+            funnel_b=funnel_b,
+            funnel_z=funnel_z,
+            estimates=estimates,
+            singularity=SingularityPolicy(**sing),
+        )
+    except ParameterError as exc:  # pragma: no cover - everything is pre-checked above
+        raise ScenarioError(f"[controller] {exc}") from None
+
+
+def _funnel(sec: Mapping, tag: str, n: int, default: FunnelParams) -> FunnelParams:
+    keys = {
+        "rho0": f"rho_{tag}0",
+        "rhoinf": f"rho_{tag}inf",
+        "beta": f"beta_{tag}",
+        "sigma": f"sigma_{tag}",
+    }
+    what = "the base attitude" if tag == "b" else "the end-effector pose (x, y, attitude)"
+    vals = {}
+    for field_name, key in keys.items():
+        full = f"controller.funnel.{key}"
+        if key not in sec:
+            vals[field_name] = getattr(default, field_name)
+            continue
+        raw = sec[key]
+        if _is_number(raw):
+            raw = [raw] * n
+        v = _vector({key: raw}, key, "controller.funnel", length=None)
+        if len(v) != n:
+            raise ScenarioError(
+                f"{full}: {len(v)} values, expected {n} (one per component of {what})"
+            )
+        vals[field_name] = v
+    for i in range(n):
+        r0, ri = vals["rho0"][i], vals["rhoinf"][i]
+        b, s = vals["beta"][i], vals["sigma"][i]
+        k = {f: f"controller.funnel.{keys[f]}[{i}]" for f in keys}
+        if not r0 > 0:
+            raise ScenarioError(f"{k['rho0']} = {r0}: must be > 0")
+        if not 0 < ri < r0:
+            raise ScenarioError(
+                f"{k['rhoinf']} = {ri}: must satisfy 0 < rho_inf < rho_0 = {r0} ({k['rho0']})"
+            )
+        if not b > 0:
+            raise ScenarioError(f"{k['beta']} = {b}: must be > 0 [1/s]")
+        if not 0 < s <= 1:
+            raise ScenarioError(f"{k['sigma']} = {s}: must be in (0, 1]")
+    try:
+        return FunnelParams(**vals)
+    except ParameterError as exc:  # pragma: no cover - pre-checked above
+        raise ScenarioError(f"controller.funnel ({tag}): {exc}") from None
+
+
+def _estimates(sec: Mapping) -> Estimates:
+    p = "controller.estimates"
+    kind = _string(sec, "initial", p, default="paper")
+    if kind not in ESTIMATE_KINDS:
+        raise ScenarioError(
+            f"{p}.initial: {kind!r} unknown{did_you_mean(kind, ESTIMATE_KINDS)}; "
+            f"valid choices: {choices_text(ESTIMATE_KINDS)}"
+        )
+    spread = _number(sec, "spread", p, default=0.3)
+    if not 0 <= spread < 1:
+        raise ScenarioError(f"{p}.spread = {spread}: must be in [0, 1)")
+    seed = sec.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool):
+        raise ScenarioError(f"{p}.seed: expected an integer, got {_describe(seed)}")
+    thetas = {k: _vector(sec, k, p, default=None) for k in ("theta_z", "theta_d", "theta_b")}
+    given = [k for k, v in thetas.items() if v is not None]
+    if kind == "explicit":
+        missing = [k for k in thetas if thetas[k] is None]
+        if missing:
+            raise ScenarioError(
+                f"{p}: initial = 'explicit' needs {', '.join(f'{p}.{k}' for k in missing)}"
+            )
+    elif given:
+        raise ScenarioError(
+            f"{p}.{given[0]}: only used with initial = 'explicit' (initial is {kind!r})"
+        )
+    return Estimates(initial=kind, spread=spread, seed=seed, **thetas)
+
+
+# ------------------------------------------------------------------------------ helpers
+def _check_keys(table: Mapping, schema: Mapping, where: str) -> None:
+    """Unknown keys -> ScenarioError with a did-you-mean hint; sub-tables must be tables."""
+    for key, value in table.items():
+        full = f"{where}.{key}" if where else key
+        if key not in schema:
+            kind = "section" if isinstance(value, Mapping) else "key"
+            place = f"in [{where}]" if where else "at the top level"
+            raise ScenarioError(
+                f"{full}: unknown {kind} {place}{did_you_mean(key, schema)}; "
+                f"valid keys: {choices_text(schema)}"
+            )
+        sub = schema[key]
+        if isinstance(sub, Mapping):
+            if not isinstance(value, Mapping):
+                raise ScenarioError(f"{full}: expected a table [{full}], got {_describe(value)}")
+            _check_keys(value, sub, full)
+        elif isinstance(value, Mapping):
+            raise ScenarioError(f"{full}: expected a {sub}, got a table")
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _describe(x: Any) -> str:
+    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list"}
+    kind = names.get(type(x), "table" if isinstance(x, Mapping) else type(x).__name__)
+    text = repr(x)
+    return f"{text[:60] + '...' if len(text) > 60 else text} ({kind})"
+
+
+_MISSING = object()
+
+
+def _number(sec: Mapping, key: str, where: str, *, default: Any = _MISSING, positive=False):
+    full = f"{where}.{key}"
+    if key not in sec:
+        if default is _MISSING:
+            raise ScenarioError(f"{full}: missing (required key)")
+        return default
+    value = sec[key]
+    if not _is_number(value):
+        raise ScenarioError(f"{full}: expected a number, got {_describe(value)}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ScenarioError(f"{full} = {value}: must be finite")
+    if positive and not value > 0:
+        raise ScenarioError(f"{full} = {value}: must be > 0")
+    return value
+
+
+def _string(sec: Mapping, key: str, where: str, *, default: str) -> str:
+    value = sec.get(key, default)
+    if not isinstance(value, str):
+        raise ScenarioError(f"{where}.{key}: expected a string, got {_describe(value)}")
+    return value
+
+
+def _bool(sec: Mapping, key: str, where: str, *, default: bool) -> bool:
+    value = sec.get(key, default)
+    if not isinstance(value, bool):
+        raise ScenarioError(f"{where}.{key}: expected true or false, got {_describe(value)}")
+    return value
+
+
+def _vector(
+    sec: Mapping, key: str, where: str, *, length: int | None = None, default: Any = _MISSING
+):
+    full = f"{where}.{key}"
+    if key not in sec:
+        if default is _MISSING:
+            raise ScenarioError(f"{full}: missing (required key)")
+        return default
+    value = sec[key]
+    if not isinstance(value, list) or not all(_is_number(x) for x in value):
+        raise ScenarioError(f"{full}: expected a list of numbers, got {_describe(value)}")
+    out = tuple(float(x) for x in value)
+    if not all(math.isfinite(x) for x in out):
+        raise ScenarioError(f"{full}: values must be finite, got {list(out)}")
+    if length is not None and len(out) != length:
+        raise ScenarioError(f"{full}: {len(out)} values, expected {length}")
+    return out
+
+
+def _toml(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(float(value))
+
+
+def load_any(spec: str | Path) -> Scenario:
+    """A built-in name (``"case1"``) or a path to a scenario file."""
+    if isinstance(spec, str) and spec in BUILTIN:
+        return builtin_scenario(spec)
+    return load_scenario(spec)
+
+
+__all__ = [
+    "BUILTIN",
+    "SCHEMA",
+    "builtin_path",
+    "builtin_scenario",
+    "check_against_robot",
+    "load_any",
+    "load_scenario",
+    "scenario_from_dict",
+    "scenario_from_toml",
+    "scenario_to_toml",
+]
