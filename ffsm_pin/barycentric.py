@@ -32,6 +32,7 @@ Eq. (12) the controller needs (MODEL.md section 3): ``M(q) a``, ``dM/dt(q, w) s`
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -173,6 +174,7 @@ class BarycentricModel:
         self._pc_cols = nb + np.arange(self._P)
         self._ps_cols = nb + self._P + np.arange(self._P)
         self._ar = np.arange(nb)
+        self._memo: dict = {}
 
     # ------------------------------------------------------------------ sizes, truth
     @property
@@ -196,14 +198,45 @@ class BarycentricModel:
         """theta_b = col(A_0, theta_d) for the angular momentum A_0 about the CoM [kg m^2/s]."""
         return _ro(np.concatenate(([float(angular_momentum)], self.theta_d)))
 
-    # ------------------------------------------------------------------ kinematics
-    def angles(self, q_b: float, q_m) -> np.ndarray:
-        """phi_k [rad], absolute angle of each body's line frame."""
+    # ------------------------------------------------------------------ configuration
+    def body_angles(self, q_b, q_m) -> BodyAngles:
+        """Trigonometry of one configuration, shared by every evaluator.
+
+        The last few configurations are memoised, so that the evaluators called for one
+        state (real, or complex for a complex step) compute it once.
+        """
         q_m = np.asarray(q_m)
+        key = (q_b, q_m.tobytes(), q_m.dtype.char)
+        hit = self._memo.get(key)
+        if hit is not None:
+            return hit
         q = np.empty(self.n_joints + 1, dtype=np.result_type(q_b, q_m, float))
         q[0] = q_b
         q[1:] = q_m
-        return self.S @ q + self._phi_offset
+        phi = self.S @ q + self._phi_offset
+        c, s = np.cos(phi), np.sin(phi)
+        if self.layout.collinear:
+            pos = np.array([c, s])  # R(phi) e_x
+            rate = np.array([-s, c])  # R(phi) J e_x
+        else:
+            nb = len(phi)
+            pos = np.empty((2, 2 * nb), dtype=phi.dtype)
+            rate = np.empty((2, 2 * nb), dtype=phi.dtype)
+            pos[0, 0::2], pos[1, 0::2] = c, s  # R e_x
+            pos[0, 1::2], pos[1, 1::2] = -s, c  # R e_y
+            rate[0, 0::2], rate[1, 0::2] = -s, c  # R J e_x
+            rate[0, 1::2], rate[1, 1::2] = -c, -s  # R J e_y
+        # pair terms cos/sin(phi_l - phi_k) from the products (no second trig call)
+        cK, sK, cL, sL = c[self._K], s[self._K], c[self._L], s[self._L]
+        out = BodyAngles(phi, pos, rate, cL * cK + sL * sK, sL * cK - cL * sK)
+        if len(self._memo) >= 4:
+            self._memo.clear()
+        self._memo[key] = out
+        return out
+
+    def angles(self, q_b: float, q_m) -> np.ndarray:
+        """phi_k [rad], absolute angle of each body's line frame."""
+        return self.body_angles(q_b, q_m).phi
 
     def ee_angle(self, q_b: float, q_m) -> float:
         """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m)."""
@@ -217,30 +250,14 @@ class BarycentricModel:
             raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
         return theta
 
-    def _Vcols(self, phi):
-        """Columns R(phi_k) u for the V parameters: (2, n_V) positions, (2, n_V) rates."""
-        c, s = np.cos(phi), np.sin(phi)
-        if self.layout.collinear:
-            pos = np.array([c, s])  # R(phi) e_x
-            rate = np.array([-s, c])  # R(phi) J e_x
-        else:
-            nb = len(phi)
-            pos = np.empty((2, 2 * nb), dtype=phi.dtype)
-            rate = np.empty((2, 2 * nb), dtype=phi.dtype)
-            pos[0, 0::2], pos[1, 0::2] = c, s  # R e_x
-            pos[0, 1::2], pos[1, 1::2] = -s, c  # R e_y
-            rate[0, 0::2], rate[1, 0::2] = -s, c  # R J e_x
-            rate[0, 1::2], rate[1, 1::2] = -c, -s  # R J e_y
-        return pos, rate
-
     def _expand_rates(self, dphi):
         return dphi if self.layout.collinear else np.repeat(dphi, 2)
 
+    # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
         """p_e - p_com [m] = sum_k R(phi_k) V_k."""
         theta_z = self._check(theta_z, self.n_z, "theta_z")
-        pos, _ = self._Vcols(self.angles(q_b, q_m))
-        return pos @ theta_z[2:]
+        return self.body_angles(q_b, q_m).pos @ theta_z[2:]
 
     def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
         """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m]."""
@@ -250,7 +267,7 @@ class BarycentricModel:
     def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
         """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z."""
         theta_z = self._check(theta_z, self.n_z, "theta_z")
-        _, rate = self._Vcols(self.angles(q_b, q_m))
+        rate = self.body_angles(q_b, q_m).rate
         nb = self.n_joints + 1
         # d p_e / d phi_k = R(phi_k) J V_k ; chain rule with dphi = S w
         if self.layout.collinear:
@@ -269,7 +286,7 @@ class BarycentricModel:
         :meth:`ee_attitude_rate`).
         """
         w = np.asarray(w, dtype=float)
-        _, rate = self._Vcols(self.angles(q_b, q_m))
+        rate = self.body_angles(q_b, q_m).rate
         Y = np.zeros((3, self.n_z))
         Y[0, 0] = Y[1, 1] = 1.0
         Y[:2, 2:] = rate * self._expand_rates(self.S @ w)
@@ -280,73 +297,73 @@ class BarycentricModel:
         return float(self._ee_row @ np.asarray(w, dtype=float))
 
     # ------------------------------------------------------------------ dynamics
-    def _split(self, phi):
-        d = phi[self._L] - phi[self._K]
-        return np.cos(d), np.sin(d)
-
     def mass_matrix(self, theta_d, q_b: float, q_m) -> np.ndarray:
         """M(q, theta_d) of Eq. (9a), (n+1) x (n+1)."""
         theta_d = self._check(theta_d, self.n_d, "theta_d")
+        return self._ST @ self._mass_phi(theta_d, self.body_angles(q_b, q_m)) @ self.S
+
+    def _mass_phi(self, theta_d, ba: BodyAngles) -> np.ndarray:
         nb = self.n_joints + 1
-        c, s = self._split(self.angles(q_b, q_m))
-        off = theta_d[self._pc_cols] * c
+        off = theta_d[self._pc_cols] * ba.c
         if not self.layout.collinear:
-            off = off - theta_d[self._ps_cols] * s
+            off = off - theta_d[self._ps_cols] * ba.s
         Mphi = np.zeros((nb, nb), dtype=off.dtype)
         Mphi[self._ar, self._ar] = theta_d[:nb]
         Mphi[self._K, self._L] = off
         Mphi[self._L, self._K] = off
-        return self._ST @ Mphi @ self.S
+        return Mphi
 
-    def _pair_scatter(self, vals_k, vals_l, col_block, Y):
-        Y[self._K, col_block] = vals_k
-        Y[self._L, col_block] = vals_l
+    def _scatter(self, Yp, b, fc, fs):
+        """Columns of the pair parameters: f (b_l e_k + b_k e_l) for Dc (fc) and Ds (fs)."""
+        bl, bk = b[..., self._L], b[..., self._K]
+        Yp[..., self._K, self._pc_cols] = fc * bl
+        Yp[..., self._L, self._pc_cols] = fc * bk
+        if not self.layout.collinear:
+            Yp[..., self._K, self._ps_cols] = fs * bl
+            Yp[..., self._L, self._ps_cols] = fs * bk
 
     def Y_M(self, q_b: float, q_m, a) -> np.ndarray:
         """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d)."""
-        nb = self.n_joints + 1
+        ba = self.body_angles(q_b, q_m)
         b = self.S @ np.asarray(a, dtype=float)
-        c, s = self._split(self.angles(q_b, q_m))
-        Yp = np.zeros((nb, self.n_d))
+        Yp = np.zeros((self.n_joints + 1, self.n_d))
         Yp[self._ar, self._diag_cols] = b
-        bl, bk = b[self._L], b[self._K]
-        self._pair_scatter(c * bl, c * bk, self._pc_cols, Yp)
-        if not self.layout.collinear:
-            self._pair_scatter(-s * bl, -s * bk, self._ps_cols, Yp)
+        self._scatter(Yp, b, ba.c, -ba.s)
         return self._ST @ Yp
+
+    def velocity_regressors(self, q_b: float, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
+        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`."""
+        ba = self.body_angles(q_b, q_m)
+        nb = self.n_joints + 1
+        dphi = self.S @ np.asarray(w, dtype=float)
+        b = self.S @ np.asarray(s_vec, dtype=float)
+        dd = dphi[self._L] - dphi[self._K]
+        Yp = np.zeros((2, nb, self.n_d))
+        # dM/dt s: d/dt cos(d) = -sin(d) dd, d/dt(-sin(d)) = -cos(d) dd
+        self._scatter(Yp[0], b, -ba.s * dd, -ba.c * dd)
+        # C(q, w) w (Lagrange): Dc_kl -> e_k: -sin d dphi_l^2, e_l: +sin d dphi_k^2;
+        #                       Ds_kl -> e_k: -cos d dphi_l^2, e_l: +cos d dphi_k^2
+        dk2, dl2 = dphi[self._K] ** 2, dphi[self._L] ** 2
+        Yp[1, self._K, self._pc_cols] = -ba.s * dl2
+        Yp[1, self._L, self._pc_cols] = ba.s * dk2
+        if not self.layout.collinear:
+            Yp[1, self._K, self._ps_cols] = -ba.c * dl2
+            Yp[1, self._L, self._ps_cols] = ba.c * dk2
+        Y = self._ST @ Yp
+        return Y[0], Y[1]
 
     def Y_Mdot(self, q_b: float, q_m, w, s_vec) -> np.ndarray:
         """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
-        nb = self.n_joints + 1
-        w = np.asarray(w, dtype=float)
-        dphi = self.S @ w
-        b = self.S @ np.asarray(s_vec, dtype=float)
-        c, s = self._split(self.angles(q_b, q_m))
-        dd = dphi[self._L] - dphi[self._K]
-        Yp = np.zeros((nb, self.n_d))
-        bl, bk = b[self._L], b[self._K]
-        f = -s * dd
-        self._pair_scatter(f * bl, f * bk, self._pc_cols, Yp)
-        if not self.layout.collinear:
-            f = -c * dd
-            self._pair_scatter(f * bl, f * bk, self._ps_cols, Yp)
-        return self._ST @ Yp
+        return self.velocity_regressors(q_b, q_m, w, s_vec)[0]
 
     def Y_h(self, q_b: float, q_m, w) -> np.ndarray:
         """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
-        nb = self.n_joints + 1
-        dphi = self.S @ np.asarray(w, dtype=float)
-        c, s = self._split(self.angles(q_b, q_m))
-        Yp = np.zeros((nb, self.n_d))
-        dk2, dl2 = dphi[self._K] ** 2, dphi[self._L] ** 2
-        self._pair_scatter(-s * dl2, s * dk2, self._pc_cols, Yp)
-        if not self.layout.collinear:
-            self._pair_scatter(-c * dl2, c * dk2, self._ps_cols, Yp)
-        return self._ST @ Yp
+        return self.velocity_regressors(q_b, q_m, w, np.zeros(self.n_joints + 1))[1]
 
     def Y_d(self, q_b: float, q_m, w, s1, s2) -> np.ndarray:
         """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``."""
-        return self.Y_M(q_b, q_m, s1) - self.Y_Mdot(q_b, q_m, w, s2) + self.Y_h(q_b, q_m, w)
+        Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
+        return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
 
     def velocity_product(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
         """C(q, w, theta_d) w."""
@@ -369,12 +386,23 @@ class BarycentricModel:
     def momentum_matrices(self, theta_b, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray, float]:
         """(H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b.
 
-        Like :meth:`angles`, :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`,
-        this accepts complex arguments (used for complex-step derivatives).
+        H is the first row of M = S^T M_phi S, i.e. ``1^T M_phi S``. Like :meth:`angles`,
+        :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`, this accepts complex
+        arguments (used for complex-step derivatives).
         """
         theta_b = self._check(theta_b, self.n_b, "theta_b")
-        row = self.mass_matrix(theta_b[1:], q_b, q_m)[0]
+        row = self._mass_phi(theta_b[1:], self.body_angles(q_b, q_m)).sum(axis=0) @ self.S
         return row[None, :1], row[None, 1:], theta_b[0]
+
+
+class BodyAngles(NamedTuple):
+    """Trigonometry of one configuration (see :meth:`BarycentricModel.body_angles`)."""
+
+    phi: np.ndarray  # phi_k [rad]
+    pos: np.ndarray  # (2, n_V) R(phi_k) u, columns multiplying the V parameters
+    rate: np.ndarray  # (2, n_V) R(phi_k) J u
+    c: np.ndarray  # cos(phi_l - phi_k) for the pairs k < l
+    s: np.ndarray  # sin(phi_l - phi_k)
 
 
 def _ro(a: np.ndarray) -> np.ndarray:

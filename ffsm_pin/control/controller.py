@@ -210,8 +210,7 @@ class CoordinatedController:
                     time=t,
                     cause="estimate",
                 )
-            Y_Mdot = m.Y_Mdot(q_b, q_m, w, w_tilde)
-            Y_h = m.Y_h(q_b, q_m, w)
+            Y_Mdot, Y_h = m.velocity_regressors(q_b, q_m, w, w_tilde)
             d_theta_d = theta_d_increment(self.Y_df, w_tilde, M_hat, g.gamma_3, dt)
             eta_x = -self.Y_df @ d_theta_d / dt  # Eq. (52)
             r = (Y_Mdot - Y_h) @ self.theta_d + g.k_de * (M_hat @ w_tilde) + eta_x

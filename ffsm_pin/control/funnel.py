@@ -115,15 +115,23 @@ class Funnel:
         self._r0 = np.array(params.rho0)
         self._ri = np.array(params.rhoinf)
         self._b = np.array(params.beta)
-        self.sigma = np.array(params.sigma)
-        self.positive_side = e0 >= 0  # e(0) >= 0: upper bound 1, lower -sigma
-        self.upper = np.where(self.positive_side, 1.0, self.sigma)  # bounds on s
-        self.lower = np.where(self.positive_side, -self.sigma, -1.0)
+        self.sigma = sg = np.array(params.sigma)
+        self.positive_side = pos = e0 >= 0  # e(0) >= 0: upper bound 1, lower -sigma
+        self.upper = np.where(pos, 1.0, sg)  # bounds on s
+        self.lower = np.where(pos, -sg, -1.0)
+        # Eq. (21) as R(s) = ln((a1 + b1 s) / (a2 + b2 s)), dR/ds = b1/num - b2/den:
+        #   e(0) >= 0: ln((sigma + s) / (sigma - sigma s))
+        #   e(0) <  0: ln((sigma + sigma s) / (sigma - s))
+        self._a = sg
+        self._b1 = np.where(pos, 1.0, sg)
+        self._b2 = np.where(pos, -sg, -1.0)
 
     def rho(self, t: float) -> np.ndarray:
+        """rho(t), Eq. (18)."""
         return (self._r0 - self._ri) * np.exp(-self._b * t) + self._ri
 
     def rho_dot(self, t: float) -> np.ndarray:
+        """d rho / dt, Eq. (19)."""
         return -self._b * (self._r0 - self._ri) * np.exp(-self._b * t)
 
     def bounds(self, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -141,22 +149,20 @@ class Funnel:
 
     def evaluate(self, t, error) -> FunnelEval:
         """psi and Phi at (t, e). ``t`` and ``error`` may be complex (complex step)."""
-        rho = (self._r0 - self._ri) * np.exp(-self._b * t) + self._ri
-        rho_dot = -self._b * (self._r0 - self._ri) * np.exp(-self._b * t)
+        decay = (self._r0 - self._ri) * np.exp(-self._b * t)
+        rho = decay + self._ri
         s = error / rho
-        margin = np.minimum(self.upper - s.real, s.real - self.lower)
-        if np.any(margin <= 0):
+        sr = s.real
+        margin = np.minimum(self.upper - sr, sr - self.lower)
+        if margin.min() <= 0:
             i = int(np.argmin(margin))
             r = float(np.real(rho[i]))
             raise FunnelExit(i, float(np.real(error[i])), self.lower[i] * r, self.upper[i] * r)
-        sg = self.sigma
-        pos = self.positive_side
-        # Eq. (21): ln((sigma + s) / (sigma - sigma s)) or ln((sigma + sigma s) / (sigma - s))
-        num = np.where(pos, sg + s, sg + sg * s)
-        den = np.where(pos, sg - sg * s, sg - s)
-        psi = np.log(num / den)
-        dR = np.where(pos, 1.0 / (sg + s) + 1.0 / (1.0 - s), 1.0 / (1.0 + s) + 1.0 / (sg - s))
-        return FunnelEval(error, rho, rho_dot, s, psi, dR / rho, margin)
+        num = self._a + self._b1 * s
+        den = self._a + self._b2 * s
+        psi = np.log(num / den)  # Eq. (20)-(21)
+        Phi = (self._b1 / num - self._b2 / den) / rho  # Eq. (22)
+        return FunnelEval(error, rho, -self._b * decay, s, psi, Phi, margin)
 
 
 class IdentityFunnel(Funnel):

@@ -57,13 +57,30 @@ class Reference:
     ee: tuple[ComponentReference, ...]
     base_attitude: tuple[float, ...] = (0.0,)
 
+    def __post_init__(self) -> None:
+        # all harmonic terms flattened: value = c + A @ (amp * cos(freq t + phase))
+        terms = [
+            (i, h.amplitude, h.frequency, phase)
+            for i, comp in enumerate(self.ee)
+            for hs, phase in ((comp.cos, 0.0), (comp.sin, -np.pi / 2))
+            for h in hs
+        ]
+        idx = np.array([x[0] for x in terms], dtype=int)
+        A = np.zeros((len(self.ee), len(terms)))
+        A[idx, np.arange(len(terms))] = 1.0
+        object.__setattr__(self, "_c", np.array([comp.c for comp in self.ee], dtype=float))
+        object.__setattr__(self, "_A", A)
+        object.__setattr__(self, "_amp", np.array([x[1] for x in terms], dtype=float))
+        object.__setattr__(self, "_freq", np.array([x[2] for x in terms], dtype=float))
+        object.__setattr__(self, "_phase", np.array([x[3] for x in terms], dtype=float))
+
     def ee_pose(self, t):
-        """z_e,d(t) [m, m, rad]."""
-        return np.array([c.derivative(t, 0) for c in self.ee])
+        """z_e,d(t) [m, m, rad] (t may be complex)."""
+        return self._c + self._A @ (self._amp * np.cos(self._freq * t + self._phase))
 
     def ee_rate(self, t):
-        """dz_e,d/dt [m/s, m/s, rad/s]."""
-        return np.array([c.derivative(t, 1) for c in self.ee])
+        """dz_e,d/dt [m/s, m/s, rad/s] (t may be complex)."""
+        return self._A @ (-self._amp * self._freq * np.sin(self._freq * t + self._phase))
 
 
 @dataclass(frozen=True)
