@@ -206,6 +206,8 @@ class BarycentricModel:
         state (real, or complex for a complex step) compute it once.
         """
         q_m = np.asarray(q_m)
+        if isinstance(q_b, np.ndarray):
+            q_b = q_b.item()
         key = (q_b, q_m.tobytes(), q_m.dtype.char)
         hit = self._memo.get(key)
         if hit is not None:
@@ -228,7 +230,7 @@ class BarycentricModel:
             rate[0, 1::2], rate[1, 1::2] = -c, -s  # R J e_y
         # pair terms cos/sin(phi_l - phi_k) from the products (no second trig call)
         cK, sK, cL, sL = c[self._K], s[self._K], c[self._L], s[self._L]
-        out = BodyAngles(phi, pos, rate, cL * cK + sL * sK, sL * cK - cL * sK)
+        out = BodyAngles(*(_ro(x) for x in (phi, pos, rate, cL * cK + sL * sK, sL * cK - cL * sK)))
         if len(self._memo) >= 4:
             self._memo.clear()
         self._memo[key] = out

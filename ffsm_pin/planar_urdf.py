@@ -35,9 +35,15 @@ import argparse
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from xml.sax.saxutils import escape
+from xml.sax.saxutils import escape as _escape
 
 from .errors import FfsmError, ParameterError
+
+
+def escape(text: str) -> str:
+    """Escape text for an XML attribute value (quotes included)."""
+    return _escape(text, {'"': "&quot;"})
+
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -57,7 +63,7 @@ class PlanarBody:
         # plain floats, so that the URDF text never shows numpy reprs
         object.__setattr__(self, "mass", float(self.mass))
         object.__setattr__(self, "inertia", float(self.inertia))
-        object.__setattr__(self, "com", _pair(self.com))
+        object.__setattr__(self, "com", _pair(self.com, "com"))
 
 
 @dataclass(frozen=True)
@@ -69,7 +75,9 @@ class PlanarLink(PlanarBody):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        object.__setattr__(self, "tip", _pair(self.tip))
+        object.__setattr__(self, "tip", _pair(self.tip, "tip"))
+        if self.axis not in (1, -1):
+            raise ParameterError(f"link axis must be 1 or -1, got {self.axis!r}")
         object.__setattr__(self, "axis", int(self.axis))
 
 
@@ -86,8 +94,8 @@ class PlanarChain:
     joint_names: tuple[str, ...] = field(default=())
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "mount", _pair(self.mount))
-        object.__setattr__(self, "base_size", _pair(self.base_size))
+        object.__setattr__(self, "mount", _pair(self.mount, "mount"))
+        object.__setattr__(self, "base_size", _pair(self.base_size, "size"))
         object.__setattr__(self, "links", tuple(self.links))
         if not self.links:
             raise ParameterError(f"robot {self.name!r}: at least one link is needed")
@@ -104,40 +112,63 @@ class PlanarChain:
 
 def chain_from_table(table: dict) -> PlanarChain:
     """Build a :class:`PlanarChain` from the dict form of the TOML table."""
+    base = _get(table, "base", "robot table")
+    links = _get(table, "links", "robot table")
+    return PlanarChain(
+        name=str(table.get("name", "planar_ffsm")),
+        base=PlanarBody(
+            mass=_num(_get(base, "mass", "base"), "base.mass"),
+            inertia=_num(_get(base, "inertia", "base"), "base.inertia"),
+            com=_pair(base.get("com", (0.0, 0.0)), "base.com"),
+        ),
+        mount=_pair(_get(base, "mount", "base"), "base.mount"),
+        base_size=_pair(base.get("size", (1.0, 1.0)), "base.size"),
+        end_effector=str(table.get("end_effector", "ee")),
+        links=tuple(_link(link, i) for i, link in enumerate(links, start=1)),
+    )
+
+
+def _link(link: dict, i: int) -> PlanarLink:
+    where = f"links[{i}]"
+    length = link.get("length")
+    if length is None and ("com" not in link or "tip" not in link):
+        raise ParameterError(f"{where}: missing key 'length' (or both 'com' and 'tip')")
+    length = None if length is None else _num(length, f"{where}.length")
+    axis = _num(link.get("axis", 1), f"{where}.axis")
+    if axis not in (1.0, -1.0):
+        raise ParameterError(f"{where}.axis must be 1 or -1, got {link.get('axis')!r}")
+    return PlanarLink(
+        mass=_num(_get(link, "mass", where), f"{where}.mass"),
+        inertia=_num(_get(link, "inertia", where), f"{where}.inertia"),
+        com=_pair(link.get("com", (0.5 * (length or 0.0), 0.0)), f"{where}.com"),
+        tip=_pair(link.get("tip", (length, 0.0)), f"{where}.tip"),
+        axis=int(axis),
+    )
+
+
+def _get(table: dict, key: str, where: str):
+    if not isinstance(table, dict) or key not in table:
+        raise ParameterError(f"{where}: missing key {key!r}")
+    return table[key]
+
+
+def _num(value, key: str) -> float:
+    if isinstance(value, bool):
+        raise ParameterError(f"{key}: expected a number, got {value!r}")
     try:
-        base = table["base"]
-        links = table["links"]
-        chain = PlanarChain(
-            name=str(table.get("name", "planar_ffsm")),
-            base=PlanarBody(
-                mass=float(base["mass"]),
-                inertia=float(base["inertia"]),
-                com=_pair(base.get("com", (0.0, 0.0))),
-            ),
-            mount=_pair(base["mount"]),
-            base_size=_pair(base.get("size", (1.0, 1.0))),
-            end_effector=str(table.get("end_effector", "ee")),
-            links=tuple(
-                PlanarLink(
-                    mass=float(link["mass"]),
-                    inertia=float(link["inertia"]),
-                    com=_pair(link.get("com", (0.5 * float(link["length"]), 0.0))),
-                    tip=_pair(link.get("tip", (float(link["length"]), 0.0))),
-                    axis=int(link.get("axis", 1)),
-                )
-                for link in links
-            ),
-        )
-    except KeyError as exc:
-        raise ParameterError(f"robot table: missing key {exc.args[0]!r}") from None
-    return chain
+        return float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{key}: expected a number, got {value!r}") from None
 
 
-def _pair(x) -> tuple[float, float]:
-    x = tuple(float(v) for v in x)
-    if len(x) != 2:
-        raise ParameterError(f"expected a 2-vector, got {x}")
-    return x  # type: ignore[return-value]
+def _pair(x, key: str = "vector") -> tuple[float, float]:
+    try:
+        values = tuple(_num(v, key) for v in x)
+    except TypeError:
+        raise ParameterError(f"{key}: expected a 2-vector [x, y], got {x!r}") from None
+    if len(values) != 2:
+        raise ParameterError(f"{key}: expected a 2-vector [x, y], got {list(values)}")
+    return values  # type: ignore[return-value]
 
 
 def _inertial(mass: float, inertia: float, com: tuple[float, float]) -> str:

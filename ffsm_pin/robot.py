@@ -320,6 +320,12 @@ def load_robot(
             )
         axis_signs.append(sign)
         placement = model.jointPlacements[j]
+        if abs(placement.rotation[2, 2] - 1.0) > 1e-9:  # e.g. a tilted fixed joint merged in
+            raise UnsupportedJointError(
+                f"{path.name}: joint {model.names[j]!r} is placed with a roll/pitch relative to "
+                "the previous joint (through a tilted joint origin or fixed joint); a planar "
+                "chain allows only yaw rotations"
+            )
         yaws.append(_yaw(placement.rotation))
         child.append(np.array(placement.translation[:2]))
 

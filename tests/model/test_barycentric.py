@@ -375,16 +375,6 @@ def test_paper_true_parameters_belong_to_three_link_chain(tmp_path):
     )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason=(
-        "BUG barycentric.py body_angles (memo, l. 202-235): the memoised BodyAngles arrays are "
-        "writeable and angles() returns the cached phi itself, so a caller that edits the "
-        "returned array changes every later result for that configuration (angles(), and via "
-        "body_angles().c/.s also mass_matrix/regressors). Mark them read-only with _ro()."
-    ),
-)
 def test_returned_angles_do_not_alias_the_cache(paper_robot):
     bm = BarycentricModel(paper_robot.geometry)
     qm = np.array([0.1, 0.2, 0.3, 0.4])

@@ -193,17 +193,6 @@ def test_tilted_fixed_joint_file_is_really_not_planar(data_dir):
     assert axis_world[2] == pytest.approx(np.cos(0.5), abs=1e-12)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=pytest.fail.Exception,  # DID NOT RAISE
-    reason=(
-        "BUG robot.py load_robot (l. 321-323): joint placements are reduced to a yaw "
-        "(_yaw) without checking that they are pure z rotations. A roll/pitch on a *fixed* "
-        "joint (skipped by _repair_and_check_xml) is merged by Pinocchio into the next "
-        "revolute joint's placement and tips its axis out of the plane; the robot is "
-        "accepted as planar."
-    ),
-)
 def test_tilted_fixed_joint_is_refused(data_dir):
     with pytest.raises(UnsupportedJointError, match="'joint2'|'tilt'"):
         load_robot(data_dir / "bad_tilted_fixed.urdf")
