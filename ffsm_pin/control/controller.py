@@ -70,11 +70,14 @@ class ControlOutput(NamedTuple):
     w_mc_dot: np.ndarray  # its time derivative [rad/s^2]
     err_b: np.ndarray  # attitude error [rad]
     err_z: np.ndarray  # end-effector pose error [m, m, rad]
-    funnel_b: FunnelEval | None
-    funnel_z: FunnelEval
     w_tilde: np.ndarray  # w - w-hat [rad/s]
     sigma_min: float
     damping: float
+    funnel_b: FunnelEval | None = None  # numpy backend only (None for Eq. 81)
+    funnel_z: FunnelEval | None = None  # numpy backend only
+
+
+BACKENDS = ("auto", "numba", "numpy")
 
 
 def check_feasibility(n_joints: int, scheme: str) -> None:
@@ -124,8 +127,11 @@ class CoordinatedController:
         theta_d0,
         theta_b0,
         initial: Measurement,
+        backend: str = "auto",
     ):
         check_feasibility(model.n_joints, scheme)
+        if backend not in BACKENDS:
+            raise InfeasibleTaskError(f"unknown backend {backend!r}; valid choices: {BACKENDS}")
         self.model = model
         self.scheme = scheme
         self.gains = gains
@@ -165,10 +171,83 @@ class CoordinatedController:
         self.events: list[str] = []
         self._damped_since: float | None = None
         self._last_warning = -np.inf
+        self.backend = self._choose_backend(backend)
+
+    def _choose_backend(self, backend: str) -> str:
+        """'numba' (compiled period, :mod:`.fast`) unless numba is missing, the scheme is
+        the known-model baseline (which runs on Pinocchio's matrices), or 'numpy' is asked."""
+        if backend == "numpy" or not self.adaptive:
+            return "numpy"
+        try:
+            from . import fast
+        except ImportError:
+            if backend == "numba":
+                raise
+            return "numpy"
+        m = self.model
+        self._fast = fast
+        self._fast_consts = (
+            m.S, m._phi_offset, m._K, m._L, m._ee_row, m.layout.collinear,
+            self.scheme != "no-attitude", self.scheme == "no-ppc",
+            fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
+            np.array([self.gains.k_b, self.gains.k_z, self.gains.k_de, self.gains.k_d,
+                      self.gains.gamma_1, self.gains.gamma_2, self.gains.gamma_3,
+                      self.policy.threshold, self.q_bd]),
+            self.reference._c, self.reference._A, self.reference._amp,
+            self.reference._freq, self.reference._phase,
+        )  # fmt: skip
+        self._layout = fast.out_layout(m.n_joints)
+        self._out = np.zeros(self._layout["size"])
+        return "numba"
 
     # ------------------------------------------------------------------ one period
     def step(self, meas: Measurement, dt: float) -> ControlOutput:
         """Compute u_m for the period [t, t + dt) and advance the controller's states."""
+        if self.backend == "numba":
+            return self._step_numba(meas, dt)
+        return self._step_numpy(meas, dt)
+
+    def _step_numba(self, meas: Measurement, dt: float) -> ControlOutput:
+        fast, lay, out = self._fast, self._layout, self._out
+        t = meas.t
+        status, idx = fast.period(
+            *self._fast_consts, dt, t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
+            self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, out,
+        )  # fmt: skip
+        if status in (fast.STATUS_FUNNEL_Z, fast.STATUS_FUNNEL_B):
+            funnel = self.funnel_z if status == fast.STATUS_FUNNEL_Z else self.funnel_b
+            rho = float(funnel.rho(t)[idx])
+            exc = FunnelExit(
+                idx, out[lay["exit_value"]], funnel.lower[idx] * rho, funnel.upper[idx] * rho
+            )
+            raise self._funnel_stop(meas, exc)
+        if status == fast.STATUS_H_COLLAPSE:
+            raise self._collapse_stop(t, out[lay["H_bm_norm"]])
+        sigma, damping = float(out[lay["sigma_min"]]), float(out[lay["damping"]])
+        self._singularity_bookkeeping(t, sigma, damping)
+        if status == fast.STATUS_M_NOT_PD:
+            raise self._inertia_stop(t)
+        if status == fast.STATUS_BASE_ROW:
+            raise SimulationError(
+                f"t = {t:.4f} s: base row of the filter is singular", time=t, cause="singular"
+            )
+        u_m = out[lay["u_m"]].copy()
+        if not np.all(np.isfinite(u_m)):
+            raise SimulationError(
+                f"t = {t:.4f} s: the joint torque became non-finite", time=t, cause="nonfinite"
+            )
+        return ControlOutput(
+            u_m=u_m,
+            w_mc=out[lay["w_mc"]].copy(),
+            w_mc_dot=out[lay["w_mc_dot"]].copy(),
+            err_b=out[lay["err_b"]].copy(),
+            err_z=out[lay["err_z"]].copy(),
+            w_tilde=out[lay["w_tilde"]].copy(),
+            sigma_min=sigma,
+            damping=damping,
+        )
+
+    def _step_numpy(self, meas: Measurement, dt: float) -> ControlOutput:
         m, g = self.model, self.gains
         t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
 
@@ -192,24 +271,14 @@ class CoordinatedController:
             raise self._funnel_stop(meas, exc) from None
         self._singularity_bookkeeping(t, kc.sigma_min, kc.damping)
         if self.scheme != "no-attitude" and not kc.H_bm_norm > 1e-9:
-            raise SimulationError(
-                f"t = {t:.4f} s: the estimate theta_b-hat collapsed (|H_bm-hat| = "
-                f"{kc.H_bm_norm:.3g}); Eq. (25) is undefined",
-                time=t,
-                cause="estimate",
-            )
+            raise self._collapse_stop(t, kc.H_bm_norm)
 
         # 3. dynamic level, Eqs. (46), (50)-(52), (60)-(64)
         if self.adaptive:
             w_tilde = w - self.w_hat
             M_hat = m.mass_matrix(self.theta_d, q_b, q_m)
             if np.any(np.linalg.eigvalsh(M_hat) <= 0):
-                raise SimulationError(
-                    f"t = {t:.4f} s: the estimated inertia M(q, theta_d-hat) is not positive "
-                    "definite; the filter (46) is undefined",
-                    time=t,
-                    cause="estimate",
-                )
+                raise self._inertia_stop(t)
             Y_Mdot, Y_h = m.velocity_regressors(q_b, q_m, w, w_tilde)
             d_theta_d = theta_d_increment(self.Y_df, w_tilde, M_hat, g.gamma_3, dt)
             eta_x = -self.Y_df @ d_theta_d / dt  # Eq. (52)
@@ -239,11 +308,11 @@ class CoordinatedController:
             w_mc_dot=mi.w_mc_dot,
             err_b=self.kinematic.errors(t, q_b, meas.z_e)[0],
             err_z=kc.funnel_z.error,
-            funnel_b=kc.funnel_b,
-            funnel_z=kc.funnel_z,
             w_tilde=w_tilde,
             sigma_min=kc.sigma_min,
             damping=kc.damping,
+            funnel_b=kc.funnel_b,
+            funnel_z=kc.funnel_z,
         )
 
     # ------------------------------------------------------------------ stops
@@ -270,6 +339,24 @@ class CoordinatedController:
                 )
         else:
             self._damped_since = None
+
+    @staticmethod
+    def _collapse_stop(t: float, h_norm: float) -> SimulationError:
+        return SimulationError(
+            f"t = {t:.4f} s: the estimate theta_b-hat collapsed (|H_bm-hat| = {h_norm:.3g}); "
+            "Eq. (25) is undefined",
+            time=t,
+            cause="estimate",
+        )
+
+    @staticmethod
+    def _inertia_stop(t: float) -> SimulationError:
+        return SimulationError(
+            f"t = {t:.4f} s: the estimated inertia M(q, theta_d-hat) is not positive definite; "
+            "the filter (46) is undefined",
+            time=t,
+            cause="estimate",
+        )
 
     def _funnel_stop(self, meas: Measurement, exc: FunnelExit) -> SimulationError:
         t = meas.t

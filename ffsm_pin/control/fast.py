@@ -1,0 +1,395 @@
+"""Compiled (numba) kernel of one control period: the same equations as the numpy modules.
+
+The readable reference is the numpy implementation (:mod:`ffsm_pin.barycentric`,
+:mod:`.funnel`, :mod:`.kinematic`, :mod:`.adaptation`, :mod:`.manifold`,
+:mod:`.controller`); this module fuses one period of it into a single compiled call,
+because a period is a few hundred operations on 5-vectors where interpreter overhead
+dominates (about 300 us in numpy, see ``benchmarks/bench_closed_loop.py``). The test
+suite checks that both give the same trajectory (``tests/control/test_fast.py``).
+
+Layout conventions are those of :class:`~ffsm_pin.barycentric.BarycentricModel`:
+theta_d = (Dc_kk, Dc_kl (k<l), [Ds_kl (k<l)]), theta_z = (v_0, V_0..V_n) with scalar or
+2-vector V_k. Status codes returned by :func:`period`: see ``STATUS_*``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+STATUS_OK = 0
+STATUS_FUNNEL_Z = 1  # end-effector error left its funnel
+STATUS_FUNNEL_B = 2  # attitude error left its funnel
+STATUS_M_NOT_PD = 3  # M(q, theta_d-hat) not positive definite
+STATUS_BASE_ROW = 4  # singular base row of the filter
+STATUS_H_COLLAPSE = 5  # |H_bm-hat| ~ 0
+
+# rows of a packed funnel array (8, m)
+F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
+# entries of the packed gains array
+G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
+_H = 1e-30
+_TWO_PI = 2.0 * np.pi
+
+
+def pack_funnel(funnel) -> np.ndarray:
+    """(8, m) array of a :class:`~ffsm_pin.control.funnel.Funnel`'s constants."""
+    return np.ascontiguousarray(
+        np.vstack(
+            (funnel._r0, funnel._ri, funnel._b, funnel._a, funnel._b1, funnel._b2,
+             funnel.upper, funnel.lower)
+        ),
+        dtype=float,
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _mv(A, x):
+    """A @ x for a real matrix A and a real or complex vector x (dtype of x)."""
+    out = np.zeros(A.shape[0], dtype=x.dtype)
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            out[i] += A[i, j] * x[j]
+    return out
+
+
+@njit(cache=True)
+def _xm(X, A):
+    """X @ A for a real or complex matrix X and a real matrix A (dtype of X)."""
+    out = np.zeros((X.shape[0], A.shape[1]), dtype=X.dtype)
+    for i in range(X.shape[0]):
+        for k in range(X.shape[1]):
+            for j in range(A.shape[1]):
+                out[i, j] += X[i, k] * A[k, j]
+    return out
+
+
+def out_layout(n: int) -> dict[str, slice | int]:
+    """Where :func:`period` writes each output in ``out`` (size ``4 n + 9``)."""
+    nb = n + 1
+    o = 3 * n + 4 + nb
+    return {
+        "u_m": slice(0, n), "w_mc": slice(n, 2 * n), "w_mc_dot": slice(2 * n, 3 * n),
+        "err_b": slice(3 * n, 3 * n + 1), "err_z": slice(3 * n + 1, 3 * n + 4),
+        "w_tilde": slice(3 * n + 4, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
+        "exit_value": o + 3, "size": o + 4,
+    }  # fmt: skip
+
+
+@njit(cache=True)
+def _trig(S, off, K, L, q_b, q_m):
+    nb = S.shape[0]
+    q = np.empty(nb, dtype=q_m.dtype)
+    q[0] = q_b
+    q[1:] = q_m
+    phi = _mv(S, q) + off
+    c = np.cos(phi)
+    s = np.sin(phi)
+    P = K.size
+    pc = np.empty(P, dtype=phi.dtype)
+    ps = np.empty(P, dtype=phi.dtype)
+    for p in range(P):
+        k, l = K[p], L[p]
+        pc[p] = c[l] * c[k] + s[l] * s[k]  # cos(phi_l - phi_k)
+        ps[p] = s[l] * c[k] - c[l] * s[k]  # sin(phi_l - phi_k)
+    return c, s, pc, ps
+
+
+@njit(cache=True)
+def _mass_phi(theta_d, pc, ps, K, L, nb, collinear):
+    Mphi = np.zeros((nb, nb), dtype=pc.dtype)
+    for k in range(nb):
+        Mphi[k, k] = theta_d[k]
+    P = K.size
+    for p in range(P):
+        v = theta_d[nb + p] * pc[p]
+        if not collinear:
+            v -= theta_d[nb + P + p] * ps[p]
+        Mphi[K[p], L[p]] = v
+        Mphi[L[p], K[p]] = v
+    return Mphi
+
+
+@njit(cache=True)
+def _jacobian(theta_z, c, s, S, ee_row, collinear):
+    """(3, nb) [J_b J_m] of Eq. (3)."""
+    nb = S.shape[0]
+    dp = np.zeros((2, nb), dtype=c.dtype)
+    for k in range(nb):
+        if collinear:
+            v = theta_z[2 + k]
+            dp[0, k] = -s[k] * v
+            dp[1, k] = c[k] * v
+        else:
+            vx, vy = theta_z[2 + 2 * k], theta_z[3 + 2 * k]
+            dp[0, k] = -s[k] * vx - c[k] * vy
+            dp[1, k] = c[k] * vx - s[k] * vy
+    J = np.empty((3, nb), dtype=dp.dtype)
+    J[:2] = _xm(dp, S)
+    for j in range(nb):
+        J[2, j] = ee_row[j]
+    return J
+
+
+@njit(cache=True)
+def _funnel(f, t, e, identity):
+    """(psi, Phi, exit index or -1)."""
+    m = e.size
+    psi = np.empty(m, dtype=e.dtype)
+    Phi = np.empty(m, dtype=e.dtype)
+    if identity:
+        for i in range(m):
+            psi[i] = e[i]
+            Phi[i] = 1.0
+        return psi, Phi, -1
+    for i in range(m):
+        decay = (f[F_R0, i] - f[F_RI, i]) * np.exp(-f[F_BETA, i] * t)
+        rho = decay + f[F_RI, i]
+        s = e[i] / rho
+        if s.real >= f[F_UP, i] or s.real <= f[F_LO, i]:
+            return psi, Phi, i
+        num = f[F_A, i] + f[F_B1, i] * s
+        den = f[F_A, i] + f[F_B2, i] * s
+        psi[i] = np.log(num / den)  # Eq. (21)
+        Phi[i] = (f[F_B1, i] / num - f[F_B2, i] / den) / rho  # Eq. (22)
+    return psi, Phi, -1
+
+
+@njit(cache=True)
+def _reference(rc, rA, ramp, rfreq, rphase, t, rate):
+    arg = rfreq * t + rphase
+    if rate:
+        return _mv(rA, -ramp * rfreq * np.sin(arg))
+    return rc + _mv(rA, ramp * np.cos(arg))
+
+
+@njit(cache=True)
+def _wrap(d):
+    return d - _TWO_PI * np.rint(d.real / _TWO_PI)
+
+
+@njit(cache=True)
+def _damped_pinv(A, thr):
+    gram = A @ A.T
+    eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
+    sigma = np.sqrt(max(eig[0], 0.0))
+    damping = 0.0
+    if sigma < thr:
+        damping = thr * thr - sigma * sigma
+        for i in range(gram.shape[0]):
+            gram[i, i] += damping
+    return A.T @ np.linalg.inv(gram), sigma, damping
+
+
+@njit(cache=True)
+def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
+               fb, fz, g, rc, rA, ramp, rfreq, rphase,
+               t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+    """w_mc of Eqs. (25)+(36) or (81) (complex-step safe)."""
+    nb = S.shape[0]
+    n = nb - 1
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    err_z = z_e - _reference(rc, rA, ramp, rfreq, rphase, t, False)
+    err_z[2] = _wrap(err_z[2])
+    err_b = np.empty(1, dtype=err_z.dtype)
+    err_b[0] = _wrap(q_b - g[G_QBD])
+    psi_z, Phi_z, iz = _funnel(fz, t, err_z, identity)
+    w_mc = np.zeros(n, dtype=err_z.dtype)
+    sens = np.zeros(n)
+    if iz >= 0:
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
+    J = _jacobian(theta_z, c, s, S, ee_row, collinear)
+    Jm = np.ascontiguousarray(J[:, 1:])
+    target = _reference(rc, rA, ramp, rfreq, rphase, t, True) - g[G_KZ] * Phi_z * psi_z
+    target[0] -= theta_z[0]
+    target[1] -= theta_z[1]
+    if not attitude:  # Eq. (81)
+        pinv, sigma, damping = _damped_pinv(Jm, g[G_THR])
+        Jb = J[:, 0].copy()
+        w_mc = pinv @ (target - Jb * w_b)
+        sens = -(pinv @ Jb).real
+        return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
+    psi_b, Phi_b, ib = _funnel(fb, t, err_b, identity)
+    if ib >= 0:
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
+    Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
+    row = _xm(Mphi.sum(axis=0).reshape(1, nb), S)[0]  # first row of S^T M_phi S: (H_bb, H_bm)
+    Hbm = row[1:].copy()
+    hh = (Hbm * Hbm).sum()
+    hnorm = np.sqrt(hh.real)
+    if not hnorm > 1e-9:
+        return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
+    a_b = theta_b[0] + g[G_KB] * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
+    Hp = Hbm / hh  # pseudo-inverse of the row H_bm
+    U = np.eye(n) - np.outer(Hp, Hbm)
+    pinv, sigma, damping = _damped_pinv(Jm @ U, g[G_THR])
+    Hp_ab = Hp * a_b
+    xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
+    w_mc = Hp_ab + U @ xi  # Eq. (25)
+    return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
+
+
+@njit(cache=True)
+def _scatter_pair(Y, b, fc, fs, K, L, nb, collinear):
+    P = K.size
+    for p in range(P):
+        k, l = K[p], L[p]
+        Y[k, nb + p] += fc[p] * b[l]
+        Y[l, nb + p] += fc[p] * b[k]
+        if not collinear:
+            Y[k, nb + P + p] += fs[p] * b[l]
+            Y[l, nb + P + p] += fs[p] * b[k]
+
+
+@njit(cache=True)
+def _Y_M(pc, ps, K, L, S, a, nd, collinear):
+    nb = S.shape[0]
+    b = S @ a
+    Y = np.zeros((nb, nd))
+    for k in range(nb):
+        Y[k, k] = b[k]
+    _scatter_pair(Y, b, pc, -ps, K, L, nb, collinear)
+    return S.T @ Y
+
+
+@njit(cache=True)
+def _velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
+    nb = S.shape[0]
+    P = K.size
+    dphi = S @ w
+    b = S @ sv
+    Ymd = np.zeros((nb, nd))
+    Yh = np.zeros((nb, nd))
+    fc = np.empty(P)
+    fs = np.empty(P)
+    for p in range(P):
+        dd = dphi[L[p]] - dphi[K[p]]
+        fc[p] = -ps[p] * dd
+        fs[p] = -pc[p] * dd
+    _scatter_pair(Ymd, b, fc, fs, K, L, nb, collinear)
+    for p in range(P):
+        k, l = K[p], L[p]
+        dk2, dl2 = dphi[k] ** 2, dphi[l] ** 2
+        Yh[k, nb + p] = -ps[p] * dl2
+        Yh[l, nb + p] = ps[p] * dk2
+        if not collinear:
+            Yh[k, nb + P + p] = -pc[p] * dl2
+            Yh[l, nb + P + p] = pc[p] * dk2
+    ST = S.T
+    return ST @ Ymd, ST @ Yh
+
+
+@njit(cache=True)
+def period(S, off, K, L, ee_row, collinear, attitude, identity,
+           fb, fz, g, rc, rA, ramp, rfreq, rphase, dt,
+           t, q_b, q_m, w, z_e, z_e_dot,
+           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
+    """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64); updates the
+    estimator states in place, writes ``out`` (see :func:`out_layout`) and returns
+    (status, exit index)."""
+    nb = S.shape[0]
+    n = nb - 1
+    nd = theta_d.size
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+
+    # Eq. (28): exact zero-order hold of the rank-one law
+    Yb = _Y_M(pc, ps, K, L, S, w, nd, collinear)[0]  # sum of rows weighted by S[:, 0] = 1
+    yy = 1.0 + (Yb * Yb).sum()  # Y_b = [-1, Yb]
+    yth = -theta_b[0] + (Yb * theta_b[1:]).sum()
+    fac = -np.expm1(-g[G_G1] * dt * yy) / yy * yth
+    tb_new = theta_b.copy()
+    tb_new[0] += fac
+    tb_new[1:] -= fac * Yb
+    # Eq. (42): backward Euler, position rows of Y_z
+    nz = theta_z.size
+    Yz = np.zeros((2, nz))
+    Yz[0, 0] = 1.0
+    Yz[1, 1] = 1.0
+    dphi = S @ w
+    for k in range(nb):
+        if collinear:
+            Yz[0, 2 + k] = -s[k] * dphi[k]
+            Yz[1, 2 + k] = c[k] * dphi[k]
+        else:
+            Yz[0, 2 + 2 * k] = -s[k] * dphi[k]
+            Yz[1, 2 + 2 * k] = c[k] * dphi[k]
+            Yz[0, 3 + 2 * k] = -c[k] * dphi[k]
+            Yz[1, 3 + 2 * k] = -s[k] * dphi[k]
+    r = z_e_dot[:2] - Yz @ theta_z
+    gram = Yz @ Yz.T
+    gram[0, 0] += 1.0 / (g[G_G2] * dt)
+    gram[1, 1] += 1.0 / (g[G_G2] * dt)
+    tz_new = theta_z + Yz.T @ np.linalg.solve(gram, r)
+
+    # kinematic level, value and exact derivative in one complex evaluation
+    hj = 1j * _H
+    qmc = q_m + hj * w[1:]
+    zec = z_e + hj * z_e_dot
+    tbc = theta_b + hj * (tb_new - theta_b) / dt
+    tzc = theta_z + hj * (tz_new - theta_z) / dt
+    w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
+        S, off, K, L, ee_row, collinear, attitude, identity,
+        fb, fz, g, rc, rA, ramp, rfreq, rphase,
+        t + hj, q_b + hj * w[0], qmc, zec, tbc, tzc, w[0] + 0j,
+    )  # fmt: skip
+    o = 3 * n + 4 + nb  # offset of the scalars in `out`, see out_layout()
+    out[3 * n] = err_b[0].real
+    for i in range(3):
+        out[3 * n + 1 + i] = err_z[i].real
+    out[o] = sigma
+    out[o + 1] = damping
+    out[o + 2] = hnorm
+    if status != STATUS_OK:
+        if idx >= 0:
+            out[o + 3] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real
+        return status, idx
+    w_mc = w_mc_c.real.copy()
+    w_mc_dot = w_mc_c.imag / _H
+
+    # dynamic level
+    w_tilde = w - w_hat
+    Mphi = _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
+    M_hat = S.T @ Mphi @ S
+    if np.linalg.eigvalsh(M_hat)[0] <= 0:
+        return STATUS_M_NOT_PD, -1
+    Ymd, Yh = _velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
+    cg = g[G_G3] * dt
+    d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+    eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
+    rr = (Ymd - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
+    # Eqs. (60a), (64)-(65)
+    tgt = w_mc_dot - g[G_KD] * (w_hat[1:] - w_mc)
+    denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
+    if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
+        return STATUS_BASE_ROW, -1
+    wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
+    w_hat_dot = np.empty(nb)
+    w_hat_dot[0] = wb_dot
+    w_hat_dot[1:] = tgt + sens * wb_dot
+    u_m = M_hat[1:] @ w_hat_dot - rr[1:]
+    # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
+    Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
+    decay = np.exp(-g[G_KDE] * dt)
+    Y_df[:, :] = decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc
+    theta_d += d_theta_d
+    w_hat += dt * w_hat_dot
+    theta_b[:] = tb_new
+    theta_z[:] = tz_new
+    out[:n] = u_m
+    out[n : 2 * n] = w_mc
+    out[2 * n : 3 * n] = w_mc_dot + sens * wb_dot
+    out[3 * n + 4 : 3 * n + 4 + nb] = w_tilde
+    return STATUS_OK, -1
+
+
+@njit(cache=True)
+def diagnostics(S, off, K, L, collinear, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
+    """(e of Eq. 54 with the true M and theta_d, M_bb, dM_bb/dt) for recording."""
+    nb = S.shape[0]
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    M = S.T @ _mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    e = M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+    e0 = np.zeros(nb)
+    e0[0] = 1.0
+    Ymd, _ = _velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
+    return e, M[0, 0], (Ymd @ theta_d)[0]
