@@ -13,7 +13,8 @@ Optional keys and their defaults (everything else in CONTRACT.md is required):
 * ``[reference]``: ``base_attitude = [0.0]``;
 * ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
   a funnel entry may be a single number, used for every component;
-* ``[controller.singularity]``: ``threshold = 0.05`` [m], ``max_damped_time = 3.0`` [s];
+* ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
+  :class:`~ffsm_pin.control.gains.SingularityPolicy`;
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s].
 
 The paper's cases ship as files in ``ffsm_pin/sim/scenarios/`` (:data:`BUILTIN`).
@@ -167,13 +168,13 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
     """
     if not isinstance(d, Mapping):
         raise ScenarioError(f"a scenario is a table of sections, got {type(d).__name__}")
-    _check_keys(d, SCHEMA, "")
-    for key in _REQUIRED:
-        section, name = key.split(".")
-        if name not in d.get(section, {}):
-            raise ScenarioError(f"{key}: missing (required key)")
     src = Path(source) if source is not None else None
     try:
+        _check_keys(d, SCHEMA, "")
+        for key in _REQUIRED:
+            section, name = key.split(".")
+            if name not in d.get(section, {}):
+                raise ScenarioError(f"{key}: missing (required key)")
         robot = _robot(d.get("robot", {}), src)
         n_ee, n_b = _TASK_SIZE[robot.base]
         initial = _initial(d["initial"])
@@ -304,7 +305,11 @@ def _initial(sec: Mapping) -> InitialCondition:
     joints = _vector(sec, "joints", p)
     if not joints:
         raise ScenarioError("initial.joints: empty; give one angle [rad] per joint")
-    rates = _vector(sec, "joint_rates", p, length=len(joints), default=(0.0,) * len(joints))
+    rates = _vector(sec, "joint_rates", p, default=(0.0,) * len(joints))
+    if len(rates) != len(joints):
+        raise ScenarioError(
+            f"initial.joint_rates: {len(rates)} values, but initial.joints has {len(joints)}"
+        )
     twist = _vector(sec, "base_twist", p, length=3, default=None)
     com_v = _vector(sec, "com_velocity", p, length=2, default=None)
     rate = _number(sec, "base_rate", p, default=None)
@@ -482,7 +487,7 @@ def _check_keys(table: Mapping, schema: Mapping, where: str) -> None:
             kind = "section" if isinstance(value, Mapping) else "key"
             place = f"in [{where}]" if where else "at the top level"
             raise ScenarioError(
-                f"{full}: unknown {kind} {place}{did_you_mean(key, schema)}; "
+                f"{full}: unknown {kind} {place}{_hint(key, schema)}; "
                 f"valid keys: {choices_text(schema)}"
             )
         sub = schema[key]
@@ -492,6 +497,15 @@ def _check_keys(table: Mapping, schema: Mapping, where: str) -> None:
             _check_keys(value, sub, full)
         elif isinstance(value, Mapping):
             raise ScenarioError(f"{full}: expected a {sub}, got a table")
+
+
+def _hint(name: str, choices) -> str:
+    """Did-you-mean text: a valid key that the name starts with (or that starts with the name)
+    first, else the closest spelling."""
+    for choice in choices:
+        if len(choice) >= 3 and (name.startswith(choice) or choice.startswith(name)):
+            return f" (did you mean '{choice}'?)"
+    return did_you_mean(name, choices)
 
 
 def _is_number(x: Any) -> bool:

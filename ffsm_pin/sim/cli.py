@@ -1,0 +1,451 @@
+"""``python -m ffsm_pin.sim``: run a scenario, record it, draw it, replay it (CONTRACT.md).
+
+Exit status: 0 when every run completed; 3 when a run stopped early (everything recorded is
+still written, and one line on stderr says when and why); 2 for bad input (one line
+``error: ...`` on stderr, never a traceback); 130 when interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime as _dt
+import json
+import math
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+from ..errors import FfsmError
+from .result import RunResult
+from .scenario import Scenario
+from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
+
+EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 2, 3, 130
+COMPARE_CASES = ("case1", "case2", "case3")
+_CASE_ALIASES = {"1": "case1", "2": "case2", "3": "case3", "1-paper": "case1-paper"}
+
+_EPILOG = """\
+cases (--case): 1 = adaptive coordinated control with prescribed performance (the paper's case
+1, with rho_b0 = 1.0: see the comment in the scenario file), 1-paper = case 1 with the paper's
+exact rho_b0 = 0.4, 2 = without prescribed performance, 3 = without base attitude regulation
+(Eq. 81), known-model = case 1 with the true parameters.
+
+output folder: trajectory.npz, summary.json, scenario.toml (the scenario as run),
+fig_*.png, replay.html (open it in a browser; no server needed).
+exit status: 0 completed, 3 stopped early (outputs still written), 2 bad input."""
+
+
+class _UsageError(Exception):
+    """A bad command line (argparse's error(), raised instead of exiting)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # noqa: D102 - argparse API
+        raise _UsageError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line parser (options of CONTRACT.md)."""
+    p = _Parser(
+        prog="python -m ffsm_pin.sim",
+        description="Simulate a free-floating space manipulator under the adaptive "
+        "prescribed-performance coordinated controller of Lu & Jia (2019).",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    what = p.add_mutually_exclusive_group()
+    what.add_argument(
+        "--case",
+        metavar="CASE",
+        type=_case_name,
+        help="built-in case: 1, 2, 3, 1-paper or known-model (default: 1)",
+    )
+    what.add_argument(
+        "--compare", action="store_true", help="run cases 1, 2 and 3 and overlay their figures"
+    )
+    what.add_argument("--scenario", metavar="FILE.toml", help="run a scenario file")
+    p.add_argument("--duration", metavar="S", type=_positive_float, help="simulated time [s]")
+    p.add_argument("--dt", metavar="S", type=_positive_float, help="time step [s]")
+    p.add_argument(
+        "--out", metavar="DIR", help="output folder (default: ./runs/<YYYYmmdd-HHMMSS>/)"
+    )
+    p.add_argument(
+        "--record-every",
+        metavar="N",
+        type=_positive_int,
+        default=1,
+        help="record every N-th step (default 1: every step)",
+    )
+    p.add_argument("--no-plots", action="store_true", help="do not draw the figures")
+    p.add_argument("--no-html", action="store_true", help="do not write replay.html")
+    p.add_argument(
+        "--meshcat",
+        action="store_true",
+        help="afterwards, replay the run on a live meshcat server (prints the URL; Ctrl-C stops)",
+    )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar, no warnings, no result table (stdout: only the output folder)",
+    )
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    try:
+        args = build_parser().parse_args(argv)
+    except _UsageError as exc:
+        return _fail(f"{exc} (see --help)")
+    console = Console(quiet=args.quiet)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore" if args.quiet else "default")
+        for category in (DeprecationWarning, PendingDeprecationWarning):  # not for CLI users
+            warnings.simplefilter("ignore", category)
+        warnings.showwarning = console.show_warning
+        try:
+            return _run(args, console)
+        except FfsmError as exc:
+            console.clear()
+            return _fail(str(exc))
+        except OSError as exc:
+            console.clear()
+            name = f" {exc.filename!r}" if exc.filename else ""
+            return _fail(f"cannot write{name}: {exc.strerror or exc}")
+        except KeyboardInterrupt:
+            console.clear()
+            print("interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+
+
+# ------------------------------------------------------------------------------ the runs
+def _run(args: argparse.Namespace, console: Console) -> int:
+    from .run import prepare, simulate  # heavy imports only once the command line is fine
+
+    scenarios = [_override(sc, args) for sc in _scenarios(args)]
+    setups = []
+    for sc in scenarios:  # every bad input before any simulation
+        console.context = sc.name if len(scenarios) > 1 else ""
+        setups.append(prepare(sc))
+    root = _out_dir(args.out)
+    compare = len(setups) > 1
+    results: list[RunResult] = []
+    for setup in setups:
+        sc = setup.scenario
+        folder = root / _safe(sc.name) if compare else root
+        console.context = sc.name if compare else ""
+        console.start(sc.name, sc.duration, sc.dt)
+        result = simulate(setup, progress=console.progress, record_every=args.record_every)
+        console.clear()
+        write_outputs(folder, sc, setup.robot, result, args.no_plots, args.no_html, console)
+        results.append(result)
+    if compare and not args.no_plots:
+        _guarded(console, "overlaid figures", _figures, results, root, scenarios)
+    if console.quiet:
+        print(root)
+    else:
+        print(result_table(results, [root / _safe(s.name) if compare else root for s in scenarios]))
+    for res in results:
+        if not res.completed:
+            print(f"{res.scenario_name}: {stop_line(res)}", file=sys.stderr)
+    status = EXIT_OK if all(r.completed for r in results) else EXIT_STOPPED
+    if args.meshcat:
+        _serve(setups[0].robot, results)
+    return status
+
+
+def _scenarios(args: argparse.Namespace) -> list[Scenario]:
+    if args.compare:
+        return [builtin_scenario(name) for name in COMPARE_CASES]
+    if args.scenario:
+        return [load_scenario(args.scenario)]
+    return [builtin_scenario(args.case or "case1")]
+
+
+def _override(sc: Scenario, args: argparse.Namespace) -> Scenario:
+    changes = {}
+    if args.duration is not None:
+        changes["duration"] = args.duration
+    if args.dt is not None:
+        changes["dt"] = args.dt
+    return dataclasses.replace(sc, **changes) if changes else sc
+
+
+def write_outputs(
+    folder: Path,
+    scenario: Scenario,
+    robot,
+    result: RunResult,
+    no_plots: bool = False,
+    no_html: bool = False,
+    console: Console | None = None,
+) -> list[Path]:
+    """Write trajectory.npz, summary.json, scenario.toml, the figures and replay.html."""
+    console = console or Console(quiet=True)
+    folder.mkdir(parents=True, exist_ok=True)
+    result.save(folder)
+    written = [folder / "trajectory.npz", folder / "summary.json"]
+    (folder / "scenario.toml").write_text(scenario_to_toml(scenario), encoding="utf-8")
+    written.append(folder / "scenario.toml")
+    if not no_plots:
+        written += _guarded(console, "figures", _figures, [result], folder, [scenario]) or []
+    if not no_html:
+        out = _guarded(console, "replay.html", _replay, robot, result, folder / "replay.html")
+        if out is not None:
+            written.append(out)
+    return written
+
+
+def _figures(results, folder, scenarios) -> list[Path]:
+    from .figures import write_figures
+
+    thresholds = [sc.controller.singularity.threshold for sc in scenarios]
+    labels = [sc.name for sc in scenarios]
+    return write_figures(results, folder, labels=labels, thresholds=thresholds)
+
+
+def _replay(robot, result, path) -> Path:
+    from .replay import write_replay_html
+
+    return write_replay_html(robot, result, path)
+
+
+def _guarded(console: Console, what: str, fn, *args):
+    """Outputs after the recording must not lose the recording: report failures, go on."""
+    try:
+        return fn(*args)
+    except Exception as exc:  # noqa: BLE001 - reported, the run's data are already saved
+        console.warn(f"could not write {what}: {type(exc).__name__}: {exc}")
+        return None
+
+
+def _serve(robot, results: list[RunResult]) -> None:
+    from .replay import close_visualizer, serve_replay
+
+    vis = serve_replay(robot, results)  # meshcat prints the URL
+    try:
+        print("meshcat: the replay plays in the browser page above; Ctrl-C stops the server")
+        sys.stdout.flush()
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        close_visualizer(vis)
+
+
+# ------------------------------------------------------------------------------ reporting
+def stop_line(result: RunResult) -> str:
+    """One line: at which time the run stopped, and why."""
+    t = result.stop_time
+    if t is None and len(result["t"]):
+        t = float(result["t"][-1])
+    reason = (result.stop_reason or "unknown reason").replace("\n", " ")
+    when = f"t = {t:.4g} s" if t is not None else "an unknown time"
+    if reason.startswith("t ="):
+        return f"run stopped early: {reason}"
+    return f"run stopped early at {when}: {reason}"
+
+
+def result_table(results: Sequence[RunResult], folders: Sequence[Path]) -> str:
+    """The short table printed at the end: one column per run."""
+    columns = [_column(r, f) for r, f in zip(results, folders, strict=True)]
+    keys = list(columns[0])
+    if len(results) == 1:
+        keys.remove("scenario")
+    width = max(len(k) for k in keys)
+    cols = [max(len(c[k]) for k in keys) for c in columns]
+    lines = []
+    for key in keys:
+        cells = "  ".join(c[key].ljust(w) for c, w in zip(columns, cols, strict=True))
+        lines.append(f"{key.ljust(width)}  {cells}".rstrip())
+    return "\n".join(lines)
+
+
+def _column(r: RunResult, folder: Path) -> dict[str, str]:
+    s = r.summary()
+    settle = f"{_num(s['settle_time_b'], '{:.2f}')} / {_num(s['settle_time_z'], '{:.2f}')}"
+    return {
+        "scenario": r.scenario_name,
+        "scheme": r.scheme,
+        "completed": _completed(r),
+        "funnel b / z": f"{_kept(s['funnel_ok_b'])} / {_kept(s['funnel_ok_z'])}",
+        "first violation [s]": _num(s["first_violation_t"], "{:.3f}"),
+        "final err_b [rad]": _vec(s["final_err_b"]),
+        "final err_z [m,m,rad]": _vec(s["final_err_z"]),
+        "settle b / z [s]": settle,
+        "max |u_m| [N m]": _num(s["max_abs_u"], "{:.4g}"),
+        "max |F_r| [N m]": _num(s.get("max_abs_F_r"), "{:.4g}"),
+        "min sigma_min [m]": _num(s.get("min_sigma"), "{:.3g}"),
+        "drift P [kg m/s]": _num(s["drift_P"], "{:.2e}"),
+        "drift L [kg m^2/s]": _num(s["drift_L"], "{:.2e}"),
+        "simulated [s]": f"{s['simulated_time']:.3f} of {r.duration:g}",
+        "wall time [s]": f"{r.wall_time_s:.2f}",
+        "steps per second": _num(s["steps_per_s"], "{:.0f}"),
+        "output": str(folder),
+    }
+
+
+def _completed(r: RunResult) -> str:
+    if r.completed:
+        return "yes"
+    t = r.stop_time if r.stop_time is not None else (float(r["t"][-1]) if len(r["t"]) else 0)
+    return f"no, stopped at {t:.3f} s"
+
+
+def _kept(ok: bool) -> str:
+    return "kept" if ok else "LEFT"
+
+
+def _num(x, fmt: str) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-" if x is None else str(x)
+    return fmt.format(x)
+
+
+def _vec(values) -> str:
+    if not values:
+        return "-"
+    return "[" + ", ".join(f"{v:.2e}" for v in values) + "]"
+
+
+class Console:
+    """Progress bar and warnings on stderr (plain text, ``\\r``-updated, throttled)."""
+
+    def __init__(self, quiet: bool = False, stream: TextIO | None = None, width: int = 24):
+        self.quiet = quiet
+        self.stream = stream if stream is not None else sys.stderr
+        self.width = width
+        self._line = 0
+        self._name, self._duration, self._dt = "", 1.0, 1.0
+        self._wall0 = self._last = 0.0
+        self._seen: set[str] = set()
+        self.context = ""  # prefix of warnings (the run they belong to)
+        self._interval = 0.1 if _isatty(self.stream) else 2.0  # [s] between redraws
+
+    def start(self, name: str, duration: float, dt: float) -> None:
+        self._name, self._duration, self._dt = name, duration, dt
+        self._wall0 = time.perf_counter()
+        self._last = -1.0
+        self.progress(0.0)
+
+    def progress(self, t: float) -> None:
+        """Callback for :func:`ffsm_pin.sim.run.simulate`: t = simulated time [s]."""
+        if self.quiet:
+            return
+        now = time.perf_counter()
+        if now - self._last < self._interval and t < self._duration:
+            return
+        self._last = now
+        frac = min(max(t / self._duration, 0.0), 1.0)
+        filled = int(round(frac * self.width))
+        bar = "#" * filled + "." * (self.width - filled)
+        wall = now - self._wall0
+        rate = t / self._dt / wall if wall > 0 else 0.0
+        eta = (self._duration - t) / (t / wall) if t > 0 and wall > 0 else float("nan")
+        eta_text = f"ETA {eta:4.0f} s" if math.isfinite(eta) else "ETA    ? s"
+        text = (
+            f"{self._name} [{bar}] {t:6.2f}/{self._duration:g} s  {rate:6.0f} steps/s  {eta_text}"
+        )
+        self._write("\r" + text.ljust(self._line))
+        self._line = len(text)
+
+    def clear(self) -> None:
+        if self._line:
+            self._write("\r" + " " * self._line + "\r")
+            self._line = 0
+
+    def warn(self, message: str) -> None:
+        if self.quiet:
+            return
+        self.clear()
+        self._write(f"warning: {message}\n")
+
+    def show_warning(self, message, category, filename, lineno, file=None, line=None) -> None:
+        """Replacement for :func:`warnings.showwarning`: one ``warning: ...`` line."""
+        text = " ".join(str(message).split())
+        if self.context:
+            text = f"{self.context}: {text}"
+        if text in self._seen:
+            return
+        self._seen.add(text)
+        self.warn(text)
+
+    def _write(self, text: str) -> None:
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except (OSError, ValueError):  # closed pipe: progress is best effort
+            pass
+
+
+# ------------------------------------------------------------------------------ helpers
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _out_dir(out: str | None) -> Path:
+    if out is not None:
+        path = Path(out)
+        path.mkdir(parents=True, exist_ok=True)
+        return path
+    stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    base = Path("runs")
+    base.mkdir(parents=True, exist_ok=True)
+    for k in range(1, 1000):
+        path = base / (stamp if k == 1 else f"{stamp}-{k}")
+        try:
+            path.mkdir()
+            return path
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"runs/{stamp}: too many runs in the same second")
+
+
+def _case_name(text: str) -> str:
+    name = _CASE_ALIASES.get(text, text)
+    if name not in BUILTIN:
+        valid = ", ".join([*_CASE_ALIASES, "known-model"])
+        raise argparse.ArgumentTypeError(f"unknown case {text!r}; valid choices: {valid}")
+    return name
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _safe(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "run"
+
+
+def _fail(message: str) -> int:
+    print(f"error: {' '.join(message.split())}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def load_summary(folder: str | Path) -> dict:
+    """Read a run folder's summary.json."""
+    return json.loads((Path(folder) / "summary.json").read_text())

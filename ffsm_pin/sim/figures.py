@@ -1,0 +1,287 @@
+"""Paper-style figures (Lu & Jia 2019, Figs. 2-4) from one or several recorded runs.
+
+:func:`write_figures` draws PNG files into a folder; several runs are overlaid (``--compare``).
+Long runs are thinned for drawing with a min/max envelope per pixel column, so that peaks
+(torque spikes, funnel touches) survive decimation.
+
+Figures written:
+
+* ``fig_errors.png``: attitude error e_b [rad] and end-effector errors e_z (x, y [m],
+  attitude [rad]), each with its funnel bounds (Eqs. 16, 17) as black dotted lines (Fig. 2);
+* ``fig_velocities.png``: base rate w_b [rad/s], |d(p_e - p_e,d)/dt| [m/s],
+  d(q_e - q_e,d)/dt [rad/s] and the joint rates w_m [rad/s] (Fig. 3);
+* ``fig_estimation.png``: estimation errors of theta_b, theta_z, theta_d, |w-tilde| [rad/s]
+  and |u_m| [N m] (Fig. 4);
+* ``fig_torque.png``: reaction torque on the base F_r [N m] (Eq. 7) and the smallest
+  singular value of J_m-hat U-hat [m] with the damping threshold;
+* ``fig_path.png``: end-effector path and its reference in the plane [m].
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # no display needed; must precede any pyplot import anywhere
+
+import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+
+from .result import RunResult  # noqa: E402
+
+FIGURE_NAMES = (
+    "fig_errors.png",
+    "fig_velocities.png",
+    "fig_estimation.png",
+    "fig_torque.png",
+    "fig_path.png",
+)
+MAX_COLUMNS = 1500  # envelope bins per line (2 points each)
+_FUNNEL_STYLE = {"color": "black", "linestyle": ":", "linewidth": 1.0}
+_JOINT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
+_RUN_STYLES = ("-", "--", "-.", (0, (5, 1, 1, 1)))
+
+
+def write_figures(
+    results: RunResult | Sequence[RunResult],
+    out_dir: str | Path,
+    *,
+    labels: Sequence[str] | None = None,
+    thresholds: float | Sequence[float] | None = None,
+    dpi: int = 110,
+) -> list[Path]:
+    """Draw the figures of one run, or overlay several, into ``out_dir``; return the paths.
+
+    labels: legend entry per run (default: the scenario names).
+    thresholds: damping threshold on sigma_min [m] per run (default 0.05, the default
+        :class:`~ffsm_pin.control.gains.SingularityPolicy`).
+    """
+    runs = [results] if isinstance(results, RunResult) else list(results)
+    if not runs:
+        raise ValueError("write_figures needs at least one run")
+    labels = list(labels) if labels is not None else [r.scenario_name for r in runs]
+    if thresholds is None or np.isscalar(thresholds):
+        thresholds = [0.05 if thresholds is None else float(thresholds)] * len(runs)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    draw = (_errors, _velocities, _estimation, _torque, _path)
+    paths = []
+    for name, fn in zip(FIGURE_NAMES, draw, strict=True):
+        fig = fn(runs, labels, thresholds)
+        FigureCanvasAgg(fig)
+        path = out_dir / name
+        fig.savefig(path, dpi=dpi)
+        paths.append(path)
+    return paths
+
+
+# ------------------------------------------------------------------------------ figures
+def _errors(runs, labels, thresholds) -> Figure:
+    fig, axes = _grid(4, "Tracking errors inside their prescribed-performance funnels", runs)
+    rows = (
+        ("err_b", 0, "bound_b", r"$e_b$ [rad]"),
+        ("err_z", 0, "bound_z", r"$e_{z,x}$ [m]"),
+        ("err_z", 1, "bound_z", r"$e_{z,y}$ [m]"),
+        ("err_z", 2, "bound_z", r"$e_{z,\phi}$ [rad]"),
+    )
+    for ax, (key, i, bound, ylabel) in zip(axes, rows, strict=True):
+        drawn_bounds: list[np.ndarray] = []
+        for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
+            t = run["t"]
+            _plot(ax, t, run[key][:, i], color=f"C{k}", label=label)
+            lo, hi = run[f"{bound}_lower"][:, i], run[f"{bound}_upper"][:, i]
+            if not any(len(b) == len(lo) and np.allclose(b, lo) for b in drawn_bounds):
+                drawn_bounds.append(lo)
+                funnel_label = "funnel" if not drawn_bounds[1:] else None
+                _plot(ax, t, lo, envelope=False, label=funnel_label, **_FUNNEL_STYLE)
+                _plot(ax, t, hi, envelope=False, **_FUNNEL_STYLE)
+        ax.axhline(0.0, color="0.8", linewidth=0.6, zorder=0)
+        ax.set_ylabel(ylabel)
+        _mark_stops(ax, runs)
+    axes[0].legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def _velocities(runs, labels, thresholds) -> Figure:
+    fig, axes = _grid(4, "Base rate, end-effector velocity errors and joint rates", runs)
+    for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
+        t, color = run["t"], f"C{k}"
+        de = run["z_e_dot"] - run["z_e_d_dot"]
+        _plot(axes[0], t, run["w"][:, 0], color=color, label=label)
+        _plot(axes[1], t, np.linalg.norm(de[:, :2], axis=1), color=color, label=label)
+        _plot(axes[2], t, de[:, 2], color=color, label=label)
+        w_m = run["w"][:, 1:]
+        for j in range(w_m.shape[1]):
+            _plot(
+                axes[3],
+                t,
+                w_m[:, j],
+                color=_JOINT_COLORS[j % len(_JOINT_COLORS)],
+                linestyle=_RUN_STYLES[k % len(_RUN_STYLES)],
+            )
+    axes[0].set_ylabel(r"$w_b$ [rad/s]")
+    axes[1].set_ylabel(r"$|\dot p_e - \dot p_{e,d}|$ [m/s]")
+    axes[2].set_ylabel(r"$\dot q_e - \dot q_{e,d}$ [rad/s]")
+    axes[3].set_ylabel(r"$w_m$ [rad/s]")
+    for ax in axes:
+        _mark_stops(ax, runs)
+    axes[0].legend(loc="upper right", fontsize=8)
+    n_m = max(r["w"].shape[1] for r in runs) - 1
+    handles = [
+        Line2D([], [], color=_JOINT_COLORS[j % len(_JOINT_COLORS)], label=f"$w_{{m{j + 1}}}$")
+        for j in range(n_m)
+    ]
+    if len(runs) > 1:  # joints by colour, runs by line style
+        handles += [
+            Line2D([], [], color="0.3", linestyle=_RUN_STYLES[k % len(_RUN_STYLES)], label=lab)
+            for k, lab in enumerate(labels)
+        ]
+    axes[3].legend(handles=handles, loc="upper right", fontsize=7, ncol=min(4, len(handles)))
+    return fig
+
+
+def _estimation(runs, labels, thresholds) -> Figure:
+    fig, axes = _grid(5, "Estimation errors, filter error and control effort", runs)
+    for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
+        t, color = run["t"], f"C{k}"
+        for ax, name in zip(axes[:3], ("theta_b", "theta_z", "theta_d"), strict=True):
+            err = np.linalg.norm(run[f"{name}_hat"] - run[name][None, :], axis=1)
+            _plot(ax, t, err, color=color, label=label)
+        _plot(axes[3], t, np.linalg.norm(run["w_tilde"], axis=1), color=color, label=label)
+        _plot(axes[4], t, np.linalg.norm(run["u_m"], axis=1), color=color, label=label)
+    axes[0].set_ylabel(r"$|\hat\theta_b - \theta_b|$")
+    axes[0].text(
+        0.99,
+        0.95,
+        r"$\theta_b$ is determined only up to scale by Eq. (28) (MODEL.md sec. 5)",
+        transform=axes[0].transAxes,
+        ha="right",
+        va="top",
+        fontsize=7,
+        color="0.35",
+    )
+    axes[1].set_ylabel(r"$|\hat\theta_z - \theta_z|$")
+    axes[2].set_ylabel(r"$|\hat\theta_d - \theta_d|$")
+    axes[3].set_ylabel(r"$|\tilde w|$ [rad/s]")
+    axes[4].set_ylabel(r"$|u_m|$ [N m]")
+    for ax in axes:
+        _mark_stops(ax, runs)
+    axes[1].legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def _torque(runs, labels, thresholds) -> Figure:
+    fig, axes = _grid(2, "Reaction torque on the base and distance to singularity", runs)
+    any_damped = False
+    for k, (run, label, thr) in enumerate(zip(runs, labels, thresholds, strict=True)):
+        t, color = run["t"], f"C{k}"
+        _plot(axes[0], t, run["F_r"], color=color, label=label)
+        _plot(axes[1], t, run["sigma_min"], color=color)
+        if k == 0 or thr != thresholds[0]:
+            axes[1].axhline(
+                thr, color="black", linestyle="--", linewidth=0.9, label="damping threshold"
+            )
+        damped = np.asarray(run["damping"]) > 0
+        if damped.any():
+            axes[1].fill_between(
+                t,
+                0,
+                1,
+                where=damped,
+                transform=axes[1].get_xaxis_transform(),
+                color=color,
+                alpha=0.12,
+                linewidth=0,
+                label="damped (shaded)" if not any_damped else None,
+            )
+            any_damped = True
+    axes[0].set_ylabel(r"$F_r$ [N m]")
+    axes[1].set_ylabel(r"$\sigma_{min}(\hat J_m \hat U)$ [m]")
+    axes[1].set_ylim(bottom=0)
+    for ax in axes:
+        _mark_stops(ax, runs)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[1].legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def _path(runs, labels, thresholds) -> Figure:
+    fig = Figure(figsize=(6.4, 5.6), layout="constrained")
+    ax: Axes = fig.add_subplot()
+    ref = runs[0]["z_e_d"]
+    _plot(ax, ref[:, 0], ref[:, 1], envelope=False, color="black", linestyle=":", label="reference")
+    for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
+        z = run["z_e"]
+        _plot(ax, z[:, 0], z[:, 1], envelope=False, color=f"C{k}", label=label)
+        if len(z):
+            ax.plot(z[0, 0], z[0, 1], "o", color=f"C{k}", markersize=4)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title("End-effector path (o: start)", fontsize=10)
+    ax.legend(fontsize=8)
+    return fig
+
+
+# ------------------------------------------------------------------------------ helpers
+def _grid(rows: int, title: str, runs) -> tuple[Figure, list[Axes]]:
+    fig = Figure(figsize=(8.0, 1.75 * rows + 0.8), layout="constrained")
+    axes = list(fig.subplots(rows, 1, sharex=True))
+    names = ", ".join(f"{r.scenario_name} ({r.scheme})" for r in runs)
+    fig.suptitle(f"{title}\n{names}", fontsize=10)
+    for ax in axes:
+        ax.grid(True, linewidth=0.3, alpha=0.6)
+        ax.tick_params(labelsize=8)
+        ax.yaxis.label.set_size(9)
+    t_end = max((float(r["t"][-1]) for r in runs if len(r["t"])), default=1.0)
+    axes[-1].set_xlim(0.0, max(t_end, max(r.duration for r in runs)))
+    axes[-1].set_xlabel("t [s]")
+    return fig, axes
+
+
+def _mark_stops(ax: Axes, runs) -> None:
+    for k, run in enumerate(runs):
+        if not run.completed and len(run["t"]):
+            t_stop = run.stop_time if run.stop_time is not None else float(run["t"][-1])
+            ax.axvline(t_stop, color=f"C{k}", linestyle="--", linewidth=0.8, alpha=0.8)
+
+
+def _plot(ax: Axes, x, y, *, envelope: bool = True, **style) -> None:
+    """Plot y(x), thinned: a min/max envelope per bin if ``envelope``, else a plain stride."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if envelope:
+        x, y = envelope_decimate(x, y, MAX_COLUMNS)
+    else:
+        step = max(1, len(x) // (2 * MAX_COLUMNS))
+        if step > 1:
+            x, y = np.append(x[::step], x[-1]), np.append(y[::step], y[-1])
+    style.setdefault("linewidth", 1.0)
+    ax.plot(x, y, **style)
+
+
+def envelope_decimate(x: np.ndarray, y: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Keep, per bin of consecutive samples, the samples with the smallest and largest y.
+
+    At most ``2 * bins + 2`` points remain, in their original order; non-finite values are
+    kept (they are where a diverging run ends).
+    """
+    n = len(y)
+    if n <= 2 * bins:
+        return x, y
+    size = n // bins
+    m = size * bins
+    block = y[:m].reshape(bins, size)
+    finite = np.where(np.isfinite(block), block, 0.0)
+    i_min = np.argmin(finite, axis=1) + np.arange(bins) * size
+    i_max = np.argmax(finite, axis=1) + np.arange(bins) * size
+    idx = np.concatenate([i_min, i_max, np.arange(m, n), [0, n - 1]])
+    bad = np.flatnonzero(~np.isfinite(y))
+    if bad.size:
+        idx = np.concatenate([idx, bad[:1]])
+    idx = np.unique(idx)
+    return x[idx], y[idx]
