@@ -267,6 +267,32 @@ class _Recorder:
         return out
 
 
+def _diagnostics(model: BarycentricModel, theta_d: np.ndarray, compiled: bool):
+    """f(q_b, q_m, w, w~, Y_df, theta_d-hat) -> (e of Eq. 54, M_bb, dM_bb/dt), true model.
+
+    The reaction torque (Eq. 7) is ``F_r = M_bb dw_b/dt + C_bb w_b`` with the Christoffel
+    C, for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b).
+    """
+    if compiled:
+        from ..control import fast
+
+        args = (model.S, model._phi_offset, model._K, model._L, model.layout.collinear)
+
+        def compiled_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
+            return fast.diagnostics(*args, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
+
+        return compiled_diag
+    e0 = np.zeros(model.n_joints + 1)
+    e0[0] = 1.0
+
+    def numpy_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
+        M = model.mass_matrix(theta_d, q_b, q_m)
+        Mbb_dot = (model.Y_Mdot(q_b, q_m, w, e0) @ theta_d)[0]
+        return M @ w_tilde + Y_df @ (theta_d - theta_d_hat), M[0, 0], Mbb_dot
+
+    return numpy_diag
+
+
 def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     """Run the closed loop for the scenario's duration; see the module docstring."""
     sc = setup.scenario
@@ -281,9 +307,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
-    theta_d = setup.theta_d
-    e0_b = np.zeros(model.n_joints + 1)
-    e0_b[0] = 1.0
+    diagnostics = _diagnostics(model, setup.theta_d, ctrl.backend == "numba")
     completed, stop_reason, stop_time = True, None, None
     next_progress = 0.0
     wall0 = time.perf_counter()
@@ -322,12 +346,12 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
             A["bound_z_lower"][i], A["bound_z_upper"][i] = lo, hi
             mom = plant.momentum(q, v)
             A["P"][i], A["L"][i] = mom[:2], mom[2]
-            M_true = model.mass_matrix(theta_d, meas.q_b, meas.q_m)
-            Mbb_dot = (model.Y_Mdot(meas.q_b, meas.q_m, meas.w, e0_b) @ theta_d)[0]
-            A["F_r"][i] = M_true[0, 0] * a[2] + 0.5 * Mbb_dot * meas.w[0]  # Eqs. (6)-(7)
-            w_tilde = out.w_tilde
-            A["w_tilde"][i] = w_tilde
-            A["e"][i] = M_true @ w_tilde + state[4] @ (theta_d - state[1])  # Eq. (54)
+            e, Mbb, Mbb_dot = diagnostics(
+                meas.q_b, meas.q_m, meas.w, out.w_tilde, state[4], state[1]
+            )
+            A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]  # Eqs. (6)-(7), Christoffel C
+            A["w_tilde"][i] = out.w_tilde
+            A["e"][i] = e  # Eq. (54) with the true M and theta_d
             A["theta_z_hat"][i], A["theta_d_hat"][i], A["theta_b_hat"][i] = state[:3]
             A["w_mc"][i], A["w_hat"][i] = out.w_mc, state[3]
             A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
