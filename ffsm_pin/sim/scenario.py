@@ -135,8 +135,12 @@ class InitialCondition:
 
 @dataclass(frozen=True)
 class Estimates:
-    """Initial parameter estimates: 'paper' (Table 2), 'true', 'perturbed' (every true
-    parameter times 1 + U(-spread, spread), seeded) or 'explicit' vectors."""
+    """Initial parameter estimates: 'paper' (Table 2), 'true', 'perturbed' or 'explicit'.
+
+    'perturbed': every true parameter times 1 + U(-spread, spread), from a generator seeded
+    with ``seed``; a draw of theta_d with an indefinite inertia M-hat is redrawn from the same
+    stream (see :func:`ffsm_pin.sim.run._perturbed_estimates`).
+    """
 
     initial: str = "paper"
     spread: float = 0.3
