@@ -228,7 +228,7 @@ def _serve(robot, results: list[RunResult]) -> None:
 
     vis = serve_replay(robot, results)  # meshcat prints the URL
     try:
-        print("meshcat: the replay plays in the browser page above; Ctrl-C stops the server")
+        print("meshcat: open the URL above to watch the replay; Ctrl-C stops the server")
         sys.stdout.flush()
         while True:
             time.sleep(1.0)

@@ -164,6 +164,7 @@ def _estimation(runs, labels, thresholds) -> Figure:
         va="top",
         fontsize=7,
         color="0.35",
+        bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"},
     )
     axes[1].set_ylabel(r"$|\hat\theta_z - \theta_z|$")
     axes[2].set_ylabel(r"$|\hat\theta_d - \theta_d|$")

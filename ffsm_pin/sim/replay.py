@@ -140,6 +140,9 @@ def serve_replay(
 
 def close_visualizer(vis: meshcat.Visualizer) -> None:
     """Stop the meshcat server subprocess started by ``meshcat.Visualizer()`` (if any)."""
+    sock = getattr(vis.window, "zmq_socket", None)
+    if sock is not None:
+        sock.close(linger=0)
     proc = getattr(vis.window, "server_proc", None)
     if proc is not None and proc.poll() is None:
         proc.kill()
@@ -300,10 +303,10 @@ def _extent(result: RunResult) -> float:
 
 def _set_camera(vis: meshcat.Visualizer, extent: float) -> None:
     """Look down on the plane from slightly below (-y), at a distance fitting ``extent``."""
-    d = 0.7 * extent + 1.5
+    d = 0.55 * extent + 1.0
     # three.js coordinates of the camera: (x, z_world, -y_world)
     vis["/Cameras/default"].set_transform(np.eye(4))
-    vis["/Cameras/default/rotated/<object>"].set_property("position", [0.0, d, 0.45 * d])
+    vis["/Cameras/default/rotated/<object>"].set_property("position", [0.0, d, 0.35 * d])
 
 
 def _safe(name: str) -> str:
