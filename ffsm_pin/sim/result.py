@@ -50,6 +50,8 @@ class RunResult:
     events: list[str] = field(default_factory=list)
     rhoinf_b: tuple[float, ...] | None = None  # for settle times
     rhoinf_z: tuple[float, ...] | None = None
+    damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
+    description: str = ""
 
     def __getitem__(self, key: str) -> np.ndarray:
         return self.signals[key]
@@ -105,6 +107,7 @@ class RunResult:
             "scheme": self.scheme,
             "robot": self.robot,
             "scenario": self.scenario_name,
+            "description": self.description,
             "dt": self.dt,
             "duration": self.duration,
             "steps": self.steps,
@@ -125,6 +128,7 @@ class RunResult:
             "stop_reason": self.stop_reason,
             "stop_time": self.stop_time,
             "min_sigma": float(np.min(s["sigma_min"])) if n else None,
+            "damping_threshold": self.damping_threshold,
             "damped_fraction": float(np.mean(s["damping"] > 0)) if n else 0.0,
             "max_abs_F_r": float(np.max(np.abs(s["F_r"]))) if n else 0.0,
             "final_theta_z_error": _final_norm(s["theta_z_hat"], s["theta_z"]),

@@ -412,4 +412,6 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
         events=setup.events + ctrl.events,
         rhoinf_b=sc.controller.funnel_b.rhoinf,
         rhoinf_z=sc.controller.funnel_z.rhoinf,
+        damping_threshold=sc.controller.singularity.threshold,
+        description=sc.description,
     )

@@ -195,6 +195,7 @@ class Scenario:
     dt: float = 1e-3  # [s]
     name: str = "scenario"
     source: Path | None = None  # the file it was read from, if any
+    description: str = ""
 
     def __post_init__(self) -> None:
         if not (self.dt > 0 and np.isfinite(self.dt)):

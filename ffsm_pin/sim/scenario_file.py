@@ -195,6 +195,7 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
             dt=dt,
             name=name,
             source=src,
+            description=str(d.get("description", "")),
         )
     except ScenarioError as exc:
         if src is not None and not str(exc).startswith(str(src)):
@@ -227,6 +228,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         urdf = str((Path(r.relative_to) / urdf).resolve())
     lines = [
         f"name = {_toml(scenario.name)}",
+        *([f"description = {_toml(scenario.description)}"] if scenario.description else []),
         "",
         "[robot]",
         f"urdf = {_toml(urdf)}",
