@@ -169,6 +169,7 @@ class CoordinatedController:
         self.Y_df = np.zeros((nb, model.n_d))  # Table 2: Y_df(0) = 0
         self.adaptive = scheme != "known-model"
         self.events: list[str] = []
+        self._initial = initial
         self._damped_since: float | None = None
         self._last_warning = -np.inf
         self.backend = self._choose_backend(backend)
@@ -198,7 +199,18 @@ class CoordinatedController:
         )  # fmt: skip
         self._layout = fast.out_layout(m.n_joints)
         self._out = np.zeros(self._layout["size"])
+        self._warm_up(fast)
         return "numba"
+
+    def _warm_up(self, fast) -> None:
+        """Compile (or load from numba's cache) the kernel now, on copies of the states, so
+        that the first control period of a run is not the one that pays for it."""
+        m0 = self._initial
+        fast.period(
+            *self._fast_consts, 1e-3, m0.t, m0.q_b, m0.q_m, m0.w, m0.z_e, m0.z_e_dot,
+            self.theta_z.copy(), self.theta_d.copy(), self.theta_b.copy(), self.w_hat.copy(),
+            self.Y_df.copy(), self._out.copy(),
+        )  # fmt: skip
 
     # ------------------------------------------------------------------ one period
     def step(self, meas: Measurement, dt: float) -> ControlOutput:

@@ -334,6 +334,9 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     diagnostics = _diagnostics(model, setup.theta_d, ctrl.backend == "numba")
     completed, stop_reason, stop_time = True, None, None
     next_progress = 0.0
+    nb = model.n_joints + 1  # compile / load the recording kernel before the clock starts
+    zero = np.zeros(nb)
+    diagnostics(0.0, setup.q0[4:].copy(), zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
     wall0 = time.perf_counter()
     k = 0
     for k in range(n_steps + 1):
