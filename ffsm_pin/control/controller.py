@@ -198,7 +198,6 @@ class CoordinatedController:
             self.reference._freq, self.reference._phase,
         )  # fmt: skip
         self._layout = fast.out_layout(m.n_joints)
-        self._out = np.zeros(self._layout["size"])
         self._warm_up(fast)
         return "numba"
 
@@ -209,7 +208,7 @@ class CoordinatedController:
         fast.period(
             *self._fast_consts, 1e-3, m0.t, m0.q_b, m0.q_m, m0.w, m0.z_e, m0.z_e_dot,
             self.theta_z.copy(), self.theta_d.copy(), self.theta_b.copy(), self.w_hat.copy(),
-            self.Y_df.copy(), self._out.copy(),
+            self.Y_df.copy(), np.empty(self._layout["size"]),
         )  # fmt: skip
 
     # ------------------------------------------------------------------ one period
@@ -220,7 +219,8 @@ class CoordinatedController:
         return self._step_numpy(meas, dt)
 
     def _step_numba(self, meas: Measurement, dt: float) -> ControlOutput:
-        fast, lay, out = self._fast, self._layout, self._out
+        fast, lay = self._fast, self._layout
+        out = np.empty(lay["size"])  # fresh each period: the outputs below are views of it
         t = meas.t
         status, idx = fast.period(
             *self._fast_consts, dt, t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
@@ -243,18 +243,15 @@ class CoordinatedController:
             raise SimulationError(
                 f"t = {t:.4f} s: base row of the filter is singular", time=t, cause="singular"
             )
-        u_m = out[lay["u_m"]].copy()
-        if not np.all(np.isfinite(u_m)):
-            raise SimulationError(
-                f"t = {t:.4f} s: the joint torque became non-finite", time=t, cause="nonfinite"
-            )
+        if status == fast.STATUS_NONFINITE:
+            raise self._nonfinite_stop(t)
         return ControlOutput(
-            u_m=u_m,
-            w_mc=out[lay["w_mc"]].copy(),
-            w_mc_dot=out[lay["w_mc_dot"]].copy(),
-            err_b=out[lay["err_b"]].copy(),
-            err_z=out[lay["err_z"]].copy(),
-            w_tilde=out[lay["w_tilde"]].copy(),
+            u_m=out[lay["u_m"]],
+            w_mc=out[lay["w_mc"]],
+            w_mc_dot=out[lay["w_mc_dot"]],
+            err_b=out[lay["err_b"]],
+            err_z=out[lay["err_z"]],
+            w_tilde=out[lay["w_tilde"]],
             sigma_min=sigma,
             damping=damping,
         )
@@ -301,9 +298,7 @@ class CoordinatedController:
             M_hat, r, w_hat = meas.M, -meas.h, w
         mi = manifold_input(M_hat, r, w_hat, kc.w_mc, kc.w_mc_dot, kc.dwmc_dwb, g.k_d, t)
         if not np.all(np.isfinite(mi.u_m)):
-            raise SimulationError(
-                f"t = {t:.4f} s: the joint torque became non-finite", time=t, cause="nonfinite"
-            )
+            raise self._nonfinite_stop(t)
 
         # advance the controller's states to t + dt
         if self.adaptive:
@@ -359,6 +354,12 @@ class CoordinatedController:
             "Eq. (25) is undefined",
             time=t,
             cause="estimate",
+        )
+
+    @staticmethod
+    def _nonfinite_stop(t: float) -> SimulationError:
+        return SimulationError(
+            f"t = {t:.4f} s: the joint torque became non-finite", time=t, cause="nonfinite"
         )
 
     @staticmethod

@@ -23,6 +23,7 @@ STATUS_FUNNEL_B = 2  # attitude error left its funnel
 STATUS_M_NOT_PD = 3  # M(q, theta_d-hat) not positive definite
 STATUS_BASE_ROW = 4  # singular base row of the filter
 STATUS_H_COLLAPSE = 5  # |H_bm-hat| ~ 0
+STATUS_NONFINITE = 6  # u_m not finite
 
 # rows of a packed funnel array (8, m)
 F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
@@ -367,6 +368,8 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
     w_hat_dot[0] = wb_dot
     w_hat_dot[1:] = tgt + sens * wb_dot
     u_m = M_hat[1:] @ w_hat_dot - rr[1:]
+    if not np.all(np.isfinite(u_m)):
+        return STATUS_NONFINITE, -1
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
     decay = np.exp(-g[G_KDE] * dt)

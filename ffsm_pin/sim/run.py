@@ -286,7 +286,16 @@ class _Recorder:
         self.k = 0
 
     def finish(self, setup: Setup) -> dict[str, np.ndarray]:
+        """Trim to the recorded samples and add the signals that depend on t only."""
         out = {k: a[: self.k] for k, a in self.arrays.items()}
+        t = out["t"]
+        ctrl, ref = setup.controller, setup.scenario.reference
+        for name, funnel in (("b", ctrl.funnel_b), ("z", ctrl.funnel_z)):
+            rho = funnel.rho(t[:, None])  # (samples, components)
+            out[f"rho_{name}"] = rho
+            out[f"bound_{name}_lower"] = funnel.lower * rho
+            out[f"bound_{name}_upper"] = funnel.upper * rho
+        out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
         out["theta_z"], out["theta_d"], out["theta_b"] = setup.theta_z, setup.theta_d, setup.theta_b
         return out
 
@@ -339,14 +348,26 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     diagnostics(0.0, setup.q0[4:].copy(), zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
     wall0 = time.perf_counter()
     k = 0
+    adaptive = ctrl.adaptive
     for k in range(n_steps + 1):
         t = k * dt
         if progress is not None and t >= next_progress:
             progress(t)
             next_progress += 0.1
         meas = sensor.measure(t, q, v)
-        state = (ctrl.theta_z.copy(), ctrl.theta_d.copy(), ctrl.theta_b.copy(),
-                 ctrl.w_hat.copy(), ctrl.Y_df.copy())  # fmt: skip
+        record = k % record_every == 0 or k == n_steps
+        if record:  # states at t, before the controller advances them
+            i = rec.k
+            w_tilde = meas.w - ctrl.w_hat if adaptive else zero
+            e, Mbb, Mbb_dot = diagnostics(
+                meas.q_b, meas.q_m, meas.w, w_tilde, ctrl.Y_df, ctrl.theta_d
+            )
+            A["e"][i] = e  # Eq. (54) with the true M and theta_d
+            A["w_tilde"][i] = w_tilde
+            A["theta_z_hat"][i] = ctrl.theta_z
+            A["theta_d_hat"][i] = ctrl.theta_d
+            A["theta_b_hat"][i] = ctrl.theta_b
+            A["w_hat"][i] = ctrl.w_hat
         try:
             out = ctrl.step(meas, dt)
         except SimulationError as exc:
@@ -357,30 +378,15 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
             q_new, v_new, a = plant.step(q, v, out.u_m, dt)
         else:
             a = plant.acceleration(q, v, out.u_m)
-        if k % record_every == 0 or final:
-            i = rec.k
+        if record:
             A["t"][i] = t
             A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, out.u_m
             A["z_e"][i], A["z_e_dot"][i] = meas.z_e, meas.z_e_dot
-            A["z_e_d"][i] = sc.reference.ee_pose(t)
-            A["z_e_d_dot"][i] = sc.reference.ee_rate(t)
-            A["err_z"][i], A["err_b"][i] = out.err_z, out.err_b
-            A["q_b"][i] = meas.q_b
-            A["rho_b"][i], A["rho_z"][i] = ctrl.funnel_b.rho(t), ctrl.funnel_z.rho(t)
-            lo, hi = ctrl.funnel_b.bounds(t)
-            A["bound_b_lower"][i], A["bound_b_upper"][i] = lo, hi
-            lo, hi = ctrl.funnel_z.bounds(t)
-            A["bound_z_lower"][i], A["bound_z_upper"][i] = lo, hi
+            A["err_z"][i], A["err_b"][i], A["q_b"][i] = out.err_z, out.err_b, meas.q_b
             mom = plant.momentum(q, v)
             A["P"][i], A["L"][i] = mom[:2], mom[2]
-            e, Mbb, Mbb_dot = diagnostics(
-                meas.q_b, meas.q_m, meas.w, out.w_tilde, state[4], state[1]
-            )
             A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]  # Eqs. (6)-(7), Christoffel C
-            A["w_tilde"][i] = out.w_tilde
-            A["e"][i] = e  # Eq. (54) with the true M and theta_d
-            A["theta_z_hat"][i], A["theta_d_hat"][i], A["theta_b_hat"][i] = state[:3]
-            A["w_mc"][i], A["w_hat"][i] = out.w_mc, state[3]
+            A["w_mc"][i] = out.w_mc
             A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
             rec.k += 1
         if final:

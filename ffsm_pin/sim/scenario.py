@@ -82,6 +82,13 @@ class Reference:
         """dz_e,d/dt [m/s, m/s, rad/s] (t may be complex)."""
         return self._A @ (-self._amp * self._freq * np.sin(self._freq * t + self._phase))
 
+    def sample(self, ts) -> tuple[np.ndarray, np.ndarray]:
+        """(z_e,d, dz_e,d/dt) at the times ``ts`` [s], each of shape (len(ts), 3)."""
+        arg = np.multiply.outer(np.asarray(ts, dtype=float), self._freq) + self._phase
+        pose = self._c + (self._amp * np.cos(arg)) @ self._A.T
+        rate = (-self._amp * self._freq * np.sin(arg)) @ self._A.T
+        return pose, rate
+
 
 @dataclass(frozen=True)
 class RobotSpec:
