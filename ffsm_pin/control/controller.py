@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..barycentric import BarycentricModel
-from ..errors import InfeasibleTaskError, SimulationError
+from ..errors import InfeasibleTaskError, ParameterError, SimulationError
 from .adaptation import (
     regressor_filter_step,
     theta_b_step,
@@ -131,7 +131,7 @@ class CoordinatedController:
     ):
         check_feasibility(model.n_joints, scheme)
         if backend not in BACKENDS:
-            raise InfeasibleTaskError(f"unknown backend {backend!r}; valid choices: {BACKENDS}")
+            raise ParameterError(f"unknown backend {backend!r}; valid choices: {BACKENDS}")
         self.model = model
         self.scheme = scheme
         self.gains = gains
@@ -161,7 +161,7 @@ class CoordinatedController:
             ("theta_b", self.theta_b, model.n_b),
         ):
             if vec.shape != (size,):
-                raise InfeasibleTaskError(
+                raise ParameterError(
                     f"{name} estimate has {vec.size} entries, the robot's layout needs {size}"
                 )
         nb = model.n_joints + 1

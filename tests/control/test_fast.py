@@ -7,6 +7,7 @@ loop (bound 1e-9 relative over 0.5 s: measured ~1e-13 on the paper robot).
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from pathlib import Path
 
@@ -27,30 +28,18 @@ from ffsm_pin.sim.scenario import (
     RobotSpec,
     Scenario,
 )
+from ffsm_pin.sim.scenario_file import builtin_scenario
 from ffsm_pin.state import FloatingBaseState
 
 pytest.importorskip("numba")
 DATA = Path(__file__).resolve().parents[1] / "data"
-W1, W2 = np.pi / 9, 1 / 3
 
 
 def _paper(scheme: str) -> Scenario:
-    ref = Reference(
-        ee=(
-            ComponentReference(3.9, cos=(Harmonic(0.1, W1), Harmonic(0.1, W2))),
-            ComponentReference(2.3, sin=(Harmonic(0.1, W1), Harmonic(0.1, W2))),
-            ComponentReference(0.03, cos=(Harmonic(0.03, W1), Harmonic(0.05, W2))),
-        )
-    )
-    init = InitialCondition(
-        base_pose=(0.0, 0.0, 0.18),
-        joints=(np.pi / 3, -np.pi / 3, np.pi / 3, -np.pi / 3),
-        joint_rates=(0.0,) * 4,
-        com_at_origin=True,
-        base_twist=(0.0969384842584869, 0.09656935470129872, -0.0037),
-    )
-    ctrl = ControllerSpec(scheme=scheme, funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)))
-    return Scenario(RobotSpec(), init, ref, ctrl, duration=0.5, dt=1e-3)
+    """The shipped case 1 (Table 2, Eq. 80, rho_b0 = 1.0) with another scheme, 0.5 s."""
+    case1 = builtin_scenario("case1")
+    ctrl = dataclasses.replace(case1.controller, scheme=scheme)
+    return dataclasses.replace(case1, controller=ctrl, duration=0.5)
 
 
 def _offaxis(scheme: str) -> Scenario:
@@ -105,7 +94,9 @@ def _trajectory(scenario: Scenario, backend: str):
             )
         )  # fmt: skip
         q, v, _ = plant.step(q, v, out.u_m, dt)
-    states = np.concatenate((ctrl.theta_z, ctrl.theta_d, ctrl.theta_b, ctrl.w_hat, ctrl.Y_df.ravel()))
+    states = np.concatenate(
+        (ctrl.theta_z, ctrl.theta_d, ctrl.theta_b, ctrl.w_hat, ctrl.Y_df.ravel())
+    )
     return np.array(rows), states, setup
 
 

@@ -23,34 +23,19 @@ from ffsm_pin.control.controller import SingularityWarning
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sim.scenario import (
-    ComponentReference,
     ControllerSpec,
-    Harmonic,
-    InitialCondition,
-    Reference,
     RobotSpec,
     Scenario,
 )
+from ffsm_pin.sim.scenario_file import builtin_scenario
 
 pytestmark = pytest.mark.slow
 
 DURATION = 30.0  # [s]
-W1, W2 = np.pi / 9, 1 / 3
-EQ80 = Reference(
-    ee=(
-        ComponentReference(3.9, cos=(Harmonic(0.1, W1), Harmonic(0.1, W2))),
-        ComponentReference(2.3, sin=(Harmonic(0.1, W1), Harmonic(0.1, W2))),
-        ComponentReference(0.03, cos=(Harmonic(0.03, W1), Harmonic(0.05, W2))),
-    ),
-    base_attitude=(0.0,),
-)
-TABLE2 = InitialCondition(
-    base_pose=(0.0, 0.0, 0.18),
-    joints=(np.pi / 3, -np.pi / 3, np.pi / 3, -np.pi / 3),
-    joint_rates=(0.0,) * 4,
-    com_at_origin=True,
-    base_twist=(0.0969384842584869, 0.09656935470129872, -0.0037),
-)
+# The paper's case as shipped (Table 2 initial state, Eq. 80 reference, rho_b0 = 1.0), so the
+# tests also guard the built-in scenario file.
+CASE1 = builtin_scenario("case1")
+EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.controller.funnel_b
 
 
 class Run:
