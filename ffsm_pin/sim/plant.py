@@ -20,10 +20,31 @@ from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
 from ..robot import FreeFloatingRobot
 
-_MOMENTUM_ROWS = [0, 1, 5]  # planar: P_x, P_y, L_z of the centroidal momentum
+_MOMENTUM_ROWS = (0, 1, 5)  # planar: P_x, P_y, L_z of the centroidal momentum
+
+
+@njit(cache=True)
+def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray) -> np.ndarray:
+    """v with its base twist replaced by the solution of
+    ``A_g,base v_base = h0 - A_g,joints v_joints`` on the rows (P_x, P_y, L_z) of A_g.
+
+    Compiled: it is three lines of linear algebra on a 3 x 3 system, which numpy's wrappers
+    make cost more than the rest of the plant step.
+    """
+    A = np.empty((3, 3))
+    rhs = h0.copy()
+    for r, row in enumerate(_MOMENTUM_ROWS):
+        for j in range(3):
+            A[r, j] = Ag[row, j]
+        for j in range(3, v.size):
+            rhs[r] -= Ag[row, j] * v[j]
+    out = v.copy()
+    out[:3] = np.linalg.solve(A, rhs)
+    return out
 
 
 class StepResult(NamedTuple):
@@ -83,8 +104,4 @@ class Plant:
 
     def project(self, q, v) -> np.ndarray:
         """Base twist that restores the conserved momentum at q, joint rates unchanged."""
-        Ag = pin.computeCentroidalMap(self.model, self.data, q)[_MOMENTUM_ROWS]
-        rhs = self.momentum0 - Ag[:, 3:] @ v[3:]
-        v = v.copy()
-        v[:3] = np.linalg.solve(Ag[:, :3], rhs)
-        return v
+        return _project_base(pin.computeCentroidalMap(self.model, self.data, q), v, self.momentum0)
