@@ -346,6 +346,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     nb = model.n_joints + 1  # compile / load the recording kernel before the clock starts
     zero = np.zeros(nb)
     diagnostics(0.0, setup.q0[4:].copy(), zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
+    plant.project(q, v)  # likewise the plant's compiled projection (result unused)
     wall0 = time.perf_counter()
     k = 0
     adaptive = ctrl.adaptive
