@@ -377,6 +377,20 @@ class BarycentricModel:
         nb = self.n_joints + 1
         return np.column_stack([self.Y_Mdot(q_b, q_m, w, e) @ theta_d for e in np.eye(nb)])
 
+    def reaction_torque(self, theta_d, q_b: float, q_m, w, w_dot) -> float:
+        """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m].
+
+        ``F_r = M_bb dw_b/dt + C_bb w_b = -(M_bm dw_m/dt + C_bm w_m)`` with the Christoffel
+        C, for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b).
+        ``w_dot`` = (dw_b/dt, dw_m/dt) [rad/s^2].
+        """
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        e0 = np.zeros(self.n_joints + 1)
+        e0[0] = 1.0
+        M_bb = self.mass_matrix(theta_d, q_b, q_m)[0, 0]
+        M_bb_dot = (self.Y_Mdot(q_b, q_m, w, e0) @ theta_d)[0]
+        return float(M_bb * w_dot[0] + 0.5 * M_bb_dot * w[0])
+
     # ------------------------------------------------------------------ momentum
     def Y_b(self, q_b: float, q_m, w) -> np.ndarray:
         """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b)."""

@@ -303,8 +303,9 @@ class _Recorder:
 def _diagnostics(model: BarycentricModel, theta_d: np.ndarray, compiled: bool):
     """f(q_b, q_m, w, w~, Y_df, theta_d-hat) -> (e of Eq. 54, M_bb, dM_bb/dt), true model.
 
-    The reaction torque (Eq. 7) is ``F_r = M_bb dw_b/dt + C_bb w_b`` with the Christoffel
-    C, for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b).
+    The recorder forms the reaction torque (Eq. 7) from these once the plant's acceleration is
+    known: ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b``, as
+    :meth:`~ffsm_pin.barycentric.BarycentricModel.reaction_torque` (tested against Pinocchio).
     """
     if compiled:
         from ..control import fast

@@ -215,3 +215,37 @@ def test_update_checks_shapes(paper_robot):
     st = FloatingBaseState(paper_robot)
     with pytest.raises(ValueError, match="state shapes"):
         st.update(np.zeros(5), np.zeros(7))
+
+
+def test_reaction_torque_matches_pinocchio(paper_robot):
+    """Eqs. (6)-(7): F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b = -(M_bm dw_m/dt + C_bm w_m).
+
+    Independent of the barycentric regressors: dM_bb/dt is a central difference of
+    Pinocchio's centroidal map (A_g[5, 2] = M_bb) along the motion, the accelerations come
+    from ABA, and the second form uses Pinocchio's reduced M and C w with
+    C_bm w_m = (C w)_b - C_bb w_b. Bound: central difference with eps = 1e-6, error ~1e-9.
+    """
+    from ffsm_pin.barycentric import BarycentricModel
+
+    model = paper_robot.model
+    data = model.createData()
+    bm = BarycentricModel(paper_robot.geometry)
+    st = FloatingBaseState(paper_robot)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q = paper_robot.configuration(rng.normal(size=3), rng.uniform(-2, 2, 4))
+        v = rng.normal(size=model.nv)
+        tau = np.concatenate(([0.0, 0.0, 0.0], rng.normal(scale=5.0, size=4)))
+        a = pin.aba(model, data, q, v, tau).copy()
+        st.update(q, v)
+        eps = 1e-6
+        A_plus = pin.computeCentroidalMap(model, data, pin.integrate(model, q, eps * v))[5, 2]
+        A_minus = pin.computeCentroidalMap(model, data, pin.integrate(model, q, -eps * v))[5, 2]
+        M_bb_dot = (A_plus - A_minus) / (2 * eps)
+        w, w_dot = st.w, a[2:]
+        expected = st.M[0, 0] * w_dot[0] + 0.5 * M_bb_dot * w[0]
+        second_form = -(st.M[0, 1:] @ w_dot[1:] + st.h[0] - 0.5 * M_bb_dot * w[0])
+        got = bm.reaction_torque(bm.theta_d, st.base_attitude, q[4:], w, w_dot)
+        scale = max(1.0, abs(expected))
+        assert abs(got - expected) < 1e-7 * scale
+        assert abs(second_form - expected) < 1e-7 * scale
