@@ -36,6 +36,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ._arrays import read_only
 from .errors import ParameterError
 from .robot import PlanarGeometry
 
@@ -164,10 +165,10 @@ class BarycentricModel:
         theta_d = [np.diag(dc), dc[self._K, self._L]]
         if not collinear:
             theta_d.append(ds[self._K, self._L])
-        self.theta_d = _ro(np.concatenate(theta_d))
-        self._V_body = _ro(Vl[:, 0].copy() if collinear else Vl.reshape(-1).copy())
-        self.barycentric_W = _ro(Wl)
-        self.barycentric_V = _ro(Vl)
+        self.theta_d = read_only(np.concatenate(theta_d))
+        self._V_body = read_only(Vl[:, 0].copy() if collinear else Vl.reshape(-1).copy())
+        self.barycentric_W = read_only(Wl)
+        self.barycentric_V = read_only(Vl)
 
         # column index helpers
         self._diag_cols = np.arange(nb)
@@ -192,11 +193,11 @@ class BarycentricModel:
     def true_theta_z(self, com_velocity) -> np.ndarray:
         """theta_z for a CoM velocity v_0 [m/s] (the kinematic parameters of Eq. 4)."""
         v0 = np.asarray(com_velocity, dtype=float).reshape(2)
-        return _ro(np.concatenate((v0, self._V_body)))
+        return read_only(np.concatenate((v0, self._V_body)))
 
     def true_theta_b(self, angular_momentum: float) -> np.ndarray:
         """theta_b = col(A_0, theta_d) for the angular momentum A_0 about the CoM [kg m^2/s]."""
-        return _ro(np.concatenate(([float(angular_momentum)], self.theta_d)))
+        return read_only(np.concatenate(([float(angular_momentum)], self.theta_d)))
 
     # ------------------------------------------------------------------ configuration
     def body_angles(self, q_b, q_m) -> BodyAngles:
@@ -230,7 +231,8 @@ class BarycentricModel:
             rate[0, 1::2], rate[1, 1::2] = -c, -s  # R J e_y
         # pair terms cos/sin(phi_l - phi_k) from the products (no second trig call)
         cK, sK, cL, sL = c[self._K], s[self._K], c[self._L], s[self._L]
-        out = BodyAngles(*(_ro(x) for x in (phi, pos, rate, cL * cK + sL * sK, sL * cK - cL * sK)))
+        pair_c, pair_s = cL * cK + sL * sK, sL * cK - cL * sK
+        out = BodyAngles(*(read_only(x) for x in (phi, pos, rate, pair_c, pair_s)))
         if len(self._memo) >= 4:
             self._memo.clear()
         self._memo[key] = out
@@ -419,9 +421,3 @@ class BodyAngles(NamedTuple):
     rate: np.ndarray  # (2, n_V) R(phi_k) J u
     c: np.ndarray  # cos(phi_l - phi_k) for the pairs k < l
     s: np.ndarray  # sin(phi_l - phi_k)
-
-
-def _ro(a: np.ndarray) -> np.ndarray:
-    a = np.asarray(a)
-    a.flags.writeable = False
-    return a

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ._arrays import read_only
 from .errors import (
     FrameNotFoundError,
     InertiaError,
@@ -350,14 +351,14 @@ def load_robot(
         )
 
     geometry = PlanarGeometry(
-        masses=_ro(np.array(masses)),
-        inertias=_ro(np.array(inertias)),
-        coms=_ro(np.array(coms)),
-        child_joints=_ro(np.array(child)),
-        joint_yaws=_ro(np.array(yaws)),
-        axis_signs=_ro(np.array(axis_signs)),
+        masses=read_only(np.array(masses)),
+        inertias=read_only(np.array(inertias)),
+        coms=read_only(np.array(coms)),
+        child_joints=read_only(np.array(child)),
+        joint_yaws=read_only(np.array(yaws)),
+        axis_signs=read_only(np.array(axis_signs)),
         ee_body=ee_body,
-        ee_position=_ro(np.array(frame.placement.translation[:2])),
+        ee_position=read_only(np.array(frame.placement.translation[:2])),
         ee_yaw=_yaw(rot),
     )
     return FreeFloatingRobot(
@@ -369,8 +370,3 @@ def load_robot(
         geometry=geometry,
         body_names=tuple(body_names),
     )
-
-
-def _ro(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a

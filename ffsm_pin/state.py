@@ -22,6 +22,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from ._arrays import read_only
 from .robot import FreeFloatingRobot
 
 _T = slice(0, 2)  # translational velocity block (base frame)
@@ -64,7 +65,7 @@ class FloatingBaseState:
                 f"state shapes must be q ({model.nq},) and v ({model.nv},), "
                 f"got {q.shape} and {v.shape}"
             )
-        self.q, self.v = _ro(q), _ro(v)
+        self.q, self.v = read_only(q), read_only(v)
 
         M = pin.crba(model, data, q).copy()
         M = np.triu(M) + np.triu(M, 1).T
@@ -80,37 +81,32 @@ class FloatingBaseState:
         oMe = data.oMf[self._fid]
 
         Mtt_inv_Mtr = np.linalg.solve(M[_T, _T], np.column_stack((M[_T, _R], h[_T])))
-        self.mass_matrix = _ro(M)  # full CRBA matrix (nv x nv)
-        self.nonlinear_effects = _ro(h)  # full RNEA velocity terms (nv)
-        self.M = _ro(M[_R, _R] - M[_R, _T] @ Mtt_inv_Mtr[:, :-1])  # Eq. (9a)
-        self.h = _ro(h[_R] - M[_R, _T] @ Mtt_inv_Mtr[:, -1])  # C(q, w) w, Eq. (8)
-        self.H_bb = _ro(Ag[5:6, 2:3].copy())  # Eq. (13)
-        self.H_bm = _ro(Ag[5:6, 3:].copy())
-        self.centroidal_map = _ro(Ag)
-        self.linear_momentum = _ro(hg.linear[:2].copy())  # P, inertial frame [kg m/s]
+        self.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv)
+        self.nonlinear_effects = read_only(h)  # full RNEA velocity terms (nv)
+        self.M = read_only(M[_R, _R] - M[_R, _T] @ Mtt_inv_Mtr[:, :-1])  # Eq. (9a)
+        self.h = read_only(h[_R] - M[_R, _T] @ Mtt_inv_Mtr[:, -1])  # C(q, w) w, Eq. (8)
+        self.H_bb = read_only(Ag[5:6, 2:3].copy())  # Eq. (13)
+        self.H_bm = read_only(Ag[5:6, 3:].copy())
+        self.centroidal_map = read_only(Ag)
+        self.linear_momentum = read_only(hg.linear[:2].copy())  # P, inertial frame [kg m/s]
         self.angular_momentum = float(hg.angular[2])  # L about the CoM [kg m^2/s]
-        self.com_position = _ro(com[:2].copy())  # [m]
-        self.com_velocity = _ro(self.linear_momentum / self.total_mass)  # v_0 [m/s]
+        self.com_position = read_only(com[:2].copy())  # [m]
+        self.com_velocity = read_only(self.linear_momentum / self.total_mass)  # v_0 [m/s]
 
         Jr = np.empty((3, model.nv - 2))
         Jr[:2] = (J_ee[:2] - J_com[:2])[:, _R]  # d(p_e - p_com)
         Jr[2] = J_ee[5, _R]
-        self.J_b = _ro(Jr[:, :1].copy())  # Eq. (3)
-        self.J_m = _ro(Jr[:, 1:].copy())
+        self.J_b = read_only(Jr[:, :1].copy())  # Eq. (3)
+        self.J_m = read_only(Jr[:, 1:].copy())
         rot = oMe.rotation
         self.base_attitude = math.atan2(q[3], q[2])  # q_b in (-pi, pi] [rad]
-        self.ee_pose = _ro(
+        self.ee_pose = read_only(
             np.array([oMe.translation[0], oMe.translation[1], math.atan2(rot[1, 0], rot[0, 0])])
         )  # z_e with q_e in (-pi, pi]
-        self.w = _ro(v[_R].copy())  # (w_b, w_m) [rad/s]
-        self.base_twist_world = _ro(base_twist_to_world(q, v))
+        self.w = read_only(v[_R].copy())  # (w_b, w_m) [rad/s]
+        self.base_twist_world = read_only(base_twist_to_world(q, v))
         return self
 
     @property
     def joint_angles(self) -> np.ndarray:
         return self.q[4:]
-
-
-def _ro(a: np.ndarray) -> np.ndarray:
-    a.flags.writeable = False
-    return a

@@ -37,8 +37,8 @@ def pack_funnel(funnel) -> np.ndarray:
     """(8, m) array of a :class:`~ffsm_pin.control.funnel.Funnel`'s constants."""
     return np.ascontiguousarray(
         np.vstack(
-            (funnel._r0, funnel._ri, funnel._b, funnel._a, funnel._b1, funnel._b2,
-             funnel.upper, funnel.lower)
+            (funnel.params.rho0, funnel.params.rhoinf, funnel.params.beta, funnel._a,
+             funnel._b1, funnel._b2, funnel.upper, funnel.lower)
         ),
         dtype=float,
     )  # fmt: skip

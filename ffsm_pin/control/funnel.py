@@ -70,20 +70,27 @@ class FunnelParams:
             raise ParameterError(f"funnel beta must be > 0, got {self.beta}")
         if np.any(s <= 0) or np.any(s > 1):
             raise ParameterError(f"funnel sigma must be in (0, 1], got {self.sigma}")
+        object.__setattr__(self, "_span", r0 - ri)  # arrays for rho_and_rate
+        object.__setattr__(self, "_ri", ri)
+        object.__setattr__(self, "_b", b)
 
     @property
     def size(self) -> int:
         return len(self.rho0)
 
-    def rho(self, t: float) -> np.ndarray:
-        """rho(t), Eq. (18)."""
-        r0, ri, b = np.array(self.rho0), np.array(self.rhoinf), np.array(self.beta)
-        return (r0 - ri) * np.exp(-b * t) + ri
+    def rho_and_rate(self, t):
+        """(rho(t), d rho/dt), Eqs. (18)-(19); ``t`` may be an array (broadcast against the
+        components) or complex (complex step)."""
+        decay = self._span * np.exp(-self._b * t)
+        return decay + self._ri, -self._b * decay
 
-    def rho_dot(self, t: float) -> np.ndarray:
+    def rho(self, t) -> np.ndarray:
+        """rho(t), Eq. (18)."""
+        return self.rho_and_rate(t)[0]
+
+    def rho_dot(self, t) -> np.ndarray:
         """d rho / dt, Eq. (19)."""
-        r0, ri, b = np.array(self.rho0), np.array(self.rhoinf), np.array(self.beta)
-        return -b * (r0 - ri) * np.exp(-b * t)
+        return self.rho_and_rate(t)[1]
 
 
 class FunnelEval(NamedTuple):
@@ -112,9 +119,6 @@ class Funnel:
                 f"funnel has {params.size} components, initial error has shape {e0.shape}"
             )
         self.params = params
-        self._r0 = np.array(params.rho0)
-        self._ri = np.array(params.rhoinf)
-        self._b = np.array(params.beta)
         self.sigma = sg = np.array(params.sigma)
         self.positive_side = pos = e0 >= 0  # e(0) >= 0: upper bound 1, lower -sigma
         self.upper = np.where(pos, 1.0, sg)  # bounds on s
@@ -126,13 +130,13 @@ class Funnel:
         self._b1 = np.where(pos, 1.0, sg)
         self._b2 = np.where(pos, -sg, -1.0)
 
-    def rho(self, t: float) -> np.ndarray:
+    def rho(self, t) -> np.ndarray:
         """rho(t), Eq. (18)."""
-        return (self._r0 - self._ri) * np.exp(-self._b * t) + self._ri
+        return self.params.rho(t)
 
-    def rho_dot(self, t: float) -> np.ndarray:
+    def rho_dot(self, t) -> np.ndarray:
         """d rho / dt, Eq. (19)."""
-        return -self._b * (self._r0 - self._ri) * np.exp(-self._b * t)
+        return self.params.rho_dot(t)
 
     def bounds(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) bounds on the error at time t."""
@@ -149,8 +153,7 @@ class Funnel:
 
     def evaluate(self, t, error) -> FunnelEval:
         """psi and Phi at (t, e). ``t`` and ``error`` may be complex (complex step)."""
-        decay = (self._r0 - self._ri) * np.exp(-self._b * t)
-        rho = decay + self._ri
+        rho, rho_dot = self.params.rho_and_rate(t)
         s = error / rho
         sr = s.real
         margin = np.minimum(self.upper - sr, sr - self.lower)
@@ -162,7 +165,7 @@ class Funnel:
         den = self._a + self._b2 * s
         psi = np.log(num / den)  # Eq. (20)-(21)
         Phi = (self._b1 / num - self._b2 / den) / rho  # Eq. (22)
-        return FunnelEval(error, rho, -self._b * decay, s, psi, Phi, margin)
+        return FunnelEval(error, rho, rho_dot, s, psi, Phi, margin)
 
 
 class IdentityFunnel(Funnel):
@@ -173,7 +176,7 @@ class IdentityFunnel(Funnel):
     """
 
     def evaluate(self, t, error) -> FunnelEval:
-        one = np.ones(len(self._r0))
-        zero = np.zeros(len(self._r0))
+        one = np.ones(self.params.size)
+        zero = np.zeros(self.params.size)
         margin = self.margin(np.real(t), np.real(error))
         return FunnelEval(error, one, zero, error, error, one, margin)
