@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime as _dt
-import json
 import math
 import sys
 import time
@@ -144,7 +143,7 @@ def _run(args: argparse.Namespace, console: Console) -> int:
         write_outputs(folder, sc, setup.robot, result, args.no_plots, args.no_html, console)
         results.append(result)
     if compare and not args.no_plots:
-        _guarded(console, "overlaid figures", _figures, results, root, scenarios)
+        _guarded(console, "overlaid figures", _figures, results, root)
     if console.quiet:
         print(root)
     else:
@@ -192,7 +191,7 @@ def write_outputs(
     (folder / "scenario.toml").write_text(scenario_to_toml(scenario), encoding="utf-8")
     written.append(folder / "scenario.toml")
     if not no_plots:
-        written += _guarded(console, "figures", _figures, [result], folder, [scenario]) or []
+        written += _guarded(console, "figures", _figures, [result], folder) or []
     if not no_html:
         out = _guarded(console, "replay.html", _replay, robot, result, folder / "replay.html")
         if out is not None:
@@ -200,12 +199,10 @@ def write_outputs(
     return written
 
 
-def _figures(results, folder, scenarios) -> list[Path]:
-    from .figures import write_figures
+def _figures(results, folder) -> list[Path]:
+    from .figures import write_figures  # matplotlib only when figures are drawn
 
-    thresholds = [sc.controller.singularity.threshold for sc in scenarios]
-    labels = [sc.name for sc in scenarios]
-    return write_figures(results, folder, labels=labels, thresholds=thresholds)
+    return write_figures(results, folder)  # labels and thresholds from the results
 
 
 def _replay(robot, result, path) -> Path:
@@ -444,8 +441,3 @@ def _safe(name: str) -> str:
 def _fail(message: str) -> int:
     print(f"error: {' '.join(message.split())}", file=sys.stderr)
     return EXIT_BAD_INPUT
-
-
-def load_summary(folder: str | Path) -> dict:
-    """Read a run folder's summary.json."""
-    return json.loads((Path(folder) / "summary.json").read_text())

@@ -58,15 +58,18 @@ def write_figures(
     """Draw the figures of one run, or overlay several, into ``out_dir``; return the paths.
 
     labels: legend entry per run (default: the scenario names).
-    thresholds: damping threshold on sigma_min [m] per run (default 0.05, the default
+    thresholds: damping threshold on sigma_min [m] per run (default: each run's
+        ``damping_threshold``, else 0.05, the default
         :class:`~ffsm_pin.control.gains.SingularityPolicy`).
     """
     runs = [results] if isinstance(results, RunResult) else list(results)
     if not runs:
         raise ValueError("write_figures needs at least one run")
     labels = list(labels) if labels is not None else [r.scenario_name for r in runs]
-    if thresholds is None or np.isscalar(thresholds):
-        thresholds = [0.05 if thresholds is None else float(thresholds)] * len(runs)
+    if thresholds is None:
+        thresholds = [0.05 if r.damping_threshold is None else r.damping_threshold for r in runs]
+    elif np.isscalar(thresholds):
+        thresholds = [float(thresholds)] * len(runs)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     draw = (_errors, _velocities, _estimation, _torque, _path)

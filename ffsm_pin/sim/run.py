@@ -273,14 +273,14 @@ class _Recorder:
     def __init__(self, n_samples: int, setup: Setup):
         m = setup.model
         nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
+        # per-step signals; rho, the funnel bounds and the reference depend on t only and
+        # are added by finish()
         shapes = {
             "t": (), "q": (nq,), "v": (nv,), "w": (n + 1,), "u_m": (n,), "z_e": (3,),
-            "z_e_d": (3,), "err_z": (3,), "rho_z": (3,), "q_b": (1,), "err_b": (1,),
-            "rho_b": (1,), "P": (2,), "L": (), "F_r": (), "w_tilde": (n + 1,), "e": (n + 1,),
-            "theta_z_hat": (m.n_z,), "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,),
-            "z_e_dot": (3,), "z_e_d_dot": (3,), "w_mc": (n,), "w_hat": (n + 1,),
-            "sigma_min": (), "damping": (), "bound_b_lower": (1,), "bound_b_upper": (1,),
-            "bound_z_lower": (3,), "bound_z_upper": (3,),
+            "err_z": (3,), "q_b": (1,), "err_b": (1,), "P": (2,), "L": (), "F_r": (),
+            "w_tilde": (n + 1,), "e": (n + 1,), "theta_z_hat": (m.n_z,),
+            "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (3,), "w_mc": (n,),
+            "w_hat": (n + 1,), "sigma_min": (), "damping": (),
         }  # fmt: skip
         self.arrays = {k: np.full((n_samples, *s), np.nan) for k, s in shapes.items()}
         self.k = 0
@@ -336,7 +336,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     ctrl = setup.controller
     model = setup.model
     plant = Plant(setup.robot)
-    sensor = Sensor(setup.robot, model, full_model=ctrl.scheme == "known-model")
+    sensor = Sensor(setup.robot, model, full_model=not ctrl.adaptive)  # Pinocchio M, C w
     rec = _Recorder(n_steps // record_every + 2, setup)
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()

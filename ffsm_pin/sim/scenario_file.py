@@ -203,20 +203,6 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
         raise
 
 
-def check_against_robot(scenario: Scenario, n_joints: int, robot_name: str = "robot") -> None:
-    """Check the joint-count-dependent lengths of a scenario against its robot.
-
-    Raises :class:`ScenarioError` naming the key (``initial.joints``, ``initial.joint_rates``).
-    """
-    for key in ("joints", "joint_rates"):
-        value = getattr(scenario.initial, key)
-        if len(value) != n_joints:
-            raise ScenarioError(
-                f"initial.{key}: {len(value)} values, but robot {robot_name!r} has "
-                f"{n_joints} joints"
-            )
-
-
 def scenario_to_toml(scenario: Scenario) -> str:
     """A scenario file (TOML text) that loads back into an equal scenario.
 
@@ -596,7 +582,6 @@ __all__ = [
     "SCHEMA",
     "builtin_path",
     "builtin_scenario",
-    "check_against_robot",
     "load_any",
     "load_scenario",
     "scenario_from_dict",
