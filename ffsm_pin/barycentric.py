@@ -3,7 +3,7 @@
 Bodies k = 0..n (0 = base). The absolute angle of body k is
 ``phi_k = q_b + sum_{j<=k} s_j q_j + const_k``, i.e. ``dphi = S w`` with the constant
 lower-triangular ``S``. Positions about the system CoM are sums of vectors fixed in the
-bodies (Vafa & Dubowsky's virtual manipulator, the paper's ref. [12]; MODEL.md section 2):
+bodies (Vafa & Dubowsky's virtual manipulator, the paper's ref. [12]; docs/model.md section 2):
 
 * ``c_i - p_com = sum_k R(phi_k) W_ik``, ``p_e - p_com = sum_k R(phi_k) V_k``;
 * reduced kinetic energy ``T = 1/2 dphi^T M_phi dphi`` with
@@ -25,7 +25,7 @@ The attitude row of ``z_e`` (the end-effector angle) is parameter-free: its rate
 ``S[ee] w``, a sum of +-1 joint rates; it is added as a known term and not estimated.
 
 Everything is vectorised over the pairs k < l; the regressors are the three products of
-Eq. (12) the controller needs (MODEL.md section 3): ``M(q) a``, ``dM/dt(q, w) s`` and
+Eq. (12) the controller needs (docs/model.md section 3): ``M(q) a``, ``dM/dt(q, w) s`` and
 ``C(q, w) w``.
 """
 

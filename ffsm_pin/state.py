@@ -3,7 +3,7 @@
 :class:`FloatingBaseState` owns a Pinocchio ``Data`` and computes everything for a state in
 one :meth:`FloatingBaseState.update` call; the results are read-only arrays.
 
-Conventions (MODEL.md section 1): Pinocchio's planar root has q = (x, y, cos q_b, sin q_b,
+Conventions (docs/model.md section 1): Pinocchio's planar root has q = (x, y, cos q_b, sin q_b,
 q_m) and v = (v_x, v_y, w_b, w_m) with (v_x, v_y) in the *base* frame. The paper's
 velocity is w = (w_b, w_m); base translation is eliminated through the conserved linear
 momentum, so every reduced quantity is about the system centre of mass:

@@ -2,7 +2,7 @@
 
 Each law is linear in its own state for a regressor held over the step, so it is updated
 exactly (zero-order hold) or by backward Euler: no step-size limit from the adaptation gains
-(MODEL.md section 7: explicit Euler of Eq. (28) is unstable at dt = 1e-3 on the paper robot).
+(docs/model.md section 7: explicit Euler of Eq. (28) is unstable at dt = 1e-3 on the paper robot).
 """
 
 from __future__ import annotations

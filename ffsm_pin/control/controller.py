@@ -83,7 +83,7 @@ BACKENDS = ("auto", "numba", "numpy")
 def check_feasibility(n_joints: int, scheme: str) -> None:
     """Refuse a robot whose joints cannot serve the task (plus the attitude, if regulated).
 
-    MODEL.md section 5: m_1 >= (m_2 + m_3) + m_3 = 4 for the planar pose task with attitude
+    docs/model.md section 5: m_1 >= (m_2 + m_3) + m_3 = 4 for the planar pose task with attitude
     regulation; m_1 >= 3 for Eq. (81), which does not regulate the attitude.
     """
     if scheme not in SCHEMES:

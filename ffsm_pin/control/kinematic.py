@@ -14,7 +14,7 @@ k_z Phi_z psi_z`` (Eq. 37). Case 3 of the paper (no attitude regulation) uses Eq
 
 ``w_mc`` depends on (t, q, z_e, theta_b-hat, theta_z-hat) only (and on w_b for Eq. 81), so its
 time derivative, needed by Eq. (64), is a directional derivative along known rates
-(MODEL.md section 5). It is computed *exactly* by one complex-step evaluation
+(docs/model.md section 5). It is computed *exactly* by one complex-step evaluation
 (``f(x + i h dx)``, ``df = Im / h``), which also returns the value as the real part: no
 algebraic loop, no differencing of recorded values. Everything below is written with
 analytic operations (plain transposes, explicit inverses) to keep that valid; the damping

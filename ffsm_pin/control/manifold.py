@@ -1,6 +1,6 @@
 """Dynamic level: the attractive-manifold filter w-hat (Eq. 46) and the input u_m (Eqs. 60-64).
 
-The filter (typo-corrected, MODEL.md section 5)::
+The filter (typo-corrected, docs/model.md section 5)::
 
     M-hat dw-hat/dt - dM-hat/dt w~ + C-hat w = k_de M-hat w~ + eta_x + u,   u = (0, u_m)  # (46)
 
@@ -11,7 +11,7 @@ The input (64) makes ``d w-hat_{m,r}/dt = -k_d w-hat_{m,r}`` (Eq. 65) with
 and the joint rows (60b) give ``u_m`` (Eqs. 62-64 are this elimination written out).
 
 For Eq. (81) ``dw_mc/dt`` contains ``(d w_mc / d w_b) dw_b/dt``; ``dw_b/dt`` is taken as the
-filter's own ``dw-hat_b/dt`` and solved for together with (60a) (MODEL.md section 5).
+filter's own ``dw-hat_b/dt`` and solved for together with (60a) (docs/model.md section 5).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``python -m ffsm_pin.sim``: run a scenario, record it, draw it, replay it (CONTRACT.md).
+"""``python -m ffsm_pin.sim``: run a scenario, record it, draw it, replay it (docs/cli.md).
 
 Exit status: 0 when every run completed; 3 when a run stopped early (everything recorded is
 still written, and one line on stderr says when and why); 2 for bad input (one line
@@ -48,7 +48,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The command-line parser (options of CONTRACT.md)."""
+    """The command-line parser (options of docs/cli.md)."""
     p = _Parser(
         prog="python -m ffsm_pin.sim",
         description="Simulate a free-floating space manipulator under the adaptive "

@@ -161,7 +161,7 @@ def _estimation(runs, labels, thresholds) -> Figure:
     axes[0].text(
         0.99,
         0.95,
-        r"$\theta_b$ is determined only up to scale by Eq. (28) (MODEL.md sec. 5)",
+        r"$\theta_b$ is determined only up to scale by Eq. (28) (docs/model.md section 5)",
         transform=axes[0].transAxes,
         ha="right",
         va="top",

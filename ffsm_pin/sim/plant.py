@@ -1,6 +1,6 @@
 """The plant: semi-implicit Euler on Pinocchio's ABA, with momentum projection.
 
-One step (MODEL.md section 4):
+One step (docs/model.md section 4):
 
 1. ``a = ABA(q, v, tau)`` with ``tau = (0, 0, 0, u_m)`` (free-floating: no base actuation,
    zero gravity);

@@ -1,4 +1,4 @@
-"""A recorded run: the signals of CONTRACT.md, the summary and the checks computed from them."""
+"""A recorded run: the signals of docs/cli.md, the summary and the checks computed from them."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-# Keys of trajectory.npz required by CONTRACT.md (one row per recorded sample).
+# Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
     "t", "q", "v", "w", "u_m", "z_e", "z_e_d", "err_z", "rho_z", "q_b", "err_b", "rho_b",
     "P", "L", "F_r", "w_tilde", "e", "theta_z_hat", "theta_d_hat", "theta_b_hat",
@@ -98,7 +98,7 @@ class RunResult:
         )
 
     def summary(self) -> dict:
-        """The summary.json content (CONTRACT.md keys and a few more)."""
+        """The summary.json content (docs/cli.md keys and a few more)."""
         s = self.signals
         drift_P, drift_L = self.drift()
         n = len(s["t"])

@@ -1,11 +1,11 @@
-"""Scenario files (TOML, CONTRACT.md) -> :class:`~ffsm_pin.sim.scenario.Scenario`.
+"""Scenario files (TOML, docs/cli.md) -> :class:`~ffsm_pin.sim.scenario.Scenario`.
 
 Validation is strict: unknown sections or keys, wrong types, wrong lengths and values out of
 range are :class:`~ffsm_pin.errors.ScenarioError` whose message starts with the TOML key path
 (``controller.funnel.rho_b0[0]: ...``) and, for unknown keys, suggests the closest valid key
 and lists all of them.
 
-Optional keys and their defaults (everything else in CONTRACT.md is required):
+Optional keys and their defaults (everything else in docs/cli.md is required):
 
 * ``name`` (top level): the scenario's name, default the file's stem;
 * ``[robot]``: ``urdf = "ffsm_planar4.urdf"``, ``base = "planar"``, ``end_effector = "ee"``;

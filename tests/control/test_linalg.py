@@ -1,5 +1,5 @@
 """Pseudo-inverses of the kinematic law (ffsm_pin.control.linalg): the plain right inverse of
-Eqs. (25)/(36) and its damped least-squares version near rank loss (MODEL.md section 7)."""
+Eqs. (25)/(36) and its damped least-squares version near rank loss (docs/model.md section 7)."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ is near-singular from the start) and 12.6 s, and most of those runs left the end
 funnel (stopping cleanly, as designed). Since it happens with the true parameters and with
 zero angular momentum, it is neither the adaptation nor the momentum-forced drift: the
 minimum-norm resolution of the single spare joint steers the arm into a singularity of the
-attitude-constrained Jacobian J_m U (MODEL.md section 7); the paper's law has no singularity
+attitude-constrained Jacobian J_m U (docs/model.md section 7); the paper's law has no singularity
 avoidance. With the shape below sigma_min stays far above the threshold on both robots (the
 off-axis robot with q = +-0.8, relative turns all +0.8, also worked), and the test asserts it,
 so that the funnels are kept by a well-conditioned arm and not by luck through a damped

@@ -1,12 +1,12 @@
 """The paper's simulation cases (Lu & Jia 2019, Section 4), 30 s each on the paper's robot with
 Table 2's initial state and estimates and the paper's gains, system CoM at the origin and the
-paper's v_0 (MODEL.md section 6, reading A).
+paper's v_0 (docs/model.md section 6, reading A).
 
 * case 1 (``ppc``), rho_b0 = 1.0: both funnels kept for 30 s, every final error below rho_inf;
 * case 2 (``no-ppc``): the end-effector funnel is left;
 * case 3 (``no-attitude``, Eq. 81): the attitude funnel is left and the base keeps turning;
 * case 1 with the paper's own rho_b0 = 0.4: no numerical blow-up; the arm nears its fold
-  (MODEL.md section 7), and the run reports the singularity and stops cleanly;
+  (docs/model.md section 7), and the run reports the singularity and stops cleanly;
 * case 1 at dt = 5e-4: margins and final errors as at dt = 1e-3.
 
 Each scenario is simulated once per module (module-scoped fixtures) and shared by its tests.
@@ -194,7 +194,7 @@ def test_paper_funnel_reports_the_singularity(case1_paper_funnel):
     assert r["damping"][-1] > 0
     assert any("near a singularity" in ev and "damped" in ev for ev in r.events)
     assert any(issubclass(w.category, SingularityWarning) for w in run.warnings)
-    # the fold is the arm's (MODEL.md section 7): link 2 folds back onto link 1, q2 -> pi
+    # the fold is the arm's (docs/model.md section 7): link 2 folds back onto link 1, q2 -> pi
     q2 = r["q"][-1, 5]
     assert abs(abs(np.angle(np.exp(1j * q2))) - np.pi) < 0.2
 

@@ -104,7 +104,7 @@ def yawed_robots(data_dir, tmp_path_factory):
 # ----------------------------------------------------------------------------- the comparison
 def check_against_pinocchio(robot, seed, random_state, n_states=N_STATES):
     """Every model quantity with the true parameters equals FloatingBaseState's at random
-    states (module docstring of ffsm_pin.barycentric; MODEL.md sections 1-2)."""
+    states (module docstring of ffsm_pin.barycentric; docs/model.md sections 1-2)."""
     bm = BarycentricModel(robot.geometry)
     fbs = FloatingBaseState(robot)
     data = robot.model.createData()
@@ -254,7 +254,7 @@ def test_wrong_parameter_shapes_raise(paper_robot):
 
 # ----------------------------------------------------------------------------- regressors
 def check_regressors(robot, seed):
-    """Each regressor column against its defining product (MODEL.md section 3)."""
+    """Each regressor column against its defining product (docs/model.md section 3)."""
     bm = BarycentricModel(robot.geometry)
     rng = np.random.default_rng(seed)
     nb = robot.n_joints + 1
@@ -345,7 +345,7 @@ def test_Yd_matches_pinocchio_mass_matrix_rate(paper_robot, data_dir, rng, rando
 
 # ----------------------------------------------------------------------------- the paper
 def test_paper_true_parameters_belong_to_three_link_chain(tmp_path):
-    """The paper's listed true theta_z and theta_d (MODEL.md section 2) are those of the
+    """The paper's listed true theta_z and theta_d (docs/model.md section 2) are those of the
     base + links 1-3 of Table 1, end effector at link 3's tip. Independent numbers: the paper's,
     rounded to 4 decimals (hence 5e-5 for theta_z; theta_d's larger entries get 5e-4)."""
     links = [(6.3, 1.0290), (5.4, 0.8820), (5.1, 0.8330)]

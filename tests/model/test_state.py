@@ -1,4 +1,4 @@
-"""FloatingBaseState (the Pinocchio side of the reduced model) against the facts of MODEL.md
+"""FloatingBaseState (the Pinocchio side of the reduced model) against the facts of docs/model.md
 section 1, checked with independent Pinocchio computations and finite differences."""
 
 from __future__ import annotations

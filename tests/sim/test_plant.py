@@ -71,7 +71,7 @@ def test_momentum_conserved_over_30_s(paper_robot, initial, dt):
 
 
 def test_projection_matters(paper_robot, initial):
-    """Plain semi-implicit Euler drifts in momentum by O(dt) (MODEL.md section 4)."""
+    """Plain semi-implicit Euler drifts in momentum by O(dt) (docs/model.md section 4)."""
     q0, v0 = initial
     plant = Plant(paper_robot, project_momentum=False)
     scale = np.abs(plant.momentum(q0, v0)).max()

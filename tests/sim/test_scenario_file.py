@@ -77,7 +77,7 @@ def test_builtin_cases_follow_the_paper_and_model_md():
     assert paper1.controller.gains == c1.controller.gains
     # the reason for rho_b0 = 1.0 is written in the file
     text = CASE1.read_text()
-    assert "MODEL.md section 7" in text and "12-13 s" in text and "18 %" in text
+    assert "docs/model.md section 7" in text and "12-13 s" in text and "18 %" in text
     # Eq. (80) at t = 0
     assert c1.reference.ee_pose(0.0) == pytest.approx([4.1, 2.3, 0.11])
     assert c1.reference.ee[0].cos[0].frequency == pytest.approx(math.pi / 9)
