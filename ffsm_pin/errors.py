@@ -55,13 +55,18 @@ class SimulationError(FfsmError, RuntimeError):
     time:
         Simulated time [s] at which the run stopped.
     cause:
-        Short machine-readable cause (``"funnel"``, ``"singular"``, ``"nonfinite"``).
+        Short machine-readable cause (``"funnel"``, ``"singular"``, ``"nonfinite"``,
+        ``"estimate"``).
+    funnel:
+        For ``cause == "funnel"``: which funnel was left, ``"b"`` (attitude, Eq. 16) or ``"z"``
+        (end effector, Eq. 17); otherwise None.
     """
 
-    def __init__(self, message: str, *, time: float, cause: str):
+    def __init__(self, message: str, *, time: float, cause: str, funnel: str | None = None):
         super().__init__(message)
         self.time = float(time)
         self.cause = cause
+        self.funnel = funnel
 
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:

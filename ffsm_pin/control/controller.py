@@ -377,8 +377,10 @@ class CoordinatedController:
         err_b, err_z = task_errors(self.reference, self.q_bd, t, meas.q_b, meas.z_e)
         if not self.funnel_z.inside(t, err_z):
             what = f"end-effector error component {exc.index} ({_COMPONENT_NAMES[exc.index]})"
+            which = "z"
         else:
             what = "base attitude error"
+            which = "b"
         note = ""
         if self._damped_since is not None:
             note = f"; the arm has been near a singularity since t = {self._damped_since:.3f} s"
@@ -387,4 +389,5 @@ class CoordinatedController:
             f"({exc.lower:.5g}, {exc.upper:.5g}); the transformation (21) is undefined{note}",
             time=t,
             cause="funnel",
+            funnel=which,
         )

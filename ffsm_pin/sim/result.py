@@ -47,6 +47,8 @@ class RunResult:
     signals: dict[str, np.ndarray]
     scenario_name: str = "scenario"
     stop_time: float | None = None
+    stop_cause: str | None = None  # "funnel" | "singular" | "nonfinite" | "estimate"
+    stop_funnel: str | None = None  # "b" or "z" when the run stopped at a funnel exit
     events: list[str] = field(default_factory=list)
     rhoinf_b: tuple[float, ...] | None = None  # for settle times
     rhoinf_z: tuple[float, ...] | None = None
@@ -69,9 +71,22 @@ class RunResult:
         s = self.signals
         return np.all((s["err_z"] > s["bound_z_lower"]) & (s["err_z"] < s["bound_z_upper"]), 1)
 
+    def funnel_kept(self, which: str) -> bool:
+        """Funnel ``which`` ("b" or "z") held over the whole run.
+
+        A run stopped because that funnel was left never records the sample outside it (the
+        transformation (21) is undefined there), so the stop itself counts as a violation.
+        """
+        inside = self.funnel_inside_b if which == "b" else self.funnel_inside_z
+        return bool(inside.all()) and self.stop_funnel != which
+
     def first_violation_time(self) -> float | None:
+        """First recorded sample outside a funnel, or the time of a funnel stop; None if
+        neither happened [s]."""
         bad = ~(self.funnel_inside_b & self.funnel_inside_z)
-        return float(self.signals["t"][np.argmax(bad)]) if bad.any() else None
+        if bad.any():
+            return float(self.signals["t"][np.argmax(bad)])
+        return self.stop_time if self.stop_funnel is not None else None
 
     def settle_time(self, which: str, rhoinf) -> float | None:
         """Time after which |err| stays inside rho_inf (all components), None if never."""
@@ -114,8 +129,8 @@ class RunResult:
             "simulated_time": float(s["t"][-1]) if n else 0.0,
             "wall_time_s": self.wall_time_s,
             "steps_per_s": self.steps / self.wall_time_s if self.wall_time_s > 0 else None,
-            "funnel_ok_b": bool(self.funnel_inside_b.all()),
-            "funnel_ok_z": bool(self.funnel_inside_z.all()),
+            "funnel_ok_b": self.funnel_kept("b"),
+            "funnel_ok_z": self.funnel_kept("z"),
             "first_violation_t": self.first_violation_time(),
             "final_err_b": s["err_b"][-1].tolist() if n else [],
             "final_err_z": s["err_z"][-1].tolist() if n else [],
@@ -127,6 +142,8 @@ class RunResult:
             "completed": self.completed,
             "stop_reason": self.stop_reason,
             "stop_time": self.stop_time,
+            "stop_cause": self.stop_cause,
+            "stop_funnel": self.stop_funnel,
             "min_sigma": float(np.min(s["sigma_min"])) if n else None,
             "damping_threshold": self.damping_threshold,
             "damped_fraction": float(np.mean(s["damping"] > 0)) if n else 0.0,

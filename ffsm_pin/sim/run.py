@@ -343,6 +343,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     plant.reset(q, v)
     diagnostics = _diagnostics(model, setup.theta_d, ctrl.backend == "numba")
     completed, stop_reason, stop_time = True, None, None
+    stop_cause = stop_funnel = None
     next_progress = 0.0
     nb = model.n_joints + 1  # compile / load the recording kernel before the clock starts
     zero = np.zeros(nb)
@@ -374,6 +375,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
             out = ctrl.step(meas, dt)
         except SimulationError as exc:
             completed, stop_reason, stop_time = False, str(exc), exc.time
+            stop_cause, stop_funnel = exc.cause, exc.funnel
             break
         final = k == n_steps
         if not final:
@@ -394,11 +396,11 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
         if final:
             break
         if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
-            completed, stop_time = False, t + dt
+            completed, stop_time, stop_cause = False, t + dt, "nonfinite"
             stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
             break
         if np.max(np.abs(v_new[2:])) > 1e4:
-            completed, stop_time = False, t + dt
+            completed, stop_time, stop_cause = False, t + dt, "nonfinite"
             stop_reason = (
                 f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
                 f"(max |w| = {np.max(np.abs(v_new[2:])):.3g})"
@@ -420,6 +422,8 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
         signals=rec.finish(setup),
         scenario_name=sc.name,
         stop_time=stop_time,
+        stop_cause=stop_cause,
+        stop_funnel=stop_funnel,
         events=setup.events + ctrl.events,
         rhoinf_b=sc.controller.funnel_b.rhoinf,
         rhoinf_z=sc.controller.funnel_z.rhoinf,

@@ -167,6 +167,12 @@ def test_paper_funnel_stops_cleanly_at_the_fold(case1_paper_funnel):
     assert "non-finite" not in reason and "blow-up" not in reason
     # the recording stops at the last step taken, one step before the stop
     assert r["t"][-1] == pytest.approx(r.stop_time - r.dt, abs=1e-9)
+    # the stop is the funnel violation: every recorded sample is inside, yet the summary must
+    # not say the end-effector funnel was kept
+    assert r.stop_cause == "funnel" and r.stop_funnel == "z"
+    assert r.funnel_inside_z.all()
+    s = r.summary()
+    assert s["funnel_ok_z"] is False and s["first_violation_t"] == r.stop_time
 
 
 def test_paper_funnel_no_blow_up_before_the_stop(case1_paper_funnel):
