@@ -43,7 +43,8 @@ def _inertial(g: np.random.Generator, mass: float, size: float, com) -> str:
 def spatial_chain_urdf(n_joints: int, seed: int) -> str:
     """URDF text of a random ``n_joints``-joint revolute chain on a free base (see module)."""
     g = np.random.default_rng(seed)
-    links = [f'<link name="base">{_inertial(g, g.uniform(40, 60), 0.6, g.normal(0, 0.05, 3))}</link>']
+    base = _inertial(g, g.uniform(40, 60), 0.6, g.normal(0, 0.05, 3))
+    links = [f'<link name="base">{base}</link>']
     joints = []
     parent = "base"
     for k in range(n_joints):
