@@ -162,32 +162,72 @@ def _quat_rate(quat, w_body) -> np.ndarray:
     )
 
 
-def mujoco_rk4_replay(mj: mujoco.MjModel, q0, v0, torques, period: float, substeps: int):
-    """Open-loop replay of ``torques`` (held for ``period`` [s] each) on MuJoCo's dynamics
-    (``mj_forward`` accelerations), integrated with classical RK4 on (qpos, qvel) with the
-    quaternion as 4 plain numbers (d quat/dt = quat (x) w / 2), renormalised after each step.
-    Independent of Pinocchio's dynamics and of its Lie-group integration. Returns Pinocchio's
-    final (q, v)."""
+def mujoco_acceleration(mj: mujoco.MjModel):
+    """qacc(qpos, qvel, u_m) from MuJoCo's ``mj_forward`` (unit quaternion in qpos)."""
     d = mujoco.MjData(mj)
-    nq = mj.nq
-    x = np.concatenate(to_mujoco(q0, v0))
+
+    def qacc(qpos, qvel, u_m):
+        d.qpos[:], d.qvel[:] = qpos, qvel
+        d.qfrc_applied[6:] = u_m
+        mujoco.mj_forward(mj, d)
+        return d.qacc.copy()
+
+    return qacc
+
+
+def pinocchio_acceleration(model: pin.Model):
+    """The same qacc from Pinocchio's ABA: d/dt (R v_B) = R (dv_B/dt + w_B x v_B)."""
+    data = model.createData()
+    tau = np.zeros(model.nv)
+
+    def qacc(qpos, qvel, u_m):
+        q, v = to_pinocchio(qpos, qvel)
+        tau[6:] = u_m
+        a = pin.aba(model, data, q, v, tau)
+        R = pin.Quaternion(*qpos[3:7]).matrix()
+        return np.concatenate((R @ (a[:3] + np.cross(v[3:6], v[:3])), a[3:]))
+
+    return qacc
+
+
+def quaternion_rk4_replay(qacc, q0, v0, torques, period: float, substeps: int):
+    """Open-loop replay of ``torques`` (each held for ``period`` [s]) with classical RK4 of
+    step ``period / substeps`` on MuJoCo's coordinates (qpos, qvel), the quaternion as four
+    plain numbers (d quat/dt = quat (x) (0, w_B) / 2) renormalised after each step, and the
+    accelerations ``qacc(qpos, qvel, u_m)``. Independent of Pinocchio's Lie-group integration.
+    Returns Pinocchio's final (q, v)."""
+    qpos, qvel = to_mujoco(q0, v0)
+    nq = qpos.size
+    x = np.concatenate((qpos, qvel))
     h = period / substeps
 
-    def f(x):
-        d.qpos[:] = x[:nq]
-        d.qpos[3:7] /= np.linalg.norm(x[3:7])
-        d.qvel[:] = x[nq:]
-        mujoco.mj_forward(mj, d)
+    def f(x, u):
+        qpos = x[:nq].copy()
+        qpos[3:7] /= np.linalg.norm(qpos[3:7])
         qvel = x[nq:]
-        return np.concatenate((qvel[:3], _quat_rate(d.qpos[3:7], qvel[3:6]), qvel[6:], d.qacc))
+        return np.concatenate(
+            (qvel[:3], _quat_rate(qpos[3:7], qvel[3:6]), qvel[6:], qacc(qpos, qvel, u))
+        )
 
     for u in torques:
-        d.qfrc_applied[6:] = u
         for _ in range(substeps):
-            k1 = f(x)
-            k2 = f(x + h / 2 * k1)
-            k3 = f(x + h / 2 * k2)
-            k4 = f(x + h * k3)
+            k1 = f(x, u)
+            k2 = f(x + h / 2 * k1, u)
+            k3 = f(x + h / 2 * k2, u)
+            k4 = f(x + h * k3, u)
             x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             x[3:7] /= np.linalg.norm(x[3:7])
     return to_pinocchio(x[:nq], x[nq:])
+
+
+def plant_replay(plant, q0, v0, torques, period: float, substeps: int):
+    """The plant on the same replay; returns the final (q, v) and the max relative momentum
+    drift max_k |h_k - h_0| / |h_0| over every control step."""
+    plant.reset(q0, v0)
+    h0 = plant.momentum0
+    q, v = q0, v0
+    drift = 0.0
+    for u in torques:
+        q, v, _ = plant.advance(q, v, u, period, substeps)
+        drift = max(drift, float(np.abs(plant.momentum(q, v) - h0).max()))
+    return q, v, drift / float(np.abs(h0).max())
