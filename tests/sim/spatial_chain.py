@@ -75,14 +75,15 @@ def pinocchio_model(xml: str) -> pin.Model:
     return model
 
 
-def mujoco_model(xml: str) -> mujoco.MjModel:
-    """MuJoCo model of the URDF text: a free joint on the root body, nothing else added."""
+def mujoco_model(xml: str, root: str = "base") -> mujoco.MjModel:
+    """MuJoCo model of the URDF text: a free joint on the root link ``root``, nothing else
+    added."""
     spec = mujoco.MjSpec.from_string(xml)
     spec.compiler.fusestatic = False  # keep the root body (it gets the free joint)
     spec.compiler.discardvisual = True
     spec.compiler.balanceinertia = False
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-    spec.body("base").add_freejoint()
+    spec.body(root).add_freejoint()
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= (
         mujoco.mjtDisableBit.mjDSBL_CONTACT
