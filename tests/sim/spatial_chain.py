@@ -84,13 +84,19 @@ def mujoco_model(xml: str, root: str = "base") -> mujoco.MjModel:
     spec.compiler.balanceinertia = False
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.body(root).add_freejoint()
+    for joint in spec.joints:  # the URDF's <dynamics damping/friction> are not rigid-body physics
+        joint.damping = joint.stiffness = np.zeros(3)  # (MuJoCo 4: polynomial coefficients)
+        joint.frictionloss = joint.armature = 0.0
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= (
         mujoco.mjtDisableBit.mjDSBL_CONTACT
         | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
         | mujoco.mjtDisableBit.mjDSBL_LIMIT
     )
-    return spec.compile()
+    model = spec.compile()
+    assert not model.dof_damping.any() and not model.dof_frictionloss.any()
+    assert not model.dof_armature.any() and not model.jnt_stiffness.any()
+    return model
 
 
 # ------------------------------------------------------------------ state conversions
@@ -137,16 +143,18 @@ def pose_error(q, q_ref) -> tuple[float, float, float]:
 
 
 # ------------------------------------------------------------------ reference integration
-def held_torques(n_joints: int, seed: int, duration: float, period: float, peak: float):
+def held_torques(n_joints: int, seed: int, duration: float, period: float, peak: float, scale=1.0):
     """A recorded torque sequence: per joint a seeded sum of three sinusoids (peak |u_j|
-    between peak/4 and peak [N m]) sampled every ``period`` [s], shape (steps, n_joints)."""
+    between peak/4 and peak [N m], times ``scale[j]``) sampled every ``period`` [s], shape
+    (steps, n_joints). ``scale`` = the joint-space inertia diagonal makes ``peak`` an angular
+    acceleration [rad/s^2] for every joint, light wrists included."""
     g = np.random.default_rng(seed)
     w = g.uniform(0.5, 1.0, (n_joints, 3))
     amp = w / w.sum(axis=1, keepdims=True) * g.uniform(peak / 4, peak, n_joints)[:, None]
     omega = g.uniform(2.0, 6.0, (n_joints, 3))  # [rad/s]
     phase = g.uniform(0, 2 * np.pi, (n_joints, 3))
     t = np.arange(int(round(duration / period))) * period
-    return (amp * np.sin(omega * t[:, None, None] + phase)).sum(axis=2)
+    return (amp * np.sin(omega * t[:, None, None] + phase)).sum(axis=2) * scale
 
 
 def _quat_rate(quat, w_body) -> np.ndarray:
