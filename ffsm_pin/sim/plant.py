@@ -29,7 +29,7 @@ import pinocchio as pin
 from numba import njit
 
 from ..errors import ParameterError, choices_text
-from .integrators import rkmk4_step
+from .integrators import chart_block, gauss_solve, rkmk4_step
 
 INTEGRATORS = ("semi-implicit", "rk4")
 
@@ -48,7 +48,8 @@ def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarra
     Compiled: it is a few lines of linear algebra on a 3 x 3 or 6 x 6 system, which numpy's
     wrappers make cost more than the rest of the plant step. The planar 3 x 3 system goes to
     LAPACK (as it always did, so planar runs stay bit for bit what they were); the free-flyer
-    6 x 6 one to :func:`_gauss_solve`, several times cheaper than LAPACK's wrapper at this size.
+    6 x 6 one to :func:`~.integrators.gauss_solve`, several times cheaper than LAPACK's
+    wrapper at this size.
     """
     nb = rows.size
     A = np.empty((nb, nb))
@@ -63,34 +64,8 @@ def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarra
     if nb == 3:
         out[:nb] = np.linalg.solve(A, rhs)
     else:
-        _gauss_solve(A, rhs, out)
+        gauss_solve(A, rhs, out)
     return out
-
-
-@njit(cache=True)
-def _gauss_solve(A: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """out[:n] = A^-1 b by Gaussian elimination with partial pivoting (A, b overwritten).
-    A non-finite or singular system gives non-finite entries, not an exception."""
-    n = b.size
-    for k in range(n):
-        p = k
-        for r in range(k + 1, n):
-            if abs(A[r, k]) > abs(A[p, k]):
-                p = r
-        if p != k:
-            for j in range(k, n):
-                A[k, j], A[p, j] = A[p, j], A[k, j]
-            b[k], b[p] = b[p], b[k]
-        for r in range(k + 1, n):
-            f = A[r, k] / A[k, k]
-            for j in range(k, n):
-                A[r, j] -= f * A[k, j]
-            b[r] -= f * b[k]
-    for k in range(n - 1, -1, -1):
-        s = b[k]
-        for j in range(k + 1, n):
-            s -= A[k, j] * out[j]
-        out[k] = s / A[k, k]
 
 
 @njit(cache=True)
@@ -156,6 +131,7 @@ class Plant:
         self.integrator = integrator
         self.project_momentum = project_momentum
         self._tau = np.zeros(self.model.nv)
+        self._chart_block = chart_block(self.model)
         self.momentum0: np.ndarray | None = None  # the conserved rows of h_g
 
     def momentum(self, q, v) -> np.ndarray:
@@ -183,7 +159,9 @@ class Plant:
             self.reset(q, v)
         self._tau[self.n_base :] = u_m
         if self.integrator == "rk4":
-            q_new, v_new, a = rkmk4_step(self.model, self.data, q, v, self._tau, dt)
+            q_new, v_new, a = rkmk4_step(
+                self.model, self.data, q, v, self._tau, dt, self._chart_block
+            )
         else:
             v_new, dq, a = _euler_velocity(v, pin.aba(self.model, self.data, q, v, self._tau), dt)
             q_new = pin.integrate(self.model, q, dq)

@@ -24,6 +24,7 @@ from spatial_chain import (
 )
 
 from ffsm_pin.errors import ParameterError
+from ffsm_pin.sim.integrators import _chart_rate, chart_block, gauss_solve
 from ffsm_pin.sim.plant import Plant
 
 # Momentum: the projection solves A_g,base v_base = h0 - A_g,joints w_m against the same h0 at
@@ -183,3 +184,21 @@ def test_naive_rk4_is_not_fourth_order(order_case):
         errors.append(pose_error(q, q_ref))
     attitude = [e[1] for e in errors]
     assert max(_orders(attitude)) < 8.0, attitude  # second order: ~4
+
+
+def test_chart_rate_block_and_gauss_solve(arm6, rng):
+    """The RK4 chart rate solves only the root block of J = dIntegrate (the revolute joints'
+    block is the identity): equal to the full solve; gauss_solve equals LAPACK."""
+    model, q0, v0 = arm6
+    assert chart_block(model) == 6
+    for _ in range(5):
+        theta = 0.3 * rng.normal(size=model.nv)
+        full = np.linalg.solve(pin.dIntegrate(model, q0, theta, pin.ArgumentPosition.ARG1), v0)
+        np.testing.assert_allclose(_chart_rate(model, q0, theta, v0, 6), full, atol=1e-14)
+        A, b = rng.normal(size=(6, 6)), rng.normal(size=6)
+        x = np.zeros(6)
+        gauss_solve(A.copy(), b.copy(), x)
+        np.testing.assert_allclose(A @ x, b, atol=1e-12)
+    nan = np.zeros(6)
+    gauss_solve(np.full((6, 6), np.nan), np.ones(6), nan)  # no exception: run.py sees NaN
+    assert np.isnan(nan).all()
