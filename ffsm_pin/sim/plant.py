@@ -41,9 +41,9 @@ _ROOTS = {
 
 
 @njit(cache=True)
-def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """v with its base twist (the first ``rows.size`` entries) replaced by the solution of
-    ``A_g,base v_base = h0 - A_g,joints v_joints`` on the given rows of A_g.
+def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarray) -> None:
+    """Replace, in place, the base twist of v (its first ``rows.size`` entries) by the solution
+    of ``A_g,base v_base = h0 - A_g,joints v_joints`` on the given rows of A_g.
 
     Compiled: it is a few lines of linear algebra on a 3 x 3 or 6 x 6 system, which numpy's
     wrappers make cost more than the rest of the plant step. The planar 3 x 3 system goes to
@@ -60,20 +60,21 @@ def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarra
             A[r, j] = Ag[row, j]
         for j in range(nb, v.size):
             rhs[r] -= Ag[row, j] * v[j]
-    out = v.copy()
     if nb == 3:
-        out[:nb] = np.linalg.solve(A, rhs)
+        v[:nb] = np.linalg.solve(A, rhs)
     else:
-        gauss_solve(A, rhs, out)
-    return out
+        gauss_solve(A, rhs, v)
 
 
 @njit(cache=True)
-def _euler_velocity(v: np.ndarray, a: np.ndarray, dt: float):
-    """(v + dt a, dt (v + dt a), copy of a): the semi-implicit velocity update and the
-    configuration increment, in one compiled call instead of four numpy operations."""
-    v_new = v + dt * a
-    return v_new, dt * v_new, a.copy()
+def _euler_velocity(v: np.ndarray, a: np.ndarray, dt: float, out: np.ndarray) -> None:
+    """out = (v + dt a, dt (v + dt a), a): the semi-implicit velocity update, the configuration
+    increment and a copy of a, in one compiled call instead of four numpy operations."""
+    for i in range(v.size):
+        v_new = v[i] + dt * a[i]
+        out[0, i] = v_new
+        out[1, i] = dt * v_new
+        out[2, i] = a[i]
 
 
 class StepResult(NamedTuple):
@@ -157,17 +158,19 @@ class Plant:
         """Advance (q, v) by ``dt`` [s] with joint torques ``u_m`` held constant."""
         if self.momentum0 is None:
             self.reset(q, v)
-        self._tau[self.n_base :] = u_m
+        model, data, tau = self.model, self.data, self._tau
+        tau[self.n_base :] = u_m
         if self.integrator == "rk4":
-            q_new, v_new, a = rkmk4_step(
-                self.model, self.data, q, v, self._tau, dt, self._chart_block
-            )
+            q_new, v_new, a = rkmk4_step(model, data, q, v, tau, dt, self._chart_block)
         else:
-            v_new, dq, a = _euler_velocity(v, pin.aba(self.model, self.data, q, v, self._tau), dt)
-            q_new = pin.integrate(self.model, q, dq)
+            out = np.empty((3, model.nv))  # rows: v+, dt v+, a (fresh: returned as views)
+            _euler_velocity(v, pin.aba(model, data, q, v, tau), dt, out)
+            q_new = pin.integrate(model, q, out[1])
+            v_new, a = out[0], out[2]
         if self.project_momentum:
-            Ag = pin.computeCentroidalMap(self.model, self.data, q_new)
-            v_new = _project_base(Ag, v_new, self.momentum0, self._rows)
+            _project_base(
+                pin.computeCentroidalMap(model, data, q_new), v_new, self.momentum0, self._rows
+            )
         return StepResult(q_new, v_new, a)
 
     def advance(self, q, v, u_m, dt: float, substeps: int = 1) -> StepResult:
@@ -180,6 +183,10 @@ class Plant:
         return StepResult(res.q, res.v, a)
 
     def project(self, q, v) -> np.ndarray:
-        """Base twist that restores the conserved momentum at q, joint rates unchanged."""
-        Ag = pin.computeCentroidalMap(self.model, self.data, q)
-        return _project_base(Ag, v, self.momentum0, self._rows)
+        """Base twist that restores the conserved momentum at q, joint rates unchanged (a new
+        array; v is not modified)."""
+        out = np.array(v, dtype=float)
+        _project_base(
+            pin.computeCentroidalMap(self.model, self.data, q), out, self.momentum0, self._rows
+        )
+        return out
