@@ -7,8 +7,8 @@
    gravity. Target: semi-implicit ``Plant.step`` <= 2x the baseline.
 3. SPARTpy (optional, ``pip install ".[bench]"``): ``Plant.acceleration`` against SPART's forward
    dynamics on SPARTpy's own 7-DOF URDF (gate 1e-9), and its cost next to SPART's ODE.
-4. Open-loop accuracy: 5 s replays of a recorded torque sequence (1 kHz, held) on a random
-   7-joint spatial chain and on the xArm7 satellite, the plant at dt = 1 ms / N (N substeps)
+4. Open-loop accuracy: 5 s replays of a recorded torque sequence (250 Hz, held) on a random
+   7-joint spatial chain and on the xArm7 satellite, the plant at dt = 4 ms / N (N substeps)
    against MuJoCo's dynamics of the same URDF integrated with a classical RK4 on MuJoCo's own
    coordinates at 1/16 ms (tests/sim/spatial_chain.py, shared with the tests). Errors: base
    position [m], base attitude [rad], joints [rad]; ``--plot FILE`` draws them against dt.
@@ -62,9 +62,9 @@ from spatial_chain import (  # noqa: E402  (the tests' chain, MuJoCo model and r
 
 DT = 1e-3  # plant step for the timing rows [s]
 SPEED_TARGET = 2.0  # semi-implicit Plant.step / (pin.aba + pin.computeCentroidalMap)
-PERIOD, DURATION = 1e-3, 5.0  # recorded torques: one sample per ms, 5 s
-SUBSTEPS = (1, 2, 4, 8)  # plant dt = PERIOD / N
-REF_SUBSTEPS = 16  # reference dt = PERIOD / 16
+PERIOD, DURATION = 4e-3, 5.0  # recorded torques: one sample per 4 ms (250 Hz), 5 s
+SUBSTEPS = (1, 2, 4, 8, 16)  # plant dt = PERIOD / N: 4 ms .. 0.25 ms
+REF_SUBSTEPS = 64  # reference dt = PERIOD / 64 = 6.25e-5 s
 
 
 # ---------------------------------------------------------------------------- robots
@@ -268,8 +268,12 @@ def plot(results: list[dict], path: Path) -> None:
             err = [max(x[2:5]) for x in rows]
             ax.loglog(dts, err, styles[integ], color=color, label=f"{r['label']}, {integ}")
     dts = np.array([PERIOD / s for s in SUBSTEPS])
-    ax.loglog(dts, 3e-3 * dts / dts[0], "k:", lw=0.8, label="slope 1")
-    ax.loglog(dts, 1e-9 * (dts / dts[0]) ** 4, "k--", lw=0.8, label="slope 4")
+    ax.loglog(dts, 2e-2 * dts / dts[0], "k:", lw=0.8, label="slope 1")
+    ax.loglog(dts, 3e-9 * (dts / dts[0]) ** 4, "k--", lw=0.8, label="slope 4")
+    floor = max(r["ref_vs_half"] for r in results)
+    ax.axhline(floor, color="0.5", lw=0.8, label="reference vs itself (half its dt)")
+    ax.set_xticks(dts, [f"{dt * 1e3:g} ms" for dt in dts])
+    ax.minorticks_off()
     ax.set_xlabel("plant step dt [s]")
     ax.set_ylabel("max error after 5 s [m, rad]")
     ax.set_title("Open-loop replay vs MuJoCo: error against dt")
@@ -308,8 +312,8 @@ def print_table(b: Bench, repeat: int, target_ms: float) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--repeat", type=int, default=41, help="samples per row (default 41)")
-    ap.add_argument("--target-ms", type=float, default=4.0, help="one sample [ms] (default 4)")
+    ap.add_argument("--repeat", type=int, default=201, help="samples per row (default 201)")
+    ap.add_argument("--target-ms", type=float, default=0.5, help="one sample [ms] (default 0.5)")
     ap.add_argument("--no-accuracy", action="store_true", help="timing rows only")
     ap.add_argument("--plot", type=Path, help="write the error-vs-dt plot (PNG) here")
     args = ap.parse_args(argv)
@@ -323,10 +327,19 @@ def main(argv=None) -> int:
     for r in b.rows:
         if r.fn is not None:
             r.timing = timings[r.key]
-    ratio = timings["ff_semi"].median_us / timings["ff_base"].median_us
-    if ratio > SPEED_TARGET:
-        b.failures.append(f"xArm7 Plant.step {ratio:.2f}x > {SPEED_TARGET}x the baseline")
     print_table(b, args.repeat, args.target_ms)
+    # the target on the median ratio; the lower-quartile ratio is printed too because on a
+    # shared machine load spikes inflate medians (the quartiles of one row then spread widely)
+    med = timings["ff_semi"].median_us / timings["ff_base"].median_us
+    low = timings["ff_semi"].q1_us / timings["ff_base"].q1_us
+    met = "met" if med <= SPEED_TARGET else "MISSED"
+    print("-" * 110)
+    print(
+        f"xArm7 semi-implicit Plant.step / (pin.aba + pin.computeCentroidalMap): {med:.2f}x "
+        f"(medians), {low:.2f}x (lower quartiles); target <= {SPEED_TARGET:g}x: {met}"
+    )
+    if med > SPEED_TARGET:
+        b.failures.append(f"xArm7 Plant.step {med:.2f}x > {SPEED_TARGET:g}x the baseline")
     if not args.no_accuracy:
         results = [
             accuracy("random 7-joint chain", spatial_chain_urdf(7, 3), "base", 3, 2.0),
