@@ -274,7 +274,7 @@ def plot(results: list[dict], path: Path) -> None:
     ax.axhline(floor, color="0.5", lw=0.8, label="reference vs itself (half its dt)")
     ax.set_xticks(dts, [f"{dt * 1e3:g} ms" for dt in dts])
     ax.minorticks_off()
-    ax.set_xlabel("plant step dt [s]")
+    ax.set_xlabel("plant step dt")
     ax.set_ylabel("max error after 5 s [m, rad]")
     ax.set_title("Open-loop replay vs MuJoCo: error against dt")
     ax.grid(True, which="both", lw=0.3)
