@@ -176,6 +176,8 @@ class Plant:
     def advance(self, q, v, u_m, dt: float, substeps: int = 1) -> StepResult:
         """Advance (q, v) by one control step ``dt`` [s] in ``substeps`` plant steps of
         ``dt / substeps``, ``u_m`` [N m] held. ``a`` is the acceleration at the start."""
+        if substeps < 1:
+            raise ParameterError(f"plant: substeps must be >= 1, got {substeps}")
         res = self.step(q, v, u_m, dt if substeps == 1 else dt / substeps)
         a = res.a
         for _ in range(substeps - 1):

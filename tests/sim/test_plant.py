@@ -234,6 +234,8 @@ def test_substeps_converge_first_order(paper_robot, initial):
     assert all(1.6 <= r <= 2.5 for r in ratios), (errors, ratios)
 
 
-def test_bad_integrator(paper_robot):
+def test_bad_integrator_and_substeps(paper_robot, initial):
     with pytest.raises(ParameterError, match="valid choices: 'semi-implicit', 'rk4'"):
         Plant(paper_robot, integrator="RK4")
+    with pytest.raises(ParameterError, match="substeps must be >= 1"):
+        Plant(paper_robot).advance(*initial, np.zeros(4), 1e-3, 0)
