@@ -85,8 +85,9 @@ def mujoco_model(xml: str, root: str = "base") -> mujoco.MjModel:
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.body(root).add_freejoint()
     for joint in spec.joints:  # the URDF's <dynamics damping/friction> are not rigid-body physics
-        joint.damping = joint.stiffness = np.zeros(3)  # (MuJoCo 4: polynomial coefficients)
-        joint.frictionloss = joint.armature = 0.0
+        for attr in ("damping", "stiffness", "frictionloss", "armature"):
+            value = getattr(joint, attr)  # a number, or (MuJoCo 4) polynomial coefficients
+            setattr(joint, attr, np.zeros_like(value) if np.ndim(value) else 0.0)
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.disableflags |= (
         mujoco.mjtDisableBit.mjDSBL_CONTACT
