@@ -1,17 +1,23 @@
-"""The plant: semi-implicit Euler on Pinocchio's ABA, with momentum projection.
+"""The plant: Pinocchio's ABA integrated on the configuration Lie group, with momentum projection.
 
-One step (docs/model.md section 4):
+Planar roots (``JointModelPlanar``: 3 conserved quantities P_x, P_y, L_z) and free-flyer roots
+(``JointModelFreeFlyer``: 6 conserved quantities, the linear momentum P and the angular momentum
+L about the system CoM) are handled alike; the root is read from ``model.joints[1]``.
 
-1. ``a = ABA(q, v, tau)`` with ``tau = (0, 0, 0, u_m)`` (free-floating: no base actuation,
-   zero gravity);
-2. ``v+ = v + dt a``, ``q+ = integrate(q, dt v+)`` (semi-implicit / symplectic Euler on the
-   configuration Lie group, never ``q + v dt``);
-3. projection: the base twist is recomputed from the conserved centroidal momentum at the
-   new configuration, ``A_g,base(q+) v_base = h_0 - A_g,joints(q+) w_m``, so the linear
-   momentum P and the angular momentum L about the CoM are conserved to rounding for any dt.
+One step (docs/model.md section 4), with ``tau = (0, u_m)`` (free-floating: no base actuation,
+zero gravity):
 
-Plain semi-implicit Euler drifts in momentum by O(dt); the projection removes that drift
-without changing the order of accuracy of the trajectory.
+* ``"semi-implicit"`` (default): ``a = ABA(q, v, tau)``, ``v+ = v + dt a``,
+  ``q+ = integrate(q, dt v+)`` (semi-implicit / symplectic Euler on the configuration Lie group,
+  never ``q + v dt``). First order in dt.
+* ``"rk4"``: classical RK4 in the Runge-Kutta-Munthe-Kaas form (:mod:`.integrators`), fourth
+  order in dt for the base pose too.
+
+After either step, the projection: the base twist is recomputed from the conserved centroidal
+momentum at the new configuration, ``A_g,base(q+) v_base = h_0 - A_g,joints(q+) w_m``, so the
+conserved quantities stay exact to rounding for any dt. Plain semi-implicit Euler drifts in
+momentum by O(dt); the projection removes that drift without changing the order of accuracy of
+the trajectory (it moves the state by as much as the integrator's own local error).
 """
 
 from __future__ import annotations
@@ -22,29 +28,53 @@ import numpy as np
 import pinocchio as pin
 from numba import njit
 
-from ..robot import FreeFloatingRobot
+from ..errors import ParameterError, choices_text
+from .integrators import chart_block, gauss_solve, rkmk4_step
 
-_MOMENTUM_ROWS = (0, 1, 5)  # planar: P_x, P_y, L_z of the centroidal momentum
+INTEGRATORS = ("semi-implicit", "rk4")
+
+# root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept)
+_ROOTS = {
+    "JointModelPlanar": (3, np.array([0, 1, 5])),  # P_x, P_y, L_z
+    "JointModelFreeFlyer": (6, np.arange(6)),  # P (inertial frame), L about the CoM
+}
 
 
 @njit(cache=True)
-def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray) -> np.ndarray:
-    """v with its base twist replaced by the solution of
-    ``A_g,base v_base = h0 - A_g,joints v_joints`` on the rows (P_x, P_y, L_z) of A_g.
+def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarray) -> None:
+    """Replace, in place, the base twist of v (its first ``rows.size`` entries) by the solution
+    of ``A_g,base v_base = h0 - A_g,joints v_joints`` on the given rows of A_g.
 
-    Compiled: it is three lines of linear algebra on a 3 x 3 system, which numpy's wrappers
-    make cost more than the rest of the plant step.
+    Compiled: it is a few lines of linear algebra on a 3 x 3 or 6 x 6 system, which numpy's
+    wrappers make cost more than the rest of the plant step. The planar 3 x 3 system goes to
+    LAPACK (as it always did, so planar runs stay bit for bit what they were); the free-flyer
+    6 x 6 one to :func:`~.integrators.gauss_solve`, several times cheaper than LAPACK's
+    wrapper at this size.
     """
-    A = np.empty((3, 3))
+    nb = rows.size
+    A = np.empty((nb, nb))
     rhs = h0.copy()
-    for r, row in enumerate(_MOMENTUM_ROWS):
-        for j in range(3):
+    for r in range(nb):
+        row = rows[r]
+        for j in range(nb):
             A[r, j] = Ag[row, j]
-        for j in range(3, v.size):
+        for j in range(nb, v.size):
             rhs[r] -= Ag[row, j] * v[j]
-    out = v.copy()
-    out[:3] = np.linalg.solve(A, rhs)
-    return out
+    if nb == 3:
+        v[:nb] = np.linalg.solve(A, rhs)
+    else:
+        gauss_solve(A, rhs, v)
+
+
+@njit(cache=True)
+def _euler_velocity(v: np.ndarray, a: np.ndarray, dt: float, out: np.ndarray) -> None:
+    """out = (v + dt a, dt (v + dt a), a): the semi-implicit velocity update, the configuration
+    increment and a copy of a, in one compiled call instead of four numpy operations."""
+    for i in range(v.size):
+        v_new = v[i] + dt * a[i]
+        out[0, i] = v_new
+        out[1, i] = dt * v_new
+        out[2, i] = a[i]
 
 
 class StepResult(NamedTuple):
@@ -55,32 +85,65 @@ class StepResult(NamedTuple):
     a: np.ndarray  # ABA acceleration at the start of the step [nv]
 
 
+def root_kind(model: pin.Model) -> str:
+    """Pinocchio's short name of the root joint: ``"JointModelPlanar"`` or
+    ``"JointModelFreeFlyer"``; anything else is a :class:`ParameterError`."""
+    name = model.joints[1].shortname() if model.njoints > 1 else "none"
+    if name not in _ROOTS:
+        raise ParameterError(
+            f"plant: root joint {name!r} is not free-floating; valid choices: "
+            f"{choices_text(_ROOTS)}"
+        )
+    return name
+
+
 class Plant:
-    """Momentum-exact integrator of a planar free-floating robot.
+    """Momentum-exact integrator of a free-floating robot (planar or free-flyer root).
 
     Parameters
     ----------
     robot:
-        The loaded robot.
+        The loaded robot (anything with a ``model`` attribute), or a ``pin.Model`` with a
+        planar or free-flyer root joint and zero gravity.
+    integrator:
+        ``"semi-implicit"`` (default) or ``"rk4"`` (:data:`INTEGRATORS`).
     project_momentum:
         Apply the momentum projection after each step (default). Switch it off only to
-        measure the drift of plain semi-implicit Euler.
+        measure the drift of the bare integrator.
     """
 
-    def __init__(self, robot: FreeFloatingRobot, *, project_momentum: bool = True):
+    def __init__(
+        self,
+        robot,
+        *,
+        integrator: str = "semi-implicit",
+        project_momentum: bool = True,
+    ):
+        if integrator not in INTEGRATORS:
+            raise ParameterError(
+                f"plant: integrator {integrator!r} unknown; valid choices: "
+                f"{choices_text(INTEGRATORS)}"
+            )
         self.robot = robot
-        self.model = robot.model
+        self.model = robot if isinstance(robot, pin.Model) else robot.model
         self.data = self.model.createData()
+        self.root = root_kind(self.model)
+        self.n_base, self._rows = _ROOTS[self.root]
+        self.integrator = integrator
         self.project_momentum = project_momentum
         self._tau = np.zeros(self.model.nv)
-        self.momentum0: np.ndarray | None = None  # (P_x, P_y, L_z) to conserve
+        self._chart_block = chart_block(self.model)
+        self.momentum0: np.ndarray | None = None  # the conserved rows of h_g
 
     def momentum(self, q, v) -> np.ndarray:
-        """(P_x, P_y, L_z): linear momentum (inertial frame) [kg m/s] and angular momentum
-        about the system CoM [kg m^2/s]."""
+        """The conserved momentum: planar (P_x, P_y, L_z), free-flyer (P, L); P the linear
+        momentum in the inertial frame [kg m/s], L the angular momentum about the system CoM in
+        the inertial frame [kg m^2/s]."""
         pin.computeCentroidalMomentum(self.model, self.data, q, v)
         hg = self.data.hg
-        return np.array([hg.linear[0], hg.linear[1], hg.angular[2]])
+        if self.n_base == 3:
+            return np.array([hg.linear[0], hg.linear[1], hg.angular[2]])
+        return hg.np.copy()
 
     def reset(self, q, v) -> None:
         """Set the momentum to be conserved from the initial state."""
@@ -88,20 +151,44 @@ class Plant:
 
     def acceleration(self, q, v, u_m) -> np.ndarray:
         """Forward dynamics (ABA) with joint torques ``u_m`` [N m] and a free base."""
-        self._tau[3:] = u_m
+        self._tau[self.n_base :] = u_m
         return pin.aba(self.model, self.data, q, v, self._tau).copy()
 
     def step(self, q, v, u_m, dt: float) -> StepResult:
         """Advance (q, v) by ``dt`` [s] with joint torques ``u_m`` held constant."""
         if self.momentum0 is None:
             self.reset(q, v)
-        a = self.acceleration(q, v, u_m)
-        v_new = v + dt * a
-        q_new = pin.integrate(self.model, q, dt * v_new)
+        model, data, tau = self.model, self.data, self._tau
+        tau[self.n_base :] = u_m
+        if self.integrator == "rk4":
+            q_new, v_new, a = rkmk4_step(model, data, q, v, tau, dt, self._chart_block)
+        else:
+            out = np.empty((3, model.nv))  # rows: v+, dt v+, a (fresh: returned as views)
+            _euler_velocity(v, pin.aba(model, data, q, v, tau), dt, out)
+            q_new = pin.integrate(model, q, out[1])
+            v_new, a = out[0], out[2]
         if self.project_momentum:
-            v_new = self.project(q_new, v_new)
+            _project_base(
+                pin.computeCentroidalMap(model, data, q_new), v_new, self.momentum0, self._rows
+            )
         return StepResult(q_new, v_new, a)
 
+    def advance(self, q, v, u_m, dt: float, substeps: int = 1) -> StepResult:
+        """Advance (q, v) by one control step ``dt`` [s] in ``substeps`` plant steps of
+        ``dt / substeps``, ``u_m`` [N m] held. ``a`` is the acceleration at the start."""
+        if substeps < 1:
+            raise ParameterError(f"plant: substeps must be >= 1, got {substeps}")
+        res = self.step(q, v, u_m, dt if substeps == 1 else dt / substeps)
+        a = res.a
+        for _ in range(substeps - 1):
+            res = self.step(res.q, res.v, u_m, dt / substeps)
+        return StepResult(res.q, res.v, a)
+
     def project(self, q, v) -> np.ndarray:
-        """Base twist that restores the conserved momentum at q, joint rates unchanged."""
-        return _project_base(pin.computeCentroidalMap(self.model, self.data, q), v, self.momentum0)
+        """Base twist that restores the conserved momentum at q, joint rates unchanged (a new
+        array; v is not modified)."""
+        out = np.array(v, dtype=float)
+        _project_base(
+            pin.computeCentroidalMap(self.model, self.data, q), out, self.momentum0, self._rows
+        )
+        return out

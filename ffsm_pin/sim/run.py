@@ -335,7 +335,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     record_every = max(1, int(record_every))
     ctrl = setup.controller
     model = setup.model
-    plant = Plant(setup.robot)
+    plant = Plant(setup.robot, integrator=sc.integrator)
     sensor = Sensor(setup.robot, model, full_model=not ctrl.adaptive)  # Pinocchio M, C w
     rec = _Recorder(n_steps // record_every + 2, setup)
     A = rec.arrays
@@ -379,7 +379,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
             break
         final = k == n_steps
         if not final:
-            q_new, v_new, a = plant.step(q, v, out.u_m, dt)
+            q_new, v_new, a = plant.advance(q, v, out.u_m, dt, sc.substeps)
         else:
             a = plant.acceleration(q, v, out.u_m)
         if record:

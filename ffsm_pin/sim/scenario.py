@@ -16,6 +16,7 @@ from ..control.controller import SCHEMES
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
 from ..errors import ParameterError, choices_text
+from .plant import INTEGRATORS
 
 ESTIMATE_KINDS = ("paper", "true", "perturbed", "explicit")
 
@@ -203,8 +204,19 @@ class Scenario:
     name: str = "scenario"
     source: Path | None = None  # the file it was read from, if any
     description: str = ""
+    integrator: str = "semi-implicit"  # plant integrator, one of plant.INTEGRATORS
+    substeps: int = 1  # plant steps per control step dt, joint torque held over dt
 
     def __post_init__(self) -> None:
+        if self.integrator not in INTEGRATORS:
+            raise ParameterError(
+                f"sim.integrator {self.integrator!r} unknown; valid choices: "
+                f"{choices_text(INTEGRATORS)}"
+            )
+        if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool):
+            raise ParameterError(f"sim.substeps must be an integer, got {self.substeps!r}")
+        if self.substeps < 1:
+            raise ParameterError(f"sim.substeps must be >= 1, got {self.substeps}")
         if not (self.dt > 0 and np.isfinite(self.dt)):
             raise ParameterError(f"sim.dt must be > 0, got {self.dt}")
         if not (self.duration > 0 and np.isfinite(self.duration)):

@@ -15,7 +15,8 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
   a funnel entry may be a single number, used for every component;
 * ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
   :class:`~ffsm_pin.control.gains.SingularityPolicy`;
-* ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s].
+* ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
+  (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
 The paper's cases ship as files in ``ffsm_pin/sim/scenarios/`` (:data:`BUILTIN`).
 """
@@ -32,6 +33,7 @@ from typing import Any
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
+from .plant import INTEGRATORS
 from .scenario import (
     ESTIMATE_KINDS,
     SCHEMES,
@@ -104,7 +106,7 @@ SCHEMA: dict[str, Any] = {
         },
         "singularity": {"threshold": _NUM, "max_damped_time": _NUM},
     },
-    "sim": {"duration": _NUM, "dt": _NUM},
+    "sim": {"duration": _NUM, "dt": _NUM, "integrator": _STR, "substeps": _INT},
 }
 _EE_KEYS = {"c": _NUM, "cos": _TERMS, "sin": _TERMS}
 _REQUIRED = ("initial.base_pose", "initial.joints", "reference.ee")
@@ -185,6 +187,7 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
         dt = _number(sim, "dt", "sim", default=1e-3, positive=True)
         if dt > duration:
             raise ScenarioError(f"sim.dt = {dt} is longer than sim.duration = {duration}")
+        integrator, substeps = _integration(sim)
         name = d.get("name") or (src.stem if src is not None else "scenario")
         return Scenario(
             robot=robot,
@@ -196,6 +199,8 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
             name=name,
             source=src,
             description=str(d.get("description", "")),
+            integrator=integrator,
+            substeps=substeps,
         )
     except ScenarioError as exc:
         if src is not None and not str(exc).startswith(str(src)):
@@ -268,12 +273,30 @@ def scenario_to_toml(scenario: Scenario) -> str:
         "[sim]",
         f"duration = {_toml(scenario.duration)}",
         f"dt = {_toml(scenario.dt)}",
+        f"integrator = {_toml(scenario.integrator)}",
+        f"substeps = {scenario.substeps}",
         "",
     ]
     return "\n".join(lines)
 
 
 # ------------------------------------------------------------------------------ sections
+def _integration(sim: Mapping) -> tuple[str, int]:
+    """``[sim] integrator`` (one of plant.INTEGRATORS) and ``substeps`` (a positive integer)."""
+    integrator = _string(sim, "integrator", "sim", default="semi-implicit")
+    if integrator not in INTEGRATORS:
+        raise ScenarioError(
+            f"sim.integrator = {integrator!r} unknown{did_you_mean(integrator, INTEGRATORS)}; "
+            f"valid choices: {choices_text(INTEGRATORS)}"
+        )
+    substeps = sim.get("substeps", 1)
+    if not isinstance(substeps, int) or isinstance(substeps, bool):
+        raise ScenarioError(f"sim.substeps: expected an integer, got {_describe(substeps)}")
+    if substeps < 1:
+        raise ScenarioError(f"sim.substeps = {substeps}: must be >= 1")
+    return integrator, substeps
+
+
 def _robot(sec: Mapping, src: Path | None) -> RobotSpec:
     urdf = _string(sec, "urdf", "robot", default=RobotSpec.urdf)
     base = _string(sec, "base", "robot", default=RobotSpec.base)

@@ -9,6 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from ffsm_pin.errors import ParameterError
 from ffsm_pin.sim.plant import Plant
 from ffsm_pin.state import FloatingBaseState, base_twist_to_local
 
@@ -93,22 +94,28 @@ def test_projection_keeps_joint_rates(paper_robot, initial, rng):
 
 
 # ----------------------------------------------------------------------------- RK4 reference
-def rk4_reference(robot, q0, v0, torque, duration, dt):
+def rk4_reference(robot, q0, v0, torque, duration, dt, hold=None):
     """Classical RK4 on Euclidean coordinates x = (x, y, theta, q_m, vx_w, vy_w, w_b, w_m) with
     the base linear velocity in the inertial frame. Accelerations from Pinocchio's ABA: with
-    v_w = R(theta) v_local, d/dt v_w = R (dv_local/dt + w_b J v_local)."""
+    v_w = R(theta) v_local, d/dt v_w = R (dv_local/dt + w_b J v_local).
+
+    ``hold`` [s] (a multiple of dt): the torque is ``torque`` sampled every ``hold`` and held,
+    as the plant sees a controller's output; every stage of a step uses the held value."""
     model = robot.model
     data = model.createData()
     nq = robot.n_joints + 3
     tau = np.zeros(model.nv)
 
-    def f(t, x):
+    def u_at(t, t_step):
+        return torque(t) if hold is None else torque(math.floor(t_step / hold + 1e-9) * hold)
+
+    def f(t, x, t_step):
         theta = x[2]
         c, s = math.cos(theta), math.sin(theta)
         q = np.concatenate(([x[0], x[1], c, s], x[3:nq]))
         v = x[nq:].copy()
         v[:3] = base_twist_to_local(q, x[nq : nq + 3])
-        tau[3:] = torque(t)
+        tau[3:] = u_at(t, t_step)
         a = pin.aba(model, data, q, v, tau)
         a_lin = a[:2] + v[2] * np.array([-v[1], v[0]])
         acc = a.copy()
@@ -119,10 +126,10 @@ def rk4_reference(robot, q0, v0, torque, duration, dt):
     x = np.concatenate((q0[:2], [math.atan2(q0[3], q0[2])], q0[4:], twist, v0[3:]))
     for k in range(int(round(duration / dt))):
         t = k * dt
-        k1 = f(t, x)
-        k2 = f(t + dt / 2, x + dt / 2 * k1)
-        k3 = f(t + dt / 2, x + dt / 2 * k2)
-        k4 = f(t + dt, x + dt * k3)
+        k1 = f(t, x, t)
+        k2 = f(t + dt / 2, x + dt / 2 * k1, t)
+        k3 = f(t + dt / 2, x + dt / 2 * k2, t)
+        k4 = f(t + dt, x + dt * k3, t)
         x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return x[:nq]  # (x, y, theta, q_m)
 
@@ -144,3 +151,91 @@ def test_first_order_convergence_to_rk4(paper_robot, initial):
     # first order: halving dt halves the error (2), with room for the O(dt^2) remainder
     assert all(1.6 <= r <= 2.5 for r in ratios), (errors, ratios)
     assert errors[-1] < 0.05  # and the error itself is small
+
+
+# ----------------------------------------------------------- accuracy options (rk4, substeps)
+def held(torque, period):
+    """torque(t) sampled every ``period`` [s] and held (zero-order hold)."""
+    return lambda t: torque(math.floor(t / period + 1e-9) * period)
+
+
+def pose_error(robot, q, ref):
+    pose = np.concatenate((q[:2], [math.atan2(q[3], q[2])], q[4:]))
+    diff = pose - ref
+    diff[2] = math.remainder(diff[2], 2 * math.pi)
+    return np.abs(diff).max()
+
+
+def test_rk4_fourth_order_to_rk4_reference(paper_robot, initial):
+    """The Lie-group RK4 (Runge-Kutta-Munthe-Kaas) against the Euclidean RK4 reference: with
+    the torque held every 20 ms, halving dt divides the error by ~16; momentum stays exact."""
+    q0, v0 = initial
+    period = 2e-2
+    torque = held(SmoothTorque(4, seed=11), period)
+    # reference at period / 40 = 5e-4: error ~ (5e-4 / 5e-3)^4 = 1e-4 of the smallest below
+    ref = rk4_reference(paper_robot, q0, v0, torque, 1.0, period / 40, hold=period)
+    scale = np.abs(Plant(paper_robot).momentum(q0, v0)).max()
+    errors = []
+    for dt in (period, period / 2, period / 4):
+        q, _, drift = run(Plant(paper_robot, integrator="rk4"), q0, v0, torque, dt, 1.0)
+        assert np.all(drift <= 1e-10 * scale)
+        errors.append(pose_error(paper_robot, q, ref))
+    ratios = [errors[0] / errors[1], errors[1] / errors[2]]
+    assert all(13.0 <= r <= 19.0 for r in ratios), (errors, ratios)
+
+
+@pytest.mark.parametrize("integrator", ["semi-implicit", "rk4"])
+def test_momentum_drift_large_torques(paper_robot, initial, integrator):
+    """10 s of torques of 50-200 N m peak per joint at dt = 1 ms: drift <= 1e-9 relative."""
+    q0, v0 = initial
+    torque = SmoothTorque(4, seed=3)
+    torque.amplitude *= 10.0
+    plant = Plant(paper_robot, integrator=integrator)
+    q, v, drift = run(plant, q0, v0, torque, 1e-3, 10.0)
+    assert np.abs(v[3:]).max() > 1.0  # the arm is really driven
+    assert np.all(drift <= 1e-9 * np.abs(plant.momentum(q0, v0)).max()), drift
+
+
+def test_advance_is_repeated_steps(paper_robot, initial):
+    """advance(dt, N) is N steps of dt / N with the torque held, and reports the first a."""
+    q0, v0 = initial
+    u = np.array([20.0, -10.0, 5.0, -2.5])
+    for integrator in ("semi-implicit", "rk4"):
+        plant = Plant(paper_robot, integrator=integrator)
+        plant.reset(q0, v0)
+        q, v, a = plant.advance(q0, v0, u, 1e-2, 4)
+        first = plant.step(q0, v0, u, 2.5e-3)
+        q1, v1 = first.q, first.v
+        for _ in range(3):
+            q1, v1, _ = plant.step(q1, v1, u, 2.5e-3)
+        np.testing.assert_array_equal(q, q1)
+        np.testing.assert_array_equal(v, v1)
+        np.testing.assert_array_equal(a, plant.acceleration(q0, v0, u))
+        one = plant.advance(q0, v0, u, 1e-2)  # substeps = 1 is step()
+        np.testing.assert_array_equal(one.q, plant.step(q0, v0, u, 1e-2).q)
+
+
+def test_substeps_converge_first_order(paper_robot, initial):
+    """Semi-implicit with substeps N under a torque held every 4 ms: the error to the RK4
+    reference falls ~N times (the substeps really refine the plant, not the controller)."""
+    q0, v0 = initial
+    period = 4e-3
+    torque = held(SmoothTorque(4, seed=11), period)
+    ref = rk4_reference(paper_robot, q0, v0, torque, 1.0, period / 8, hold=period)
+    errors = []
+    for n in (1, 2, 4):
+        plant = Plant(paper_robot)
+        plant.reset(q0, v0)
+        q, v = q0, v0
+        for k in range(int(round(1.0 / period))):
+            q, v, _ = plant.advance(q, v, torque(k * period), period, n)
+        errors.append(pose_error(paper_robot, q, ref))
+    ratios = [errors[0] / errors[1], errors[1] / errors[2]]
+    assert all(1.6 <= r <= 2.5 for r in ratios), (errors, ratios)
+
+
+def test_bad_integrator_and_substeps(paper_robot, initial):
+    with pytest.raises(ParameterError, match="valid choices: 'semi-implicit', 'rk4'"):
+        Plant(paper_robot, integrator="RK4")
+    with pytest.raises(ParameterError, match="substeps must be >= 1"):
+        Plant(paper_robot).advance(*initial, np.zeros(4), 1e-3, 0)
