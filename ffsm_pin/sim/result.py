@@ -49,6 +49,8 @@ class RunResult:
     stop_time: float | None = None
     stop_cause: str | None = None  # "funnel" | "singular" | "nonfinite" | "estimate"
     stop_funnel: str | None = None  # "b" or "z" when the run stopped at a funnel exit
+    integrator: str = "semi-implicit"  # plant integrator ([sim] integrator)
+    substeps: int = 1  # plant steps per control step ([sim] substeps)
     events: list[str] = field(default_factory=list)
     rhoinf_b: tuple[float, ...] | None = None  # for settle times
     rhoinf_z: tuple[float, ...] | None = None
@@ -125,6 +127,8 @@ class RunResult:
             "description": self.description,
             "dt": self.dt,
             "duration": self.duration,
+            "integrator": self.integrator,
+            "substeps": self.substeps,
             "steps": self.steps,
             "simulated_time": float(s["t"][-1]) if n else 0.0,
             "wall_time_s": self.wall_time_s,

@@ -424,6 +424,8 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
         stop_time=stop_time,
         stop_cause=stop_cause,
         stop_funnel=stop_funnel,
+        integrator=sc.integrator,
+        substeps=sc.substeps,
         events=setup.events + ctrl.events,
         rhoinf_b=sc.controller.funnel_b.rhoinf,
         rhoinf_z=sc.controller.funnel_z.rhoinf,
