@@ -9,9 +9,13 @@ and writes the same HTML as ``Visualizer.static_html()``, without starting a sub
 :func:`serve_replay` starts meshcat's own server (a subprocess), sends the same scene and
 animation, and returns the visualizer; :func:`close_visualizer` stops the server.
 
-The scene: every visual geometry of the URDF (boxes, spheres, cylinders) moved per frame from
-the recorded configuration ``q``, the end-effector reference path (green line) with a moving
-target (green sphere), and the end-effector's actual path (red line).
+The scene: every visual geometry of the URDF (boxes, spheres, cylinders, and the STL/OBJ/DAE
+meshes it names, embedded in the page; see :mod:`ffsm_pin.sim.meshes`) moved per frame to
+Pinocchio's placement ``oMg`` for the recorded configuration ``q``, a box for a root body
+without visuals (the satellite), the end-effector reference path (green line) with a moving
+target (green sphere), and the end-effector's actual path (red line). Planar robots
+(``JointModelPlanar`` root) are drawn in the plane z = 0, spatial ones (``JointModelFreeFlyer``
+root, q = x, y, z, qx, qy, qz, qw, joints) in 3-D.
 """
 
 from __future__ import annotations
@@ -20,11 +24,12 @@ import base64
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
 
-from ..robot import FreeFloatingRobot
+from .meshes import DaeMeshGeometry, ReplayWarning, material, meshcat_object, visual_geometry
 from .result import RunResult
 
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
@@ -38,6 +43,34 @@ with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.ev
 ROOT = "ffsm"  # all objects live under /meshcat/ffsm
 _REFERENCE_COLOR = 0x22AA44
 _PATH_COLOR = 0xCC2222
+_BASE_RGBA = (0.85, 0.7, 0.25, 1.0)  # gold, like the planar robots' base
+BASE_BOX = "base_box"  # node of the box drawn for a root body without visuals
+DEFAULT_BASE_SIZE = (0.5, 0.5, 0.5)  # its size when the robot does not give one [m]
+ROOT_JOINT = 1  # Pinocchio index of the floating root joint
+
+__all__ = [
+    "ReplayRobot",
+    "ReplayWarning",
+    "SceneRecorder",
+    "build_scene",
+    "close_visualizer",
+    "frame_indices",
+    "placements",
+    "serve_replay",
+    "write_replay_html",
+]
+
+
+class ReplayRobot(Protocol):
+    """What the replay needs of a robot (planar ``FreeFloatingRobot``, spatial robots alike).
+
+    Optional attributes: ``urdf_path`` (mesh paths relative to it), ``package_dirs`` or
+    ``mesh_dirs`` (folders holding the packages of ``package://`` mesh paths), ``satellite``
+    with ``size`` (3 edges [m] of the box drawn for a root body without visuals).
+    """
+
+    model: pin.Model
+    urdf_xml: str
 
 
 class SceneRecorder:
@@ -91,15 +124,21 @@ class SceneRecorder:
 
 
 def write_replay_html(
-    robot: FreeFloatingRobot, result: RunResult, path: str | Path, fps: float = 30.0
+    robot: ReplayRobot,
+    result: RunResult,
+    path: str | Path,
+    fps: float = 30.0,
+    *,
+    base_size: Sequence[float] = DEFAULT_BASE_SIZE,
 ) -> Path:
     """Write a self-contained meshcat animation of ``result`` to ``path`` (an .html file).
 
     fps: animation frames per second of simulated time (the run is decimated to it; playback
-    is in real time). Returns the path written.
+    is in real time). base_size: edges [m] of the box drawn at a root body without visuals
+    when the robot gives no satellite size. Returns the path written.
     """
     vis = meshcat.Visualizer(window=SceneRecorder())
-    build_scene(vis, robot, result, fps=fps)
+    build_scene(vis, robot, result, fps=fps, base_size=base_size)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(vis.static_html(), encoding="utf-8")
@@ -107,11 +146,12 @@ def write_replay_html(
 
 
 def serve_replay(
-    robot: FreeFloatingRobot,
+    robot: ReplayRobot,
     result: RunResult | Sequence[RunResult],
     fps: float = 30.0,
     *,
     open_browser: bool = False,
+    base_size: Sequence[float] = DEFAULT_BASE_SIZE,
 ) -> meshcat.Visualizer:
     """Start a live meshcat server, load the scene and play the animation.
 
@@ -125,9 +165,16 @@ def serve_replay(
         spacing = 0.0
         for k, res in enumerate(results):
             name = ROOT if len(results) == 1 else f"{ROOT}_{k + 1}_{_safe(res.scenario_name)}"
-            spacing = max(spacing, _extent(res) + 2.0)
+            spacing = max(spacing, _path_extent(res, _dims(robot.model)) + 4.0)
             build_scene(
-                vis, robot, res, fps=fps, animation=anim, root=name, offset=(0.0, -k * spacing)
+                vis,
+                robot,
+                res,
+                fps=fps,
+                animation=anim,
+                root=name,
+                offset=(0.0, -k * spacing),
+                base_size=base_size,
             )
         vis.set_animation(anim, play=True, repetitions=1)
         if open_browser:
@@ -151,19 +198,26 @@ def close_visualizer(vis: meshcat.Visualizer) -> None:
 
 def build_scene(
     vis: meshcat.Visualizer,
-    robot: FreeFloatingRobot,
+    robot: ReplayRobot,
     result: RunResult,
     *,
     fps: float = 30.0,
     animation: Animation | None = None,
     root: str = ROOT,
     offset: tuple[float, float] = (0.0, 0.0),
+    base_size: Sequence[float] = DEFAULT_BASE_SIZE,
 ) -> Animation:
     """Put the robot, the reference and the paths of ``result`` into ``vis`` and animate them.
 
+    ``robot`` needs ``.model`` (its Pinocchio model, planar or free-flyer root) and
+    ``.urdf_xml``; ``.urdf_path`` and ``.package_dirs`` (or ``.mesh_dirs``), when present, are
+    where mesh files are looked for, and ``.satellite.size`` [m], when present, is the box
+    drawn for a root body without visuals of its own (else ``base_size`` [m]). ``result``
+    needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first).
+
     When ``animation`` is None a new one is made and sent with ``vis.set_animation``;
     otherwise frames are added to it and the caller sends it. The scene is centred on the
-    origin (the camera orbits about it), shifted by ``offset`` [m].
+    origin (the camera orbits about it), shifted by ``offset`` [m] (x, y).
     """
     if fps <= 0:
         raise ValueError(f"fps must be > 0, got {fps}")
@@ -179,56 +233,93 @@ def build_scene(
 
     model = robot.model
     data = model.createData()
-    gmodel = pin.buildGeomFromUrdfString(model, robot.urdf_xml, pin.GeometryType.VISUAL)
+    dims = _dims(model)
+    visuals = visual_geometry(
+        model, robot.urdf_xml, getattr(robot, "urdf_path", None), _mesh_dirs(robot)
+    )
+    gmodel = visuals.geometry_model
     gdata = pin.GeometryData(gmodel)
 
-    center = _center(result)
     group = vis[root]
     shift = np.eye(4)
-    shift[:2, 3] = -center + np.asarray(offset, dtype=float)
+    shift[:dims, 3] = -_center(result, dims)
+    shift[:2, 3] += np.asarray(offset, dtype=float)
     group.set_transform(shift)
 
-    shapes = []
+    drawn = []  # (node name, geometry id)
     for obj in gmodel.geometryObjects:
-        shape = _meshcat_shape(obj)
+        try:
+            shape = meshcat_object(obj)
+        except Exception as exc:  # noqa: BLE001 - a file meshcat cannot read: leave it out
+            shape, why = None, f"cannot be read ({type(exc).__name__}: {exc})"
+        else:
+            why = "is not drawn (only boxes, spheres, cylinders and STL/OBJ/DAE meshes are)"
         if shape is None:
             warnings.warn(
-                f"replay: visual geometry {obj.name!r} ({type(obj.geometry).__name__}) is not "
-                "drawn (only boxes, spheres and cylinders are)",
+                f"replay: visual geometry {obj.name!r} ({type(obj.geometry).__name__}) {why}",
+                ReplayWarning,
                 stacklevel=2,
             )
             continue
-        geom, intrinsic = shape
-        group["robot"][obj.name].set_object(geom, _material(obj.meshColor))
-        shapes.append((len(shapes), obj.name, intrinsic, gmodel.getGeometryId(obj.name)))
+        node = group["robot"][obj.name]
+        if isinstance(shape, DaeMeshGeometry):
+            shape.path = node.path
+            node.window.send(shape)
+        else:
+            node.set_object(shape)
+        drawn.append((obj.name, gmodel.getGeometryId(obj.name)))
 
-    z_e, z_d = np.asarray(result["z_e"]), np.asarray(result["z_e_d"])
-    _line(group["reference"]["path"], z_d[np.isfinite(z_d).all(axis=1)], _REFERENCE_COLOR, 0.005)
-    _line(group["ee_path"], z_e[np.isfinite(z_e).all(axis=1)], _PATH_COLOR, 0.0)
+    base_box = None
+    if not visuals.root_has_visual:
+        size = getattr(getattr(robot, "satellite", None), "size", None)
+        base_box = np.asarray(size if size is not None else base_size, dtype=float)
+        group["robot"][BASE_BOX].set_object(mg.Box(list(base_box)), material(_BASE_RGBA))
+
+    z_e, z_d = np.asarray(result["z_e"], dtype=float), np.asarray(result["z_e_d"], dtype=float)
+    ref_pts, ee_pts = _path_points(z_d, dims, 0.005), _path_points(z_e, dims, 0.0)
+    _line(group["reference"]["path"], ref_pts, _REFERENCE_COLOR)
+    _line(group["ee_path"], ee_pts, _PATH_COLOR)
+    extent = _extent(result, dims, model, data, q[frames[0]], gmodel, gdata, base_box)
     group["reference"]["target"].set_object(
-        mg.Sphere(0.06), mg.MeshLambertMaterial(color=_REFERENCE_COLOR, opacity=0.8)
+        mg.Sphere(min(0.06, 0.02 * extent)),
+        mg.MeshLambertMaterial(color=_REFERENCE_COLOR, opacity=0.8),
     )
+    target_pts = _path_points(z_d, dims, 0.005, decimate=False)
 
     for k, i in enumerate(frames):
-        pin.forwardKinematics(model, data, q[i])
-        pin.updateGeometryPlacements(model, data, gmodel, gdata)
-        poses = {name: gdata.oMg[gid].homogeneous @ intrinsic for _, name, intrinsic, gid in shapes}
+        poses = placements(model, data, gmodel, gdata, q[i])
         target = np.eye(4)
-        target[:2, 3] = z_d[i, :2]
-        target[2, 3] = 0.005
+        target[:3, 3] = target_pts[i]
         with anim.at_frame(group, k) as frame:
-            for name, pose in poses.items():
-                frame["robot"][name].set_transform(pose)
+            for name, gid in drawn:
+                frame["robot"][name].set_transform(poses[gid])
+            if base_box is not None:
+                frame["robot"][BASE_BOX].set_transform(data.oMi[ROOT_JOINT].homogeneous)
             frame["reference"]["target"].set_transform(target)
         if k == 0:  # the still picture before the animation starts
-            for name, pose in poses.items():
-                group["robot"][name].set_transform(pose)
+            for name, gid in drawn:
+                group["robot"][name].set_transform(poses[gid])
+            if base_box is not None:
+                group["robot"][BASE_BOX].set_transform(data.oMi[ROOT_JOINT].homogeneous)
             group["reference"]["target"].set_transform(target)
 
-    _set_camera(vis, _extent(result))
+    _set_camera(vis, extent, dims)
     if own_animation:
         vis.set_animation(anim, play=True, repetitions=1)
     return anim
+
+
+def placements(
+    model: pin.Model,
+    data: pin.Data,
+    gmodel: pin.GeometryModel,
+    gdata: pin.GeometryData,
+    q: np.ndarray,
+) -> list[np.ndarray]:
+    """4x4 placements oMg of every geometry (inertial frame) at configuration ``q``."""
+    pin.forwardKinematics(model, data, q)
+    pin.updateGeometryPlacements(model, data, gmodel, gdata)
+    return [m.homogeneous for m in gdata.oMg]
 
 
 def frame_indices(t: np.ndarray, fps: float) -> np.ndarray:
@@ -244,69 +335,84 @@ def frame_indices(t: np.ndarray, fps: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ helpers
-def _meshcat_shape(obj) -> tuple[mg.Geometry, np.ndarray] | None:
-    """meshcat geometry for a Pinocchio visual object, and the intrinsic transform to apply."""
-    g = obj.geometry
-    kind = type(g).__name__
-    eye = np.eye(4)
-    if kind == "Box":
-        return mg.Box(list(2.0 * np.asarray(g.halfSide))), eye
-    if kind == "Sphere":
-        return mg.Sphere(float(g.radius)), eye
-    if kind == "Cylinder":
-        # meshcat (three.js) cylinders run along y, URDF cylinders along z
-        rot = np.eye(4)
-        rot[:3, :3] = pin.utils.rotate("x", np.pi / 2)
-        return mg.Cylinder(2.0 * float(g.halfLength), float(g.radius)), rot
-    return None
+def _dims(model: pin.Model) -> int:
+    """2 for a planar root joint (the scene lies in z = 0), else 3."""
+    return 2 if model.joints[ROOT_JOINT].shortname() == "JointModelPlanar" else 3
 
 
-def _material(rgba) -> mg.MeshLambertMaterial:
-    rgba = np.clip(np.asarray(rgba, dtype=float), 0.0, 1.0)
-    if rgba.shape != (4,) or np.all(rgba == 0):
-        rgba = np.array([0.6, 0.6, 0.65, 1.0])
-    r, g, b = (int(round(255 * c)) for c in rgba[:3])
-    return mg.MeshLambertMaterial(
-        color=(r << 16) + (g << 8) + b, opacity=float(rgba[3]), transparent=bool(rgba[3] < 1)
-    )
+def _mesh_dirs(robot) -> list:
+    dirs = getattr(robot, "package_dirs", None) or getattr(robot, "mesh_dirs", None) or ()
+    return [dirs] if isinstance(dirs, (str, Path)) else list(dirs)
 
 
-def _line(vis, points: np.ndarray, color: int, z: float) -> None:
+def _path_points(z: np.ndarray, dims: int, plane_z: float, decimate: bool = True) -> np.ndarray:
+    """(n, 3) points of an end-effector signal: x, y, z (planar: at height ``plane_z`` [m]).
+
+    With ``decimate``, non-finite rows are dropped and at most about 2000 points kept."""
+    z = np.asarray(z, dtype=float)
+    if dims == 2:
+        pts = np.column_stack([z[:, :2], np.full(len(z), plane_z)])
+    else:
+        pts = z[:, :3]
+    if decimate:
+        pts = pts[np.isfinite(pts).all(axis=1)]
+        pts = pts[:: max(1, len(pts) // 2000)]
+    return pts
+
+
+def _line(vis, points: np.ndarray, color: int) -> None:
     if len(points) < 2:
         return
-    step = max(1, len(points) // 2000)
-    pts = points[::step, :2]
-    xyz = np.column_stack([pts, np.full(len(pts), z)]).T.astype(np.float32)
+    xyz = np.asarray(points, dtype=np.float32).T
     vis.set_object(mg.Line(mg.PointsGeometry(xyz), mg.LineBasicMaterial(color=color)))
 
 
-def _finite_xy(result: RunResult) -> np.ndarray:
-    pts = [np.asarray(result["q"])[:, :2], np.asarray(result["z_e_d"])[:, :2]]
-    pts.append(np.asarray(result["z_e"])[:, :2])
+def _finite_points(result: RunResult, dims: int) -> np.ndarray:
+    """Base origin and end-effector positions (actual and reference), finite rows only."""
+    pts = [np.asarray(result["q"])[:, :dims], np.asarray(result["z_e_d"])[:, :dims]]
+    pts.append(np.asarray(result["z_e"])[:, :dims])
     xy = np.concatenate(pts)
     return xy[np.isfinite(xy).all(axis=1)]
 
 
-def _center(result: RunResult) -> np.ndarray:
-    xy = _finite_xy(result)
-    if len(xy) == 0:
-        return np.zeros(2)
-    return 0.5 * (xy.min(axis=0) + xy.max(axis=0))
+def _center(result: RunResult, dims: int = 2) -> np.ndarray:
+    pts = _finite_points(result, dims)
+    if len(pts) == 0:
+        return np.zeros(dims)
+    return 0.5 * (pts.min(axis=0) + pts.max(axis=0))
 
 
-def _extent(result: RunResult) -> float:
-    xy = _finite_xy(result)
-    if len(xy) == 0:
-        return 5.0
-    return float(np.max(xy.max(axis=0) - xy.min(axis=0))) + 2.0  # + the base's size
+def _path_extent(result: RunResult, dims: int = 2) -> float:
+    pts = _finite_points(result, dims)
+    return float(np.max(np.ptp(pts, axis=0))) if len(pts) else 3.0
 
 
-def _set_camera(vis: meshcat.Visualizer, extent: float) -> None:
-    """Look down on the plane from slightly below (-y), at a distance fitting ``extent``."""
-    d = 0.55 * extent + 1.0
+def _extent(result, dims, model, data, q0, gmodel, gdata, base_box) -> float:
+    """Size of the scene to frame [m]: the motion plus the robot.
+
+    Planar: the motion + 2 m (the paper's base and arm). Spatial: the motion + twice the
+    robot's reach from its root at the first frame (geometry origins) + the base box."""
+    if dims == 2:
+        return _path_extent(result, dims) + 2.0
+    placements(model, data, gmodel, gdata, q0)
+    root = data.oMi[ROOT_JOINT].translation
+    reach = max((np.linalg.norm(m.translation - root) for m in gdata.oMg), default=0.0)
+    box = float(np.linalg.norm(base_box)) if base_box is not None else 0.0
+    return _path_extent(result, dims) + 2.0 * reach + box + 0.2
+
+
+def _set_camera(vis: meshcat.Visualizer, extent: float, dims: int = 2) -> None:
+    """Planar: look down on the plane from slightly below (-y); spatial: an oblique view from
+    (+x, -y, +z). At a distance fitting ``extent`` [m]."""
     # three.js coordinates of the camera: (x, z_world, -y_world)
     vis["/Cameras/default"].set_transform(np.eye(4))
-    vis["/Cameras/default/rotated/<object>"].set_property("position", [0.0, d, 0.35 * d])
+    if dims == 2:
+        d = 0.55 * extent + 1.0
+        position = [0.0, d, 0.35 * d]
+    else:
+        d = 0.9 * extent + 0.3
+        position = [0.55 * d, 0.45 * d, 0.7 * d]
+    vis["/Cameras/default/rotated/<object>"].set_property("position", position)
 
 
 def _safe(name: str) -> str:
