@@ -410,7 +410,7 @@ def _set_camera(vis: meshcat.Visualizer, extent: float, dims: int = 2) -> None:
         d = 0.55 * extent + 1.0
         position = [0.0, d, 0.35 * d]
     else:
-        d = 0.9 * extent + 0.3
+        d = 0.6 * extent + 0.3
         position = [0.55 * d, 0.45 * d, 0.7 * d]
     vis["/Cameras/default/rotated/<object>"].set_property("position", position)
 
