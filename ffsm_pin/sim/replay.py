@@ -290,7 +290,8 @@ def build_scene(
         poses = placements(model, data, gmodel, gdata, q[i])
         target = np.eye(4)
         target[:3, 3] = target_pts[i]
-        with anim.at_frame(group, k) as frame:
+        # key at the sample's own time (the same as k for runs recorded finer than 1/fps)
+        with anim.at_frame(group, int(round((t[i] - t[0]) * fps))) as frame:
             for name, gid in drawn:
                 frame["robot"][name].set_transform(poses[gid])
             if base_box is not None:
