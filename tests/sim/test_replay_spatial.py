@@ -182,6 +182,11 @@ def test_missing_mesh_warns_once_and_the_rest_is_drawn(tmp_path):
     assert obj["data"] == (DATA / "mesh_pkg/meshes/rod.obj").read_text()
     assert np.allclose(objs[f"{ROBOT}/fore_0"]["object"]["matrix"], np.diag([2.0, 2, 2, 1]).ravel())
     assert objs[f"{ROBOT}/fore_1"]["geometries"][0]["type"] == "SphereGeometry"
+    # URDF cylinders run along z, three.js ones along y: the object's matrix turns y onto z
+    cyl = objs[f"{ROBOT}/fore_2"]
+    assert cyl["geometries"][0]["type"] == "CylinderGeometry"
+    own = np.array(cyl["object"]["matrix"]).reshape(4, 4).T
+    assert np.allclose(own[:3, :3] @ [0, 1, 0], [0, 0, 1]) and np.allclose(own[:3, 3], 0)
     assert not any("nowhere" in p for p in objs)
 
 
