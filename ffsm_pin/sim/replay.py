@@ -241,11 +241,6 @@ def build_scene(
     gdata = pin.GeometryData(gmodel)
 
     group = vis[root]
-    shift = np.eye(4)
-    shift[:dims, 3] = -_center(result, dims)
-    shift[:2, 3] += np.asarray(offset, dtype=float)
-    group.set_transform(shift)
-
     drawn = []  # (node name, geometry id)
     for obj in gmodel.geometryObjects:
         try:
@@ -275,11 +270,28 @@ def build_scene(
         base_box = np.asarray(size if size is not None else base_size, dtype=float)
         group["robot"][BASE_BOX].set_object(mg.Box(list(base_box)), material(_BASE_RGBA))
 
+    # placements of every frame: geometries oMg and the root body oMi [4x4, inertial frame]
+    poses, roots = [], []
+    for i in frames:
+        poses.append(placements(model, data, gmodel, gdata, q[i]))
+        roots.append(data.oMi[ROOT_JOINT].homogeneous)
+
     z_e, z_d = np.asarray(result["z_e"], dtype=float), np.asarray(result["z_e_d"], dtype=float)
     ref_pts, ee_pts = _path_points(z_d, dims, 0.005), _path_points(z_e, dims, 0.0)
     _line(group["reference"]["path"], ref_pts, _REFERENCE_COLOR)
     _line(group["ee_path"], ee_pts, _PATH_COLOR)
-    extent = _extent(result, dims, model, data, q[frames[0]], gmodel, gdata, base_box)
+    if dims == 2:  # the plane's motion, as seen from above
+        center, extent = _center(result, dims), _path_extent(result, dims) + 2.0
+    else:  # the paths and every geometry's origin in every frame
+        origins = np.concatenate([np.reshape(poses, (-1, 4, 4)), roots])[:, :3, 3]
+        pts = np.concatenate([ref_pts, ee_pts, origins])
+        center = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        box = float(np.linalg.norm(base_box)) if base_box is not None else 0.0
+        extent = float(np.max(np.ptp(pts, axis=0))) + box + 0.3
+    shift = np.eye(4)
+    shift[:dims, 3] = -center
+    shift[:2, 3] += np.asarray(offset, dtype=float)
+    group.set_transform(shift)
     group["reference"]["target"].set_object(
         mg.Sphere(min(0.06, 0.02 * extent)),
         mg.MeshLambertMaterial(color=_REFERENCE_COLOR, opacity=0.8),
@@ -287,21 +299,20 @@ def build_scene(
     target_pts = _path_points(z_d, dims, 0.005, decimate=False)
 
     for k, i in enumerate(frames):
-        poses = placements(model, data, gmodel, gdata, q[i])
         target = np.eye(4)
         target[:3, 3] = target_pts[i]
         # key at the sample's own time (the same as k for runs recorded finer than 1/fps)
         with anim.at_frame(group, int(round((t[i] - t[0]) * fps))) as frame:
             for name, gid in drawn:
-                frame["robot"][name].set_transform(poses[gid])
+                frame["robot"][name].set_transform(poses[k][gid])
             if base_box is not None:
-                frame["robot"][BASE_BOX].set_transform(data.oMi[ROOT_JOINT].homogeneous)
+                frame["robot"][BASE_BOX].set_transform(roots[k])
             frame["reference"]["target"].set_transform(target)
         if k == 0:  # the still picture before the animation starts
             for name, gid in drawn:
-                group["robot"][name].set_transform(poses[gid])
+                group["robot"][name].set_transform(poses[k][gid])
             if base_box is not None:
-                group["robot"][BASE_BOX].set_transform(data.oMi[ROOT_JOINT].homogeneous)
+                group["robot"][BASE_BOX].set_transform(roots[k])
             group["reference"]["target"].set_transform(target)
 
     _set_camera(vis, extent, dims)
@@ -388,20 +399,6 @@ def _path_extent(result: RunResult, dims: int = 2) -> float:
     return float(np.max(np.ptp(pts, axis=0))) if len(pts) else 3.0
 
 
-def _extent(result, dims, model, data, q0, gmodel, gdata, base_box) -> float:
-    """Size of the scene to frame [m]: the motion plus the robot.
-
-    Planar: the motion + 2 m (the paper's base and arm). Spatial: the motion + twice the
-    robot's reach from its root at the first frame (geometry origins) + the base box."""
-    if dims == 2:
-        return _path_extent(result, dims) + 2.0
-    placements(model, data, gmodel, gdata, q0)
-    root = data.oMi[ROOT_JOINT].translation
-    reach = max((np.linalg.norm(m.translation - root) for m in gdata.oMg), default=0.0)
-    box = float(np.linalg.norm(base_box)) if base_box is not None else 0.0
-    return _path_extent(result, dims) + 2.0 * reach + box + 0.2
-
-
 def _set_camera(vis: meshcat.Visualizer, extent: float, dims: int = 2) -> None:
     """Planar: look down on the plane from slightly below (-y); spatial: an oblique view from
     (+x, -y, +z). At a distance fitting ``extent`` [m]."""
@@ -411,7 +408,7 @@ def _set_camera(vis: meshcat.Visualizer, extent: float, dims: int = 2) -> None:
         d = 0.55 * extent + 1.0
         position = [0.0, d, 0.35 * d]
     else:
-        d = 0.6 * extent + 0.3
+        d = 1.0 * extent + 0.3  # |(0.55, 0.45, 0.7)| = 1: extent fills ~2/3 of the view
         position = [0.55 * d, 0.45 * d, 0.7 * d]
     vis["/Cameras/default/rotated/<object>"].set_property("position", position)
 

@@ -11,6 +11,7 @@ to it. The numbers are not a closed-loop run.
 from __future__ import annotations
 
 import importlib.metadata as md
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,6 +53,32 @@ def free_flyer(urdf_path: Path, urdf_xml: str | None = None, **kw) -> ArmOnFreeF
 def panda(**kw) -> ArmOnFreeFlyer:
     path = erd_share() / "example-robot-data/robots/panda_description/urdf/panda.urdf"
     return free_flyer(path, package_dirs=(erd_share(),), **kw)
+
+
+def with_satellite(
+    robot: ArmOnFreeFlyer, size=(0.6, 0.6, 0.6), mount_z: float = 0.3, mass: float = 200.0
+) -> ArmOnFreeFlyer:
+    """The arm mounted on a satellite link without visuals (a new root link and a fixed
+    joint in the URDF text, as the spatial loader does), ``satellite.size`` given."""
+    root = ET.fromstring(robot.urdf_xml)
+    children = {c.get("link") for c in root.iter("child")}
+    arm_root = next(e.get("name") for e in root.iter("link") if e.get("name") not in children)
+    inertia = mass * (size[0] ** 2 + size[1] ** 2) / 12.0
+    satellite = ET.fromstring(
+        f'<link name="satellite"><inertial><mass value="{mass}"/>'
+        f'<inertia ixx="{inertia}" iyy="{inertia}" izz="{inertia}" ixy="0" ixz="0" iyz="0"/>'
+        "</inertial></link>"
+    )
+    mount = ET.fromstring(
+        '<joint name="satellite_mount" type="fixed"><parent link="satellite"/>'
+        f'<child link="{arm_root}"/><origin xyz="0 0 {mount_z}" rpy="0 0 0"/></joint>'
+    )
+    root.insert(0, mount)
+    root.insert(0, satellite)
+    xml = ET.tostring(root, encoding="unicode")
+    return free_flyer(
+        robot.urdf_path, xml, package_dirs=robot.package_dirs, satellite=Satellite(tuple(size))
+    )
 
 
 def synthetic_spatial_result(

@@ -146,14 +146,23 @@ def test_paths_and_centring_are_three_dimensional(panda_html):
     assert np.allclose(line_points("/meshcat/ffsm/ee_path"), ee, rtol=1e-6, atol=1e-7)
     target = clips(cmds)["/meshcat/ffsm/reference/target"][".position"]
     assert np.allclose(target[15], result["z_e_d"][150, :3])
-    # the scene's centre (base and end-effector motion, x y z) is moved to the origin
+    # the centre of the scene's box (the paths, every link in every frame) is moved to the
+    # origin: all of it in view of the camera, which orbits about the origin
     shift = next(
         np.array(c["matrix"]).reshape(4, 4).T
         for c in cmds
         if c["type"] == "set_transform" and c["path"] == "/meshcat/ffsm"
     )
-    pts = np.concatenate([result["q"][:, :3], result["z_e"][:, :3], result["z_e_d"][:, :3]])
-    assert np.allclose(shift[:3, 3], -0.5 * (pts.min(axis=0) + pts.max(axis=0)))
+    tracks = clips(cmds)
+    links = [np.array(v[".position"]) for p, v in tracks.items() if p.startswith(ROBOT)]
+    pts = np.concatenate([ref, ee, *links])
+    assert np.allclose(shift[:3, 3], -0.5 * (pts.min(axis=0) + pts.max(axis=0)), atol=1e-6)
+    # the camera looks at the origin from a distance that frames that box
+    camera = next(
+        c["value"] for c in cmds if c["type"] == "set_property" and c["path"].startswith("/Cam")
+    )
+    size = np.ptp(pts, axis=0).max()
+    assert size < np.linalg.norm(camera) < 2.0 * size + 1.0
 
 
 def test_missing_mesh_warns_once_and_the_rest_is_drawn(tmp_path):
