@@ -24,7 +24,7 @@ with warnings.catch_warnings():
     import umsgpack
 
 from ffsm_pin.sim.meshes import ReplayWarning, resolve_mesh
-from ffsm_pin.sim.replay import BASE_BOX, write_replay_html
+from ffsm_pin.sim.replay import BASE_BOX, close_visualizer, serve_replay, write_replay_html
 
 _COMMAND = re.compile(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)')
 ROBOT = "/meshcat/ffsm/robot"
@@ -249,3 +249,22 @@ def test_write_html_starts_no_server(tmp_path, monkeypatch, arm):
     monkeypatch.setattr(meshcat.visualizer, "start_zmq_server_as_subprocess", refuse)
     result = synthetic_spatial_result(arm, "panda_hand_tcp", duration=0.2, dt=0.1)
     assert write_replay_html(arm, result, tmp_path / "r.html").is_file()
+
+
+def test_live_server_gets_the_meshes(arm):
+    """--meshcat: the same scene (DAE meshes included) reaches meshcat's own server."""
+    result = synthetic_spatial_result(arm, "panda_hand_tcp", duration=0.5, dt=0.05)
+    vis = serve_replay(arm, result)
+    proc = vis.window.server_proc
+    try:
+        assert proc.poll() is None
+        served = objects(commands(vis.static_html()))  # the server's own copy of the scene
+    finally:
+        close_visualizer(vis)
+    assert proc.poll() is not None  # no stray server process
+    visuals = pin.buildGeomFromUrdf(
+        arm.model, str(arm.urdf_path), pin.GeometryType.VISUAL, package_dirs=[*arm.package_dirs]
+    )
+    for g in visuals.geometryObjects:
+        obj = served[f"{ROBOT}/{g.name}"]["object"]
+        assert obj["data"] == Path(g.meshPath).read_text(encoding="utf-8")
