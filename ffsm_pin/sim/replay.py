@@ -29,7 +29,16 @@ from typing import Protocol
 import numpy as np
 import pinocchio as pin
 
-from .meshes import DaeMeshGeometry, ReplayWarning, material, meshcat_object, visual_geometry
+from ..errors import ParameterError
+from .meshes import (
+    DaeMeshGeometry,
+    ReplayWarning,
+    compact_mesh,
+    embedded_bytes,
+    material,
+    meshcat_object,
+    visual_geometry,
+)
 from .result import RunResult
 
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
@@ -46,6 +55,7 @@ _PATH_COLOR = 0xCC2222
 _BASE_RGBA = (0.85, 0.7, 0.25, 1.0)  # gold, like the planar robots' base
 BASE_BOX = "base_box"  # node of the box drawn for a root body without visuals
 DEFAULT_BASE_SIZE = (0.5, 0.5, 0.5)  # its size when the robot does not give one [m]
+MAX_MESH_MB = 20.0  # mesh data embedded as the files are up to this size [MB], then compacted
 ROOT_JOINT = 1  # Pinocchio index of the floating root joint
 
 __all__ = [
@@ -130,15 +140,18 @@ def write_replay_html(
     fps: float = 30.0,
     *,
     base_size: Sequence[float] = DEFAULT_BASE_SIZE,
+    max_mesh_mb: float = MAX_MESH_MB,
 ) -> Path:
     """Write a self-contained meshcat animation of ``result`` to ``path`` (an .html file).
 
     fps: animation frames per second of simulated time (the run is decimated to it; playback
     is in real time). base_size: edges [m] of the box drawn at a root body without visuals
-    when the robot gives no satellite size. Returns the path written.
+    when the robot gives no satellite size. max_mesh_mb: mesh data embedded as the files are
+    up to this size [MB] (beyond it, DAE/OBJ meshes go in as binary STL). Returns the path
+    written.
     """
     vis = meshcat.Visualizer(window=SceneRecorder())
-    build_scene(vis, robot, result, fps=fps, base_size=base_size)
+    build_scene(vis, robot, result, fps=fps, base_size=base_size, max_mesh_mb=max_mesh_mb)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(vis.static_html(), encoding="utf-8")
@@ -152,6 +165,7 @@ def serve_replay(
     *,
     open_browser: bool = False,
     base_size: Sequence[float] = DEFAULT_BASE_SIZE,
+    max_mesh_mb: float = MAX_MESH_MB,
 ) -> meshcat.Visualizer:
     """Start a live meshcat server, load the scene and play the animation.
 
@@ -175,6 +189,7 @@ def serve_replay(
                 root=name,
                 offset=(0.0, -k * spacing),
                 base_size=base_size,
+                max_mesh_mb=max_mesh_mb,
             )
         vis.set_animation(anim, play=True, repetitions=1)
         if open_browser:
@@ -206,6 +221,7 @@ def build_scene(
     root: str = ROOT,
     offset: tuple[float, float] = (0.0, 0.0),
     base_size: Sequence[float] = DEFAULT_BASE_SIZE,
+    max_mesh_mb: float = MAX_MESH_MB,
 ) -> Animation:
     """Put the robot, the reference and the paths of ``result`` into ``vis`` and animate them.
 
@@ -214,19 +230,21 @@ def build_scene(
     where mesh files are looked for, and ``.satellite.size`` [m], when present, is the box
     drawn for a root body without visuals of its own (else ``base_size`` [m]). ``result``
     needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first).
+    When the mesh files together exceed ``max_mesh_mb`` [MB], DAE and OBJ meshes are embedded
+    as binary STL in one colour each (:func:`ffsm_pin.sim.meshes.compact_mesh`).
 
     When ``animation`` is None a new one is made and sent with ``vis.set_animation``;
     otherwise frames are added to it and the caller sends it. The scene is centred on the
     origin (the camera orbits about it), shifted by ``offset`` [m] (x, y).
     """
     if fps <= 0:
-        raise ValueError(f"fps must be > 0, got {fps}")
+        raise ParameterError(f"replay: fps must be > 0, got {fps}")
     own_animation = animation is None
     anim = Animation(default_framerate=fps) if own_animation else animation
     t = np.asarray(result["t"], dtype=float)
     q = np.asarray(result["q"], dtype=float)
     if len(t) == 0:
-        raise ValueError("the run has no recorded sample to replay")
+        raise ParameterError("replay: the run has no recorded sample to replay")
     frames = frame_indices(t, fps)
     good = np.all(np.isfinite(q[frames]), axis=1)
     frames = frames[good] if good.any() else frames[:1]
@@ -242,20 +260,7 @@ def build_scene(
 
     group = vis[root]
     drawn = []  # (node name, geometry id)
-    for obj in gmodel.geometryObjects:
-        try:
-            shape = meshcat_object(obj)
-        except Exception as exc:  # noqa: BLE001 - a file meshcat cannot read: leave it out
-            shape, why = None, f"cannot be read ({type(exc).__name__}: {exc})"
-        else:
-            why = "is not drawn (only boxes, spheres, cylinders and STL/OBJ/DAE meshes are)"
-        if shape is None:
-            warnings.warn(
-                f"replay: visual geometry {obj.name!r} ({type(obj.geometry).__name__}) {why}",
-                ReplayWarning,
-                stacklevel=2,
-            )
-            continue
+    for obj, shape in _shapes(gmodel, max_mesh_mb):
         node = group["robot"][obj.name]
         if isinstance(shape, DaeMeshGeometry):
             shape.path = node.path
@@ -319,6 +324,43 @@ def build_scene(
     if own_animation:
         vis.set_animation(anim, play=True, repetitions=1)
     return anim
+
+
+def _shapes(gmodel: pin.GeometryModel, max_mesh_mb: float) -> list:
+    """(geometry object, meshcat object) of every visual that can be drawn; the others
+    warned about. Meshes beyond the size budget compacted to binary STL (one warning)."""
+    shapes = []
+    for obj in gmodel.geometryObjects:
+        try:
+            shape = meshcat_object(obj)
+        except Exception as exc:  # noqa: BLE001 - a file meshcat cannot read: leave it out
+            shape, why = None, f"cannot be read ({type(exc).__name__}: {exc})"
+        else:
+            why = "is not drawn (only boxes, spheres, cylinders and STL/OBJ/DAE meshes are)"
+        if shape is None:
+            warnings.warn(
+                f"replay: visual geometry {obj.name!r} ({type(obj.geometry).__name__}) {why}",
+                ReplayWarning,
+                stacklevel=3,
+            )
+        else:
+            shapes.append((obj, shape))
+    total = sum(embedded_bytes(shape) for _, shape in shapes)
+    if total <= max_mesh_mb * 1e6:
+        return shapes
+    compacted = []
+    for obj, shape in shapes:
+        if Path(obj.meshPath).suffix.lower() in (".dae", ".obj"):
+            shape = compact_mesh(obj)
+        compacted.append((obj, shape))
+    after = sum(embedded_bytes(shape) for _, shape in compacted)
+    warnings.warn(
+        f"replay: the robot's meshes take {total / 1e6:.1f} MB (more than {max_mesh_mb:g} MB): "
+        f"DAE/OBJ meshes embedded as binary STL in one colour each, {after / 1e6:.1f} MB",
+        ReplayWarning,
+        stacklevel=3,
+    )
+    return compacted
 
 
 def placements(

@@ -22,6 +22,7 @@ with warnings.catch_warnings():
     import umsgpack
 
 from ffsm_pin.robot import load_robot
+from ffsm_pin.sim.meshes import ReplayWarning
 from ffsm_pin.sim.replay import SceneRecorder, write_replay_html
 
 
@@ -139,13 +140,20 @@ def test_collada_meshes_are_drawn_like_the_stl_collision_meshes(tmp_path):
     result = synthetic_spatial_result(robot, "panda_hand_tcp", duration=0.0)
     dae_html = write_replay_html(robot, result, tmp_path / "dae.html")
     stl_html = write_replay_html(stl, result, tmp_path / "stl.html")
+    with pytest.warns(ReplayWarning, match="binary STL"):  # the DAE files through trimesh
+        compact_html = write_replay_html(robot, result, tmp_path / "compact.html", max_mesh_mb=1)
     empty = empty_scene(dae_html, tmp_path / "empty.html")
     blank = screenshot(empty, tmp_path / "empty.png", tmp_path / "p0")
     masks = []
-    for html in (dae_html, stl_html):
+    for html in (dae_html, stl_html, compact_html):
         shot = screenshot(html, html.with_suffix(".png"), tmp_path / f"p_{html.stem}")
         masks.append(np.abs(shot - blank).max(axis=2) > 0.1)
-    overlap = (masks[0] & masks[1]).sum() / (masks[0] | masks[1]).sum()
+
+    def overlap(a, b):
+        return (a & b).sum() / (a | b).sum()
+
     assert masks[0].sum() > 3000
     # collision meshes are simplified hulls of the visual ones: not pixel-identical
-    assert overlap > 0.85, f"DAE and STL silhouettes overlap by {overlap:.0%} only"
+    assert overlap(masks[0], masks[1]) > 0.85, f"DAE vs STL: {overlap(masks[0], masks[1]):.0%}"
+    # the same triangles as three.js's Collada reader, only in one colour a mesh
+    assert overlap(masks[0], masks[2]) > 0.95, f"DAE vs compact: {overlap(masks[0], masks[2]):.0%}"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import io
 import re
 import warnings
 from pathlib import Path
@@ -10,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+import trimesh
 from synthetic_spatial import (
     DATA,
     Satellite,
@@ -268,3 +270,29 @@ def test_live_server_gets_the_meshes(arm):
     for g in visuals.geometryObjects:
         obj = served[f"{ROBOT}/{g.name}"]["object"]
         assert obj["data"] == Path(g.meshPath).read_text(encoding="utf-8")
+
+
+def test_meshes_beyond_the_size_budget_go_in_as_binary_stl(arm, panda_html, tmp_path):
+    result, full_html = panda_html
+    with pytest.warns(ReplayWarning, match=r"meshes take 10\.\d MB \(more than 1 MB\)"):
+        path = write_replay_html(arm, result, tmp_path / "small.html", fps=10, max_mesh_mb=1)
+    html = path.read_text(encoding="utf-8")
+    assert len(html) < 0.75 * len(full_html)
+    objs = objects(commands(html))
+    visuals = pin.buildGeomFromUrdf(
+        arm.model, str(arm.urdf_path), pin.GeometryType.VISUAL, package_dirs=[*arm.package_dirs]
+    )
+    for g in visuals.geometryObjects:
+        obj = objs[f"{ROBOT}/{g.name}"]
+        geom = obj["geometries"][0]
+        assert geom["format"] == "stl"
+        stl = trimesh.load(io.BytesIO(geom["data"].data), file_type="stl")
+        # same size, place and orientation as Panda's collision mesh of that link (a hull
+        # of the visual mesh, drawn by Pinocchio's own loader from an independent file)
+        hull = trimesh.load(g.meshPath.replace("/visual/", "/collision/").replace(".dae", ".stl"))
+        assert np.allclose(stl.bounds, hull.bounds, atol=0.02), g.name
+        # one colour, the surface-weighted mean of the file's materials: Panda is white and
+        # light grey, brighter than the grey (0.6, 0.6, 0.65) used when no colour is known
+        color = obj["materials"][0]["color"]
+        rgb = np.array([(color >> 16) & 255, (color >> 8) & 255, color & 255]) / 255
+        assert rgb.min() > 0.68, g.name
