@@ -227,8 +227,9 @@ def build_scene(
 
     ``robot`` needs ``.model`` (its Pinocchio model, planar or free-flyer root) and
     ``.urdf_xml``; ``.urdf_path`` and ``.package_dirs`` (or ``.mesh_dirs``), when present, are
-    where mesh files are looked for, and ``.satellite.size`` [m], when present, is the box
-    drawn for a root body without visuals of its own (else ``base_size`` [m]). ``result``
+    where mesh files are looked for. A root body without visuals of its own is drawn as a box:
+    ``.satellite.size`` [m], when present, centred on the root frame (the satellite link),
+    else ``base_size`` [m] under it (its top face through the root frame's origin). ``result``
     needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first).
     When the mesh files together exceed ``max_mesh_mb`` [MB], DAE and OBJ meshes are embedded
     as binary STL in one colour each (:func:`ffsm_pin.sim.meshes.compact_mesh`).
@@ -269,17 +270,19 @@ def build_scene(
             node.set_object(shape)
         drawn.append((obj.name, gmodel.getGeometryId(obj.name)))
 
-    base_box = None
+    base_box, box_in_root = None, np.eye(4)
     if not visuals.root_has_visual:
         size = getattr(getattr(robot, "satellite", None), "size", None)
         base_box = np.asarray(size if size is not None else base_size, dtype=float)
+        if size is None:  # a bare arm root: the arm stands on the box (top face at z = 0)
+            box_in_root[2, 3] = -0.5 * base_box[2]
         group["robot"][BASE_BOX].set_object(mg.Box(list(base_box)), material(_BASE_RGBA))
 
-    # placements of every frame: geometries oMg and the root body oMi [4x4, inertial frame]
+    # placements of every frame: geometries oMg and the base box [4x4, inertial frame]
     poses, roots = [], []
     for i in frames:
         poses.append(placements(model, data, gmodel, gdata, q[i]))
-        roots.append(data.oMi[ROOT_JOINT].homogeneous)
+        roots.append(data.oMi[ROOT_JOINT].homogeneous @ box_in_root)
 
     z_e, z_d = np.asarray(result["z_e"], dtype=float), np.asarray(result["z_e_d"], dtype=float)
     ref_pts, ee_pts = _path_points(z_d, dims, 0.005), _path_points(z_e, dims, 0.0)

@@ -202,18 +202,20 @@ def test_missing_mesh_warns_once_and_the_rest_is_drawn(tmp_path):
 
 
 def test_root_without_visuals_gets_a_box(tmp_path):
-    """The satellite link has no visual: a box of the satellite's size (or base_size)."""
+    """The satellite link has no visual: a box of the satellite's size centred on it, or of
+    base_size with its top face through the root's origin (the arm stands on it)."""
     bare = free_flyer(DATA / "mesh_arm.urdf", package_dirs=(DATA,))
     sized = free_flyer(DATA / "mesh_arm.urdf", package_dirs=(DATA,), satellite=Satellite((1, 2, 3)))
     result = synthetic_spatial_result(bare, "tool", duration=1.0, dt=0.05)
     data = bare.model.createData()
+    cases = [
+        (sized, {}, [1, 2, 3], 0.0),
+        (bare, {}, [0.5] * 3, -0.25),
+        (bare, {"base_size": (0.7, 0.8, 0.9)}, [0.7, 0.8, 0.9], -0.45),
+    ]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ReplayWarning)
-        for robot, kw, size in [
-            (bare, {}, [0.5] * 3),
-            (sized, {}, [1, 2, 3]),
-            (bare, {"base_size": (0.7, 0.8, 0.9)}, [0.7, 0.8, 0.9]),
-        ]:
+        for robot, kw, size, below in cases:
             cmds = commands(write_replay_html(robot, result, tmp_path / "r.html", **kw).read_text())
             box = objects(cmds)[f"{ROBOT}/{BASE_BOX}"]["geometries"][0]
             assert box["type"] == "BoxGeometry"
@@ -223,7 +225,8 @@ def test_root_without_visuals_gets_a_box(tmp_path):
             assert np.allclose(key_times(cmds, f"{ROBOT}/{BASE_BOX}"), result["t"], atol=0.5 / 30)
             for k in (0, 10, 20):
                 pin.forwardKinematics(bare.model, data, result["q"][k])
-                assert_pose(tracks, k, data.oMi[1].homogeneous)
+                offset = pin.SE3(np.eye(3), np.array([0.0, 0.0, below]))
+                assert_pose(tracks, k, (data.oMi[1] * offset).homogeneous)
 
 
 def test_panda_root_link_has_its_own_visual_so_no_box(panda_html):
