@@ -134,7 +134,8 @@ def meshcat_object(obj: pin.GeometryObject) -> mg.Mesh | DaeMeshGeometry | None:
             if obj.overrideMaterial:  # the URDF gives a colour: it replaces the file's
                 dae.material = material(obj.meshColor)
             return dae
-        geom = mg.StlMeshGeometry.from_file(path) if ext == ".stl" else _obj_geometry(path)
+        reader = mg.StlMeshGeometry if ext == ".stl" else mg.ObjMeshGeometry
+        geom = reader.from_file(str(path))
         return mg.Mesh(_Placed(geom, scale), material(obj.meshColor))
     if kind == "Box":
         return mg.Mesh(mg.Box(list(2.0 * np.asarray(g.halfSide))), material(obj.meshColor))
@@ -215,10 +216,6 @@ class _Placed(mg.Geometry):
     def intrinsic_transform(self) -> np.ndarray:
         # meshcat 0.3 sends this matrix flattened row by row; three.js reads it column by column
         return self.matrix.T
-
-
-def _obj_geometry(path: Path) -> mg.MeshGeometry:
-    return mg.MeshGeometry(path.read_text(encoding="utf-8", errors="replace"), "obj")
 
 
 def _root_link(root: ET.Element) -> str:
