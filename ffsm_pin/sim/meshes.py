@@ -9,8 +9,9 @@ nothing.
 
 :func:`meshcat_object` turns one Pinocchio geometry object into something ``set_object`` can
 send: boxes, spheres and cylinders as meshcat primitives; STL and OBJ meshes as meshcat mesh
-geometries and Collada (DAE) files as Pinocchio's own ``DaeMeshGeometry`` (the file's materials
-are kept), each carrying the file's bytes so the page stays self-contained. The URDF mesh scale
+geometries in the URDF's colour; Collada (DAE) files as Pinocchio's own ``DaeMeshGeometry``
+(the file's materials are kept) or, when the URDF gives a colour, as a mesh geometry in that
+colour; each carrying the file's bytes so the page stays self-contained. The URDF mesh scale
 and the meshcat/URDF axis change of cylinders live in the object's own matrix, so the node's
 transform is exactly Pinocchio's placement ``oMg`` of the geometry.
 """
@@ -128,13 +129,15 @@ def meshcat_object(obj: pin.GeometryObject) -> mg.Mesh | DaeMeshGeometry | None:
     path = Path(obj.meshPath) if obj.meshPath else None
     if path is not None and path.suffix.lower() in _MESH_FORMATS and path.is_file():
         ext = path.suffix.lower()
-        if ext == ".dae":
+        if ext == ".dae" and not obj.overrideMaterial:  # the whole file, its own materials
             dae = DaeMeshGeometry(str(path))
             dae.intrinsic_transform = scale  # column-major = row-major for a diagonal
-            if obj.overrideMaterial:  # the URDF gives a colour: it replaces the file's
-                dae.material = material(obj.meshColor)
             return dae
-        reader = mg.StlMeshGeometry if ext == ".stl" else mg.ObjMeshGeometry
+        # STL, OBJ, and DAE with a URDF colour: the file's triangles in the URDF's material
+        # (meshcat's viewer ignores a material sent with a whole-file Collada object)
+        reader = {".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry}.get(
+            ext, mg.DaeMeshGeometry
+        )
         geom = reader.from_file(str(path))
         return mg.Mesh(_Placed(geom, scale), material(obj.meshColor))
     if kind == "Box":

@@ -198,6 +198,15 @@ def test_missing_mesh_warns_once_and_the_rest_is_drawn(tmp_path):
     assert cyl["geometries"][0]["type"] == "CylinderGeometry"
     own = np.array(cyl["object"]["matrix"]).reshape(4, 4).T
     assert np.allclose(own[:3, :3] @ [0, 1, 0], [0, 0, 1]) and np.allclose(own[:3, 3], 0)
+    # a Collada file with a URDF colour: its triangles in the URDF's material
+    dae = objs[f"{ROBOT}/fore_3"]
+    assert dae["geometries"][0]["format"] == "dae"
+    assert dae["geometries"][0]["data"] == (DATA / "mesh_pkg/meshes/cap.dae").read_text()
+    assert np.allclose(np.reshape(dae["object"]["matrix"], (4, 4)), np.diag([1.0, 2, 0.5, 1]))
+    color = dae["materials"][0]["color"]
+    rgb = np.array([(color >> 16) & 255, (color >> 8) & 255, color & 255]) / 255
+    assert np.allclose(rgb, [0.1, 0.8, 0.2], atol=1 / 255)
+    assert dae["materials"][0]["opacity"] == pytest.approx(0.5)
     assert not any("nowhere" in p for p in objs)
 
 
