@@ -130,9 +130,17 @@ def meshcat_object(obj: pin.GeometryObject) -> mg.Mesh | DaeMeshGeometry | None:
     if path is not None and path.suffix.lower() in _MESH_FORMATS and path.is_file():
         ext = path.suffix.lower()
         if ext == ".dae" and not obj.overrideMaterial:  # the whole file, its own materials
-            dae = DaeMeshGeometry(str(path))
-            dae.intrinsic_transform = scale  # column-major = row-major for a diagonal
-            return dae
+            try:
+                dae = DaeMeshGeometry(str(path))  # textures embedded as data: URLs
+            except UserWarning as exc:  # Pinocchio raises it for a texture it cannot find
+                warnings.warn(
+                    f"replay: {exc} ({path.name}, visual {obj.name!r}): drawn in one colour",
+                    ReplayWarning,
+                    stacklevel=2,
+                )
+            else:
+                dae.intrinsic_transform = scale  # column-major = row-major for a diagonal
+                return dae
         # STL, OBJ, and DAE with a URDF colour: the file's triangles in the URDF's material
         # (meshcat's viewer ignores a material sent with a whole-file Collada object)
         reader = {".stl": mg.StlMeshGeometry, ".obj": mg.ObjMeshGeometry}.get(

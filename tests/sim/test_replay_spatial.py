@@ -308,3 +308,27 @@ def test_meshes_beyond_the_size_budget_go_in_as_binary_stl(arm, panda_html, tmp_
         color = obj["materials"][0]["color"]
         rgb = np.array([(color >> 16) & 255, (color >> 8) & 255, color & 255]) / 255
         assert rgb.min() > 0.68, g.name
+
+
+def test_collada_with_a_missing_texture_is_drawn_in_one_colour(tmp_path):
+    """A texture the DAE file names but nobody has: a warning, the triangles still drawn."""
+    meshes = tmp_path / "mesh_pkg" / "meshes"
+    meshes.mkdir(parents=True)
+    dae = (DATA / "mesh_pkg/meshes/cap.dae").read_text()
+    images = '<library_images><image id="skin"><init_from>skin.png</init_from></image>'
+    (meshes / "cap.dae").write_text(
+        dae.replace("<library_effects>", images + "</library_images><library_effects>", 1)
+    )
+    urdf = (DATA / "mesh_arm.urdf").read_text()
+    urdf = urdf.replace('<material name="green"><color rgba="0.1 0.8 0.2 0.5"/></material>', "")
+    for name in ("block.stl", "rod.obj"):
+        (meshes / name).write_bytes((DATA / "mesh_pkg/meshes" / name).read_bytes())
+    (tmp_path / "arm.urdf").write_text(urdf)
+    robot = free_flyer(tmp_path / "arm.urdf", package_dirs=(tmp_path,))
+    result = synthetic_spatial_result(robot, "tool", duration=0.2, dt=0.1)
+    with pytest.warns(ReplayWarning) as record:
+        html = write_replay_html(robot, result, tmp_path / "r.html").read_text()
+    texture = [str(w.message) for w in record if "skin.png" in str(w.message)]
+    assert len(texture) == 1 and "'fore_3'" in texture[0]
+    geom = objects(commands(html))[f"{ROBOT}/fore_3"]["geometries"][0]
+    assert geom["format"] == "dae" and "skin.png" in geom["data"]
