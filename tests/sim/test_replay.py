@@ -127,3 +127,42 @@ def test_live_server_starts_and_stops(robot):
     finally:
         close_visualizer(vis)
     assert proc.poll() is not None  # no stray server process
+
+
+def test_every_planar_visual_is_at_its_pinocchio_placement(tmp_path, robot):
+    """Node transforms are Pinocchio's oMg; the cylinders' axis change is in their own matrix."""
+    result = synthetic_result(duration=1.0, dt=1e-3)
+    cmds = commands(write_replay_html(robot, result, tmp_path / "r.html", fps=10).read_text())
+    anim = next(c for c in cmds if c["type"] == "set_animation")
+    clips = {a["path"]: a["clip"] for a in anim["animations"]}
+    objects = {c["path"]: c["object"] for c in cmds if c["type"] == "set_object"}
+    visuals = pin.buildGeomFromUrdfString(robot.model, robot.urdf_xml, pin.GeometryType.VISUAL)
+    data, gdata = robot.model.createData(), pin.GeometryData(visuals)
+    q = result["q"][700]  # t = 0.7 s is frame 7 at 10 fps
+    pin.forwardKinematics(robot.model, data, q)
+    pin.updateGeometryPlacements(robot.model, data, visuals, gdata)
+    kinds = set()
+    for obj, placement in zip(visuals.geometryObjects, gdata.oMg, strict=True):
+        path = f"/meshcat/ffsm/robot/{obj.name}"
+        tracks = {t["name"]: t["keys"] for t in clips[path]["tracks"]}
+        x, y, z, w = tracks[".quaternion"][7]["value"]
+        rot = pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()
+        assert np.allclose(tracks[".position"][7]["value"], placement.translation, atol=1e-5)
+        assert np.allclose(rot, placement.rotation, atol=1e-5)
+        kind = type(obj.geometry).__name__
+        kinds.add(kind)
+        own = np.array(objects[path]["object"]["matrix"]).reshape(4, 4).T  # column-major
+        assert np.allclose(own, np.eye(4))  # (cylinders: tests/sim/test_replay_spatial.py)
+    assert kinds == {"Box", "Sphere"}
+    # the planar base has a visual of its own: no extra base box
+    assert "/meshcat/ffsm/robot/base_box" not in objects
+
+
+def test_keys_are_at_the_samples_times_when_recorded_coarser_than_fps(tmp_path, robot):
+    result = synthetic_result(duration=2.0, dt=0.1)  # 10 samples per second, 30 fps
+    cmds = commands(write_replay_html(robot, result, tmp_path / "r.html", fps=30).read_text())
+    anim = next(c for c in cmds if c["type"] == "set_animation")
+    clip = anim["animations"][0]["clip"]
+    keys = next(t["keys"] for t in clip["tracks"] if t["name"] == ".position")
+    times = np.array([k["time"] for k in keys]) / clip["fps"]
+    assert np.allclose(times, result["t"], atol=1e-9)  # real-time playback, not 3x faster
