@@ -1,0 +1,78 @@
+"""Modified Rodrigues parameters (MRP), the attitude coordinates of the spatial model.
+
+``s = e tan(phi / 4)`` for a rotation by ``phi`` [rad] about the unit axis ``e``. Rotation
+matrices map body-frame vectors to the inertial frame (``R = R_inertial_body``), quaternions
+are ``(x, y, z, w)`` as in Pinocchio's configuration vector. Kinematics (docs/spatial.md
+section 5): ``ds/dt = 1/4 B(s) w_body`` with ``B(s) = (1 - s^T s) E + 2 [s]x + 2 s s^T``; with
+the angular velocity in the inertial frame, Eq. (1) reads ``dq_b/dt = L_b w_b`` with
+``L_b = 1/4 B(q_b) R^T``. The shadow set ``-s / (s^T s)`` describes the same attitude; every
+attitude this package reports is on the ``|s| <= 1`` branch.
+
+The functions are rational in ``s`` (no norms, no square roots on the MRP side), so they
+accept complex arguments (complex-step derivatives).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+
+def skew(v) -> np.ndarray:
+    """[v]x, the 3x3 cross-product matrix: ``skew(a) @ b == cross(a, b)``."""
+    x, y, z = v
+    return np.array([[0 * x, -z, y], [z, 0 * x, -x], [-y, x, 0 * x]])
+
+
+def B_matrix(s) -> np.ndarray:
+    """B(s) = (1 - s^T s) E_3 + 2 [s]x + 2 s s^T, with ``ds/dt = 1/4 B(s) w_body``."""
+    s = np.asarray(s)
+    return (1 - s @ s) * np.eye(3) + 2 * skew(s) + 2 * np.outer(s, s)
+
+
+def to_rotation(s) -> np.ndarray:
+    """Rotation matrix (body to inertial) of the MRP ``s``."""
+    s = np.asarray(s)
+    ss = s @ s
+    S = skew(s)
+    return np.eye(3) + (8 * S @ S + 4 * (1 - ss) * S) / (1 + ss) ** 2
+
+
+def shadow(s) -> np.ndarray:
+    """The MRP on the ``|s| <= 1`` branch describing the same attitude as ``s``."""
+    s = np.asarray(s, dtype=float)
+    ss = float(s @ s)
+    return -s / ss if ss > 1.0 else s.copy()
+
+
+def from_quaternion(quat) -> np.ndarray:
+    """MRP (on the ``|s| <= 1`` branch) of a unit quaternion ``(x, y, z, w)``."""
+    x, y, z, w = (float(c) for c in quat)
+    if w < 0:  # -quat is the same rotation; w >= 0 gives |s| <= 1
+        x, y, z, w = -x, -y, -z, -w
+    return np.array([x, y, z]) / (1.0 + w)
+
+
+def to_quaternion(s) -> np.ndarray:
+    """Unit quaternion ``(x, y, z, w)`` of the MRP ``s``."""
+    s = np.asarray(s, dtype=float)
+    ss = float(s @ s)
+    return np.concatenate((2 * s, [1 - ss])) / (1 + ss)
+
+
+def from_rotation(R) -> np.ndarray:
+    """MRP (on the ``|s| <= 1`` branch) of a rotation matrix (body to inertial)."""
+    quat = pin.Quaternion(np.asarray(R, dtype=float))
+    return from_quaternion(quat.coeffs())
+
+
+def from_rpy(rpy) -> np.ndarray:
+    """MRP of roll-pitch-yaw angles [rad] (URDF convention, ``R = Rz(y) Ry(p) Rx(r)``)."""
+    return from_rotation(pin.rpy.rpyToMatrix(*(float(a) for a in rpy)))
+
+
+def L_matrix(s, R=None) -> np.ndarray:
+    """L_b = 1/4 B(s) R^T of Eq. (1) (``dq_b/dt = L_b w_b``, w_b inertial) [1/rad]."""
+    if R is None:
+        R = to_rotation(s)
+    return 0.25 * B_matrix(s) @ np.asarray(R).T
