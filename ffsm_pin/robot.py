@@ -30,7 +30,7 @@ from .errors import (
     did_you_mean,
 )
 
-SUPPORTED_BASES = ("planar",)
+SUPPORTED_BASES = ("planar", "free-flyer")
 _ANGLE_TOL = 1e-9
 
 
@@ -236,8 +236,11 @@ def load_robot(
     *,
     base: str = "planar",
     relative_to: str | Path | None = None,
+    **spatial_options,
 ) -> FreeFloatingRobot:
-    """Load and validate a planar free-floating manipulator.
+    """Load and validate a planar free-floating manipulator (``base="planar"``), or a spatial
+    one (``base="free-flyer"``: returns :func:`ffsm_pin.spatial.load_spatial_robot`'s
+    ``SpatialRobot``; ``spatial_options`` are its ``locked_joints`` and ``satellite``).
 
     Parameters
     ----------
@@ -246,7 +249,7 @@ def load_robot(
     end_effector:
         Name of the end-effector frame (a link or a fixed joint of the URDF).
     base:
-        Root joint type; only ``"planar"`` is supported.
+        Root joint type: ``"planar"`` or ``"free-flyer"``.
     relative_to:
         Directory that relative paths are resolved against (e.g. a scenario file's folder).
 
@@ -257,6 +260,14 @@ def load_robot(
     if base not in SUPPORTED_BASES:
         raise UnsupportedJointError(
             f"base {base!r} is not supported; valid choices: {choices_text(SUPPORTED_BASES)}"
+        )
+    if base == "free-flyer":
+        from .spatial.robot import load_spatial_robot
+
+        return load_spatial_robot(urdf, end_effector, relative_to=relative_to, **spatial_options)
+    if spatial_options:
+        raise UrdfError(
+            f"option(s) {choices_text(spatial_options)} apply only to base 'free-flyer'"
         )
     path = resolve_urdf(urdf, relative_to)
     try:
