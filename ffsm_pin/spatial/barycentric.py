@@ -160,16 +160,16 @@ class SpatialBarycentricModel:
         E[m] = g.ee_position
         V = E - Gbar
         D = np.einsum("i,ikx,ily->klxy", g.masses, W, W)  # D_kl = sum_i m_i W_ik W_il^T
-        Jbar = g.inertias + np.trace(D[np.arange(nb), np.arange(nb)], axis1=1, axis2=2)[
-            :, None, None
-        ] * np.eye(3) - D[np.arange(nb), np.arange(nb)]
+        Jbar = (
+            g.inertias
+            + np.trace(D[np.arange(nb), np.arange(nb)], axis1=1, axis2=2)[:, None, None] * np.eye(3)
+            - D[np.arange(nb), np.arange(nb)]
+        )
         self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
         self._P = len(self._K)
         rows, cols = zip(*_SYM6)
         self.theta_d = read_only(
-            np.concatenate(
-                (Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1))
-            )
+            np.concatenate((Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1)))
         )
         self.barycentric_W = read_only(W)
         self.barycentric_V = read_only(V)

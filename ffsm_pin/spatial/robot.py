@@ -230,7 +230,9 @@ def resolve_spatial_urdf(
 # ---------------------------------------------------------------------------- XML edits
 def _root_links(root: ET.Element) -> list[str]:
     links = [link.get("name") for link in root.findall("link")]
-    children = {j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None}
+    children = {
+        j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None
+    }
     return [name for name in links if name not in children]
 
 
@@ -465,4 +467,3 @@ def load_spatial_robot(
         locked_joints=locked,
         package_dirs=package_dirs,
     )
-

@@ -42,8 +42,10 @@ def reaction_torque(M_bb, M_bb_dot, w_b, w_b_dot) -> np.ndarray:
     """
     M_bb = np.asarray(M_bb)
     w_b = np.asarray(w_b)
-    return M_bb @ np.asarray(w_b_dot) + 0.5 * (np.asarray(M_bb_dot) @ w_b) + 0.5 * np.cross(
-        w_b, M_bb @ w_b
+    return (
+        M_bb @ np.asarray(w_b_dot)
+        + 0.5 * (np.asarray(M_bb_dot) @ w_b)
+        + 0.5 * np.cross(w_b, M_bb @ w_b)
     )
 
 

@@ -62,7 +62,9 @@ def spatial_chain(tmp_path_factory):
     def make(n_links: int, seed: int = 0):
         key = (n_links, seed)
         if key not in cache:
-            path = write_urdf(random_spatial_chain(n_links, seed), folder / f"c{n_links}_{seed}.urdf")
+            path = write_urdf(
+                random_spatial_chain(n_links, seed), folder / f"c{n_links}_{seed}.urdf"
+            )
             cache[key] = load_spatial_robot(path, "ee")
         return cache[key]
 

@@ -77,9 +77,7 @@ def test_Y_d_against_aba(spatial_chain, spatial_state, seed, n):
     """Y_d theta_d = M s1 - dM/dt s2 + C w with s1 = dw/dt from ABA and s2 = 0 gives (0, u)."""
     robot, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
     u = rng.normal(scale=10.0, size=n)
-    a = pin.aba(
-        robot.model, robot.model.createData(), s.q, s.v, np.concatenate((np.zeros(6), u))
-    )
+    a = pin.aba(robot.model, robot.model.createData(), s.q, s.v, np.concatenate((np.zeros(6), u)))
     w_dot = s.acceleration_to_w_dot(a)
     Yd = bm.Y_d(s.base_attitude, s.joint_angles, s.w, w_dot, np.zeros(n + 3))
     scale = max(np.abs(s.M).max() * np.abs(w_dot).max(), np.abs(u).max())
