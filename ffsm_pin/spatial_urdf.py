@@ -172,7 +172,7 @@ def _xyz(v) -> str:
 
 def inertial_xml(body: SpatialBody, indent: str = "    ") -> str:
     """The ``<inertial>`` element of ``body``."""
-    attrs = " ".join(f'{k}="{v!r}"' for k, v in zip(_INERTIA_KEYS, body.inertia))
+    attrs = " ".join(f'{k}="{v!r}"' for k, v in zip(_INERTIA_KEYS, body.inertia, strict=True))
     return (
         f"{indent}<inertial>\n"
         f'{indent}  <origin xyz="{_xyz(body.com)}" rpy="0 0 0"/>\n'

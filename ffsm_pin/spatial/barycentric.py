@@ -167,7 +167,7 @@ class SpatialBarycentricModel:
         )
         self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
         self._P = len(self._K)
-        rows, cols = zip(*_SYM6)
+        rows, cols = zip(*_SYM6, strict=True)
         self.theta_d = read_only(
             np.concatenate((Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1)))
         )
@@ -227,7 +227,7 @@ class SpatialBarycentricModel:
         if hit is not None:
             return hit
         dtype = np.result_type(q_b, q_m, float)
-        nb, n = self._nb, self.n_joints
+        nb = self._nb
         R = np.empty((nb, 3, 3), dtype=dtype)
         R[0] = mrp.to_rotation(q_b)
         c, s = np.cos(q_m), np.sin(q_m)

@@ -247,7 +247,10 @@ def _add_satellite(root: ET.Element, sat: Satellite, arm_root: str, source: str)
     ET.SubElement(
         inertial,
         "inertia",
-        **{k: repr(v) for k, v in zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), sat.inertia)},
+        **{
+            k: repr(v)
+            for k, v in zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), sat.inertia, strict=True)
+        },
     )
     visual = ET.SubElement(link, "visual")
     geometry = ET.SubElement(visual, "geometry")

@@ -56,7 +56,7 @@ def test_kinematics_against_finite_differences(rng):
         w = rng.normal(size=3)
         s = mrp.from_rotation(R)
 
-        def f(t):
+        def f(t, w=w, R=R):
             return mrp.from_rotation(pin.exp3(w * t) @ R)
 
         fd = (8 * (f(h) - f(-h)) - (f(2 * h) - f(-2 * h))) / (12 * h)
