@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     timed = {}
     for name, fn in rows.items():
         if name.startswith(("barycentric", "controller")):
-            timed[name] = lambda fn=fn: (bm._memo.clear(), fn())
+            timed[name] = lambda fn=fn: (bm._memo.clear(), bm._memo_fast.clear(), fn())
         else:
             timed[name] = fn
     res = time_interleaved(timed, repeat=args.repeat, target_s=args.target_ms * 1e-3)

@@ -44,6 +44,7 @@ import numpy as np
 
 from .._arrays import read_only
 from ..errors import ParameterError
+from . import _kernels as kern
 from . import mrp
 from .robot import SpatialGeometry
 from .state import reaction_torque as _reaction_torque
@@ -133,12 +134,20 @@ class SpatialBarycentricModel:
     Method names and argument order are those of the planar
     :class:`ffsm_pin.barycentric.BarycentricModel` (the shared interface is
     :class:`ffsm_pin.reduced_model.ReducedModel`).
+
+    ``backend="numba"`` (default) evaluates real arguments with the compiled kernels of
+    :mod:`ffsm_pin.spatial._kernels`; ``"numpy"`` uses the vectorised numpy reference (also used
+    for complex arguments).
     """
 
     m2 = 3  # end-effector position components
     m3 = 3  # attitude components (MRP)
 
-    def __init__(self, geometry: SpatialGeometry):
+    def __init__(self, geometry: SpatialGeometry, *, backend: str = "numba"):
+        if backend not in ("numba", "numpy"):
+            raise ParameterError(f"backend {backend!r} is not one of 'numba', 'numpy'")
+        self.backend = backend
+        self._numba = backend == "numba"
         g = geometry
         n = g.n_joints
         nb = n + 1
@@ -184,6 +193,10 @@ class SpatialBarycentricModel:
         self._below = (np.arange(nb)[None, :] >= np.arange(1, n + 1)[:, None]).astype(float)
         self._after = (np.arange(n)[None, :] > np.arange(n)[:, None]).astype(float)
         self._memo: dict = {}
+        self._memo_fast: dict = {}
+        self._joint_rot_c = np.ascontiguousarray(self._joint_rot, dtype=float)
+        self._axes_c = np.ascontiguousarray(self._axes, dtype=float)
+        self._Vc = np.ascontiguousarray(V, dtype=float)
 
     # ------------------------------------------------------------------ sizes, truth
     @property
@@ -246,6 +259,25 @@ class SpatialBarycentricModel:
             self._memo.clear()
         self._memo[key] = out
         return out
+
+    def _use_fast(self, *args) -> bool:
+        return self._numba and not any(np.iscomplexobj(x) for x in args)
+
+    def _rz(self, q_b, q_m):
+        """(R, z) from the compiled kinematics (real arguments), memoised like kinematics()."""
+        q_b = np.ascontiguousarray(q_b, dtype=float)
+        q_m = np.ascontiguousarray(q_m, dtype=float)
+        key = (q_b.tobytes(), q_m.tobytes())
+        hit = self._memo_fast.get(key)
+        if hit is not None:
+            return hit
+        R = np.empty((self._nb, 3, 3))
+        z = np.empty((self.n_joints, 3))
+        kern.kinematics(q_b, q_m, self._joint_rot_c, self._axes_c, R, z)
+        if len(self._memo_fast) >= 4:
+            self._memo_fast.clear()
+        self._memo_fast[key] = (R, z)
+        return R, z
 
     def _s_matrix(self, z, mask=None):
         """S (..., n+1, 3, n+3) from joint axes z (..., n, 3)."""
@@ -364,6 +396,18 @@ class SpatialBarycentricModel:
         1/4 B(q_e) R_e^T S_m w (parameter-free).
         """
         theta_z = self._check(theta_z, self.n_z, "theta_z")
+        if self._use_fast(theta_z, q_b, q_m):
+            R, z = self._rz(q_b, q_m)
+            J = np.empty((6, self._N))
+            V = np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3))
+            kern.position_jacobian(R, z, V, J[:3])
+            m = self.geometry.ee_body
+            R_e = R[m] @ self._ee_rot
+            S_m = np.zeros((3, self._N))
+            S_m[:, :3] = np.eye(3)
+            S_m[:, 3 : 3 + m] = z[:m].T
+            J[3:] = mrp.L_matrix(mrp.from_rotation(R_e), R_e) @ S_m
+            return J[:, :3], J[:, 3:]
         kin = self.kinematics(q_b, q_m)
         r = np.einsum("kxy,ky->kx", kin.R, theta_z[3:].reshape(self._nb, 3))
         J = np.empty((6, self._N), dtype=np.result_type(r, kin.S))
@@ -376,6 +420,11 @@ class SpatialBarycentricModel:
 
         Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
         """
+        if self._use_fast(q_b, q_m, w):
+            R, z = self._rz(q_b, q_m)
+            Y = np.zeros((6, self.n_z))
+            kern.y_z(R, z, np.ascontiguousarray(w, dtype=float), Y[:3])
+            return Y
         kin = self.kinematics(q_b, q_m)
         om = kin.S @ np.asarray(w, dtype=float)
         Y = np.zeros((6, self.n_z))
@@ -392,6 +441,11 @@ class SpatialBarycentricModel:
     def mass_matrix(self, theta_d, q_b, q_m) -> np.ndarray:
         """M(q, theta_d) of Eq. (9a), (n+3) x (n+3)."""
         theta_d = self._check(theta_d, self.n_d, "theta_d")
+        if self._use_fast(theta_d, q_b, q_m):
+            R, z = self._rz(q_b, q_m)
+            M = np.empty((self._N, self._N))
+            kern.mass_matrix(R, z, np.ascontiguousarray(theta_d), M)
+            return M
         kin = self.kinematics(q_b, q_m)
         return self._mass_core(kin.R, kin.S, theta_d)
 
@@ -404,13 +458,26 @@ class SpatialBarycentricModel:
 
     def Y_M(self, q_b, q_m, a) -> np.ndarray:
         """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+3, n_d)."""
+        if self._use_fast(q_b, q_m, a):
+            R, z = self._rz(q_b, q_m)
+            Y = np.empty((self._N, self.n_d))
+            kern.ym(R, z, np.ascontiguousarray(a, dtype=float), Y, False)
+            return Y
         kin = self.kinematics(q_b, q_m)
         return self._ym_core(kin.R, kin.S, np.asarray(a))
 
     def velocity_regressors(self, q_b, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
         """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`."""
-        w = np.asarray(w, dtype=float)
-        s_vec = np.asarray(s_vec, dtype=float)
+        w = np.ascontiguousarray(w, dtype=float)
+        s_vec = np.ascontiguousarray(s_vec, dtype=float)
+        if self._use_fast(q_b, q_m):
+            R, z, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
+            Y_Mdot = np.empty((self._N, self.n_d))
+            Y_h = np.empty((self._N, self.n_d))
+            kern.ym_rate(Rc, zc, s_vec, Yc, Y_Mdot)
+            kern.ym_rate(Rc, zc, w, Yc, Y_h)
+            kern.subtract_dT(R, z, w, Y_h)
+            return Y_Mdot, Y_h
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, w)
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
@@ -422,9 +489,21 @@ class SpatialBarycentricModel:
         Y_h[3:] -= dT
         return Y_Mdot, Y_h
 
+    def _fast_motion(self, q_b, q_m, w):
+        R, z = self._rz(q_b, q_m)
+        Rc = np.empty((self._nb, 3, 3), dtype=complex)
+        zc = np.empty((self.n_joints, 3), dtype=complex)
+        kern.motion_step(R, z, w, Rc, zc)
+        return R, z, Rc, zc, np.empty((self._N, self.n_d), dtype=complex)
+
     def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
         """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
-        w = np.asarray(w, dtype=float)
+        w = np.ascontiguousarray(w, dtype=float)
+        if self._use_fast(q_b, q_m):
+            _, _, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
+            Y = np.empty((self._N, self.n_d))
+            kern.ym_rate(Rc, zc, np.ascontiguousarray(s_vec, dtype=float), Yc, Y)
+            return Y
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, w)
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
@@ -432,6 +511,13 @@ class SpatialBarycentricModel:
 
     def Y_h(self, q_b, q_m, w) -> np.ndarray:
         """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
+        w = np.ascontiguousarray(w, dtype=float)
+        if self._use_fast(q_b, q_m):
+            R, z, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
+            Y_h = np.empty((self._N, self.n_d))
+            kern.ym_rate(Rc, zc, w, Yc, Y_h)
+            kern.subtract_dT(R, z, w, Y_h)
+            return Y_h
         return self.velocity_regressors(q_b, q_m, w, np.zeros(self._N))[1]
 
     def Y_T(self, q_b, q_m, w) -> np.ndarray:
@@ -465,7 +551,13 @@ class SpatialBarycentricModel:
         """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (3, n_b)."""
         Y = np.empty((3, self.n_b))
         Y[:, :3] = -np.eye(3)
-        Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]
+        if self._use_fast(q_b, q_m, w):
+            R, z = self._rz(q_b, q_m)
+            rows = np.empty((3, self.n_d))
+            kern.ym(R, z, np.ascontiguousarray(w, dtype=float), rows, True)
+            Y[:, 3:] = rows
+        else:
+            Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]
         return Y
 
     def momentum_matrices(self, theta_b, q_b, q_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
