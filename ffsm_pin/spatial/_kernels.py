@@ -18,7 +18,7 @@ from numba import njit
 H_STEP = 1e-20  # complex step
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mm(A, B, out):
     """out = A @ B for 3x3 (no BLAS call)."""
     for i in range(3):
@@ -26,7 +26,7 @@ def _mm(A, B, out):
             out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mmt(A, B, out):
     """out = A @ B^T for 3x3."""
     for i in range(3):
@@ -73,7 +73,7 @@ def body_rates(z, a, out):
             out[k, i] = out[k - 1, i] + z[k - 1, i] * a[2 + k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _add_st(Y, col, k, z, x0, x1, x2, base_only):
     """Y[:, col] += S_k^T x."""
     Y[0, col] += x0
@@ -350,3 +350,53 @@ def y_z(R, z, w, Y):
             Y[0, c] = o1 * r2 - o2 * r1
             Y[1, c] = o2 * r0 - o0 * r2
             Y[2, c] = o0 * r1 - o1 * r0
+
+
+@njit(cache=True)
+def attitude_rows(R_m, ee_rot, z, m, out):
+    """Rows 4-6 of Eq. (3): out (3, N) = 1/4 B(q_e) R_e^T S_m with R_e = R_m ee_rot and q_e
+    its MRP on the |s| <= 1 branch (quaternion by Shepperd's method, w >= 0). Returns q_e."""
+    Re = np.empty((3, 3))
+    _mm(R_m, ee_rot, Re)
+    tr = Re[0, 0] + Re[1, 1] + Re[2, 2]
+    if tr > 0.0:
+        t = np.sqrt(tr + 1.0) * 2.0
+        qw, qx = 0.25 * t, (Re[2, 1] - Re[1, 2]) / t
+        qy, qz = (Re[0, 2] - Re[2, 0]) / t, (Re[1, 0] - Re[0, 1]) / t
+    elif Re[0, 0] > Re[1, 1] and Re[0, 0] > Re[2, 2]:
+        t = np.sqrt(1.0 + Re[0, 0] - Re[1, 1] - Re[2, 2]) * 2.0
+        qw, qx = (Re[2, 1] - Re[1, 2]) / t, 0.25 * t
+        qy, qz = (Re[0, 1] + Re[1, 0]) / t, (Re[0, 2] + Re[2, 0]) / t
+    elif Re[1, 1] > Re[2, 2]:
+        t = np.sqrt(1.0 + Re[1, 1] - Re[0, 0] - Re[2, 2]) * 2.0
+        qw, qx = (Re[0, 2] - Re[2, 0]) / t, (Re[0, 1] + Re[1, 0]) / t
+        qy, qz = 0.25 * t, (Re[1, 2] + Re[2, 1]) / t
+    else:
+        t = np.sqrt(1.0 + Re[2, 2] - Re[0, 0] - Re[1, 1]) * 2.0
+        qw, qx = (Re[1, 0] - Re[0, 1]) / t, (Re[0, 2] + Re[2, 0]) / t
+        qy, qz = (Re[1, 2] + Re[2, 1]) / t, 0.25 * t
+    if qw < 0.0:
+        qw, qx, qy, qz = -qw, -qx, -qy, -qz
+    s = np.empty(3)
+    s[0], s[1], s[2] = qx / (1.0 + qw), qy / (1.0 + qw), qz / (1.0 + qw)
+    ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
+    B = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            B[i, j] = 2.0 * s[i] * s[j]
+        B[i, i] += 1.0 - ss
+    B[0, 1] -= 2.0 * s[2]
+    B[0, 2] += 2.0 * s[1]
+    B[1, 0] += 2.0 * s[2]
+    B[1, 2] -= 2.0 * s[0]
+    B[2, 0] -= 2.0 * s[1]
+    B[2, 1] += 2.0 * s[0]
+    L = np.empty((3, 3))
+    _mmt(B, Re, L)
+    out[:] = 0.0
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = 0.25 * L[i, j]
+        for j in range(m):
+            out[i, 3 + j] = 0.25 * (L[i, 0] * z[j, 0] + L[i, 1] * z[j, 1] + L[i, 2] * z[j, 2])
+    return s

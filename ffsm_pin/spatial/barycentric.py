@@ -196,6 +196,7 @@ class SpatialBarycentricModel:
         self._memo_fast: dict = {}
         self._joint_rot_c = np.ascontiguousarray(self._joint_rot, dtype=float)
         self._axes_c = np.ascontiguousarray(self._axes, dtype=float)
+        self._ee_rot_c = np.ascontiguousarray(self._ee_rot, dtype=float)
         self._Vc = np.ascontiguousarray(V, dtype=float)
 
     # ------------------------------------------------------------------ sizes, truth
@@ -402,11 +403,7 @@ class SpatialBarycentricModel:
             V = np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3))
             kern.position_jacobian(R, z, V, J[:3])
             m = self.geometry.ee_body
-            R_e = R[m] @ self._ee_rot
-            S_m = np.zeros((3, self._N))
-            S_m[:, :3] = np.eye(3)
-            S_m[:, 3 : 3 + m] = z[:m].T
-            J[3:] = mrp.L_matrix(mrp.from_rotation(R_e), R_e) @ S_m
+            kern.attitude_rows(R[m], self._ee_rot_c, z, m, J[3:])
             return J[:, :3], J[:, 3:]
         kin = self.kinematics(q_b, q_m)
         r = np.einsum("kxy,ky->kx", kin.R, theta_z[3:].reshape(self._nb, 3))
