@@ -45,7 +45,9 @@ def kinematics(s, q_m, joint_rot, axes, R, z):
     d = (1.0 + ss) ** 2
     for i in range(3):
         for j in range(3):
-            R[0, i, j] = (1.0 if i == j else 0.0) + (8.0 * S2[i, j] + 4.0 * (1.0 - ss) * S[i, j]) / d
+            R[0, i, j] = (1.0 if i == j else 0.0) + (
+                8.0 * S2[i, j] + 4.0 * (1.0 - ss) * S[i, j]
+            ) / d
     U = np.zeros((3, 3))
     U2 = np.empty((3, 3))
     rot = np.empty((3, 3))
@@ -156,12 +158,14 @@ def ym(R, z, a, Y, base_only):
 
 
 @njit(cache=True)
-def energy(R, z, w, out):
-    """Row with out . theta_d = T = 1/2 w^T M w."""
+def energy(R, z, w, out, first):
+    """Row with out . theta_d = T = 1/2 w^T M w; the entries of bodies and pairs entirely
+    below body ``first`` are left out (zeros; used for derivatives that vanish there)."""
     nb = R.shape[0]
+    out[:] = 0.0
     om = np.zeros((nb, 3), dtype=R.dtype)
     body_rates(z, w, om)
-    for k in range(nb):
+    for k in range(first, nb):
         Rk = R[k]
         b0 = Rk[0, 0] * om[k, 0] + Rk[1, 0] * om[k, 1] + Rk[2, 0] * om[k, 2]
         b1 = Rk[0, 1] * om[k, 0] + Rk[1, 1] * om[k, 1] + Rk[2, 1] * om[k, 2]
@@ -179,6 +183,9 @@ def energy(R, z, w, out):
     for k in range(nb):
         Rk = R[k]
         for l in range(k + 1, nb):
+            if l < first:
+                col += 9
+                continue
             Rl = R[l]
             dot = om[k, 0] * om[l, 0] + om[k, 1] * om[l, 1] + om[k, 2] * om[l, 2]
             for i in range(3):
@@ -253,7 +260,7 @@ def subtract_dT(R, z, w, Y_h):
                 zc[i2, 2] = r2 + 1j * h * (a0 * r1 - a1 * r0)
             else:
                 zc[i2, 0], zc[i2, 1], zc[i2, 2] = r0, r1, r2
-        energy(Rc, zc, wc, e)
+        energy(Rc, zc, wc, e, jj + 1)  # bodies below jj + 1 do not move with q_jj
         for c in range(nd):
             Y_h[3 + jj, c] -= e[c].imag / h
 
