@@ -26,8 +26,15 @@ def skew(v) -> np.ndarray:
 
 def B_matrix(s) -> np.ndarray:
     """B(s) = (1 - s^T s) E_3 + 2 [s]x + 2 s s^T, with ``ds/dt = 1/4 B(s) w_body``."""
-    s = np.asarray(s)
-    return (1 - s @ s) * np.eye(3) + 2 * skew(s) + 2 * np.outer(s, s)
+    s0, s1, s2 = (x.item() if hasattr(x, "item") else x for x in s)
+    d = 1 - (s0 * s0 + s1 * s1 + s2 * s2)
+    return np.array(
+        [
+            [d + 2 * s0 * s0, 2 * (s0 * s1 - s2), 2 * (s0 * s2 + s1)],
+            [2 * (s1 * s0 + s2), d + 2 * s1 * s1, 2 * (s1 * s2 - s0)],
+            [2 * (s2 * s0 - s1), 2 * (s2 * s1 + s0), d + 2 * s2 * s2],
+        ]
+    )
 
 
 def to_rotation(s) -> np.ndarray:

@@ -45,7 +45,7 @@ def reaction_torque(M_bb, M_bb_dot, w_b, w_b_dot) -> np.ndarray:
     return (
         M_bb @ np.asarray(w_b_dot)
         + 0.5 * (np.asarray(M_bb_dot) @ w_b)
-        + 0.5 * np.cross(w_b, M_bb @ w_b)
+        + 0.5 * (mrp.skew(w_b) @ (M_bb @ w_b))
     )
 
 
@@ -61,6 +61,7 @@ class SpatialState:
         self._fid = robot.ee_frame_id
         self.q: np.ndarray | None = None
         self.v: np.ndarray | None = None
+        self._lower = np.tril_indices(self.model.nv, -1)
 
     def update(self, q, v) -> SpatialState:
         """Compute every quantity for the plant state (q, v) in Pinocchio conventions."""
@@ -77,11 +78,11 @@ class SpatialState:
         R0 = pin.Quaternion(q[3:7]).normalized().toRotationMatrix()
         v_B, w_B = v[:3], v[3:6]
 
-        M = pin.crba(model, data, q)
-        M = np.triu(M) + np.triu(M, 1).T
+        M = pin.crba(model, data, q).copy()  # upper triangle filled
+        M[self._lower] = M.T[self._lower]
         # T_dot x = (-w_B x v_B, 0, 0): d/dt (R_0^T p_dot) = R_0^T p_ddot - w_B x v_B
         a_corr = np.zeros(nv)
-        a_corr[:3] = -np.cross(w_B, v_B)
+        a_corr[:3] = mrp.skew(v_B) @ w_B
         h = pin.rnea(model, data, q, v, a_corr).copy()  # M T_dot x + h, Pinocchio rows
         pin.dccrba(model, data, q, v)  # Ag and its time derivative dAg, about the CoM
         dAg = data.dAg.copy()
