@@ -407,3 +407,28 @@ def attitude_rows(R_m, ee_rot, z, m, out):
         for j in range(m):
             out[i, 3 + j] = 0.25 * (L[i, 0] * z[j, 0] + L[i, 1] * z[j, 1] + L[i, 2] * z[j, 2])
     return s
+
+
+@njit(cache=True)
+def controller_terms(
+    s_b, q_m, joint_rot, axes, ee_rot, m, V, theta_d, w, a, sv,
+    R, z, J, Yz, Yb, YM, YMdot, Yh, M,
+):  # fmt: skip
+    """Everything of one controller period in one call (one dispatch): kinematics, J (6, N)
+    with position rows for the barycentric vectors V and MRP attitude rows, the position rows
+    of Y_z, the base rows of Y_M(w) (for Y_b), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d)."""
+    kinematics(s_b, q_m, joint_rot, axes, R, z)
+    position_jacobian(R, z, V, J[:3])
+    attitude_rows(R[m], ee_rot, z, m, J[3:])
+    y_z(R, z, w, Yz)
+    ym(R, z, w, Yb, True)
+    ym(R, z, a, YM, False)
+    nb, n = R.shape[0], z.shape[0]
+    Rc = np.empty((nb, 3, 3), dtype=np.complex128)
+    zc = np.empty((n, 3), dtype=np.complex128)
+    Yc = np.empty(YM.shape, dtype=np.complex128)
+    motion_step(R, z, w, Rc, zc)
+    ym_rate(Rc, zc, sv, Yc, YMdot)
+    ym_rate(Rc, zc, w, Yc, Yh)
+    subtract_dT(R, z, w, Yh)
+    mass_matrix(R, z, theta_d, M)

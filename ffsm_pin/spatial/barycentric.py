@@ -93,6 +93,20 @@ class SpatialParameterLayout:
         return names
 
 
+class ControllerTerms(NamedTuple):
+    """Everything the controller needs for one period (see
+    :meth:`SpatialBarycentricModel.controller_terms`)."""
+
+    J_b: np.ndarray  # (6, 3) Eq. (3)
+    J_m: np.ndarray  # (6, n)
+    Y_z: np.ndarray  # (6, n_z) Eq. (4), attitude rows zero
+    Y_b: np.ndarray  # (3, n_b) Eq. (14)
+    Y_M: np.ndarray  # (n+3, n_d): Y_M theta_d = M a
+    Y_Mdot: np.ndarray  # (n+3, n_d): Y theta_d = dM/dt s
+    Y_h: np.ndarray  # (n+3, n_d): Y theta_d = C w, Eq. (8)
+    M: np.ndarray  # (n+3, n+3) M(q, theta_d), Eq. (9a)
+
+
 class Kinematics(NamedTuple):
     """Rotations of one configuration (see :meth:`SpatialBarycentricModel.kinematics`)."""
 
@@ -542,6 +556,42 @@ class SpatialBarycentricModel:
         M_bb = self.mass_matrix(theta_d, q_b, q_m)[:3, :3]
         M_bb_dot = self.mass_matrix_rate(theta_d, q_b, q_m, w)[:3, :3]
         return _reaction_torque(M_bb, M_bb_dot, w[:3], np.asarray(w_dot, dtype=float)[:3])
+
+    def controller_terms(self, theta_z, theta_d, q_b, q_m, w, a, s_vec) -> ControllerTerms:
+        """J_b, J_m (theta_z), Y_z(w), Y_b(w), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d) for
+        one configuration: the same values as the separate methods, in one compiled call
+        (numba backend) or by calling them (numpy backend, complex arguments)."""
+        theta_z = self._check(theta_z, self.n_z, "theta_z")
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        if not self._use_fast(theta_z, theta_d, q_b, q_m, w, a, s_vec):
+            J_b, J_m = self.jacobians(theta_z, q_b, q_m)
+            Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s_vec)
+            return ControllerTerms(
+                J_b, J_m, self.Y_z(q_b, q_m, w), self.Y_b(q_b, q_m, w), self.Y_M(q_b, q_m, a),
+                Y_Mdot, Y_h, self.mass_matrix(theta_d, q_b, q_m),
+            )  # fmt: skip
+        N, nd = self._N, self.n_d
+        R = np.empty((self._nb, 3, 3))
+        z = np.empty((self.n_joints, 3))
+        J = np.empty((6, N))
+        Yz = np.zeros((6, self.n_z))
+        Yb = np.empty((3, self.n_b))
+        Yb[:, :3] = -np.eye(3)
+        rows = np.empty((3, nd))
+        YM = np.empty((N, nd))
+        YMdot = np.empty((N, nd))
+        Yh = np.empty((N, nd))
+        M = np.empty((N, N))
+        kern.controller_terms(
+            np.ascontiguousarray(q_b, dtype=float), np.ascontiguousarray(q_m, dtype=float),
+            self._joint_rot_c, self._axes_c, self._ee_rot_c, self.geometry.ee_body,
+            np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3), dtype=float),
+            np.ascontiguousarray(theta_d, dtype=float), np.ascontiguousarray(w, dtype=float),
+            np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(s_vec, dtype=float),
+            R, z, J, Yz[:3], rows, YM, YMdot, Yh, M,
+        )  # fmt: skip
+        Yb[:, 3:] = rows
+        return ControllerTerms(J[:, :3], J[:, 3:], Yz, Yb, YM, YMdot, Yh, M)
 
     # ------------------------------------------------------------------ momentum
     def Y_b(self, q_b, q_m, w) -> np.ndarray:

@@ -200,6 +200,12 @@ def test_compiled_kernels_equal_numpy_reference(spatial_chain, spatial_state, se
     ]  # fmt: skip
     for got, expected in pairs:
         assert rel(got, expected) < 1e-12
+    # the fused call returns the separate methods' values
+    fused = fast.controller_terms(tz, th, qb, qm, w, a, sv)
+    separate = ref.controller_terms(tz, th, qb, qm, w, a, sv)
+    for name, got, expected in zip(fused._fields, fused, separate, strict=True):
+        assert got.shape == expected.shape, name
+        assert rel(got, expected) < 1e-12, name
 
 
 def test_unknown_backend(spatial_chain):
