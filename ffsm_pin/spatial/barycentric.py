@@ -396,12 +396,12 @@ class SpatialBarycentricModel:
 
     def ee_pose(self, theta_z, q_b, q_m, com_position) -> np.ndarray:
         """z_e = (p_e, q_e) [m, MRP] given the system CoM position [m]."""
-        p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
+        p = np.asarray(com_position) + self.ee_offset(theta_z, q_b, q_m)
         return np.concatenate((p, self.ee_attitude(q_b, q_m)))
 
     def _attitude_rows(self, kin: Kinematics, q_b, q_m):
         R_e = kin.R[self.geometry.ee_body] @ self._ee_rot
-        q_e = mrp.from_rotation(R_e.real) if np.iscomplexobj(R_e) else mrp.from_rotation(R_e)
+        q_e = mrp.from_rotation(R_e)  # analytic: complex steps pass through
         return mrp.L_matrix(q_e, R_e) @ kin.S[self.geometry.ee_body]
 
     def jacobians(self, theta_z, q_b, q_m) -> tuple[np.ndarray, np.ndarray]:

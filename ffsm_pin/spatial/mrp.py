@@ -68,9 +68,49 @@ def to_quaternion(s) -> np.ndarray:
 
 
 def from_rotation(R) -> np.ndarray:
-    """MRP (on the ``|s| <= 1`` branch) of a rotation matrix (body to inertial)."""
-    quat = pin.Quaternion(np.asarray(R, dtype=float))
-    return from_quaternion(quat.coeffs())
+    """MRP (on the ``|s| <= 1`` branch) of a rotation matrix (body to inertial).
+
+    Shepperd's method (the branch is chosen on the real parts), then ``s = q_v / (1 + q_w)``
+    with ``q_w >= 0``; analytic in R, so a complex-step perturbation of R is carried through.
+    """
+    R = np.asarray(R)
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    d = np.real(np.array([tr, R[0, 0], R[1, 1], R[2, 2]]))
+    if d[0] > 0.0:
+        t = np.sqrt(tr + 1.0) * 2.0
+        qw, qx, qy, qz = (
+            0.25 * t,
+            (R[2, 1] - R[1, 2]) / t,
+            (R[0, 2] - R[2, 0]) / t,
+            (R[1, 0] - R[0, 1]) / t,
+        )
+    elif d[1] > d[2] and d[1] > d[3]:
+        t = np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2.0
+        qw, qx, qy, qz = (
+            (R[2, 1] - R[1, 2]) / t,
+            0.25 * t,
+            (R[0, 1] + R[1, 0]) / t,
+            (R[0, 2] + R[2, 0]) / t,
+        )
+    elif d[2] > d[3]:
+        t = np.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2.0
+        qw, qx, qy, qz = (
+            (R[0, 2] - R[2, 0]) / t,
+            (R[0, 1] + R[1, 0]) / t,
+            0.25 * t,
+            (R[1, 2] + R[2, 1]) / t,
+        )
+    else:
+        t = np.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2.0
+        qw, qx, qy, qz = (
+            (R[1, 0] - R[0, 1]) / t,
+            (R[0, 2] + R[2, 0]) / t,
+            (R[1, 2] + R[2, 1]) / t,
+            0.25 * t,
+        )
+    if np.real(qw) < 0.0:
+        qw, qx, qy, qz = -qw, -qx, -qy, -qz
+    return np.array([qx, qy, qz]) / (1.0 + qw)
 
 
 def from_rpy(rpy) -> np.ndarray:

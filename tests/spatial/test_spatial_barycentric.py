@@ -213,3 +213,27 @@ def test_unknown_backend(spatial_chain):
 
     with pytest.raises(ParameterError, match="'numba', 'numpy'"):
         SpatialBarycentricModel(spatial_chain(2).geometry, backend="jax")
+
+
+def test_complex_step_through_the_kinematics(spatial_chain, spatial_state, rng):
+    """The numpy path accepts complex configurations (the controller differentiates its
+    kinematic law by a complex step): Im f(x + i h dx) / h equals central differences of the
+    real evaluations, for the Jacobians (attitude rows included), the ee pose and M."""
+    robot = spatial_chain(5, 2)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    qb, qm = s.base_attitude, s.joint_angles
+    dqb, dqm = rng.normal(size=3), rng.normal(size=5)
+    tz = bm.true_theta_z(s.com_velocity)
+    h = 1e-30
+
+    def f(qb_, qm_):
+        J_b, J_m = bm.jacobians(tz, qb_, qm_)
+        pose = bm.ee_pose(tz, qb_, qm_, np.zeros(3))
+        return np.concatenate(
+            (J_b.ravel(), J_m.ravel(), pose, bm.mass_matrix(bm.theta_d, qb_, qm_).ravel())
+        )
+
+    cs = f(qb + 1j * h * dqb, qm + 1j * h * dqm).imag / h
+    fd = derivative(lambda e: f(qb + e * dqb, qm + e * dqm))
+    assert rel(cs, fd) < FD_TOL
