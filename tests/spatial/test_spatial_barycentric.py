@@ -237,3 +237,30 @@ def test_complex_step_through_the_kinematics(spatial_chain, spatial_state, rng):
     cs = f(qb + 1j * h * dqb, qm + 1j * h * dqm).imag / h
     fd = derivative(lambda e: f(qb + e * dqb, qm + e * dqm))
     assert rel(cs, fd) < FD_TOL
+
+
+@pytest.mark.parametrize(
+    ("name", "ee", "locks"),
+    [("panda", "panda_hand", {"panda_finger_joint1": 0.03, "panda_finger_joint2": 0.01}),
+     ("ur5", "ee_link", {})],
+)  # fmt: skip
+def test_example_robot_data_arms_on_a_satellite(spatial_state, rng, name, ee, locks):
+    """A real arm (fixed links merged, fingers locked off-centre, world link at the root) on a
+    satellite: the barycentric model equals Pinocchio."""
+    from ffsm_pin.spatial import load_spatial_robot
+
+    robot = load_spatial_robot(
+        f"example-robot-data:{name}",
+        ee,
+        locked_joints=locks,
+        satellite={"mass": 300.0, "inertia": (50, 1, 0, 40, 0, 30), "mount_rpy": (0.1, 0, 0)},
+    )
+    bm = SpatialBarycentricModel(robot.geometry)
+    for _ in range(3):
+        s = SpatialState(robot).update(*spatial_state(robot, rng))
+        qb, qm, w = s.base_attitude, s.joint_angles, s.w
+        terms = bm.controller_terms(bm.true_theta_z(s.com_velocity), bm.theta_d, qb, qm, w, w, w)
+        assert rel(terms.M, s.M) < TOL
+        assert rel(terms.Y_h @ bm.theta_d, s.h) < TOL
+        assert rel(terms.J_b, s.J_b) < TOL and rel(terms.J_m, s.J_m) < TOL
+        assert rel(terms.Y_b @ bm.true_theta_b(s.angular_momentum), np.zeros(3), 10.0) < TOL
