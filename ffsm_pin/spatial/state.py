@@ -105,6 +105,7 @@ class SpatialState:
         hx[3:6] = R0 @ hx[3:6]
         sol = np.linalg.solve(Mx[_T, _T], np.column_stack((Mx[_T, _R], hx[_T])))
         self.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv), Pinocchio velocities
+        self.nonlinear_effects = read_only(h - M[:, :3] @ a_corr[:3])  # RNEA(q, v, 0) (nv)
         self.M = read_only(Mx[_R, _R] - Mx[_R, _T] @ sol[:, :-1])  # Eq. (9a)
         self.h = read_only(hx[_R] - Mx[_R, _T] @ sol[:, -1])  # C(q, w) w, Eq. (8)
 
@@ -148,6 +149,8 @@ class SpatialState:
         w[3:] = v[6:]
         self.w = read_only(w)  # (w_b inertial, dq_m) [rad/s]
         self.base_velocity_world = read_only(R0 @ v_B)  # base origin velocity [m/s]
+        # (v, w) of the base in the inertial frame [m/s, rad/s] (planar: base_twist_world)
+        self.base_twist_world = read_only(np.concatenate((self.base_velocity_world, w[:3])))
         return self
 
     @property

@@ -53,6 +53,14 @@ def test_momentum_rows(spatial_chain, spatial_state, seed, n):
     s = SpatialState(robot).update(q, v)
     assert rel(np.hstack((s.H_bb, s.H_bm)), s.M[:3]) < 1e-12
     assert rel(s.H_bb @ s.w[:3] + s.H_bm @ s.w[3:], s.angular_momentum) < 1e-12
+    # the full RNEA velocity terms and the inertial base twist (same names as the planar state)
+    data = robot.model.createData()
+    assert (
+        rel(s.nonlinear_effects, pin.rnea(robot.model, data, q, v, np.zeros(robot.model.nv)))
+        < 1e-12
+    )
+    R0 = pin.Quaternion(q[3:7]).toRotationMatrix()
+    assert rel(s.base_twist_world, np.concatenate((R0 @ v[:3], R0 @ v[3:6]))) < 1e-14
     # v_0 from the momentum equals the CoM Jacobian times v
     Jc = pin.jacobianCenterOfMass(robot.model, robot.model.createData(), q)
     assert rel(s.com_velocity, Jc @ v) < 1e-12
