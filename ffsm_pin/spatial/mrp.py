@@ -74,6 +74,8 @@ def from_rotation(R) -> np.ndarray:
     with ``q_w >= 0``; analytic in R, so a complex-step perturbation of R is carried through.
     """
     R = np.asarray(R)
+    if R.dtype == np.float64:  # real: Pinocchio's quaternion (same branch choice, faster)
+        return from_quaternion(pin.Quaternion(R).coeffs())
     tr = R[0, 0] + R[1, 1] + R[2, 2]
     d = np.real(np.array([tr, R[0, 0], R[1, 1], R[2, 2]]))
     if d[0] > 0.0:

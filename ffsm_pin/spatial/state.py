@@ -103,7 +103,8 @@ class SpatialState:
         hx = h.copy()
         hx[:3] = R0 @ hx[:3]
         hx[3:6] = R0 @ hx[3:6]
-        sol = np.linalg.solve(Mx[_T, _T], np.column_stack((Mx[_T, _R], hx[_T])))
+        # the translational block of M_x is m E_3 (linear momentum = m v_com): no solve needed
+        sol = np.column_stack((Mx[_T, _R], hx[_T])) / self.total_mass
         self.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv), Pinocchio velocities
         self.nonlinear_effects = read_only(h - M[:, :3] @ a_corr[:3])  # RNEA(q, v, 0) (nv)
         self.M = read_only(Mx[_R, _R] - Mx[_R, _T] @ sol[:, :-1])  # Eq. (9a)

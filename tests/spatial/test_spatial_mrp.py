@@ -66,3 +66,13 @@ def test_kinematics_against_finite_differences(rng):
 def test_from_rpy_matches_pinocchio(rng):
     rpy = rng.uniform(-1, 1, 3)
     assert np.abs(mrp.to_rotation(mrp.from_rpy(rpy)) - pin.rpy.rpyToMatrix(*rpy)).max() < 1e-14
+
+
+def test_analytic_branch_agrees_with_pinocchio(rotations):
+    """from_rotation's complex-safe path (Shepperd's four branches) gives the real path's MRP,
+    including rotations by nearly pi about each axis (the branches with a small trace)."""
+    extra = [pin.exp3(np.pi * 0.999 * e) for e in np.eye(3)]
+    for R in [*rotations, *extra]:
+        s_complex = mrp.from_rotation(R.astype(complex))
+        assert np.abs(s_complex.imag).max() == 0.0
+        assert np.abs(s_complex.real - mrp.from_rotation(R)).max() < 1e-13
