@@ -421,7 +421,6 @@ def controller_terms(
     position_jacobian(R, z, V, J[:3])
     attitude_rows(R[m], ee_rot, z, m, J[3:])
     y_z(R, z, w, Yz)
-    ym(R, z, w, Yb, True)
     ym(R, z, a, YM, False)
     nb, n = R.shape[0], z.shape[0]
     Rc = np.empty((nb, 3, 3), dtype=np.complex128)
@@ -430,5 +429,9 @@ def controller_terms(
     motion_step(R, z, w, Rc, zc)
     ym_rate(Rc, zc, sv, Yc, YMdot)
     ym_rate(Rc, zc, w, Yc, Yh)
+    # the real part of that complex step is Y_M(w) to O(h^2): its base rows are Y_b's
+    for r in range(3):
+        for c in range(Yb.shape[1]):
+            Yb[r, c] = Yc[r, c].real
     subtract_dT(R, z, w, Yh)
     mass_matrix(R, z, theta_d, M)
