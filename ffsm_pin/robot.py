@@ -15,6 +15,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -29,6 +30,9 @@ from .errors import (
     choices_text,
     did_you_mean,
 )
+
+if TYPE_CHECKING:
+    from .spatial.robot import SpatialRobot
 
 SUPPORTED_BASES = ("planar", "free-flyer")
 _ANGLE_TOL = 1e-9
@@ -237,7 +241,7 @@ def load_robot(
     base: str = "planar",
     relative_to: str | Path | None = None,
     **spatial_options,
-) -> FreeFloatingRobot:
+) -> FreeFloatingRobot | SpatialRobot:
     """Load and validate a planar free-floating manipulator (``base="planar"``), or a spatial
     one (``base="free-flyer"``: returns :func:`ffsm_pin.spatial.load_spatial_robot`'s
     ``SpatialRobot``; ``spatial_options`` are its ``locked_joints`` and ``satellite``).

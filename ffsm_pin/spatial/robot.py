@@ -440,7 +440,16 @@ def load_spatial_robot(
     masses, inertias, coms = [], [], []
     for j in range(1, model.njoints):
         inertia = model.inertias[j]
-        check_inertia(float(inertia.mass), inertia.inertia, f"{source}: body {body_names[j - 1]!r}")
+        what = f"{source}: body {body_names[j - 1]!r}"
+        try:
+            check_inertia(float(inertia.mass), inertia.inertia, what)
+        except InertiaError as exc:
+            if j == 1 and satellite is None:  # the floating base itself
+                raise InertiaError(
+                    f"{exc}; it is the floating base (for an arm-only URDF, add a satellite "
+                    "body with satellite=...)"
+                ) from None
+            raise
         masses.append(float(inertia.mass))
         inertias.append(np.array(inertia.inertia))
         coms.append(np.array(inertia.lever))

@@ -228,3 +228,18 @@ def test_continuous_joints_accepted_with_warning(tmp_path, urdf_text):
         robot = load_spatial_robot(_write(tmp_path, text), "ee")
     assert robot.n_joints == 3
     assert any("'joint1'" in str(w.message) for w in caught)
+
+
+def test_massless_root_suggests_a_satellite(tmp_path, urdf_text):
+    """An arm-only URDF whose root link is massless (a 'world' link) cannot float by itself."""
+    text = urdf_text.replace(
+        '<link name="base_link">',
+        '<link name="world"/>\n  <joint name="world_joint" type="revolute"><parent link="world"/>'
+        '<child link="base_link"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>\n  <link name="base_link">',
+    )
+    path = _write(tmp_path, text)
+    with pytest.raises(InertiaError, match="'world' has mass 0.0.*add a satellite"):
+        load_spatial_robot(path, "ee")
+    robot = load_spatial_robot(path, "ee", satellite=Satellite(mass=100.0))
+    assert robot.n_joints == 4 and robot.body_names[0] == "satellite"
