@@ -240,11 +240,12 @@ def load_robot(
     *,
     base: str = "planar",
     relative_to: str | Path | None = None,
-    **spatial_options,
+    locked_joints: dict | None = None,
+    satellite=None,
 ) -> FreeFloatingRobot | SpatialRobot:
     """Load and validate a planar free-floating manipulator (``base="planar"``), or a spatial
     one (``base="free-flyer"``: returns :func:`ffsm_pin.spatial.load_spatial_robot`'s
-    ``SpatialRobot``; ``spatial_options`` are its ``locked_joints`` and ``satellite``).
+    ``SpatialRobot``; ``locked_joints`` and ``satellite`` are its options).
 
     Parameters
     ----------
@@ -268,11 +269,15 @@ def load_robot(
     if base == "free-flyer":
         from .spatial.robot import load_spatial_robot
 
-        return load_spatial_robot(urdf, end_effector, relative_to=relative_to, **spatial_options)
-    if spatial_options:
-        raise UrdfError(
-            f"option(s) {choices_text(spatial_options)} apply only to base 'free-flyer'"
+        return load_spatial_robot(
+            urdf,
+            end_effector,
+            relative_to=relative_to,
+            locked_joints=locked_joints,
+            satellite=satellite,
         )
+    if locked_joints or satellite is not None:
+        raise UrdfError("options 'locked_joints' and 'satellite' apply only to base 'free-flyer'")
     path = resolve_urdf(urdf, relative_to)
     try:
         text = path.read_text()
