@@ -3,8 +3,9 @@
 The same expressions as the numpy reference in :mod:`ffsm_pin.spatial.barycentric` (checked
 against it in tests/spatial), written as loops over bodies and pairs that exploit the structure
 of ``S_k = [E_3, z_1, ..., z_k, 0, ...]``: ``S_k^T x = (x, z_1 . x, ..., z_k . x, 0, ...)``.
-The kernels are generic over real and complex arrays; the derivatives (dM/dt s, C w) use a
-complex step with closed-form tangents of R_k and z_j (exact for these bilinear expressions).
+The kernels are generic over real and complex arrays; dM/dt s uses a complex step with the
+closed-form tangents of R_k and z_j (exact for these bilinear expressions), dT/dq_m the
+structure of a joint's tangent (see :func:`subtract_dT`).
 
 Shapes: R (n+1, 3, 3) body rotations, z (n, 3) inertial joint axes, N = n + 3 velocity
 components, n_d = 6 (n+1) + 9 n (n+1) / 2 dynamic parameters.
@@ -158,47 +159,6 @@ def ym(R, z, a, Y, base_only):
 
 
 @njit(cache=True)
-def energy(R, z, w, out, first):
-    """Row with out . theta_d = T = 1/2 w^T M w; the entries of bodies and pairs entirely
-    below body ``first`` are left out (zeros; used for derivatives that vanish there)."""
-    nb = R.shape[0]
-    out[:] = 0.0
-    om = np.zeros((nb, 3), dtype=R.dtype)
-    body_rates(z, w, om)
-    for k in range(first, nb):
-        Rk = R[k]
-        b0 = Rk[0, 0] * om[k, 0] + Rk[1, 0] * om[k, 1] + Rk[2, 0] * om[k, 2]
-        b1 = Rk[0, 1] * om[k, 0] + Rk[1, 1] * om[k, 1] + Rk[2, 1] * om[k, 2]
-        b2 = Rk[0, 2] * om[k, 0] + Rk[1, 2] * om[k, 1] + Rk[2, 2] * om[k, 2]
-        c = 6 * k
-        out[c] = 0.5 * b0 * b0
-        out[c + 1] = b0 * b1
-        out[c + 2] = b0 * b2
-        out[c + 3] = 0.5 * b1 * b1
-        out[c + 4] = b1 * b2
-        out[c + 5] = 0.5 * b2 * b2
-    col = 6 * nb
-    u = np.empty(3, dtype=R.dtype)
-    g = np.empty(3, dtype=R.dtype)
-    for k in range(nb):
-        Rk = R[k]
-        for l in range(k + 1, nb):
-            if l < first:
-                col += 9
-                continue
-            Rl = R[l]
-            dot = om[k, 0] * om[l, 0] + om[k, 1] * om[l, 1] + om[k, 2] * om[l, 2]
-            for i in range(3):
-                u[i] = Rk[0, i] * om[l, 0] + Rk[1, i] * om[l, 1] + Rk[2, i] * om[l, 2]
-                g[i] = Rl[0, i] * om[k, 0] + Rl[1, i] * om[k, 1] + Rl[2, i] * om[k, 2]
-            for i in range(3):
-                for j in range(3):
-                    q = Rk[0, i] * Rl[0, j] + Rk[1, i] * Rl[1, j] + Rk[2, i] * Rl[2, j]
-                    out[col] = q * dot - u[i] * g[j]
-                    col += 1
-
-
-@njit(cache=True)
 def motion_step(R, z, w, Rc, zc):
     """Rc = R + i h dR/dt, zc = z + i h dz/dt along w: dR_k = [w_k]x R_k, dz_j = w_j x z_j."""
     nb, n = R.shape[0], z.shape[0]
@@ -228,41 +188,6 @@ def ym_rate(Rc, zc, a, Yc, out):
     for r in range(N):
         for c in range(nd):
             out[r, c] = Yc[r, c].imag / H_STEP
-
-
-@njit(cache=True)
-def subtract_dT(R, z, w, Y_h):
-    """Y_h[3 + j] -= dT/dq_j regressor (T at fixed base attitude and w), for every joint j:
-    dR_k/dq_j = [z_j]x R_k (k >= j + 1), dz_i/dq_j = z_j x z_i (i > j)."""
-    nb, n = R.shape[0], z.shape[0]
-    nd = Y_h.shape[1]
-    h = H_STEP
-    Rc = np.empty((nb, 3, 3), dtype=np.complex128)
-    zc = np.empty((n, 3), dtype=np.complex128)
-    e = np.empty(nd, dtype=np.complex128)
-    wc = w.astype(np.complex128)
-    for jj in range(n):
-        a0, a1, a2 = z[jj, 0], z[jj, 1], z[jj, 2]
-        for k in range(nb):
-            for j in range(3):
-                r0, r1, r2 = R[k, 0, j], R[k, 1, j], R[k, 2, j]
-                if k >= jj + 1:
-                    Rc[k, 0, j] = r0 + 1j * h * (a1 * r2 - a2 * r1)
-                    Rc[k, 1, j] = r1 + 1j * h * (a2 * r0 - a0 * r2)
-                    Rc[k, 2, j] = r2 + 1j * h * (a0 * r1 - a1 * r0)
-                else:
-                    Rc[k, 0, j], Rc[k, 1, j], Rc[k, 2, j] = r0, r1, r2
-        for i2 in range(n):
-            r0, r1, r2 = z[i2, 0], z[i2, 1], z[i2, 2]
-            if i2 > jj:
-                zc[i2, 0] = r0 + 1j * h * (a1 * r2 - a2 * r1)
-                zc[i2, 1] = r1 + 1j * h * (a2 * r0 - a0 * r2)
-                zc[i2, 2] = r2 + 1j * h * (a0 * r1 - a1 * r0)
-            else:
-                zc[i2, 0], zc[i2, 1], zc[i2, 2] = r0, r1, r2
-        energy(Rc, zc, wc, e, jj + 1)  # bodies below jj + 1 do not move with q_jj
-        for c in range(nd):
-            Y_h[3 + jj, c] -= e[c].imag / h
 
 
 @njit(cache=True)
@@ -435,3 +360,112 @@ def controller_terms(
             Yb[r, c] = Yc[r, c].real
     subtract_dT(R, z, w, Yh)
     mass_matrix(R, z, theta_d, M)
+
+
+@njit(cache=True)
+def subtract_dT(R, z, w, Y_h):
+    """Y_h[3 + j] -= dT/dq_j regressor (T at fixed base attitude and w) for every joint j.
+
+    Turning joint j rotates the bodies k >= j + 1 about z_j: dR_k = [z_j]x R_k and
+    dw_k = [z_j]x w_k + c with c = -z_j x w_j (w_j of the parent body j). Terms between two
+    turning bodies are invariant under the common rotation, so only c changes them (dQ = 0,
+    d(R_k^T w_l) = R_k^T c); terms between a fixed body k and a turning body l change with
+    dQ = R_k^T [z_j]x R_l, dw_l, and d(R_l^T w_k) = ([z_j]x R_l)^T w_k. Q, u, g and the dot
+    products do not depend on j and are computed once.
+    """
+    nb, n = R.shape[0], z.shape[0]
+    P = nb * (nb - 1) // 2
+    om = np.zeros((nb, 3))
+    body_rates(z, w, om)
+    beta = np.empty((nb, 3))
+    for k in range(nb):
+        for i in range(3):
+            beta[k, i] = R[k, 0, i] * om[k, 0] + R[k, 1, i] * om[k, 1] + R[k, 2, i] * om[k, 2]
+    Q = np.empty((P, 3, 3))
+    U = np.empty((P, 3))
+    G = np.empty((P, 3))
+    DOT = np.empty(P)
+    p = 0
+    for k in range(nb):
+        for l in range(k + 1, nb):
+            DOT[p] = om[k, 0] * om[l, 0] + om[k, 1] * om[l, 1] + om[k, 2] * om[l, 2]
+            for i in range(3):
+                U[p, i] = R[k, 0, i] * om[l, 0] + R[k, 1, i] * om[l, 1] + R[k, 2, i] * om[l, 2]
+                G[p, i] = R[l, 0, i] * om[k, 0] + R[l, 1, i] * om[k, 1] + R[l, 2, i] * om[k, 2]
+                for j in range(3):
+                    Q[p, i, j] = (
+                        R[k, 0, i] * R[l, 0, j] + R[k, 1, i] * R[l, 1, j] + R[k, 2, i] * R[l, 2, j]
+                    )
+            p += 1
+    Rc = np.empty((nb, 3))  # R_k^T c
+    ZR = np.empty((nb, 3, 3))  # [z_j]x R_l
+    dl = np.empty((nb, 3))  # dw_l = z_j x w_l + c
+    du = np.empty(3)
+    dg = np.empty(3)
+    dQ = np.empty((3, 3))
+    for jj in range(n):
+        f = jj + 1
+        a0, a1, a2 = z[jj, 0], z[jj, 1], z[jj, 2]
+        c0 = -(a1 * om[jj, 2] - a2 * om[jj, 1])
+        c1 = -(a2 * om[jj, 0] - a0 * om[jj, 2])
+        c2 = -(a0 * om[jj, 1] - a1 * om[jj, 0])
+        row = 3 + jj
+        for k in range(f, nb):
+            for i in range(3):
+                Rc[k, i] = R[k, 0, i] * c0 + R[k, 1, i] * c1 + R[k, 2, i] * c2
+            for j in range(3):
+                r0, r1, r2 = R[k, 0, j], R[k, 1, j], R[k, 2, j]
+                ZR[k, 0, j] = a1 * r2 - a2 * r1
+                ZR[k, 1, j] = a2 * r0 - a0 * r2
+                ZR[k, 2, j] = a0 * r1 - a1 * r0
+            o0, o1, o2 = om[k, 0], om[k, 1], om[k, 2]
+            dl[k, 0] = a1 * o2 - a2 * o1 + c0
+            dl[k, 1] = a2 * o0 - a0 * o2 + c1
+            dl[k, 2] = a0 * o1 - a1 * o0 + c2
+            b = beta[k]
+            d = Rc[k]
+            col = 6 * k
+            Y_h[row, col] -= b[0] * d[0]
+            Y_h[row, col + 1] -= d[0] * b[1] + b[0] * d[1]
+            Y_h[row, col + 2] -= d[0] * b[2] + b[0] * d[2]
+            Y_h[row, col + 3] -= b[1] * d[1]
+            Y_h[row, col + 4] -= d[1] * b[2] + b[1] * d[2]
+            Y_h[row, col + 5] -= b[2] * d[2]
+        p = 0
+        col = 6 * nb
+        for k in range(nb):
+            for l in range(k + 1, nb):
+                if l < f:
+                    pass
+                elif k >= f:  # both turn: only c matters
+                    ddot = (
+                        c0 * (om[k, 0] + om[l, 0]) + c1 * (om[k, 1] + om[l, 1])
+                        + c2 * (om[k, 2] + om[l, 2])
+                    )  # fmt: skip
+                    for i in range(3):
+                        for j in range(3):
+                            Y_h[row, col + 3 * i + j] -= (
+                                Q[p, i, j] * ddot - Rc[k, i] * G[p, j] - U[p, i] * Rc[l, j]
+                            )
+                else:  # body k fixed, body l turns
+                    ddot = om[k, 0] * dl[l, 0] + om[k, 1] * dl[l, 1] + om[k, 2] * dl[l, 2]
+                    for i in range(3):
+                        du[i] = (
+                            R[k, 0, i] * dl[l, 0] + R[k, 1, i] * dl[l, 1] + R[k, 2, i] * dl[l, 2]
+                        )
+                        dg[i] = (
+                            ZR[l, 0, i] * om[k, 0] + ZR[l, 1, i] * om[k, 1] + ZR[l, 2, i] * om[k, 2]
+                        )
+                        for j in range(3):
+                            dQ[i, j] = (
+                                R[k, 0, i] * ZR[l, 0, j] + R[k, 1, i] * ZR[l, 1, j]
+                                + R[k, 2, i] * ZR[l, 2, j]
+                            )  # fmt: skip
+                    for i in range(3):
+                        for j in range(3):
+                            Y_h[row, col + 3 * i + j] -= (
+                                dQ[i, j] * DOT[p] + Q[p, i, j] * ddot
+                                - du[i] * G[p, j] - U[p, i] * dg[j]
+                            )  # fmt: skip
+                p += 1
+                col += 9
