@@ -50,7 +50,7 @@ EXAMPLE_ROBOTS: dict[str, tuple[str, str, tuple[str, ...]]] = {
     "ur5": ("ur_description/urdf/ur5_robot.urdf", "ee_link", ()),
     "ur10": ("ur_description/urdf/ur10_robot.urdf", "ee_link", ()),
     "xarm7": ("xarm_description/urdf/xarm7.urdf", "link7", ()),
-    "z1": ("z1_description/urdf/z1.urdf", "link06", ()),
+    "z1": ("z1_description/urdf/z1.urdf", "link06", ("jointGripper",)),
 }
 
 _REVOLUTE = {
@@ -409,11 +409,17 @@ def load_spatial_robot(
         raise UrdfError(f"{source}: the robot has no movable joint besides its floating base")
 
     # end-effector frame
+    erd = urdf[len(ERD_PREFIX) :] if isinstance(urdf, str) and urdf.startswith(ERD_PREFIX) else None
+    hint = ""
+    if erd is not None:
+        _, ee_hint, lock_hint = EXAMPLE_ROBOTS[erd]
+        hint = f" (example-robot-data {erd!r}: end effector {ee_hint!r}"
+        hint += f", usually locked: {choices_text(lock_hint)})" if lock_hint else ")"
     if not model.existFrame(end_effector):
         frames = [f.name for f in model.frames if f.name not in ("universe", "root_joint")]
         raise FrameNotFoundError(
             f"end-effector frame {end_effector!r} not found in {source}"
-            f"{did_you_mean(end_effector, frames)}; frames: {choices_text(frames)}"
+            f"{did_you_mean(end_effector, frames)}{hint}; frames: {choices_text(frames)}"
         )
     fid = model.getFrameId(end_effector)
     frame = model.frames[fid]
@@ -431,7 +437,7 @@ def load_spatial_robot(
         raise UnsupportedJointError(
             f"{source}: joint(s) {choices_text(model.names[j] for j in branching)} branch off "
             f"the chain to the end effector {end_effector!r}; lock the joints that are not on "
-            f"it with locked_joints: {choices_text(off_path)}"
+            f"it with locked_joints: {choices_text(off_path)}{hint}"
         )
 
     body_names = tuple(_body_name(model, j) for j in range(1, model.njoints))

@@ -106,6 +106,24 @@ def test_ur5_loads():
 def test_panda_without_locks_names_the_joints():
     with pytest.raises(UnsupportedJointError, match="panda_finger_joint1.*panda_finger_joint2"):
         load_spatial_robot("example-robot-data:panda", "panda_hand")
+    with pytest.raises(FrameNotFoundError, match="end effector 'panda_hand'"):
+        load_spatial_robot("example-robot-data:panda", "hand", locked_joints=PANDA_LOCK)
+
+
+@pytest.mark.parametrize("name", sorted(EXAMPLE_ROBOTS))
+def test_every_listed_example_robot_loads(name):
+    """Each name of the table loads with its suggested end effector and locks, as a serial
+    chain on a free-flyer root."""
+    import warnings as w
+
+    _, ee, locks = EXAMPLE_ROBOTS[name]
+    with w.catch_warnings():
+        w.simplefilter("ignore")  # continuous joints (kinova) are reported, not refused
+        robot = load_spatial_robot(
+            f"example-robot-data:{name}", ee, locked_joints=dict.fromkeys(locks, 0.0)
+        )
+    assert robot.n_joints >= 6
+    assert robot.geometry.ee_body == robot.n_joints  # the end effector is on the last body
 
 
 def test_unknown_example_robot_lists_names():
