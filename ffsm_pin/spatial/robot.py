@@ -179,15 +179,16 @@ class SpatialRobot:
 # ---------------------------------------------------------------------------- URDF sources
 def example_robot_data_dir() -> Path:
     """The installed ``example-robot-data`` share folder (holding ``robots/``)."""
-    try:
-        import example_robot_data  # type: ignore[import-not-found]
+    sub = Path("panda_description/urdf/panda.urdf")
+    try:  # the Python module of older releases knows its model folder
+        from example_robot_data.robots_loader import (  # type: ignore[import-not-found]
+            EXAMPLE_ROBOT_DATA_MODEL_DIR,
+        )
 
-        sub = "panda_description/urdf/panda.urdf"
-        found = Path(example_robot_data.getModelPath(sub))
-        for candidate in (found, found / "example-robot-data", found.parent):
-            if (candidate / "robots" / sub).is_file():
-                return candidate
-    except (ImportError, AttributeError, OSError, ValueError):
+        robots = Path(EXAMPLE_ROBOT_DATA_MODEL_DIR)
+        if (robots / sub).is_file():
+            return robots.parent
+    except (ImportError, AttributeError, TypeError):
         pass
     try:
         dist = importlib.metadata.distribution("example-robot-data")
