@@ -92,6 +92,8 @@ class BarycentricModel:
     joint angles; velocity arguments ``w = (w_b, w_m)`` [rad/s].
     """
 
+    m2, m3 = 2, 1  # end-effector position / attitude components (the paper's planar case)
+
     def __init__(self, geometry: PlanarGeometry):
         g = geometry
         n = g.n_joints

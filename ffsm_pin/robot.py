@@ -15,6 +15,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -30,7 +31,10 @@ from .errors import (
     did_you_mean,
 )
 
-SUPPORTED_BASES = ("planar",)
+if TYPE_CHECKING:
+    from .spatial.robot import SpatialRobot
+
+SUPPORTED_BASES = ("planar", "free-flyer")
 _ANGLE_TOL = 1e-9
 
 
@@ -236,8 +240,12 @@ def load_robot(
     *,
     base: str = "planar",
     relative_to: str | Path | None = None,
-) -> FreeFloatingRobot:
-    """Load and validate a planar free-floating manipulator.
+    locked_joints: dict | None = None,
+    satellite=None,
+) -> FreeFloatingRobot | SpatialRobot:
+    """Load and validate a planar free-floating manipulator (``base="planar"``), or a spatial
+    one (``base="free-flyer"``: returns :func:`ffsm_pin.spatial.load_spatial_robot`'s
+    ``SpatialRobot``; ``locked_joints`` and ``satellite`` are its options).
 
     Parameters
     ----------
@@ -246,7 +254,7 @@ def load_robot(
     end_effector:
         Name of the end-effector frame (a link or a fixed joint of the URDF).
     base:
-        Root joint type; only ``"planar"`` is supported.
+        Root joint type: ``"planar"`` or ``"free-flyer"``.
     relative_to:
         Directory that relative paths are resolved against (e.g. a scenario file's folder).
 
@@ -258,6 +266,18 @@ def load_robot(
         raise UnsupportedJointError(
             f"base {base!r} is not supported; valid choices: {choices_text(SUPPORTED_BASES)}"
         )
+    if base == "free-flyer":
+        from .spatial.robot import load_spatial_robot
+
+        return load_spatial_robot(
+            urdf,
+            end_effector,
+            relative_to=relative_to,
+            locked_joints=locked_joints,
+            satellite=satellite,
+        )
+    if locked_joints or satellite is not None:
+        raise UrdfError("options 'locked_joints' and 'satellite' apply only to base 'free-flyer'")
     path = resolve_urdf(urdf, relative_to)
     try:
         text = path.read_text()

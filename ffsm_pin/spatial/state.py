@@ -1,0 +1,171 @@
+"""The paper's reduced quantities of a spatial robot for one plant state, from Pinocchio.
+
+:class:`SpatialState` owns a Pinocchio ``Data`` and computes everything for a state in one
+:meth:`SpatialState.update` call; the results are read-only arrays.
+
+Velocities (docs/spatial.md section 1): Pinocchio's free-flyer has v = (v_B, w_B, dq_m) with
+the base twist in the *base* frame. The controller's velocity is w = (w_b, dq_m) with
+``w_b = R_0 w_B`` in the *inertial* frame. With ``x = (p_dot_B, w_b, dq_m) = T^-1 v``,
+``T = diag(R_0^T, R_0^T, E)``, the dynamics read ``T^T M T x_dot + T^T (h + M T_dot x) = T^T tau``
+and the base translation is eliminated through the conserved linear momentum:
+
+* ``M = M_rr - M_rt M_tt^-1 M_tr`` (Schur complement over translation), Eq. (9a);
+* ``h = h_r - M_rt M_tt^-1 h_t`` = C(q, w) w, Eq. (8), so that ``M dw/dt + h = (0_3, u_m)``;
+* ``H_bb, H_bm`` = angular rows of the centroidal momentum matrix (about the system CoM,
+  inertial frame), Eq. (13): ``H_bb w_b + H_bm w_m = A_0`` (constant);
+* ``J_b, J_m``: rows 1-3 ``d(p_e - p_com)/dt``, rows 4-6 the MRP rate of the end-effector
+  attitude ``1/4 B(q_e) R_e^T w_e``, Eq. (3);
+* ``L_b = 1/4 B(q_b) R_0^T`` (Eq. 1), ``v_0 = P / m``, ``A_0 = L`` about the CoM.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .._arrays import read_only
+from . import mrp
+from .robot import SpatialRobot
+
+_T = slice(0, 3)  # translational block of x
+_R = slice(3, None)  # (w_b, dq_m)
+
+
+def reaction_torque(M_bb, M_bb_dot, w_b, w_b_dot) -> np.ndarray:
+    """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m], 3-vector.
+
+    ``F_r = M_bb dw_b/dt + C_bb w_b`` with ``C_bb w_b = 1/2 dM_bb/dt w_b + 1/2 w_b x (M_bb w_b)``:
+    the Christoffel term of the arm's coordinates (as in the planar model) plus the
+    gyroscopic term of the base rotation. For a frozen arm (w_m = dw_m/dt = 0) it is Euler's
+    equation of the locked system, ``M_bb dw_b/dt + w_b x (M_bb w_b)``; for planar motion it
+    reduces to the planar ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b``.
+    """
+    M_bb = np.asarray(M_bb)
+    w_b = np.asarray(w_b)
+    return (
+        M_bb @ np.asarray(w_b_dot)
+        + 0.5 * (np.asarray(M_bb_dot) @ w_b)
+        + 0.5 * (mrp.skew(w_b) @ (M_bb @ w_b))
+    )
+
+
+class SpatialState:
+    """Reduced CoM-frame dynamics and kinematics of a spatial free-floating robot at (q, v)."""
+
+    def __init__(self, robot: SpatialRobot):
+        self.robot = robot
+        self.model = robot.model
+        self.data = self.model.createData()
+        self.n_joints = robot.n_joints
+        self.total_mass = robot.geometry.total_mass
+        self._fid = robot.ee_frame_id
+        self.q: np.ndarray | None = None
+        self.v: np.ndarray | None = None
+        self._lower = np.tril_indices(self.model.nv, -1)
+
+    def update(self, q, v) -> SpatialState:
+        """Compute every quantity for the plant state (q, v) in Pinocchio conventions."""
+        model, data = self.model, self.data
+        q = np.array(q, dtype=float)
+        v = np.array(v, dtype=float)
+        if q.shape != (model.nq,) or v.shape != (model.nv,):
+            raise ValueError(
+                f"state shapes must be q ({model.nq},) and v ({model.nv},), "
+                f"got {q.shape} and {v.shape}"
+            )
+        self.q, self.v = read_only(q), read_only(v)
+        nv = model.nv
+        R0 = pin.Quaternion(q[3:7]).normalized().toRotationMatrix()
+        v_B, w_B = v[:3], v[3:6]
+
+        M = pin.crba(model, data, q).copy()  # upper triangle filled
+        M[self._lower] = M.T[self._lower]
+        # T_dot x = (-w_B x v_B, 0, 0): d/dt (R_0^T p_dot) = R_0^T p_ddot - w_B x v_B
+        a_corr = np.zeros(nv)
+        a_corr[:3] = mrp.skew(v_B) @ w_B
+        h = pin.rnea(model, data, q, v, a_corr).copy()  # M T_dot x + h, Pinocchio rows
+        pin.dccrba(model, data, q, v)  # Ag and its time derivative dAg, about the CoM
+        dAg = data.dAg.copy()
+        Ag = data.Ag.copy()
+        hg = Ag @ v  # centroidal momentum (P, L about the CoM)
+        com = data.com[0].copy()
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        J_ee = pin.getFrameJacobian(model, data, self._fid, pin.LOCAL_WORLD_ALIGNED)
+        oMe = data.oMf[self._fid]
+
+        # x-coordinates: M_x = T^T M T, h_x = T^T h
+        Mx = M.copy()
+        Mx[:3] = R0 @ Mx[:3]
+        Mx[3:6] = R0 @ Mx[3:6]
+        Mx[:, :3] = Mx[:, :3] @ R0.T
+        Mx[:, 3:6] = Mx[:, 3:6] @ R0.T
+        hx = h.copy()
+        hx[:3] = R0 @ hx[:3]
+        hx[3:6] = R0 @ hx[3:6]
+        # the translational block of M_x is m E_3 (linear momentum = m v_com): no solve needed
+        sol = np.column_stack((Mx[_T, _R], hx[_T])) / self.total_mass
+        self.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv), Pinocchio velocities
+        self.nonlinear_effects = read_only(h - M[:, :3] @ a_corr[:3])  # RNEA(q, v, 0) (nv)
+        self.M = read_only(Mx[_R, _R] - Mx[_R, _T] @ sol[:, :-1])  # Eq. (9a)
+        self.h = read_only(hx[_R] - Mx[_R, _T] @ sol[:, -1])  # C(q, w) w, Eq. (8)
+
+        # angular momentum rows about the CoM, in w = (w_b inertial, dq_m): Eq. (13)
+        H = np.empty((3, nv - 3))
+        H[:, :3] = Ag[3:6, 3:6] @ R0.T
+        H[:, 3:] = Ag[3:6, 6:]
+        self.H_bb = read_only(H[:, :3].copy())
+        self.H_bm = read_only(H[:, 3:].copy())
+        # dM_bb/dt from the time variation of the centroidal map:
+        # d/dt (M_bb R_0) = dAg_bb  ->  dM_bb/dt = (dAg_bb - M_bb R_0 [w_B]x) R_0^T
+        self.M_bb_dot = read_only((dAg[3:6, 3:6] - H[:, :3] @ R0 @ mrp.skew(w_B)) @ R0.T)
+        self.centroidal_map = read_only(Ag)
+        self.linear_momentum = read_only(hg[:3].copy())  # P, inertial [kg m/s]
+        self.angular_momentum = read_only(hg[3:].copy())  # A_0 about the CoM [kg m^2/s]
+        self.com_position = read_only(com)  # [m]
+        self.com_velocity = read_only(self.linear_momentum / self.total_mass)  # v_0 [m/s]
+
+        # Jacobians of (p_e - p_com, q_e) w.r.t. w; J_com = linear rows of Ag / m
+        Jx = np.empty((6, nv - 3))
+        Jd = J_ee[:3] - Ag[:3] / self.total_mass
+        Jx[:3, :3] = Jd[:, 3:6] @ R0.T
+        Jx[:3, 3:] = Jd[:, 6:]
+        R_e = oMe.rotation
+        q_e = mrp.from_rotation(R_e)
+        Jw = np.empty((3, nv - 3))
+        Jw[:, :3] = J_ee[3:6, 3:6] @ R0.T
+        Jw[:, 3:] = J_ee[3:6, 6:]
+        Jx[3:] = mrp.L_matrix(q_e, R_e) @ Jw  # Eq. (3), attitude rows
+        self.J_b = read_only(Jx[:, :3].copy())
+        self.J_m = read_only(Jx[:, 3:].copy())
+        self.ee_angular_jacobian = read_only(Jw)  # w_e = Jw w, inertial [rad/s]
+
+        self.base_rotation = read_only(R0)
+        self.base_attitude = read_only(mrp.from_quaternion(q[3:7]))  # q_b, |q_b| <= 1
+        self.L_b = read_only(mrp.L_matrix(self.base_attitude, R0))  # Eq. (1)
+        self.ee_rotation = read_only(np.array(R_e))
+        self.ee_pose = read_only(np.concatenate((oMe.translation, q_e)))  # z_e = (p_e, q_e)
+        w = np.empty(nv - 3)
+        w[:3] = R0 @ w_B
+        w[3:] = v[6:]
+        self.w = read_only(w)  # (w_b inertial, dq_m) [rad/s]
+        self.base_velocity_world = read_only(R0 @ v_B)  # base origin velocity [m/s]
+        # (v, w) of the base in the inertial frame [m/s, rad/s] (planar: base_twist_world)
+        self.base_twist_world = read_only(np.concatenate((self.base_velocity_world, w[:3])))
+        return self
+
+    @property
+    def joint_angles(self) -> np.ndarray:
+        return self.q[7:]
+
+    def reaction_torque(self, w_dot) -> np.ndarray:
+        """F_r of Eq. (7) for an acceleration ``w_dot = (dw_b/dt, ddq_m)`` [rad/s^2]; see
+        :func:`reaction_torque`."""
+        w_dot = np.asarray(w_dot, dtype=float)
+        return read_only(reaction_torque(self.H_bb, self.M_bb_dot, self.w[:3], w_dot[:3]))
+
+    def acceleration_to_w_dot(self, a) -> np.ndarray:
+        """dw/dt = (R_0 dw_B/dt, ddq_m) from Pinocchio's acceleration ``a`` (docs/spatial.md
+        section 1: the rotation term vanishes)."""
+        a = np.asarray(a, dtype=float)
+        return np.concatenate((self.base_rotation @ a[3:6], a[6:]))
