@@ -69,8 +69,8 @@ def test_missing_file_is_robot_file_error(tmp_path):
 
 
 def test_unknown_base_lists_choices():
-    with pytest.raises(UnsupportedJointError, match=r"'free-flyer'.*'planar'"):
-        load_robot("ffsm_planar4.urdf", base="free-flyer")
+    with pytest.raises(UnsupportedJointError, match=r"'spherical'.*'planar', 'free-flyer'"):
+        load_robot("ffsm_planar4.urdf", base="spherical")
 
 
 def test_unknown_frame_lists_frames_and_suggests_close_one():
