@@ -61,6 +61,7 @@ BUILTIN: dict[str, str] = {
     "case2": "case2.toml",
     "case3": "case3.toml",
     "known-model": "known_model.toml",
+    "planar5": "planar5.toml",
 }
 
 # Allowed keys per table. A nested dict is a sub-table; a string is a type tag.

@@ -1,0 +1,133 @@
+"""Numbers of docs/null_space.md: the null-space option on the shipped 5-link planar robot.
+
+Runs the built-in scenario ``planar5`` (``ffsm_pin/sim/scenarios/planar5.toml``: perturbed
+estimates, spread 0.3) for every seed and every objective, and prints one table row per
+(objective, seed): whether the run completed with both funnels kept, max |u_m| [N m], the
+smallest sigma_min of the estimated J_m-hat U-hat the controller used [m], the smallest
+singular value of the *true* J_m U along the same trajectory [m], and the time spent with
+damping active [s]. Then a per-objective summary (median and worst over seeds).
+
+    python docs/null_space_numbers.py                       # 8 seeds, 30 s, all objectives
+    python docs/null_space_numbers.py --seeds 0 1 --duration 10 --objectives none manipulability
+
+Runs in parallel processes (``--workers``, default 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from ffsm_pin.control.null_space import NullSpace  # noqa: E402
+from ffsm_pin.sim.run import prepare, simulate  # noqa: E402
+from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
+
+# Gains k_s chosen in docs/null_space.md (section "Gain").
+DEFAULT_GAINS = {"none": 0.0, "manipulability": 0.05, "joint-centering": 0.05}
+
+
+def planar5():
+    """The built-in scenario, with the repository's urdf/ folder (so that the script also
+    runs from a checkout in which ``ffsm_pin.urdf`` is installed from elsewhere)."""
+    sc = load_scenario(builtin_path("planar5"))
+    urdf = REPO / "urdf" / "ffsm_planar5.urdf"
+    if urdf.is_file():
+        sc = dataclasses.replace(sc, robot=dataclasses.replace(sc.robot, urdf=str(urdf)))
+    return sc
+
+
+def one_run(job):
+    objective, gain, seed, duration, every = job
+    sc = planar5()
+    c = sc.controller
+    c = dataclasses.replace(
+        c,
+        estimates=dataclasses.replace(c.estimates, seed=seed),
+        null_space=NullSpace(objective=objective, gain=gain),
+    )
+    sc = dataclasses.replace(sc, controller=c, duration=duration)
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        setup = prepare(sc)
+        res = simulate(setup)
+    wall = time.perf_counter() - t0
+    m = setup.model
+    sig_true = []
+    for q_b, q_m in zip(res["q_b"][::every], res["q"][::every, 4:]):
+        A = m.jacobians(setup.theta_z, float(q_b), q_m)[1]
+        H_bm = m.momentum_matrices(setup.theta_b, float(q_b), q_m)[1]
+        U = np.eye(m.n_joints) - H_bm.T @ H_bm / float(H_bm @ H_bm.T)
+        sig_true.append(np.linalg.svd(A @ U, compute_uv=False)[-1])
+    dt = sc.dt
+    return {
+        "objective": objective,
+        "gain": gain,
+        "seed": seed,
+        "kept": bool(res.completed and res.funnel_inside_b.all() and res.funnel_inside_z.all()),
+        "t_end": float(res["t"][-1]),
+        "stop": res.stop_reason or "",
+        "max_u": float(np.max(np.abs(res["u_m"]))),
+        "min_sigma_hat": float(np.min(res["sigma_min"])),
+        "min_sigma_true": float(np.min(sig_true)),
+        "damped_s": float(np.count_nonzero(res["damping"] > 0) * dt),
+        "wall_s": wall,
+    }
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, nargs="+", default=list(range(8)))
+    ap.add_argument("--duration", type=float, default=30.0)
+    ap.add_argument(
+        "--objectives", nargs="+", default=["none", "manipulability", "joint-centering"]
+    )
+    ap.add_argument("--gain", type=float, default=None, help="k_s for every objective")
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args(argv)
+    jobs = [
+        (obj, DEFAULT_GAINS[obj] if args.gain is None else args.gain, s, args.duration, 10)
+        for obj in args.objectives
+        for s in args.seeds
+    ]
+    with ProcessPoolExecutor(args.workers) as pool:
+        rows = list(pool.map(one_run, jobs))
+    head = (
+        f"{'objective':16s} {'k_s':>6s} {'seed':>4s} {'funnels':>8s} {'max|u_m|':>9s} "
+        f"{'min sig^':>9s} {'min sig':>9s} {'damped':>7s}"
+    )
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        kept = "kept" if r["kept"] else f"{r['t_end']:.1f}s"
+        print(
+            f"{r['objective']:16s} {r['gain']:6.3g} {r['seed']:4d} {kept:>8s} "
+            f"{r['max_u']:9.2f} {r['min_sigma_hat']:9.2e} {r['min_sigma_true']:9.2e} "
+            f"{r['damped_s']:7.2f}"
+        )
+    print()
+    print(f"{'objective':16s} {'kept':>5s} {'median max|u_m|':>16s} {'worst max|u_m|':>15s} "
+          f"{'worst min sig^':>15s}")  # fmt: skip
+    for obj in args.objectives:
+        rs = [r for r in rows if r["objective"] == obj]
+        us = [r["max_u"] for r in rs]
+        print(
+            f"{obj:16s} {sum(r['kept'] for r in rs):2d}/{len(rs):<2d} {np.median(us):16.2f} "
+            f"{max(us):15.2f} {min(r['min_sigma_hat'] for r in rs):15.2e}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
