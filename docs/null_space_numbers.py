@@ -65,7 +65,7 @@ def one_run(job):
     wall = time.perf_counter() - t0
     m = setup.model
     sig_true = []
-    for q_b, q_m in zip(res["q_b"][::every], res["q"][::every, 4:]):
+    for q_b, q_m in zip(res["q_b"][::every], res["q"][::every, 4:], strict=True):
         A = m.jacobians(setup.theta_z, float(q_b), q_m)[1]
         H_bm = m.momentum_matrices(setup.theta_b, float(q_b), q_m)[1]
         U = np.eye(m.n_joints) - H_bm.T @ H_bm / float(H_bm @ H_bm.T)

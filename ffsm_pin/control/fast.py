@@ -266,6 +266,23 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_
 
 
 @njit(cache=True)
+def _spd_det(G):
+    """det of an SPD matrix by elimination without pivoting (complex-step safe; as
+    ffsm_pin.control.null_space.spd_det)."""
+    G = G.copy()
+    m = G.shape[0]
+    det = G[0, 0] * 1.0
+    for k in range(m):
+        if k > 0:
+            det = det * G[k, k]
+        for i in range(k + 1, m):
+            f = G[i, k] / G[k, k]
+            for j in range(k + 1, m):
+                G[i, j] -= f * G[k, j]
+    return det
+
+
+@njit(cache=True)
 def _null_space_gradient(S, off, K, L, ee_row, collinear, ns, q_b, q_m, theta_b, theta_z):
     """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space)."""
     n = q_m.size
@@ -282,8 +299,8 @@ def _null_space_gradient(S, off, K, L, ee_row, collinear, ns, q_b, q_m, theta_b,
         qm[j] -= h
         Ap = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, qp, theta_b, theta_z)
         Am = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, qm, theta_b, theta_z)
-        mu_p = np.sqrt(np.linalg.det(Ap @ Ap.T))
-        mu_m = np.sqrt(np.linalg.det(Am @ Am.T))
+        mu_p = np.sqrt(_spd_det(Ap @ Ap.T))
+        mu_m = np.sqrt(_spd_det(Am @ Am.T))
         grad[j] = (mu_p - mu_m) / (2.0 * h)
     return grad
 

@@ -84,9 +84,23 @@ class NullSpace:
         return c
 
 
+def spd_det(G):
+    """Determinant of a symmetric positive definite matrix by elimination without pivoting.
+
+    Complex-step safe, unlike ``np.linalg.det``, which goes through ``slogdet`` and takes the
+    modulus of the pivots (not analytic). No pivoting is needed for SPD matrices.
+    """
+    G = np.array(G)
+    det = 1.0
+    for k in range(G.shape[0]):
+        det = det * G[k, k]
+        G[k + 1 :, k + 1 :] -= np.outer(G[k + 1 :, k] / G[k, k], G[k, k + 1 :])
+    return det
+
+
 def manipulability(A):
     """mu = sqrt(det(A A^T)) with the plain transpose (complex-step safe) [m^2 planar]."""
-    return np.sqrt(np.linalg.det(A @ A.T))
+    return np.sqrt(spd_det(A @ A.T))
 
 
 def null_space_gradient(ns: NullSpace, center: np.ndarray, q_m, reduced_jacobian):

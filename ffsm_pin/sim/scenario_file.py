@@ -417,8 +417,7 @@ def _null_space(sec: Mapping) -> NullSpace:
     center = _vector(sec, "center", p, default=None)
     if center is not None and objective != "joint-centering":
         raise ScenarioError(
-            f"{p}.center: only used with objective = 'joint-centering' (objective is "
-            f"{objective!r})"
+            f"{p}.center: only used with objective = 'joint-centering' (objective is {objective!r})"
         )
     return NullSpace(objective=objective, gain=gain, center=center)
 
