@@ -34,7 +34,7 @@ from ffsm_pin.sim.run import prepare, simulate  # noqa: E402
 from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
 
 # Gains k_s chosen in docs/null_space.md (section "Gain").
-DEFAULT_GAINS = {"none": 0.0, "manipulability": 0.05, "joint-centering": 0.05}
+DEFAULT_GAINS = {"none": 0.0, "manipulability": 1.0, "joint-centering": 1.0}
 
 
 def planar5():
