@@ -65,10 +65,10 @@ def one_run(job):
     wall = time.perf_counter() - t0
     m = setup.model
     sig_true = []
-    for q_b, q_m in zip(res["q_b"][::every], res["q"][::every, 4:], strict=True):
+    for q_b, q_m in zip(res["q_b"][::every, 0], res["q"][::every, 4:], strict=True):
         A = m.jacobians(setup.theta_z, float(q_b), q_m)[1]
         H_bm = m.momentum_matrices(setup.theta_b, float(q_b), q_m)[1]
-        U = np.eye(m.n_joints) - H_bm.T @ H_bm / float(H_bm @ H_bm.T)
+        U = np.eye(m.n_joints) - H_bm.T @ H_bm / (H_bm @ H_bm.T)[0, 0]
         sig_true.append(np.linalg.svd(A @ U, compute_uv=False)[-1])
     dt = sc.dt
     return {
