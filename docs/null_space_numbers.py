@@ -34,7 +34,7 @@ from ffsm_pin.sim.run import prepare, simulate  # noqa: E402
 from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
 
 # Gains k_s chosen in docs/null_space.md (section "Gain").
-DEFAULT_GAINS = {"none": 0.0, "manipulability": 1.0, "joint-centering": 1.0}
+DEFAULT_GAINS = {"none": 0.0, "manipulability": 3.0, "joint-centering": 3.0}
 
 
 def planar5():
@@ -93,12 +93,15 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--objectives", nargs="+", default=["none", "manipulability", "joint-centering"]
     )
-    ap.add_argument("--gain", type=float, default=None, help="k_s for every objective")
+    ap.add_argument(
+        "--gain", type=float, nargs="+", default=None, help="k_s values (each objective, each)"
+    )
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     jobs = [
-        (obj, DEFAULT_GAINS[obj] if args.gain is None else args.gain, s, args.duration, 10)
+        (obj, g, s, args.duration, 10)
         for obj in args.objectives
+        for g in ([DEFAULT_GAINS[obj]] if args.gain is None or obj == "none" else args.gain)
         for s in args.seeds
     ]
     with ProcessPoolExecutor(args.workers) as pool:
@@ -116,15 +119,18 @@ def main(argv=None) -> int:
             f"{r['max_u']:9.2f} {r['min_sigma_hat']:9.2e} {r['min_sigma_true']:9.2e} "
             f"{r['damped_s']:7.2f}"
         )
+    for r in rows:
+        if r["stop"]:
+            print(f"{r['objective']} k_s = {r['gain']:g} seed {r['seed']}: {r['stop']}")
     print()
-    print(f"{'objective':16s} {'kept':>5s} {'median max|u_m|':>16s} {'worst max|u_m|':>15s} "
-          f"{'worst min sig^':>15s}")  # fmt: skip
-    for obj in args.objectives:
-        rs = [r for r in rows if r["objective"] == obj]
+    print(f"{'objective':16s} {'k_s':>6s} {'kept':>5s} {'median max|u_m|':>16s} "
+          f"{'worst max|u_m|':>15s} {'worst min sig^':>15s}")  # fmt: skip
+    for obj, g in dict.fromkeys((r["objective"], r["gain"]) for r in rows):
+        rs = [r for r in rows if (r["objective"], r["gain"]) == (obj, g)]
         us = [r["max_u"] for r in rs]
         print(
-            f"{obj:16s} {sum(r['kept'] for r in rs):2d}/{len(rs):<2d} {np.median(us):16.2f} "
-            f"{max(us):15.2f} {min(r['min_sigma_hat'] for r in rs):15.2e}"
+            f"{obj:16s} {g:6.3g} {sum(r['kept'] for r in rs):2d}/{len(rs):<2d} "
+            f"{np.median(us):16.2f} {max(us):15.2f} {min(r['min_sigma_hat'] for r in rs):15.2e}"
         )
     return 0
 
