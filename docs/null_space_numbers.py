@@ -2,13 +2,16 @@
 
 Runs the built-in scenario ``planar5`` (``ffsm_pin/sim/scenarios/planar5.toml``: perturbed
 estimates, spread 0.3) for every seed and every objective, and prints one table row per
-(objective, seed): whether the run completed with both funnels kept, max |u_m| [N m], the
-smallest sigma_min of the estimated J_m-hat U-hat the controller used [m], the smallest
-singular value of the *true* J_m U along the same trajectory [m], and the time spent with
-damping active [s]. Then a per-objective summary (median and worst over seeds).
+(objective, gain, seed; seed -1 = the true parameters): whether the run completed with both
+funnels kept, max |u_m| [N m], the smallest sigma_min of the estimated J_m-hat U-hat the
+controller used [m], the smallest singular value of the *true* J_m U along the same
+trajectory [m], and the time spent with damping active [s]. Then a summary per objective and
+gain (median and worst over seeds 0-7).
 
-    python docs/null_space_numbers.py                       # 8 seeds, 30 s, all objectives
+    python docs/null_space_numbers.py                       # true + 8 seeds, 30 s, all objectives
     python docs/null_space_numbers.py --seeds 0 1 --duration 10 --objectives none manipulability
+    python docs/null_space_numbers.py --gain 1 10 30 --objectives manipulability joint-centering
+    python docs/null_space_numbers.py --joints 0.8 -0.8 0.8 -0.8 0.8   # another initial shape
 
 Runs in parallel processes (``--workers``, default 2).
 """
@@ -30,30 +33,47 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from ffsm_pin.control.null_space import NullSpace  # noqa: E402
-from ffsm_pin.sim.run import prepare, simulate  # noqa: E402
+from ffsm_pin.robot import load_robot  # noqa: E402
+from ffsm_pin.sim.run import initial_state, prepare, simulate  # noqa: E402
+from ffsm_pin.sim.scenario import Estimates, Reference  # noqa: E402
 from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
+from ffsm_pin.state import FloatingBaseState  # noqa: E402
 
 # Gains k_s chosen in docs/null_space.md (section "Gain").
 DEFAULT_GAINS = {"none": 0.0, "manipulability": 3.0, "joint-centering": 3.0}
 
 
-def planar5():
+def planar5(joints=None):
     """The built-in scenario, with the repository's urdf/ folder (so that the script also
-    runs from a checkout in which ``ffsm_pin.urdf`` is installed from elsewhere)."""
+    runs from a checkout in which ``ffsm_pin.urdf`` is installed from elsewhere).
+
+    ``joints``: another initial arm shape [rad]; the reference circle is then re-centred on
+    the end effector's initial pose, as in the shipped file."""
     sc = load_scenario(builtin_path("planar5"))
     urdf = REPO / "urdf" / "ffsm_planar5.urdf"
     if urdf.is_file():
         sc = dataclasses.replace(sc, robot=dataclasses.replace(sc.robot, urdf=str(urdf)))
+    if joints is not None:
+        init = dataclasses.replace(sc.initial, joints=tuple(joints))
+        robot = load_robot(sc.robot.urdf, relative_to=sc.robot.relative_to)
+        z0 = FloatingBaseState(robot).update(*initial_state(robot, init)).ee_pose
+        ee = tuple(
+            dataclasses.replace(comp, c=float(z0[i])) for i, comp in enumerate(sc.reference.ee)
+        )
+        ref = Reference(ee=ee, base_attitude=sc.reference.base_attitude)
+        sc = dataclasses.replace(sc, initial=init, reference=ref)
     return sc
 
 
 def one_run(job):
-    objective, gain, seed, duration, every = job
-    sc = planar5()
+    objective, gain, seed, duration, every, joints = job
+    sc = planar5(joints)
     c = sc.controller
     c = dataclasses.replace(
         c,
-        estimates=dataclasses.replace(c.estimates, seed=seed),
+        estimates=(
+            Estimates(initial="true") if seed < 0 else dataclasses.replace(c.estimates, seed=seed)
+        ),
         null_space=NullSpace(objective=objective, gain=gain),
     )
     sc = dataclasses.replace(sc, controller=c, duration=duration)
@@ -88,7 +108,9 @@ def one_run(job):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, nargs="+", default=list(range(8)))
+    ap.add_argument(
+        "--seeds", type=int, nargs="+", default=list(range(-1, 8)), help="-1: true parameters"
+    )
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument(
         "--objectives", nargs="+", default=["none", "manipulability", "joint-centering"]
@@ -97,9 +119,12 @@ def main(argv=None) -> int:
         "--gain", type=float, nargs="+", default=None, help="k_s values (each objective, each)"
     )
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument(
+        "--joints", type=float, nargs=5, default=None, help="another initial shape [rad]"
+    )
     args = ap.parse_args(argv)
     jobs = [
-        (obj, g, s, args.duration, 10)
+        (obj, g, s, args.duration, 10, args.joints)
         for obj in args.objectives
         for g in ([DEFAULT_GAINS[obj]] if args.gain is None or obj == "none" else args.gain)
         for s in args.seeds
@@ -110,6 +135,7 @@ def main(argv=None) -> int:
         f"{'objective':16s} {'k_s':>6s} {'seed':>4s} {'funnels':>8s} {'max|u_m|':>9s} "
         f"{'min sig^':>9s} {'min sig':>9s} {'damped':>7s}"
     )
+    print("seed -1 = the true parameters (not counted in the summary below the table)")
     print(head)
     print("-" * len(head))
     for r in rows:
@@ -126,7 +152,9 @@ def main(argv=None) -> int:
     print(f"{'objective':16s} {'k_s':>6s} {'kept':>5s} {'median max|u_m|':>16s} "
           f"{'worst max|u_m|':>15s} {'worst min sig^':>15s}")  # fmt: skip
     for obj, g in dict.fromkeys((r["objective"], r["gain"]) for r in rows):
-        rs = [r for r in rows if (r["objective"], r["gain"]) == (obj, g)]
+        rs = [r for r in rows if (r["objective"], r["gain"]) == (obj, g) and r["seed"] >= 0]
+        if not rs:
+            continue
         us = [r["max_u"] for r in rs]
         print(
             f"{obj:16s} {g:6.3g} {sum(r['kept'] for r in rs):2d}/{len(rs):<2d} "
