@@ -13,11 +13,11 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[reference]``: ``base_attitude = [0.0]``;
 * ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
   a funnel entry may be a single number, used for every component;
-* ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
-  :class:`~ffsm_pin.control.gains.SingularityPolicy`;
 * ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
   ``gain = 1.0``, ``center`` = the initial joint angles,
   :class:`~ffsm_pin.control.null_space.NullSpace`;
+* ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
+  :class:`~ffsm_pin.control.gains.SingularityPolicy`;
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s].
 
 The paper's cases ship as files in ``ffsm_pin/sim/scenarios/`` (:data:`BUILTIN`).
