@@ -40,7 +40,7 @@ from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
 from ffsm_pin.state import FloatingBaseState  # noqa: E402
 
 # Gains k_s chosen in docs/null_space.md (section "Gain").
-DEFAULT_GAINS = {"none": 0.0, "manipulability": 3.0, "joint-centering": 3.0}
+DEFAULT_GAINS = {"none": 0.0, "manipulability": 1.0, "joint-centering": 1.0}
 
 
 def planar5(joints=None):
