@@ -3,10 +3,10 @@
 Runs the built-in scenario ``planar5`` (``ffsm_pin/sim/scenarios/planar5.toml``: perturbed
 estimates, spread 0.3) for every seed and every objective, and prints one table row per
 (objective, gain, seed; seed -1 = the true parameters): whether the run completed with both
-funnels kept, max |u_m| [N m], the smallest sigma_min of the estimated J_m-hat U-hat the
-controller used [m], the smallest singular value of the *true* J_m U along the same
-trajectory [m], and the time spent with damping active [s]. Then a summary per objective and
-gain (median and worst over seeds 0-7).
+funnels kept, max |u_m| [N m] (Euclidean norm of the joint torques, as in ``summary.json``),
+the smallest sigma_min of the estimated J_m-hat U-hat the controller used [m], the smallest
+singular value of the *true* J_m U along the same trajectory [m], and the time spent with
+damping active [s]. Then a summary per objective and gain (median and worst over seeds 0-7).
 
     python docs/null_space_numbers.py                       # true + 8 seeds, 30 s, all objectives
     python docs/null_space_numbers.py --seeds 0 1 --duration 10 --objectives none manipulability
@@ -98,7 +98,7 @@ def one_run(job):
         "kept": bool(res.completed and res.funnel_inside_b.all() and res.funnel_inside_z.all()),
         "t_end": float(res["t"][-1]),
         "stop": res.stop_reason or "",
-        "max_u": float(np.max(np.abs(res["u_m"]))),
+        "max_u": float(np.max(np.linalg.norm(res["u_m"], axis=1))),  # as in summary.json
         "min_sigma_hat": float(np.min(res["sigma_min"])),
         "min_sigma_true": float(np.min(sig_true)),
         "damped_s": float(np.count_nonzero(res["damping"] > 0) * dt),
