@@ -8,7 +8,9 @@ Coordinated law (Eqs. 25 and 36, ``L_b = 1`` for the planar attitude angle)::
                                                                                       # Eq. (36)
 
 so that ``H_bm-hat w_mc = a_b`` (Eq. 26) and ``J_m-hat w_mc = -v0bar-hat + dz_ed/dt -
-k_z Phi_z psi_z`` (Eq. 37). Case 3 of the paper (no attitude regulation) uses Eq. (81)::
+k_z Phi_z psi_z`` (Eq. 37). Beyond the paper, an optional null-space term
+``(E - A^+ A) k_s grad mu`` (``A = J_m-hat U-hat``) is added to xi; it keeps both identities
+(:mod:`.null_space`). Case 3 of the paper (no attitude regulation) uses Eq. (81)::
 
     w_mc = J_m-hat^+ (-v0bar-hat + dz_ed/dt - J_b-hat w_b - k_z Phi_z psi_z)
 
