@@ -4,7 +4,8 @@ Checked at random states of the 5-link off-axis robot (one spare joint), with pe
 estimates, on both backends (the numpy reference and the compiled numba kernel):
 
 * it leaves Eq. (26) (H_bm-hat w_mc = a_b) and Eq. (37) (J_m-hat w_mc = target) exactly as they
-  are where the inverse is undamped: the change of w_mc lies in the null space of
+  are where the inverse is undamped (both checked with a_b and the target written out), and
+  the change of w_mc lies in the null space of
   B = [H_bm-hat; J_m-hat], and it *is* k_s times the orthogonal projection of grad mu onto that
   null space (U (E - A^+ A) = E - B^+ B, because null(A) = null(B) + range(H_bm^T)), with
   grad mu recomputed here independently (closed form for joint-centering; for
@@ -188,7 +189,17 @@ def test_term_keeps_eqs_26_and_37_and_is_the_projected_gradient(objective, backe
         # Eq. (26) and Eq. (37) unchanged: the term lies in null([H_bm; J_m])
         assert abs(H_bm @ delta)[0] < 1e-12 * scale * np.abs(H_bm).max()
         assert np.abs(J_m @ delta).max() < 1e-12 * scale * np.abs(J_m).max()
-        # ... and it is k_s times the orthogonal projection of grad mu onto that null space
+        # the identities themselves, right-hand sides written out from Eqs. (25) and (37)
+        law = ctrl.kinematic
+        err_b, err_z = law.errors(x.t, x.q_b, x.z_e)
+        fb, fz = law.funnel_b.evaluate(x.t, err_b), law.funnel_z.evaluate(x.t, err_z)
+        H_bb, _, A0 = model.momentum_matrices(x.theta_b, x.q_b, x.q_m)
+        a_b = A0 + law.k_b * H_bb[0, 0] * fb.Phi * fb.psi  # Eq. (25)
+        target = law.reference.ee_rate(x.t) - law.k_z * fz.Phi * fz.psi
+        target[:2] -= x.theta_z[:2]  # - v0bar-hat
+        np.testing.assert_allclose(H_bm @ w1, a_b, rtol=1e-10, atol=1e-12)  # Eq. (26)
+        np.testing.assert_allclose(J_m @ w1, target, rtol=1e-10, atol=1e-12)  # Eq. (37)
+        # ... and the change is k_s times the orthogonal projection of grad mu onto null(B)
         B = np.vstack((H_bm, J_m))
         P = np.eye(model.n_joints) - np.linalg.pinv(B) @ B
         expected = GAINS[objective] * P @ _grad_reference(objective, model, x, center)
