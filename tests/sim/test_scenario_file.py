@@ -100,6 +100,19 @@ def test_builtins_differ_from_case1_only_where_they_say(name):
         "case2": {"controller.scheme"},
         "case3": {"controller.scheme"},
         "known-model": {"controller.scheme"},
+        # another robot (5 links), its own initial state, a circle about its pose, 30 % error;
+        # the paper's gains and funnels (docs/null_space.md)
+        "planar5": {
+            "robot.urdf",
+            "initial.base_pose",
+            "initial.joints",
+            "initial.joint_rates",
+            "initial.base_twist",
+            "initial.com_velocity",
+            "initial.angular_momentum",
+            "reference.ee",
+            "controller.estimates",
+        },
     }[name]
     assert diffs == expected
 
