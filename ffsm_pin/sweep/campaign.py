@@ -363,6 +363,10 @@ def expand(campaign: Campaign) -> list[Case]:
                 keys[s.key] = s.draw(rng)
             index = len(cases)
             cases.append(_case(campaign, base, index, p, r, point, keys, seed))
+    for col in campaign.columns:  # one type per column: lists if any case resolves to a list
+        if any(isinstance(c.values[col], list) for c in cases):
+            for c in cases:
+                c.values[col] = _lookup(tomllib.loads(c.scenario_toml), col, c.values[col])
     hashes: dict[str, int] = {}
     for case in cases:
         if case.case_hash in hashes:
@@ -453,10 +457,11 @@ def _lookup(doc: Mapping, key: str, default: Any = None) -> Any:
 
 
 def _readback(resolved: Any, given: Any) -> Any:
-    """A number given for a per-component key (funnel entries) resolves to a list of equal
-    numbers: record the number."""
-    if isinstance(resolved, list) and _is_number(given) and resolved:
-        if all(_is_number(x) and float(x) == float(given) for x in resolved):
+    """A per-component key (funnel entries) whose components are all equal, as a number given
+    for it resolves to: record the number (:func:`expand` turns a column back into lists when
+    some case's components differ)."""
+    if isinstance(resolved, list) and resolved and all(_is_number(x) for x in resolved):
+        if all(float(x) == float(resolved[0]) for x in resolved):
             return float(resolved[0])
     if isinstance(resolved, int) and not isinstance(resolved, bool) and isinstance(given, float):
         return float(resolved)

@@ -66,7 +66,7 @@ WORST_SQL = f"""\
 SELECT "case", {{cols_sel}} estimates_seed, status, funnel_ok_b, funnel_ok_z, max_abs_u,
        min_sigma, stop_time, stop_reason, scenario_toml
 FROM read_parquet('{{path}}')
-WHERE status <> 'error'
+WHERE NOT nominal AND status <> 'error'
 ORDER BY {KEPT} ASC, max_abs_u DESC NULLS FIRST
 LIMIT {N_WORST}"""
 
