@@ -120,8 +120,12 @@ class ResultsTable:
     def write(self) -> None:
         """Write the file atomically: a temporary file in the same folder, then a rename."""
         tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        pq.write_table(self.table(), tmp)
-        os.replace(tmp, self.path)
+        try:
+            pq.write_table(self.table(), tmp)
+            os.replace(tmp, self.path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
 
 
 def _infer(values: list[Any]) -> pa.DataType:
