@@ -59,7 +59,11 @@ __all__ = [
 ]
 
 SEED_KEY = "controller.estimates.seed"
-DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "log-uniform": ("low", "high")}
+DISTRIBUTIONS = {
+    "uniform": ("low", "high"),
+    "normal": ("mean", "std"),
+    "log-uniform": ("low", "high"),
+}
 _TOP = ("campaign", "vary", "sample")
 _CAMPAIGN_KEYS = ("name", "description", "scenario", "seed", "repeat", "duration", "dt", "set")
 
@@ -236,8 +240,7 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         values = v.get("values")
         if not isinstance(values, list) or not values:
             raise CampaignError(
-                f"{at}.values ({key}): expected a non-empty list of values, got "
-                f"{_describe(values)}"
+                f"{at}.values ({key}): expected a non-empty list of values, got {_describe(values)}"
             )
         seen = []
         for x in values:

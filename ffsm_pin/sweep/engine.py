@@ -77,11 +77,7 @@ class WarmUp(WorkerPlugin):
 
 def summary_scalars(summary: dict[str, Any]) -> dict[str, Any]:
     """The scalar entries of a run's summary.json (lists such as final_err_z are left out)."""
-    return {
-        k: v
-        for k, v in summary.items()
-        if v is None or isinstance(v, (bool, int, float, str))
-    }
+    return {k: v for k, v in summary.items() if v is None or isinstance(v, (bool, int, float, str))}
 
 
 def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:

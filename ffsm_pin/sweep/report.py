@@ -115,9 +115,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
     errors = query(
         f"SELECT \"case\", error FROM read_parquet('{path}') WHERE status = 'error' ORDER BY 1"
     )
-    total = query(
-        f"SELECT count(*) AS n, sum(wall_time_s) AS wall FROM read_parquet('{path}')"
-    )[0]
+    total = query(f"SELECT count(*) AS n, sum(wall_time_s) AS wall FROM read_parquet('{path}')")[0]
     figures = _figures(out, cols, rates, points)
 
     lines = [f"# Campaign `{campaign.name}`", ""]
@@ -164,8 +162,11 @@ def write_report(out: Path, campaign: Campaign) -> Path:
             ("stopped early", "stopped", "{}"),
             ("errors", "errors", "{}"),
         ],
-        extra={"95 % interval": lambda r: f"{_f(r['rate_lo'], '{:.0%}')} - "
-               f"{_f(r['rate_hi'], '{:.0%}')}"},  # fmt: skip
+        extra={
+            "95 % interval": lambda r: (
+                f"{_f(r['rate_lo'], '{:.0%}')} - {_f(r['rate_hi'], '{:.0%}')}"
+            )
+        },  # fmt: skip
     )
     lines += ["", f"![funnel-keeping rate]({figures['rate']})", ""]
     lines += ["## Control effort, settling and distance to singularity per grid point", ""]
@@ -229,7 +230,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         "## The queries",
         "",
         "Every table above is one DuckDB query over `results.parquet` (run them with "
-        "`duckdb -c \"...\"` or `duckdb.sql(...)` in Python):",
+        '`duckdb -c "..."` or `duckdb.sql(...)` in Python):',
         "",
         "```sql",
         _sql(RATE_SQL, Path("results.parquet"), cols),

@@ -72,7 +72,8 @@ BAD = {
         "'gauss' unknown",
     ),
     "sampled value the scenario rejects": (
-        SMALL + '[[sample]]\nkey = "controller.k_z"\ndistribution = "uniform"\nlow = -2\nhigh = -1\n',
+        SMALL
+        + '[[sample]]\nkey = "controller.k_z"\ndistribution = "uniform"\nlow = -2\nhigh = -1\n',
         "controller.k_z = -",
     ),
 }

@@ -34,9 +34,12 @@ TIMING = {"wall_time_s", "steps_per_s"}
 def cluster():
     from distributed import Client, LocalCluster
 
-    with LocalCluster(
-        n_workers=2, threads_per_worker=1, dashboard_address=None, silence_logs=50
-    ) as lc, Client(lc) as client:
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, dashboard_address=None, silence_logs=50
+        ) as lc,
+        Client(lc) as client,
+    ):
         yield lc.scheduler_address, client
 
 
@@ -118,7 +121,7 @@ def test_campaign_rows_resume_and_extension(cluster, campaign_file, tmp_path, ca
     assert sweep(wider, out, address, "--force") == 0
     forced = rows(out)
     assert len(forced) == 7 and [r["case_hash"] for r in forced] == [r["case_hash"] for r in after]
-    assert any(a["wall_time_s"] != b["wall_time_s"] for a, b in zip(after, forced))
+    assert any(a["wall_time_s"] != b["wall_time_s"] for a, b in zip(after, forced, strict=True))
 
 
 def test_worker_killed_mid_campaign(cluster, campaign_file, tmp_path):
@@ -163,8 +166,11 @@ def test_a_case_that_raises_is_an_error_row(cluster, campaign_file, tmp_path, ca
     later one draws a funnel too narrow for the initial error (-0.23, 0.48, 0.07) and its run
     raises on the worker: an ``error`` row with the message, the others complete, exit 3."""
     address, _ = cluster
-    base = SMALL.replace("values = [0.1, 0.3]", "values = [0.1]").replace("repeat = 2", "repeat = 4")
-    sample = '[[sample]]\nkey = "controller.funnel.rho_z0"\ndistribution = "uniform"\nlow = 0.3\nhigh = 1.2\n'
+    base = SMALL.replace("[0.1, 0.3]", "[0.1]").replace("repeat = 2", "repeat = 4")
+    sample = (
+        '[[sample]]\nkey = "controller.funnel.rho_z0"\ndistribution = "uniform"\n'
+        "low = 0.3\nhigh = 1.2\n"
+    )
     for seed in range(100):  # a root seed whose first draw is wide enough and a later one not
         text = base.replace("seed = 11", f"seed = {seed}") + sample
         cases = expand(load_campaign(campaign_file(text)))
