@@ -1,0 +1,167 @@
+"""Campaign throughput on Dask against the serial loop of single runs (ffsm_pin.sweep).
+
+Usage::
+
+    python benchmarks/bench_sweep.py                  # 20 cases x 3 trials, then 100 cases
+    python benchmarks/bench_sweep.py --cases 10 --trials 1 --big 0     # quick look
+    python benchmarks/bench_sweep.py --big 1000       # the 1000-case campaign itself
+
+The cases are those of a campaign on the paper's case 1 (10 s simulated, dt = 1 ms, estimates
+perturbed by up to 20 %, one seed per case). In each trial, side by side:
+
+* **serial**: the same cases one after the other in this process,
+  ``simulate(prepare(scenario))`` (the kernels are warm; no Dask, no Parquet);
+* **campaign, 2 workers**: ``python -m ffsm_pin.sweep CAMPAIGN --scheduler ... --force`` run
+  in this process (``ffsm_pin.sweep.cli.main``) on a running LocalCluster of 2 single-threaded
+  workers (already warm: cluster start-up is reported separately): expansion, validation,
+  scheduling, transfer, atomic Parquet rewrite per row, report;
+* **campaign, 1 worker**: the same on a 1-worker cluster. Its excess over the serial loop,
+  per case, is the per-case overhead of the campaign machinery.
+
+Trials are interleaved (serial, 2 workers, 1 worker, serial, ...) so a change of machine load
+hits all three alike; the medians over trials are reported. Ratios: speed-up = serial / 2
+workers (target >= 1.8 on 2 cores), overhead = (1 worker - serial) / serial (target <= 5 %).
+``--big N`` then runs one N-case campaign on the 2-worker cluster and reports its wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))  # this checkout's ffsm_pin, also for the workers
+
+CAMPAIGN = """\
+[campaign]
+name = "bench"
+scenario = "case1"
+seed = {seed}
+repeat = {repeat}
+duration = 10.0
+
+[campaign.set]
+"controller.estimates.initial" = "perturbed"
+"controller.estimates.spread" = 0.2
+"""
+
+
+def write_campaign(folder: Path, n_cases: int, seed: int) -> Path:
+    """A campaign of ``n_cases`` cases: the nominal case plus ``n_cases - 1`` seeds."""
+    path = folder / f"bench-{n_cases}-{seed}.toml"
+    path.write_text(CAMPAIGN.format(seed=seed, repeat=n_cases - 1))
+    return path
+
+
+def serial(path: Path) -> float:
+    from ffsm_pin.sim.run import prepare, simulate
+    from ffsm_pin.sim.scenario_file import scenario_from_toml
+    from ffsm_pin.sweep.campaign import expand, load_campaign
+
+    cases = expand(load_campaign(path))
+    t0 = time.perf_counter()
+    for case in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulate(prepare(scenario_from_toml(case.scenario_toml)))
+    return time.perf_counter() - t0
+
+
+def campaign(path: Path, address: str, out: Path) -> float:
+    from ffsm_pin.sweep import cli
+
+    t0 = time.perf_counter()
+    status = cli.main([str(path), "--out", str(out), "--scheduler", address, "--quiet", "--force"])
+    wall = time.perf_counter() - t0
+    if status != 0:
+        raise SystemExit(f"campaign {path.name} exited with status {status}")
+    return wall
+
+
+def start_cluster(n: int):
+    from distributed import Client, LocalCluster
+
+    t0 = time.perf_counter()
+    lc = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None, silence_logs=50)
+    client = Client(lc)
+    return lc, client, time.perf_counter() - t0
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--cases", type=int, default=20, help="cases per trial (default 20)")
+    p.add_argument("--trials", type=int, default=3, help="interleaved trials (default 3)")
+    p.add_argument("--big", type=int, default=100, help="cases of the big campaign (0: skip)")
+    args = p.parse_args(argv)
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
+    try:
+        path = write_campaign(tmp, args.cases, seed=1)
+        serial(write_campaign(tmp, 2, seed=99))  # compile / load the kernels here
+        lc2, c2, start2 = start_cluster(2)
+        lc1, c1, start1 = start_cluster(1)
+        warm = write_campaign(tmp, 3, seed=98)
+        t_warm2 = campaign(warm, lc2.scheduler_address, tmp / "warm2")  # worker warm-up
+        t_warm1 = campaign(warm, lc1.scheduler_address, tmp / "warm1")
+        times: dict[str, list[float]] = {"serial": [], "2 workers": [], "1 worker": []}
+        for k in range(args.trials):
+            times["serial"].append(serial(path))
+            times["2 workers"].append(campaign(path, lc2.scheduler_address, tmp / f"c2-{k}"))
+            times["1 worker"].append(campaign(path, lc1.scheduler_address, tmp / f"c1-{k}"))
+            print(
+                f"trial {k + 1}: " + ", ".join(f"{n} {v[-1]:.2f} s" for n, v in times.items()),
+                file=sys.stderr,
+            )
+        c1.close()
+        lc1.close()
+        med = {n: statistics.median(v) for n, v in times.items()}
+        n = args.cases
+        print(
+            f"\n{n} cases of 10 s simulated (case 1, spread 0.2), {args.trials} trials, "
+            f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.2f}"
+        )
+        print("| what | wall time [s] (median) | per case [s] | ratio |")
+        print("|---|---|---|---|")
+        for name, ratio in (
+            ("serial", 1.0),
+            ("2 workers", med["serial"] / med["2 workers"]),
+            ("1 worker", med["serial"] / med["1 worker"]),
+        ):
+            print(f"| {name} | {med[name]:.2f} | {med[name] / n:.3f} | {ratio:.2f}x |")
+        overhead = (med["1 worker"] - med["serial"]) / n
+        print(
+            f"\nspeed-up, 2 workers vs serial: {med['serial'] / med['2 workers']:.2f}x "
+            "(target >= 1.8x)"
+        )
+        print(
+            f"per-case overhead (1 worker - serial): {overhead * 1e3:.0f} ms = "
+            f"{100 * overhead / (med['serial'] / n):.1f} % of a 10 s case (target <= 5 %)"
+        )
+        print(
+            f"cluster start-up: 2 workers {start2:.1f} s, 1 worker {start1:.1f} s; first "
+            f"3-case campaign (worker warm-up): {t_warm2:.1f} s / {t_warm1:.1f} s"
+        )
+        if args.big:
+            big = write_campaign(tmp, args.big, seed=2)
+            wall = campaign(big, lc2.scheduler_address, tmp / "big")
+            print(
+                f"\n{args.big}-case campaign of 10 s cases on 2 workers: {wall:.1f} s "
+                f"({wall / args.big:.3f} s per case); 1000 cases at this rate: "
+                f"{1000 * wall / args.big / 60:.1f} min"
+            )
+        c2.close()
+        lc2.close()
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
