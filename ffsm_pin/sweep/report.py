@@ -19,7 +19,7 @@ import duckdb
 
 from .campaign import Campaign
 
-__all__ = ["RATE_SQL", "SPREAD_SQL", "WORST_SQL", "query", "write_report"]
+__all__ = ["CAUSES_SQL", "RATE_SQL", "SPREAD_SQL", "WORST_SQL", "query", "write_report"]
 
 Z95 = 1.959963984540054  # standard normal quantile of 0.975
 N_WORST = 10
@@ -70,6 +70,25 @@ WHERE NOT nominal AND status <> 'error'
 ORDER BY {KEPT} ASC, max_abs_u DESC NULLS FIRST
 LIMIT {N_WORST}"""
 
+CAUSES_SQL = """\
+SELECT {cols_sel}
+  CASE
+    WHEN stop_reason ILIKE '%left its funnel%' THEN 'funnel left'
+    WHEN stop_reason ILIKE '%singular%' THEN 'arm or filter singular'
+    WHEN stop_reason ILIKE '%blow-up%' OR stop_reason ILIKE '%non-finite%'
+      THEN 'numerical blow-up'
+    WHEN stop_reason ILIKE '%positive definite%' OR stop_reason ILIKE '%collapsed%'
+      THEN 'estimate degenerate'
+    ELSE 'other'
+  END AS cause,
+  count(*) AS runs,
+  min(stop_time) AS first_stop,
+  median(stop_time) AS median_stop
+FROM read_parquet('{path}')
+WHERE NOT nominal AND status = 'stopped'
+GROUP BY ALL
+ORDER BY ALL"""
+
 POINTS_SQL = """\
 SELECT {cols_sel} max_abs_u, settle_time_z, min_sigma, damping_threshold
 FROM read_parquet('{path}')
@@ -111,6 +130,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
     spread = query(_sql(SPREAD_SQL, path, cols))
     worst = query(_sql(WORST_SQL, path, cols))
     points = query(_sql(POINTS_SQL, path, cols))
+    causes = query(_sql(CAUSES_SQL, path, cols))
     nominal = query(f"SELECT * FROM read_parquet('{path}') WHERE nominal")
     errors = query(
         f"SELECT \"case\", error FROM read_parquet('{path}') WHERE status = 'error' ORDER BY 1"
@@ -169,6 +189,19 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         },  # fmt: skip
     )
     lines += ["", f"![funnel-keeping rate]({figures['rate']})", ""]
+    if causes:
+        lines += ["Why runs stopped early (from `stop_reason`):", ""]
+        lines += _table(
+            causes,
+            [
+                *((c, c, None) for c in cols),
+                ("cause", "cause", "{}"),
+                ("runs", "runs", "{}"),
+                ("first stop [s]", "first_stop", "{:.2f}"),
+                ("median stop [s]", "median_stop", "{:.2f}"),
+            ],
+        )
+        lines += [""]
     lines += ["## Control effort, settling and distance to singularity per grid point", ""]
     lines += _table(
         spread,
@@ -240,6 +273,9 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         ";",
         "",
         _sql(WORST_SQL, Path("results.parquet"), cols),
+        ";",
+        "",
+        _sql(CAUSES_SQL, Path("results.parquet"), cols),
         ";",
         "```",
         "",

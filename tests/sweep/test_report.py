@@ -17,7 +17,7 @@ def outcome(kept: bool, stopped: bool, u: float) -> dict:
         "status": "stopped" if stopped else "completed", "error": None, "funnel_ok_b": True,
         "funnel_ok_z": kept, "max_abs_u": u, "settle_time_z": 4.0 if kept else None,
         "settle_time_b": 2.0, "min_sigma": 0.05 + u / 1000, "damping_threshold": 0.05,
-        "completed": not stopped, "stop_reason": "funnel left" if stopped else None,
+        "completed": not stopped, "stop_reason": "t = 1.0000 s: err_z[1] = 0.9 left its funnel (-0.8, 0.8)" if stopped else None,
         "stop_time": 1.0 if stopped else None, "wall_time_s": 0.1,
     }  # fmt: skip
 
@@ -66,6 +66,7 @@ def test_report_files(campaign_dir):
         assert (out / name).stat().st_size > 1000 and f"({name})" in report
     assert "| 0.3 | 10 | 5 | 50% | 24% - 76% | 0 | 1 |" in report
     assert "case 22: RuntimeError: boom" in report
+    assert "| 0.1 | funnel left | 3 | 1.00 | 1.00 |" in report  # the stop causes
     # worst cases: not kept first, largest max |u_m| first; case 11 (u = 110) leads
     worst = sorted((out / "worst").iterdir())
     assert len(worst) == 10 and (out / "worst" / "case-00011.toml") in worst
