@@ -12,12 +12,15 @@ from ffsm_pin.sweep.report import RATE_SQL, _sql, query, write_report
 from ffsm_pin.sweep.table import ResultsTable
 
 
+FUNNEL_STOP = "t = 1.0000 s: err_z[1] = 0.9 left its funnel (-0.8, 0.8)"
+
+
 def outcome(kept: bool, stopped: bool, u: float) -> dict:
     return {
         "status": "stopped" if stopped else "completed", "error": None, "funnel_ok_b": True,
         "funnel_ok_z": kept, "max_abs_u": u, "settle_time_z": 4.0 if kept else None,
         "settle_time_b": 2.0, "min_sigma": 0.05 + u / 1000, "damping_threshold": 0.05,
-        "completed": not stopped, "stop_reason": "t = 1.0000 s: err_z[1] = 0.9 left its funnel (-0.8, 0.8)" if stopped else None,
+        "completed": not stopped, "stop_reason": FUNNEL_STOP if stopped else None,
         "stop_time": 1.0 if stopped else None, "wall_time_s": 0.1,
     }  # fmt: skip
 
