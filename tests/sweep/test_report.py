@@ -11,7 +11,6 @@ from ffsm_pin.sweep.campaign import expand, load_campaign
 from ffsm_pin.sweep.report import RATE_SQL, _sql, query, write_report
 from ffsm_pin.sweep.table import ResultsTable
 
-
 FUNNEL_STOP = "t = 1.0000 s: err_z[1] = 0.9 left its funnel (-0.8, 0.8)"
 
 
