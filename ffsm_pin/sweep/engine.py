@@ -43,13 +43,15 @@ def start_client(
     if scheduler is not None:
         return Client(scheduler, timeout="20s"), None
     n = n_workers or os.cpu_count() or 1
-    cluster = LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.CRITICAL if quiet else logging.ERROR,
-    )
+    with warnings.catch_warnings():  # "port 8787 in use" when another cluster runs: harmless
+        warnings.simplefilter("ignore")
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.CRITICAL if quiet else logging.ERROR,
+        )
     return Client(cluster), cluster
 
 

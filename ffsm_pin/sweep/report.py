@@ -63,7 +63,7 @@ WHERE NOT nominal AND status <> 'error'
 {order}"""
 
 WORST_SQL = f"""\
-SELECT "case", {{cols_sel}} estimates_seed, status, funnel_ok_b, funnel_ok_z, max_abs_u,
+SELECT "case", {{cols_sel}}estimates_seed, status, funnel_ok_b, funnel_ok_z, max_abs_u,
        min_sigma, stop_time, stop_reason, scenario_toml
 FROM read_parquet('{{path}}')
 WHERE NOT nominal AND status <> 'error'
@@ -98,12 +98,13 @@ WHERE NOT nominal AND status <> 'error'
 
 def _sql(template: str, path: Path, cols: list[str]) -> str:
     quoted = [_ident(c) for c in cols]
-    return template.format(
+    text = template.format(
         path=str(path).replace("'", "''"),
         cols_sel="".join(f"{c}, " for c in quoted),
         group=f"GROUP BY {', '.join(quoted)}" if cols else "",
         order=f"ORDER BY {', '.join(quoted)}" if cols else "",
     )
+    return "\n".join(line.rstrip() for line in text.splitlines() if line.strip())
 
 
 def _ident(name: str) -> str:
