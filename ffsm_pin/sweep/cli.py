@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import logging
+import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -111,9 +112,15 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
                 table.keep(row, case)
             elif case is None:
                 stale += 1
-    if stale:
-        _warn(args, f"{stale} rows of results.parquet belong to another version of the campaign "
-                    "and are dropped")  # fmt: skip
+    if stale:  # keep the old file: those rows are not this campaign's, but they are results
+        stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+        old = out / f"results-before-{stamp}.parquet"
+        shutil.copy2(table.path, old)
+        _warn(
+            args,
+            f"{stale} rows of results.parquet are not cases of this campaign (another version "
+            f"of it?); they are left out, the previous file is kept as {old.name}",
+        )
     todo = [c for c in cases if c.case_hash not in table.rows]
     table.write()
     if todo:

@@ -117,6 +117,12 @@ def test_campaign_rows_resume_and_extension(cluster, campaign_file, tmp_path, ca
     assert [r["controller.estimates.spread"] for r in new] == [0.2, 0.2]
     assert [r["case"] for r in after] == list(range(7))
 
+    # back to the narrower grid: nothing runs, the 0.2 rows are left out, the old file kept
+    assert sweep(path, out, address) == 0
+    assert [r["case_hash"] for r in rows(out)] == [r["case_hash"] for r in first]
+    (before,) = out.glob("results-before-*.parquet")
+    assert pq.read_table(before).num_rows == 7
+
     # --force runs everything again (new wall times)
     assert sweep(wider, out, address, "--force") == 0
     forced = rows(out)
