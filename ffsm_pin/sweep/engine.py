@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
+import time
 import traceback
 import uuid
 import warnings
@@ -77,6 +78,10 @@ class WarmUp(WorkerPlugin):
             pass
 
 
+def _has_warmup(dask_worker=None) -> bool:
+    return dask_worker is not None and WarmUp.name in dask_worker.plugins
+
+
 def summary_scalars(summary: dict[str, Any]) -> dict[str, Any]:
     """The scalar entries of a run's summary.json (lists such as final_err_z are left out)."""
     return {k: v for k, v in summary.items() if v is None or isinstance(v, (bool, int, float, str))}
@@ -86,12 +91,14 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     """Simulate one case (on a worker): ``{"status", "error", **summary scalars}``.
 
     ``status`` is ``"completed"``, ``"stopped"`` (the run stopped early: a result) or
-    ``"error"`` (the run raised; ``error`` holds the exception and where it happened).
+    ``"error"`` (the run raised; ``error`` holds the exception and where it happened);
+    ``case_wall_s`` and ``case_cpu_s`` are the case's wall and CPU time on the worker [s].
     ``keep_dir``: write the run folder there as ``python -m ffsm_pin.sim`` does.
     """
     from ..sim.run import prepare, simulate
     from ..sim.scenario_file import scenario_from_toml
 
+    wall0, cpu0 = time.perf_counter(), time.thread_time()
     try:
         scenario = scenario_from_toml(scenario_toml)
         with warnings.catch_warnings():
@@ -106,9 +113,15 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     except Exception as exc:  # noqa: BLE001 - recorded in the row, the campaign goes on
         where = traceback.extract_tb(exc.__traceback__)[-1]
         text = f"{type(exc).__name__}: {exc} ({Path(where.filename).name}:{where.lineno})"
-        return {"status": "error", "error": " ".join(text.split())}
+        return {"status": "error", "error": " ".join(text.split()), **_cost(wall0, cpu0)}
     status = "completed" if result.completed else "stopped"
-    return {"status": status, "error": None, **summary_scalars(summary)}
+    return {"status": status, "error": None, **summary_scalars(summary), **_cost(wall0, cpu0)}
+
+
+def _cost(wall0: float, cpu0: float) -> dict[str, float]:
+    """Wall and CPU time of the whole case on its worker (parse, set-up, simulation, summary,
+    run folder) [s]; the summary's wall_time_s covers the simulation loop only."""
+    return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": time.thread_time() - cpu0}
 
 
 def run_cases(
@@ -121,7 +134,9 @@ def run_cases(
     cases = list(cases)
     if not cases:
         return
-    client.register_plugin(WarmUp(cases[0].scenario_toml), name=WarmUp.name)
+    have = client.run(_has_warmup)  # a running cluster's workers are warm already
+    if not have or not all(have.values()):
+        client.register_plugin(WarmUp(cases[0].scenario_toml), name=WarmUp.name)
     token = uuid.uuid4().hex[:8]
     futures = {}
     for case in cases:

@@ -58,6 +58,8 @@ SUMMARY_TYPES = {
     "max_abs_F_r": pa.float64(),
     "final_theta_z_error": pa.float64(),
     "final_theta_d_error": pa.float64(),
+    "case_wall_s": pa.float64(),  # the whole case on its worker (ffsm_pin.sweep.engine.run_case)
+    "case_cpu_s": pa.float64(),
 }
 TAIL = {"scenario_toml": pa.string()}
 
