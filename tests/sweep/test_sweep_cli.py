@@ -15,6 +15,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -34,12 +35,12 @@ TIMING = {"wall_time_s", "steps_per_s"}
 def cluster():
     from distributed import Client, LocalCluster
 
-    with (
-        LocalCluster(
+    with warnings.catch_warnings():  # "port 8787 in use" if another cluster runs: harmless
+        warnings.simplefilter("ignore")
+        lc = LocalCluster(
             n_workers=2, threads_per_worker=1, dashboard_address=None, silence_logs=50
-        ) as lc,
-        Client(lc) as client,
-    ):
+        )
+    with lc, Client(lc) as client:
         yield lc.scheduler_address, client
 
 
