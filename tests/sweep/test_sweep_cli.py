@@ -198,3 +198,19 @@ def test_a_case_that_raises_is_an_error_row(cluster, campaign_file, tmp_path, ca
         elif rho_z0 > 0.5:
             assert r["status"] in ("completed", "stopped") and r["error"] is None
     assert "RuntimeError" not in capsys.readouterr().err
+
+
+def test_keep_runs_writes_each_run_folder(cluster, campaign_file, tmp_path):
+    """--keep-runs: runs/case-NNNNN/ as python -m ffsm_pin.sim writes it, matching the row."""
+    address, _ = cluster
+    text = SMALL.replace("[0.1, 0.3]", "[0.2]").replace("repeat = 2", "repeat = 1")
+    out = tmp_path / "out"
+    assert sweep(campaign_file(text), out, address, "--keep-runs") == 0
+    got = rows(out)
+    assert len(got) == 2
+    for r in got:
+        folder = out / "runs" / f"case-{r['case']:05d}"
+        for name in ("trajectory.npz", "summary.json", "scenario.toml", "replay.html"):
+            assert (folder / name).is_file(), name
+        summary = json.loads((folder / "summary.json").read_text())
+        assert summary["max_abs_u"] == r["max_abs_u"] and summary["steps"] == r["steps"]
