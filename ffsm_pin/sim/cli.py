@@ -312,50 +312,64 @@ def _vec(values) -> str:
 
 
 class Console:
-    """Progress bar and warnings on stderr (plain text, ``\\r``-updated, throttled)."""
+    """Progress bar (tqdm, on stderr, erased at the end) and ``warning: ...`` lines."""
 
     def __init__(self, quiet: bool = False, stream: TextIO | None = None, width: int = 24):
         self.quiet = quiet
         self.stream = stream if stream is not None else sys.stderr
         self.width = width
-        self._line = 0
-        self._name, self._duration, self._dt = "", 1.0, 1.0
-        self._wall0 = self._last = 0.0
+        self._bar = None
+        self._dt = 1.0
         self._seen: set[str] = set()
         self.context = ""  # prefix of warnings (the run they belong to)
         self._interval = 0.1 if _isatty(self.stream) else 2.0  # [s] between redraws
 
     def start(self, name: str, duration: float, dt: float) -> None:
-        self._name, self._duration, self._dt = name, duration, dt
-        self._wall0 = time.perf_counter()
-        self._last = -1.0
+        from tqdm import tqdm  # the same progress library as the campaigns (ffsm_pin.sweep)
+
+        self._close()
+        if self.quiet:
+            return
+        self._dt = dt
+        self._bar = tqdm(
+            total=duration,
+            desc=name,
+            file=self.stream,
+            leave=False,
+            mininterval=self._interval,
+            ascii=".#",
+            postfix="     0 steps/s",
+            bar_format=f"{{desc}} [{{bar:{self.width}}}] {{n:6.2f}}/{{total:g}} s  {{postfix}}  "
+            "ETA {remaining}",
+        )
         self.progress(0.0)
 
     def progress(self, t: float) -> None:
         """Callback for :func:`ffsm_pin.sim.run.simulate`: t = simulated time [s]."""
-        if self.quiet:
+        bar = self._bar
+        if bar is None:
             return
-        now = time.perf_counter()
-        if now - self._last < self._interval and t < self._duration:
-            return
-        self._last = now
-        frac = min(max(t / self._duration, 0.0), 1.0)
-        filled = int(round(frac * self.width))
-        bar = "#" * filled + "." * (self.width - filled)
-        wall = now - self._wall0
-        rate = t / self._dt / wall if wall > 0 else 0.0
-        eta = (self._duration - t) / (t / wall) if t > 0 and wall > 0 else float("nan")
-        eta_text = f"ETA {eta:4.0f} s" if math.isfinite(eta) else "ETA    ? s"
-        text = (
-            f"{self._name} [{bar}] {t:6.2f}/{self._duration:g} s  {rate:6.0f} steps/s  {eta_text}"
-        )
-        self._write("\r" + text.ljust(self._line))
-        self._line = len(text)
+        elapsed = bar.format_dict["elapsed"]
+        rate = t / self._dt / elapsed if elapsed > 0 else 0.0
+        bar.set_postfix_str(f"{rate:6.0f} steps/s", refresh=False)
+        bar.update(min(t, bar.total) - bar.n)
 
     def clear(self) -> None:
-        if self._line:
-            self._write("\r" + " " * self._line + "\r")
-            self._line = 0
+        """Erase the bar (it is drawn again at the next progress update of an unfinished run)."""
+        if self._bar is None:
+            return
+        if self._bar.n >= self._bar.total:
+            self._close()
+        else:
+            self._bar.clear()
+
+    def _close(self) -> None:
+        if self._bar is not None:
+            try:
+                self._bar.close()
+            except (OSError, ValueError):  # closed pipe: progress is best effort
+                pass
+            self._bar = None
 
     def warn(self, message: str) -> None:
         if self.quiet:

@@ -1,0 +1,230 @@
+"""Campaign throughput on Dask against the serial loop of single runs (ffsm_pin.sweep).
+
+Usage::
+
+    python benchmarks/bench_sweep.py                  # 20 cases x 3 trials, then 100 cases
+    python benchmarks/bench_sweep.py --cases 10 --trials 1 --big 0     # quick look
+    python benchmarks/bench_sweep.py --big 1000       # the 1000-case campaign itself
+
+The cases are those of a campaign on the paper's case 1 (10 s simulated, dt = 1 ms, estimates
+perturbed by up to 20 %, one seed per case). In each trial, side by side:
+
+* **serial**: the same cases one after the other in this process,
+  ``simulate(prepare(scenario))`` (the kernels are warm; no Dask, no Parquet);
+* **campaign, 2 workers**: ``python -m ffsm_pin.sweep CAMPAIGN --scheduler ... --force`` run
+  in this process (``ffsm_pin.sweep.cli.main``) on a running LocalCluster of 2 single-threaded
+  workers (already warm: cluster start-up is reported separately): expansion, validation,
+  scheduling, transfer, atomic Parquet rewrite per row, report;
+* **campaign, 1 worker**: the same on a 1-worker cluster. Its excess over the serial loop,
+  per case, is the per-case overhead of the campaign machinery.
+
+Trials are interleaved (serial, 2 workers, 1 worker, serial, ...) so a change of machine load
+hits all three alike; the medians over trials are reported. Ratios: speed-up = serial / 2
+workers (target >= 1.8 on 2 cores), overhead = (1 worker - serial) / serial (target <= 5 %).
+
+CPU time is measured next to wall time: the serial loop's thread, and for a campaign this
+process (client, scheduler, Parquet, report) plus every worker process (``getrusage`` on the
+workers). On a machine shared with other jobs, wall-time ratios measure the cores the other
+jobs leave free; the CPU-time overhead still measures what the campaign machinery costs.
+``--big N`` then runs one N-case campaign on the 2-worker cluster and reports its wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))  # this checkout's ffsm_pin, also for the workers
+
+CAMPAIGN = """\
+[campaign]
+name = "bench"
+scenario = "case1"
+seed = {seed}
+repeat = {repeat}
+duration = 10.0
+
+[campaign.set]
+"controller.estimates.initial" = "perturbed"
+"controller.estimates.spread" = 0.2
+"""
+
+
+def write_campaign(folder: Path, n_cases: int, seed: int) -> Path:
+    """A campaign of ``n_cases`` cases: the nominal case plus ``n_cases - 1`` seeds."""
+    path = folder / f"bench-{n_cases}-{seed}.toml"
+    path.write_text(CAMPAIGN.format(seed=seed, repeat=n_cases - 1))
+    return path
+
+
+def serial(path: Path) -> float:
+    from ffsm_pin.sim.run import prepare, simulate
+    from ffsm_pin.sim.scenario_file import scenario_from_toml
+    from ffsm_pin.sweep.campaign import expand, load_campaign
+
+    cases = expand(load_campaign(path))
+    # thread_time: this thread only (the idle clusters' scheduler threads live in this process)
+    t0, c0 = time.perf_counter(), time.thread_time()
+    for case in cases:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulate(prepare(scenario_from_toml(case.scenario_toml)))
+    return time.perf_counter() - t0, time.thread_time() - c0
+
+
+def _worker_cpu() -> float:
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def campaign(path: Path, client, out: Path, force: bool = True) -> tuple[float, float]:
+    """Wall time and CPU time (this process, which also hosts the scheduler, plus every
+    worker process) of one campaign run through the command line's entry point.
+
+    ``force=False`` on a finished folder resumes with nothing to run: the campaign's fixed
+    cost (expansion, validation, reading and writing results.parquet, the report)."""
+    from ffsm_pin.sweep import cli
+
+    address = client.scheduler.address
+    w0 = sum(client.run(_worker_cpu).values())
+    t0, c0 = time.perf_counter(), time.process_time()
+    argv = [str(path), "--out", str(out), "--scheduler", address, "--quiet"]
+    with contextlib.redirect_stdout(io.StringIO()):  # --quiet prints the output folder
+        status = cli.main(argv + (["--force"] if force else []))
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    if status != 0:
+        raise SystemExit(f"campaign {path.name} exited with status {status}")
+    return wall, cpu + sum(client.run(_worker_cpu).values()) - w0
+
+
+def start_cluster(n: int):
+    from distributed import Client, LocalCluster
+
+    t0 = time.perf_counter()
+    lc = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None, silence_logs=50)
+    client = Client(lc)
+    return lc, client, time.perf_counter() - t0
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--cases", type=int, default=20, help="cases per trial (default 20)")
+    p.add_argument("--trials", type=int, default=3, help="interleaved trials (default 3)")
+    p.add_argument("--big", type=int, default=100, help="cases of the big campaign (0: skip)")
+    args = p.parse_args(argv)
+    n = args.cases
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
+    try:
+        path = write_campaign(tmp, n, seed=1)
+        serial(write_campaign(tmp, 2, seed=99))  # compile / load the kernels here
+        lc2, c2, start2 = start_cluster(2)
+        lc1, c1, start1 = start_cluster(1)
+        warm = write_campaign(tmp, 3, seed=98)
+        warm2 = campaign(warm, c2, tmp / "warm2")[0]  # worker warm-up, reported separately
+        warm1 = campaign(warm, c1, tmp / "warm1")[0]
+        runs: dict[str, list[tuple[float, float]]] = {
+            "serial": [],
+            "2 workers": [],
+            "1 worker": [],
+            "fixed (resume, 0 cases)": [],
+        }
+        case_cpu: dict[str, list[float]] = {"2 workers": [], "1 worker": []}
+        for k in range(args.trials):
+            runs["serial"].append(serial(path))
+            runs["2 workers"].append(campaign(path, c2, tmp / f"c2-{k}"))
+            runs["1 worker"].append(campaign(path, c1, tmp / f"c1-{k}"))
+            runs["fixed (resume, 0 cases)"].append(campaign(path, c1, tmp / f"c1-{k}", False))
+            for m, folder in (("2 workers", f"c2-{k}"), ("1 worker", f"c1-{k}")):
+                table = pq.read_table(tmp / folder / "results.parquet")
+                case_cpu[m].append(sum(table.column("case_cpu_s").to_pylist()))
+            text = ", ".join(
+                f"{m} {v[-1][0]:.2f} s (cpu {v[-1][1]:.2f} s)" for m, v in runs.items()
+            )
+            print(f"trial {k + 1}: {text}", file=sys.stderr)
+        c1.close()
+        lc1.close()
+        wall = {m: statistics.median(w for w, _ in v) for m, v in runs.items()}
+        cpu = {m: statistics.median(c for _, c in v) for m, v in runs.items()}
+        print(
+            f"\n{n} cases of 10 s simulated (case 1, spread 0.2), {args.trials} trials, "
+            f"os.cpu_count() = {os.cpu_count()}, load average {os.getloadavg()[0]:.2f}"
+        )
+        print("| what | wall [s] | wall per case [s] | serial / this | CPU [s] | CPU / serial |")
+        print("|---|---|---|---|---|---|")
+        for m in runs:
+            print(
+                f"| {m} | {wall[m]:.2f} | {wall[m] / n:.3f} | {wall['serial'] / wall[m]:.2f}x "
+                f"| {cpu[m]:.2f} | {cpu[m] / cpu['serial']:.3f} |"
+            )
+        print(
+            f"\nspeed-up, 2 workers vs serial (wall): {wall['serial'] / wall['2 workers']:.2f}x "
+            "(target >= 1.8x)"
+        )
+        fixed = "fixed (resume, 0 cases)"
+        for label, a, b in (
+            ("wall, 1 worker - serial", wall["1 worker"], wall["serial"]),
+            ("CPU, 1 worker - serial", cpu["1 worker"], cpu["serial"]),
+            ("CPU, 2 workers - serial", cpu["2 workers"], cpu["serial"]),
+            ("CPU, 1 worker - serial - fixed", cpu["1 worker"] - cpu[fixed], cpu["serial"]),
+            ("CPU, 2 workers - serial - fixed", cpu["2 workers"] - cpu[fixed], cpu["serial"]),
+        ):
+            over = (a - b) / n
+            print(
+                f"per-case overhead ({label}): {over * 1e3:.0f} ms = {100 * (a - b) / b:.1f} % "
+                "of a 10 s case (target <= 5 %)"
+            )
+        print(
+            f"fixed cost per campaign (resume with nothing to run): {wall[fixed]:.2f} s wall, "
+            f"{cpu[fixed]:.2f} s CPU"
+        )
+        print("\nsame run, CPU of the campaign against the CPU its cases took on the workers:")
+        for m in case_cpu:
+            ratios = [
+                (total - cases) / cases
+                for (_, total), cases in zip(runs[m], case_cpu[m], strict=True)
+            ]
+            no_fixed = [
+                (total - f - cases) / cases
+                for (_, total), (_, f), cases in zip(runs[m], runs[fixed], case_cpu[m], strict=True)
+            ]
+            print(
+                f"{m}: overhead {100 * statistics.median(ratios):.1f} % of the cases' CPU "
+                f"(all included), {100 * statistics.median(no_fixed):.1f} % without the fixed "
+                f"per-campaign cost; cases' CPU {statistics.median(case_cpu[m]) / n:.3f} s each"
+            )
+        print(
+            f"cluster start-up: 2 workers {start2:.1f} s, 1 worker {start1:.1f} s; first "
+            f"3-case campaign (worker warm-up): {warm2:.1f} s / {warm1:.1f} s"
+        )
+        if args.big:
+            big = write_campaign(tmp, args.big, seed=2)
+            w, c = campaign(big, c2, tmp / "big")
+            print(
+                f"\n{args.big}-case campaign of 10 s cases on 2 workers: {w:.1f} s wall "
+                f"({w / args.big:.3f} s per case, CPU {c:.1f} s); 1000 cases at this rate: "
+                f"{1000 * w / args.big / 60:.1f} min (wall time only)"
+            )
+        c2.close()
+        lc2.close()
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,201 @@
+"""Campaign files: validation (bad input = one ``error:`` line, exit 2, nothing written), case
+expansion, values read back from the resolved scenario, built-in campaigns."""
+
+from __future__ import annotations
+
+import pytest
+from sweep_cases import SMALL
+
+from ffsm_pin.sim.scenario_file import BUILTIN, builtin_scenario, scenario_from_toml
+from ffsm_pin.sweep import cli
+from ffsm_pin.sweep.campaign import (
+    BUILTIN_CAMPAIGNS,
+    CampaignError,
+    campaign_from_toml,
+    check_cases,
+    expand,
+    load_campaign,
+)
+
+# name -> (campaign text, fragment of the error line)
+BAD = {
+    "unknown key path": (
+        SMALL.replace("controller.estimates.spread", "controller.estimates.sprad"),
+        "controller.estimates.sprad: unknown key",
+    ),
+    "unknown section in the scenario": (
+        SMALL + '[[vary]]\nkey = "controler.k_z"\nvalues = [0.1]\n',
+        "controler: unknown section",
+    ),
+    "empty values": (SMALL.replace("values = [0.1, 0.3]", "values = []"), "non-empty list"),
+    "values not a list": (SMALL.replace("values = [0.1, 0.3]", "values = 0.1"), "non-empty list"),
+    "wrong type of a value": (
+        SMALL.replace("values = [0.1, 0.3]", 'values = [0.1, "big"]'),
+        "controller.estimates.spread: expected a number",
+    ),
+    "wrong type of repeat": (SMALL.replace("repeat = 2", 'repeat = "2"'), "campaign.repeat"),
+    "wrong type of seed": (SMALL.replace("seed = 11", "seed = 1.5"), "campaign.seed"),
+    "unknown scenario": (
+        SMALL.replace('scenario = "case1"', 'scenario = "case9"'),
+        "'case9' is neither a built-in scenario",
+    ),
+    "duplicate vary keys": (
+        SMALL + '[[vary]]\nkey = "controller.estimates.spread"\nvalues = [0.2]\n',
+        "controller.estimates.spread: given twice",
+    ),
+    "key both set and varied": (
+        SMALL.replace('"controller.estimates.initial"', '"controller.estimates.spread"'),
+        "controller.estimates.spread: given twice",
+    ),
+    "duplicate values": (SMALL.replace("[0.1, 0.3]", "[0.1, 0.3, 0.1]"), "appears twice"),
+    "duplicate TOML keys": (SMALL.replace("seed = 11", "seed = 11\nseed = 12"), "invalid TOML"),
+    "repeat 0": (SMALL.replace("repeat = 2", "repeat = 0"), "campaign.repeat = 0: must be >= 1"),
+    "repeat negative": (SMALL.replace("repeat = 2", "repeat = -3"), "must be >= 1"),
+    "value the scenario rejects": (
+        SMALL.replace("[0.1, 0.3]", "[0.1, 1.5]"),
+        "controller.estimates.spread = 1.5: must be in [0, 1)",
+    ),
+    "value the run set-up rejects": (  # initial end-effector error (-0.23, 0.48) outside rho_z0
+        SMALL + '[[vary]]\nkey = "controller.funnel.rho_z0"\nvalues = [0.3]\n',
+        "is not strictly inside its funnel",
+    ),
+    "bad TOML": (SMALL.replace("[campaign.set]", "[campaign.set"), "invalid TOML"),
+    "unknown campaign key": (SMALL.replace("seed = 11", "sed = 11"), "campaign.sed: unknown key"),
+    "the seed key": (
+        SMALL.replace('"controller.estimates.initial"', '"controller.estimates.seed"').replace(
+            '= "perturbed"', "= 3"
+        ),
+        "set by the campaign",
+    ),
+    "unknown distribution": (
+        SMALL + '[[sample]]\nkey = "controller.k_z"\ndistribution = "gauss"\nmean = 1\nstd = 1\n',
+        "'gauss' unknown",
+    ),
+    "sampled value the scenario rejects": (
+        SMALL
+        + '[[sample]]\nkey = "controller.k_z"\ndistribution = "uniform"\nlow = -2\nhigh = -1\n',
+        "controller.k_z = -",
+    ),
+}
+
+
+@pytest.mark.parametrize("what", list(BAD))
+def test_bad_campaign_is_one_error_line_exit_2_nothing_written(
+    what, campaign_file, tmp_path, capsys
+):
+    text, fragment = BAD[what]
+    path = campaign_file(text)
+    out = tmp_path / "out"
+    status = cli.main([str(path), "--out", str(out), "--workers", "1"])
+    err = capsys.readouterr()
+    assert status == 2, err.err
+    lines = err.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), lines
+    assert fragment in lines[0], lines[0]
+    assert "Traceback" not in err.err and err.out == ""
+    assert not out.exists()
+
+
+def test_missing_campaign_names_the_builtins(tmp_path, capsys):
+    status = cli.main(["robustness-case", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.splitlines()
+    assert status == 2 and len(err) == 1 and "robustness-case1" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_expansion(campaign_file):
+    campaign = load_campaign(campaign_file(SMALL))
+    cases = expand(campaign)
+    assert len(cases) == campaign.n_cases == 1 + 2 * 2
+    assert [c.index for c in cases] == list(range(5))
+    # case 0: the scenario file as it is, with only duration and dt replaced
+    nominal = builtin_scenario("case1")
+    sc0 = cases[0].scenario
+    assert cases[0].nominal and sc0.controller == nominal.controller
+    assert (sc0.duration, sc0.dt) == (4.0, 0.002) and sc0.initial == nominal.initial
+    # the grid: spreads outermost, repeats innermost, each case's own seed
+    assert [c.point.get("controller.estimates.spread") for c in cases[1:]] == [0.1, 0.1, 0.3, 0.3]
+    assert [c.repeat for c in cases[1:]] == [0, 1, 0, 1]
+    assert len({c.estimates_seed for c in cases}) == 5
+    for c in cases[1:]:
+        sc = scenario_from_toml(c.scenario_toml)  # what the worker runs
+        assert sc.controller.estimates.initial == "perturbed"
+        assert sc.controller.estimates.spread == c.values["controller.estimates.spread"]
+        assert sc.controller.estimates.seed == c.estimates_seed
+    assert len({c.case_hash for c in cases}) == 5
+
+
+def test_values_are_read_back_from_the_resolved_scenario(campaign_file):
+    """An integer spread resolves to a float; a funnel entry given as one number resolves to
+    one per component (recorded as that number when the column allows it); a sampled gain lies
+    in its range."""
+    text = SMALL.replace("[0.1, 0.3]", "[0, 0.3]") + (
+        '[[vary]]\nkey = "controller.funnel.rho_b0"\nvalues = [1, 2.0]\n'
+        '[[sample]]\nkey = "controller.k_z"\ndistribution = "log-uniform"\nlow = 0.01\nhigh = 0.1\n'
+    )
+    cases = expand(load_campaign(campaign_file(text)))
+    assert len(cases) == 1 + 2 * 2 * 2
+    for c in cases[1:]:
+        sc = scenario_from_toml(c.scenario_toml)
+        assert c.values["controller.estimates.spread"] == sc.controller.estimates.spread
+        assert isinstance(c.values["controller.estimates.spread"], float)
+        assert sc.controller.funnel_b.rho0 == (c.values["controller.funnel.rho_b0"],)
+        k_z = c.values["controller.k_z"]
+        assert k_z == sc.controller.gains.k_z and 0.01 <= k_z <= 0.1
+    # the nominal case records what the scenario file itself uses
+    assert cases[0].values["controller.k_z"] == 0.04
+    assert cases[0].values["controller.funnel.rho_b0"] == 1.0
+    # case 1's rho_z0 = [1.0, 1.0, 0.2] is a list: then the column holds lists for every case
+    text = SMALL + '[[vary]]\nkey = "controller.funnel.rho_z0"\nvalues = [1.5]\n'
+    cases = expand(load_campaign(campaign_file(text, "lists.toml")))
+    assert cases[0].values["controller.funnel.rho_z0"] == [1.0, 1.0, 0.2]
+    assert all(c.values["controller.funnel.rho_z0"] == [1.5] * 3 for c in cases[1:])
+
+
+def test_sampled_values_are_seeded_and_spread(campaign_file):
+    text = SMALL.replace("repeat = 2", "repeat = 200") + (
+        '[[sample]]\nkey = "controller.k_b"\ndistribution = "normal"\nmean = 0.05\nstd = 0.005\n'
+    )
+    a = expand(load_campaign(campaign_file(text)))
+    b = expand(load_campaign(campaign_file(text, "again.toml")))
+    draws = [c.values["controller.k_b"] for c in a[1:]]
+    assert draws == [c.values["controller.k_b"] for c in b[1:]]
+    # 400 normal draws: mean within 4 standard errors, sd within 15 %
+    import numpy as np
+
+    assert abs(np.mean(draws) - 0.05) < 4 * 0.005 / np.sqrt(400)
+    assert abs(np.std(draws) / 0.005 - 1) < 0.15
+
+
+def test_case_hash_changes_with_content(campaign_file):
+    cases = expand(load_campaign(campaign_file(SMALL)))
+    other = expand(load_campaign(campaign_file(SMALL.replace("seed = 11", "seed = 12"), "b.toml")))
+    assert cases[0].case_hash == other[0].case_hash  # nominal does not use the root seed
+    assert not {c.case_hash for c in cases[1:]} & {c.case_hash for c in other[1:]}
+
+
+def test_builtin_robustness_campaign_is_valid():
+    campaign = load_campaign("robustness-case1")
+    cases = expand(campaign)
+    assert len(cases) == 1 + 6 * 50 and campaign.duration == 30.0
+    check_cases(cases, campaign.source)
+
+
+@pytest.mark.skipif(
+    "planar5" not in BUILTIN,
+    reason="the built-in scenario 'planar5' and controller.null_space come with the "
+    "null-space branch; this campaign validates once it is merged",
+)
+def test_builtin_nullspace_campaign_is_valid():
+    campaign = load_campaign("nullspace-planar5")
+    cases = expand(campaign)
+    assert len(cases) == 1 + 2 * campaign.repeat
+    objectives = {c.values["controller.null_space.objective"] for c in cases[1:]}
+    assert objectives == {"none", "manipulability"}
+    check_cases(cases, campaign.source)
+
+
+def test_every_builtin_campaign_is_listed():
+    assert {"robustness-case1", "nullspace-planar5"} <= set(BUILTIN_CAMPAIGNS)
+    with pytest.raises(CampaignError, match="invalid TOML"):
+        campaign_from_toml("[campaign", load_campaign("robustness-case1").scenario_path)
