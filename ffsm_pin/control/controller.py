@@ -38,6 +38,7 @@ from .funnel import Funnel, FunnelEval, FunnelExit, FunnelParams, IdentityFunnel
 from .gains import Gains, SingularityPolicy
 from .kinematic import KinematicInputs, KinematicLaw, task_errors
 from .manifold import manifold_input
+from .null_space import NullSpace
 
 SCHEMES = ("ppc", "no-ppc", "no-attitude", "known-model")
 TASK_SIZE = 3  # planar end-effector pose (x, y, attitude): m2 + m3
@@ -110,6 +111,9 @@ class CoordinatedController:
         Initial estimates (the true vectors for ``"known-model"``).
     initial:
         The measurement at t = 0; fixes the side of each funnel (Eqs. 16-17).
+    null_space:
+        Optional null-space term added to Eq. (36) (beyond the paper,
+        :mod:`.null_space`); None = the paper's law.
     """
 
     def __init__(
@@ -128,6 +132,7 @@ class CoordinatedController:
         theta_b0,
         initial: Measurement,
         backend: str = "auto",
+        null_space: NullSpace | None = None,
     ):
         check_feasibility(model.n_joints, scheme)
         if backend not in BACKENDS:
@@ -151,7 +156,10 @@ class CoordinatedController:
             self.q_bd,
             singularity.threshold,
             attitude=scheme != "no-attitude",
+            null_space=null_space,
+            null_space_center=initial.q_m,
         )
+        self.null_space = self.kinematic.null_space
         self.theta_z = np.array(theta_z0, dtype=float)
         self.theta_d = np.array(theta_d0, dtype=float)
         self.theta_b = np.array(theta_b0, dtype=float)
@@ -196,6 +204,7 @@ class CoordinatedController:
                       self.policy.threshold, self.q_bd]),
             self.reference._c, self.reference._A, self.reference._amp,
             self.reference._freq, self.reference._phase,
+            fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._layout = fast.out_layout(m.n_joints)
         self._warm_up(fast)

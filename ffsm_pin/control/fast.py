@@ -29,6 +29,8 @@ STATUS_NONFINITE = 6  # u_m not finite
 F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
 # entries of the packed gains array
 G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
+# entries of the packed null-space array (pack_null_space)
+NS_CODE, NS_GAIN, NS_STEP, NS_CENTER = range(4)
 _H = 1e-30
 _TWO_PI = 2.0 * np.pi
 
@@ -42,6 +44,20 @@ def pack_funnel(funnel) -> np.ndarray:
         ),
         dtype=float,
     )  # fmt: skip
+
+
+def pack_null_space(null_space, center, n: int) -> np.ndarray:
+    """(3 + n,) array of a :class:`~ffsm_pin.control.null_space.NullSpace`: objective code,
+    gain, gradient step, joint-centering centre (zeros when unused)."""
+    from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
+
+    out = np.zeros(3 + n)
+    out[NS_CODE] = OBJECTIVE_CODE[null_space.objective]
+    out[NS_GAIN] = null_space.gain
+    out[NS_STEP] = GRADIENT_STEP
+    if center is not None:
+        out[NS_CENTER:] = center
+    return out
 
 
 @njit(cache=True)
@@ -184,9 +200,9 @@ def _damped_pinv(A, thr):
 
 @njit(cache=True)
 def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
-               fb, fz, g, rc, rA, ramp, rfreq, rphase,
+               fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
                t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
-    """w_mc of Eqs. (25)+(36) or (81) (complex-step safe)."""
+    """w_mc of Eqs. (25)+(36) or (81) (complex-step safe); ``ns`` = :func:`pack_null_space`."""
     nb = S.shape[0]
     n = nb - 1
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
@@ -226,8 +242,67 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
     pinv, sigma, damping = _damped_pinv(Jm @ U, g[G_THR])
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
+    if ns[NS_CODE] != 0:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
+        A = Jm @ U
+        grad = _null_space_gradient(S, off, K, L, ee_row, collinear, ns,
+                                    q_b, q_m, theta_b, theta_z)  # fmt: skip
+        xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
+
+
+@njit(cache=True)
+def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_z):
+    """A = J_m-hat U-hat of Eq. (36) at (q_b, q_m) (complex-step safe)."""
+    nb = S.shape[0]
+    n = nb - 1
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    J = _jacobian(theta_z, c, s, S, ee_row, collinear)
+    Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
+    row = _xm(Mphi.sum(axis=0).reshape(1, nb), S)[0]
+    Hbm = row[1:].copy()
+    U = np.eye(n) - np.outer(Hbm / (Hbm * Hbm).sum(), Hbm)
+    return np.ascontiguousarray(J[:, 1:]) @ U
+
+
+@njit(cache=True)
+def _spd_det(G):
+    """det of an SPD matrix by elimination without pivoting (complex-step safe; as
+    ffsm_pin.control.null_space.spd_det)."""
+    G = G.copy()
+    m = G.shape[0]
+    det = G[0, 0] * 1.0
+    for k in range(m):
+        if k > 0:
+            det = det * G[k, k]
+        for i in range(k + 1, m):
+            f = G[i, k] / G[k, k]
+            for j in range(k + 1, m):
+                G[i, j] -= f * G[k, j]
+    return det
+
+
+@njit(cache=True)
+def _null_space_gradient(S, off, K, L, ee_row, collinear, ns, q_b, q_m, theta_b, theta_z):
+    """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space)."""
+    n = q_m.size
+    grad = np.empty(n, dtype=q_m.dtype)
+    if ns[NS_CODE] == 2:  # joint-centering: mu = -1/2 |q_m - center|^2
+        for j in range(n):
+            grad[j] = ns[NS_CENTER + j] - q_m[j]
+        return grad
+    h = ns[NS_STEP]  # manipulability: central difference of real perturbations of q_m
+    for j in range(n):
+        qp = q_m.copy()
+        qm = q_m.copy()
+        qp[j] += h
+        qm[j] -= h
+        Ap = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, qp, theta_b, theta_z)
+        Am = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, qm, theta_b, theta_z)
+        mu_p = np.sqrt(_spd_det(Ap @ Ap.T))
+        mu_m = np.sqrt(_spd_det(Am @ Am.T))
+        grad[j] = (mu_p - mu_m) / (2.0 * h)
+    return grad
 
 
 @njit(cache=True)
@@ -282,7 +357,7 @@ def _velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
 
 @njit(cache=True)
 def period(S, off, K, L, ee_row, collinear, attitude, identity,
-           fb, fz, g, rc, rA, ramp, rfreq, rphase, dt,
+           fb, fz, g, rc, rA, ramp, rfreq, rphase, ns, dt,
            t, q_b, q_m, w, z_e, z_e_dot,
            theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
     """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64); updates the
@@ -330,7 +405,7 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
     tzc = theta_z + hj * (tz_new - theta_z) / dt
     w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
         S, off, K, L, ee_row, collinear, attitude, identity,
-        fb, fz, g, rc, rA, ramp, rfreq, rphase,
+        fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
         t + hj, q_b + hj * w[0], qmc, zec, tbc, tzc, w[0] + 0j,
     )  # fmt: skip
     o = 3 * n + 4 + nb  # offset of the scalars in `out`, see out_layout()

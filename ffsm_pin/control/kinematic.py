@@ -8,7 +8,9 @@ Coordinated law (Eqs. 25 and 36, ``L_b = 1`` for the planar attitude angle)::
                                                                                       # Eq. (36)
 
 so that ``H_bm-hat w_mc = a_b`` (Eq. 26) and ``J_m-hat w_mc = -v0bar-hat + dz_ed/dt -
-k_z Phi_z psi_z`` (Eq. 37). Case 3 of the paper (no attitude regulation) uses Eq. (81)::
+k_z Phi_z psi_z`` (Eq. 37). Beyond the paper, an optional null-space term
+``(E - A^+ A) k_s grad mu`` (``A = J_m-hat U-hat``) is added to xi; it keeps both identities
+(:mod:`.null_space`). Case 3 of the paper (no attitude regulation) uses Eq. (81)::
 
     w_mc = J_m-hat^+ (-v0bar-hat + dz_ed/dt - J_b-hat w_b - k_z Phi_z psi_z)
 
@@ -28,9 +30,11 @@ from typing import NamedTuple
 import numpy as np
 
 from ..barycentric import BarycentricModel
+from ..errors import ParameterError
 from .funnel import Funnel, FunnelEval
 from .gains import Gains
 from .linalg import damped_row_pinv, row_pinv
+from .null_space import NullSpace, null_space_gradient
 
 _H = 1e-30  # complex step; any tiny h works (no subtractive cancellation)
 _TWO_PI = 2.0 * np.pi
@@ -88,6 +92,8 @@ class KinematicLaw:
         base_attitude_ref: float,
         threshold: float,
         attitude: bool = True,
+        null_space: NullSpace | None = None,
+        null_space_center=None,
     ):
         self.model = model
         self.k_b, self.k_z = gains.k_b, gains.k_z
@@ -97,6 +103,17 @@ class KinematicLaw:
         self.threshold = threshold
         self.attitude = attitude
         self.n = model.n_joints
+        self.null_space = NullSpace() if null_space is None else null_space
+        if self.null_space.active and not attitude:
+            raise ParameterError(
+                "null_space: the null-space term is defined for Eq. (36) (schemes 'ppc', "
+                "'no-ppc', 'known-model'), not for the scheme 'no-attitude' (Eq. 81)"
+            )
+        self.center = (
+            None if null_space_center is None else self.null_space.center_for(null_space_center)
+        )
+        if self.null_space.objective == "joint-centering" and self.center is None:
+            raise ParameterError("null_space: joint-centering needs the initial joint angles")
 
     def errors(self, t, q_b, z_e):
         """(err_b, err_z), see :func:`task_errors`."""
@@ -121,12 +138,25 @@ class KinematicLaw:
         a_b = A0 + self.k_b * H_bb[0, 0] * fb.Phi * fb.psi  # (1,), Eq. (25)
         Hp = row_pinv(H_bm)  # (n, 1)
         U = np.eye(self.n) - Hp @ H_bm
-        inv = damped_row_pinv(J_m @ U, self.threshold)
+        A = J_m @ U
+        inv = damped_row_pinv(A, self.threshold)
         Hp_ab = Hp @ a_b
         xi = inv.pinv @ (target - J_m @ Hp_ab)  # Eq. (36)
+        if self.null_space.active:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
+            grad = null_space_gradient(
+                self.null_space, self.center, x.q_m, lambda q: self._reduced_jacobian(x, q)
+            )
+            xi = xi + self.null_space.gain * (grad - inv.pinv @ (A @ grad))
         w_mc = Hp_ab + U @ xi  # Eq. (25)
         h_norm = float(np.sqrt(np.real(H_bm @ H_bm.T)[0, 0]))
         return w_mc, fb, fz, inv.sigma_min, inv.damping, h_norm, np.zeros(self.n)
+
+    def _reduced_jacobian(self, x: KinematicInputs, q_m):
+        """A = J_m-hat U-hat of Eq. (36) at joint angles q_m (complex-step safe)."""
+        _, J_m = self.model.jacobians(x.theta_z, x.q_b, q_m)
+        _, H_bm, _ = self.model.momentum_matrices(x.theta_b, x.q_b, q_m)
+        U = np.eye(self.n) - row_pinv(H_bm) @ H_bm
+        return J_m @ U
 
     def command(self, x: KinematicInputs, rates: KinematicInputs) -> KinematicCommand:
         """w_mc at x and d w_mc / dt along ``rates`` (dt/dt = 1, dq/dt, dz_e/dt, ...).

@@ -31,7 +31,8 @@ _EPILOG = """\
 cases (--case): 1 = adaptive coordinated control with prescribed performance (the paper's case
 1, with rho_b0 = 1.0: see the comment in the scenario file), 1-paper = case 1 with the paper's
 exact rho_b0 = 0.4, 2 = without prescribed performance, 3 = without base attitude regulation
-(Eq. 81), known-model = case 1 with the true parameters.
+(Eq. 81), known-model = case 1 with the true parameters, planar5 = a 5-link robot with one
+spare joint and 30 % parameter error (null-space option: docs/null_space.md).
 
 output folder: trajectory.npz, summary.json, scenario.toml (the scenario as run),
 fig_*.png, replay.html (open it in a browser; no server needed).
@@ -61,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--case",
         metavar="CASE",
         type=_case_name,
-        help="built-in case: 1, 2, 3, 1-paper or known-model (default: 1)",
+        help="built-in case: 1, 2, 3, 1-paper, known-model or planar5 (default: 1)",
     )
     what.add_argument(
         "--compare", action="store_true", help="run cases 1, 2 and 3 and overlay their figures"
@@ -409,7 +410,7 @@ def _out_dir(out: str | None) -> Path:
 def _case_name(text: str) -> str:
     name = _CASE_ALIASES.get(text, text)
     if name not in BUILTIN:
-        valid = ", ".join([*_CASE_ALIASES, "known-model"])
+        valid = ", ".join([*_CASE_ALIASES, "known-model", "planar5"])
         raise argparse.ArgumentTypeError(f"unknown case {text!r}; valid choices: {valid}")
     return name
 

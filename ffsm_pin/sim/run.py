@@ -254,6 +254,7 @@ def prepare(scenario: Scenario) -> Setup:
         theta_d0=estimates[1],
         theta_b0=estimates[2],
         initial=meas0,
+        null_space=ctrl.null_space,
     )
     events = []
     horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)

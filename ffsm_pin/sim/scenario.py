@@ -15,6 +15,7 @@ import numpy as np
 from ..control.controller import SCHEMES
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
+from ..control.null_space import NullSpace
 from ..errors import ParameterError, choices_text
 from .plant import INTEGRATORS
 
@@ -183,6 +184,7 @@ class ControllerSpec:
     )
     estimates: Estimates = field(default_factory=Estimates)
     singularity: SingularityPolicy = field(default_factory=SingularityPolicy)
+    null_space: NullSpace = field(default_factory=NullSpace)  # beyond the paper, Eq. (36)
 
     def __post_init__(self) -> None:
         if self.scheme not in SCHEMES:

@@ -13,6 +13,9 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[reference]``: ``base_attitude = [0.0]``;
 * ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
   a funnel entry may be a single number, used for every component;
+* ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
+  ``gain = 1.0``, ``center`` = the initial joint angles,
+  :class:`~ffsm_pin.control.null_space.NullSpace`;
 * ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
   :class:`~ffsm_pin.control.gains.SingularityPolicy`;
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
@@ -32,6 +35,7 @@ from typing import Any
 
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
+from ..control.null_space import OBJECTIVES, NullSpace
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
 from .plant import INTEGRATORS
 from .scenario import (
@@ -59,6 +63,7 @@ BUILTIN: dict[str, str] = {
     "case2": "case2.toml",
     "case3": "case3.toml",
     "known-model": "known_model.toml",
+    "planar5": "planar5.toml",
 }
 
 # Allowed keys per table. A nested dict is a sub-table; a string is a type tag.
@@ -105,6 +110,7 @@ SCHEMA: dict[str, Any] = {
             "theta_b": _VEC,
         },
         "singularity": {"threshold": _NUM, "max_damped_time": _NUM},
+        "null_space": {"objective": _STR, "gain": _NUM, "center": _VEC},
     },
     "sim": {"duration": _NUM, "dt": _NUM, "integrator": _STR, "substeps": _INT},
 }
@@ -269,6 +275,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         "[controller.singularity]",
         f"threshold = {_toml(c.singularity.threshold)}",
         f"max_damped_time = {_toml(c.singularity.max_damped_time)}",
+        *_null_space_lines(c.null_space),
         "",
         "[sim]",
         f"duration = {_toml(scenario.duration)}",
@@ -404,6 +411,7 @@ def _controller(sec: Mapping, n_ee: int, n_b: int) -> ControllerSpec:
         k: _number(ssec, k, "controller.singularity", default=getattr(sp, k), positive=True)
         for k in ("threshold", "max_damped_time")
     }
+    null_space = _null_space(sec.get("null_space", {}))
     try:
         return ControllerSpec(
             scheme=scheme,
@@ -412,9 +420,40 @@ def _controller(sec: Mapping, n_ee: int, n_b: int) -> ControllerSpec:
             funnel_z=funnel_z,
             estimates=estimates,
             singularity=SingularityPolicy(**sing),
+            null_space=null_space,
         )
     except ParameterError as exc:  # pragma: no cover - everything is pre-checked above
         raise ScenarioError(f"[controller] {exc}") from None
+
+
+def _null_space(sec: Mapping) -> NullSpace:
+    p = "controller.null_space"
+    objective = _string(sec, "objective", p, default=NullSpace.objective)
+    if objective not in OBJECTIVES:
+        raise ScenarioError(
+            f"{p}.objective: {objective!r} unknown{did_you_mean(objective, OBJECTIVES)}; "
+            f"valid choices: {choices_text(OBJECTIVES)}"
+        )
+    gain = _number(sec, "gain", p, default=NullSpace.gain)
+    if gain < 0:
+        raise ScenarioError(f"{p}.gain = {gain}: must be >= 0")
+    center = _vector(sec, "center", p, default=None)
+    if center is not None and objective != "joint-centering":
+        raise ScenarioError(
+            f"{p}.center: only used with objective = 'joint-centering' (objective is {objective!r})"
+        )
+    return NullSpace(objective=objective, gain=gain, center=center)
+
+
+def _null_space_lines(ns: NullSpace) -> list[str]:
+    """The [controller.null_space] table; nothing for the paper's law (objective "none")."""
+    if not ns.active:
+        return []
+    lines = ["", "[controller.null_space]", f"objective = {_toml(ns.objective)}"]
+    lines.append(f"gain = {_toml(ns.gain)}")
+    if ns.center is not None:
+        lines.append(f"center = {_toml(ns.center)}")
+    return lines
 
 
 def _funnel(sec: Mapping, tag: str, n: int, default: FunnelParams) -> FunnelParams:

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import SimulationError
 from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.run import Sensor, initial_state, prepare
@@ -42,7 +43,7 @@ def _paper(scheme: str) -> Scenario:
     return dataclasses.replace(case1, controller=ctrl, duration=0.5)
 
 
-def _offaxis(scheme: str) -> Scenario:
+def _offaxis(scheme: str, null_space: NullSpace | None = None) -> Scenario:
     """5-link robot with CoMs off the joint line: the 2-vector parameter layout."""
     robot = RobotSpec(urdf=str(DATA / "planar5_offaxis.urdf"))
     init = InitialCondition(
@@ -69,6 +70,7 @@ def _offaxis(scheme: str) -> Scenario:
         scheme=scheme,
         funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)),
         estimates=Estimates(initial="perturbed", spread=0.3, seed=1),
+        null_space=null_space or NullSpace(),
     )
     return Scenario(robot, init, ref, ctrl, duration=0.5, dt=1e-3)
 
@@ -112,6 +114,30 @@ def test_numba_period_reproduces_numpy_reference(make, scheme):
     scale = np.maximum(np.abs(ref).max(axis=0), 1e-6)
     assert np.max(np.abs(fast - ref) / scale) < 1e-9
     assert np.max(np.abs(fast_states - ref_states) / np.maximum(np.abs(ref_states), 1.0)) < 1e-9
+
+
+@pytest.mark.parametrize(
+    "null_space",
+    [NullSpace("manipulability", 1.0), NullSpace("joint-centering", 1.0, (0.5,) * 5)],
+    ids=lambda ns: ns.objective,
+)
+def test_numba_null_space_reproduces_numpy_reference(null_space):
+    """The null-space term (beyond the paper) gives the same closed loop on both backends; the
+    joint-centering centre is away from q_m(0) so that the term acts from the first period.
+    Bound 5e-8 instead of 1e-9: the manipulability gradient is a difference quotient (step
+    1e-5), so the two backends' differently ordered operations give it an absolute rounding
+    noise ~1e-16 mu / 2e-5 ~ 2e-10 (mu of a few m^2), i.e. ~1e-8 of w_mc, whose components
+    are a few 1e-2 rad/s here (measured: 6e-9; joint-centering, without the quotient, 6e-13)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fast, fast_states, _ = _trajectory(_offaxis("ppc", null_space), "numba")
+        ref, ref_states, _ = _trajectory(_offaxis("ppc", null_space), "numpy")
+        paper, _, _ = _trajectory(_offaxis("ppc"), "numba")
+    scale = np.maximum(np.abs(ref).max(axis=0), 1e-6)
+    assert np.max(np.abs(fast - ref) / scale) < 5e-8
+    assert np.max(np.abs(fast_states - ref_states) / np.maximum(np.abs(ref_states), 1.0)) < 5e-8
+    n = 5
+    assert np.max(np.abs(fast[:, n : 2 * n] - paper[:, n : 2 * n])) > 1e-4  # w_mc differs
 
 
 @pytest.mark.parametrize("backend", ["numba", "numpy"])
