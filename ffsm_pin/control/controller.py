@@ -205,7 +205,7 @@ class CoordinatedController:
                 raise ParameterError(
                     f"{name} estimate has {vec.size} entries, the robot's layout needs {size}"
                 )
-        nb = model.n_joints + 1
+        nb = model.n_joints + self.m3
         self.w_hat = np.zeros(nb)  # Table 2: w-hat(0) = 0
         self.Y_df = np.zeros((nb, model.n_d))  # Table 2: Y_df(0) = 0
         self.adaptive = scheme != "known-model"

@@ -187,7 +187,7 @@ def test_misspelt_key_in_reference_entry():
         ("initial", "joints", [1, "a", 2, 3], ("initial.joints", "list of numbers")),
         ("initial", "joint_rates", [0, 0, 0], ("initial.joint_rates", "initial.joints has 4")),
         ("initial", "base_twist", [0, 0], ("initial.base_twist", "expected 3")),
-        ("robot", "base", "free-flyer", ("robot.base", "not supported", "'planar'")),
+        ("robot", "base", "spherical", ("robot.base", "not supported", "'free-flyer'")),
         ("robot", "urdf", 3, ("robot.urdf", "expected a string")),
         ("reference", "base_attitude", [0, 0], ("reference.base_attitude", "expected 1")),
         ("reference", "ee", [{"c": 1}], ("reference.ee", "1 entries, expected 3")),
