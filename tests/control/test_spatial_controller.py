@@ -71,8 +71,7 @@ def chain(tmp_path_factory):
 
 def _reference(n_task, rng):
     comps = [
-        ComponentReference(c=float(rng.uniform(-0.5, 0.5)), cos=(), sin=())
-        for _ in range(n_task)
+        ComponentReference(c=float(rng.uniform(-0.5, 0.5)), cos=(), sin=()) for _ in range(n_task)
     ]
     # one harmonic per component so that dz_ed/dt != 0
     from ffsm_pin.sim.scenario import Harmonic
@@ -289,7 +288,9 @@ def test_spatial_run_records_the_contract_shapes(short_run):
         assert s[key].shape[1:] == (width,), key
     assert np.all(np.linalg.norm(s["q_b"], axis=1) <= 1.0)
     np.testing.assert_allclose(s["L"], s["L"][0][None].repeat(len(s["L"]), 0), atol=1e-9)
-    np.testing.assert_allclose(s["err_b"], s["q_b"] - np.array(setup.scenario.reference.base_attitude))
+    np.testing.assert_allclose(
+        s["err_b"], s["q_b"] - np.array(setup.scenario.reference.base_attitude)
+    )
 
 
 def test_sensor_measures_the_spatial_state(short_run):
