@@ -68,6 +68,9 @@ BUILTIN: dict[str, str] = {
     "known-model": "known_model.toml",
     "planar5": "planar5.toml",
     "spatial": "spatial.toml",
+    "spatial-known-model": "spatial_known_model.toml",
+    "spatial-no-ppc": "spatial_no_ppc.toml",
+    "spatial-no-attitude": "spatial_no_attitude.toml",
 }
 
 # Allowed keys per table. A nested dict is a sub-table; a string is a type tag.
