@@ -18,6 +18,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
 from ..errors import FfsmError
 from .result import RunResult
 from .scenario import Scenario
@@ -282,6 +284,10 @@ def result_table(results: Sequence[RunResult], folders: Sequence[Path]) -> str:
 
 def _column(r: RunResult, folder: Path) -> dict[str, str]:
     s = r.summary()
+    spatial = np.asarray(r["err_b"]).reshape(len(r["t"]), -1).shape[1] == 3
+    n_z = np.asarray(r["err_z"]).shape[-1]
+    b_unit = "MRP" if spatial else "rad"
+    z_unit = ("m" if n_z == 3 else "m,MRP") if spatial else ("m" if n_z == 2 else "m,m,rad")
     settle = f"{_num(s['settle_time_b'], '{:.2f}')} / {_num(s['settle_time_z'], '{:.2f}')}"
     return {
         "scenario": r.scenario_name,
@@ -289,8 +295,8 @@ def _column(r: RunResult, folder: Path) -> dict[str, str]:
         "completed": _completed(r),
         "funnel b / z": f"{_kept(s['funnel_ok_b'])} / {_kept(s['funnel_ok_z'])}",
         "first violation [s]": _num(s["first_violation_t"], "{:.3f}"),
-        "final err_b [rad]": _vec(s["final_err_b"]),
-        "final err_z [m,m,rad]": _vec(s["final_err_z"]),
+        f"final err_b [{b_unit}]": _vec(s["final_err_b"]),
+        f"final err_z [{z_unit}]": _vec(s["final_err_z"]),
         "settle b / z [s]": settle,
         "max |u_m| [N m]": _num(s["max_abs_u"], "{:.4g}"),
         "max |F_r| [N m]": _num(s.get("max_abs_F_r"), "{:.4g}"),

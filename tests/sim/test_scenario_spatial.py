@@ -169,3 +169,18 @@ def test_position_task_is_valid_for_planar_robots():
     assert setup.controller.n_task == 2 and setup.controller.backend == "numpy"
     with pytest.raises(FfsmError, match="3 values, expected 2"):
         scenario_from_toml(_edit(text, "rho_z0", "[1.0, 1.0, 0.2]"))
+
+
+@pytest.mark.parametrize(
+    ("name", "scheme"),
+    [("spatial-known-model", "known-model"), ("spatial-no-ppc", "no-ppc"),
+     ("spatial-no-attitude", "no-attitude")],
+)  # fmt: skip
+def test_spatial_variants_differ_from_spatial_only_in_the_scheme(name, scheme):
+    base, other = builtin_scenario("spatial"), builtin_scenario(name)
+    assert other.controller.scheme == scheme
+    assert other.controller == base.controller.__class__(
+        **{**base.controller.__dict__, "scheme": scheme}
+    )
+    for field in ("robot", "initial", "reference", "duration", "dt"):
+        assert getattr(other, field) == getattr(base, field), field
