@@ -15,6 +15,7 @@ import pytest
 from ffsm_pin.errors import FfsmError
 from ffsm_pin.sim.run import initial_state, prepare
 from ffsm_pin.sim.scenario_file import (
+    BUILTIN,
     builtin_path,
     builtin_scenario,
     scenario_from_toml,
@@ -184,3 +185,11 @@ def test_spatial_variants_differ_from_spatial_only_in_the_scheme(name, scheme):
     )
     for field in ("robot", "initial", "reference", "duration", "dt"):
         assert getattr(other, field) == getattr(base, field), field
+
+
+@pytest.mark.parametrize("name", [n for n in BUILTIN if n.startswith("spatial")])
+def test_every_spatial_builtin_prepares(name):
+    """Loads, builds the robot (locked fingers, satellite) and passes every pre-run check."""
+    setup = prepare(builtin_scenario(name))
+    assert setup.robot.n_joints == len(setup.scenario.initial.joints) == 7
+    assert setup.scenario.duration >= 30.0
