@@ -204,13 +204,20 @@ class KinematicLaw:
         target = -v0bar + self.reference.ee_rate(x.t) - self.k_z * fz.Phi * fz.psi
         if not self.attitude:  # Eq. (81)
             inv = damped_row_pinv(J_m, self.threshold)
-            w_mc = inv.pinv @ (target - J_b @ np.atleast_1d(x.w_b))
-            sens = -(inv.pinv @ J_b)
+            if m3 == 1:  # planar: the scalar w_b, as the compiled kernel writes it
+                w_mc = inv.pinv @ (target - J_b[:, 0] * x.w_b)
+                sens = -(inv.pinv @ J_b[:, 0])[:, None]
+            else:
+                w_mc = inv.pinv @ (target - J_b @ x.w_b)
+                sens = -(inv.pinv @ J_b)
             return w_mc, None, fz, inv.sigma_min, inv.damping, np.nan, sens
         fb = self.funnel_b.evaluate(x.t, err_b)
         H_bb, H_bm, A0 = self._momentum.momentum_matrices(x.theta_b, x.q_b, x.q_m)
-        L_b = attitude_matrix(x.q_b, m3)
-        a_b = A0 + self.k_b * (H_bb @ (L_b.T @ (fb.Phi * fb.psi)))  # (m3,), Eq. (25)
+        if m3 == 1:  # planar: L_b = 1
+            a_b = A0 + self.k_b * H_bb[0, 0] * fb.Phi * fb.psi  # (1,), Eq. (25)
+        else:
+            L_b = attitude_matrix(x.q_b, m3)
+            a_b = A0 + self.k_b * (H_bb @ (L_b.T @ (fb.Phi * fb.psi)))  # (m3,), Eq. (25)
         Hp = row_pinv(H_bm)  # (n, m3)
         U = np.eye(self.n) - Hp @ H_bm
         A = J_m @ U
@@ -224,7 +231,10 @@ class KinematicLaw:
             xi = xi + self.null_space.gain * (grad - inv.pinv @ (A @ grad))
         w_mc = Hp_ab + U @ xi  # Eq. (25)
         HH = np.real(H_bm @ H_bm.T)
-        h_norm = float(np.sqrt(max(np.linalg.eigvalsh(HH)[0], 0.0)))
+        if m3 == 1:
+            h_norm = float(np.sqrt(HH[0, 0]))
+        else:  # smallest singular value of H_bm-hat
+            h_norm = float(np.sqrt(max(np.linalg.eigvalsh(HH)[0], 0.0)))
         return w_mc, fb, fz, inv.sigma_min, inv.damping, h_norm, np.zeros((self.n, m3))
 
     def _reduced_jacobian(self, x: KinematicInputs, q_m):

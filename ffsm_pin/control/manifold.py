@@ -48,26 +48,41 @@ def manifold_input(
     ``(M_bb + M_bm dw_mc/dw_b) dw-hat_b/dt = r_b - M_bm target``.
     """
     m3 = M_hat.shape[0] - len(w_mc)
+    if m3 == 1:  # planar: the scalar base row, as the compiled kernel writes it
+        return _planar(M_hat, r, w_hat, w_mc, w_mc_dot, np.ravel(dwmc_dwb), k_d, t)
     Mbb, Mbm = M_hat[:m3, :m3], M_hat[:m3, m3:]
     dwmc_dwb = np.asarray(dwmc_dwb).reshape(len(w_mc), m3)
     target = w_mc_dot - k_d * (w_hat[m3:] - w_mc)  # Eq. (65), without the w_b term
     denom = Mbb + Mbm @ dwmc_dwb
-    scale = np.max(np.abs(Mbb))
-    # smallest singular value relative to M_bb (for m3 = 1: |denom| / |M_bb|)
-    smallest = np.linalg.svd(denom, compute_uv=False)[-1] if m3 > 1 else abs(denom[0, 0])
-    if not smallest > 1e-12 * scale:
+    smallest = np.linalg.svd(denom, compute_uv=False)[-1]
+    if not smallest > 1e-12 * np.max(np.abs(Mbb)):
         raise SimulationError(
             f"t = {t:.4f} s: base rows of the filter are singular (sigma_min(M_bb-hat + "
             f"M_bm-hat dw_mc/dw_b) = {smallest:.3g})",
             time=t,
             cause="singular",
         )
-    rhs = r[:m3] - Mbm @ target
-    if m3 == 1:
-        wb_dot = rhs / denom[0, 0]  # Eq. (60a)
-    else:
-        wb_dot = np.linalg.solve(denom, rhs)  # Eq. (60a)
+    wb_dot = np.linalg.solve(denom, r[:m3] - Mbm @ target)  # Eq. (60a)
     wm_dot = target + dwmc_dwb @ wb_dot
     w_hat_dot = np.concatenate((wb_dot, wm_dot))
     u_m = M_hat[m3:] @ w_hat_dot - r[m3:]  # Eq. (60b) = (64)
     return ManifoldInput(u_m, w_hat_dot, w_mc_dot + dwmc_dwb @ wb_dot)
+
+
+def _planar(M_hat, r, w_hat, w_mc, w_mc_dot, dwmc_dwb, k_d, t) -> ManifoldInput:
+    """Eqs. (60a), (64)-(65) with m3 = 1 (scalar base row)."""
+    Mbb, Mbm = M_hat[0, 0], M_hat[0, 1:]
+    target = w_mc_dot - k_d * (w_hat[1:] - w_mc)  # Eq. (65), without the w_b term
+    denom = Mbb + Mbm @ dwmc_dwb
+    if not abs(denom) > 1e-12 * abs(Mbb):
+        raise SimulationError(
+            f"t = {t:.4f} s: base row of the filter is singular (M_bb-hat + M_bm-hat dw_mc/dw_b "
+            f"= {denom:.3g})",
+            time=t,
+            cause="singular",
+        )
+    wb_dot = (r[0] - Mbm @ target) / denom  # Eq. (60a)
+    wm_dot = target + dwmc_dwb * wb_dot
+    w_hat_dot = np.concatenate(([wb_dot], wm_dot))
+    u_m = M_hat[1:] @ w_hat_dot - r[1:]  # Eq. (60b) = (64)
+    return ManifoldInput(u_m, w_hat_dot, w_mc_dot + dwmc_dwb * wb_dot)
