@@ -451,7 +451,6 @@ def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
         return compiled_diag
     m3 = model.m3
     if m3 > 1:
-
         basis = np.eye(model.n_joints + m3)[:m3]
 
         def spatial_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):

@@ -71,6 +71,7 @@ BUILTIN: dict[str, str] = {
     "spatial-known-model": "spatial_known_model.toml",
     "spatial-no-ppc": "spatial_no_ppc.toml",
     "spatial-no-attitude": "spatial_no_attitude.toml",
+    "spatial-pose": "spatial_pose.toml",
 }
 
 # Allowed keys per table. A nested dict is a sub-table; a string is a type tag.

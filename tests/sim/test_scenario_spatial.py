@@ -191,5 +191,7 @@ def test_spatial_variants_differ_from_spatial_only_in_the_scheme(name, scheme):
 def test_every_spatial_builtin_prepares(name):
     """Loads, builds the robot (locked fingers, satellite) and passes every pre-run check."""
     setup = prepare(builtin_scenario(name))
-    assert setup.robot.n_joints == len(setup.scenario.initial.joints) == 7
+    n = 9 if name == "spatial-pose" else 7  # the pose task needs 6 + 3 joints
+    assert setup.robot.n_joints == len(setup.scenario.initial.joints) == n
+    assert setup.controller.n_task == (6 if name == "spatial-pose" else 3)
     assert setup.scenario.duration >= 30.0
