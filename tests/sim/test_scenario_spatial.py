@@ -195,3 +195,14 @@ def test_every_spatial_builtin_prepares(name):
     assert setup.robot.n_joints == len(setup.scenario.initial.joints) == n
     assert setup.controller.n_task == (6 if name == "spatial-pose" else 3)
     assert setup.scenario.duration >= 30.0
+
+
+def test_spatial9_urdf_is_its_table():
+    """The shipped 9-joint arm is exactly what ffsm_pin.spatial_urdf writes from its table."""
+    import tomllib
+
+    from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
+
+    folder = builtin_path("spatial-pose").parent
+    table = tomllib.loads((folder / "spatial9_chain.toml").read_text())
+    assert chain_to_urdf(chain_from_table(table)) == (folder / "spatial9.urdf").read_text()
