@@ -10,9 +10,11 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``name`` (top level): the scenario's name, default the file's stem;
 * ``[robot]``: ``urdf = "ffsm_planar4.urdf"``, ``base = "planar"``, ``end_effector = "ee"``;
 * ``[initial]``: ``com_at_origin = false``, ``joint_rates`` = zeros;
-* ``[reference]``: ``base_attitude = [0.0]``;
+* ``[reference]``: ``task = "pose"`` (or ``"position"``: the m2 position components only),
+  ``base_attitude`` = zeros (1 angle planar, 3 MRP components spatial);
 * ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
-  a funnel entry may be a single number, used for every component;
+  a funnel entry may be a single number, used for every component; spatial robots and the
+  position task have no default funnels (the paper's are planar pose funnels);
 * ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
   ``gain = 1.0``, ``center`` = the initial joint angles,
   :class:`~ffsm_pin.control.null_space.NullSpace`;
@@ -21,7 +23,15 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
   (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
-The paper's cases ship as files in ``ffsm_pin/sim/scenarios/`` (:data:`BUILTIN`).
+Spatial robots (``base = "free-flyer"``, docs/cli.md "Spatial robots"): ``[robot]`` also takes
+``locked_joints = { name = value }`` and ``[robot.satellite]``
+(:class:`~ffsm_pin.spatial.robot.Satellite`); ``[initial] base_pose`` is x, y, z and an MRP
+(|s| <= 1), or x, y, z with ``base_attitude_rpy`` or ``base_attitude_quaternion`` (x, y, z,
+w), converted to the MRP (written back as such by :func:`scenario_to_toml`); the velocity
+keys are 3-vectors (``base_twist`` 6), all in the inertial frame.
+
+The paper's cases and the spatial cases ship as files in ``ffsm_pin/sim/scenarios/``
+(:data:`BUILTIN`).
 """
 
 from __future__ import annotations
