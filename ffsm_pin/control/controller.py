@@ -28,6 +28,7 @@ import numpy as np
 
 from ..barycentric import BarycentricModel
 from ..errors import InfeasibleTaskError, ParameterError, SimulationError
+from ..reduced_model import ReducedModel
 from .adaptation import (
     regressor_filter_step,
     theta_b_step,
@@ -36,14 +37,20 @@ from .adaptation import (
 )
 from .funnel import Funnel, FunnelEval, FunnelExit, FunnelParams, IdentityFunnel
 from .gains import Gains, SingularityPolicy
-from .kinematic import KinematicInputs, KinematicLaw, task_errors
+from .kinematic import KinematicInputs, KinematicLaw, attitude_matrix, task_errors, task_size
 from .manifold import manifold_input
 from .null_space import NullSpace
 
 SCHEMES = ("ppc", "no-ppc", "no-attitude", "known-model")
 TASK_SIZE = 3  # planar end-effector pose (x, y, attitude): m2 + m3
 ATTITUDE_SIZE = 1  # planar base attitude: m3
-_COMPONENT_NAMES = ("x", "y", "attitude")
+
+
+def component_names(m2: int, m3: int) -> tuple[str, ...]:
+    """Names of the end-effector task components (pose order: position, then attitude)."""
+    if m3 == 1:
+        return ("x", "y", "attitude")[:m2] + ("attitude",)
+    return ("x", "y", "z")[:m2] + ("s1", "s2", "s3")[:m3]
 
 
 class SingularityWarning(UserWarning):
@@ -54,11 +61,11 @@ class Measurement(NamedTuple):
     """What the controller measures at time t."""
 
     t: float  # [s]
-    q_b: float  # base attitude, continuous [rad]
+    q_b: float | np.ndarray  # base attitude: planar angle, continuous [rad]; spatial MRP (3)
     q_m: np.ndarray  # joint angles [rad]
-    w: np.ndarray  # (w_b, w_m) [rad/s]
-    z_e: np.ndarray  # end-effector pose (x, y, q_e), q_e continuous [m, m, rad]
-    z_e_dot: np.ndarray  # end-effector velocity [m/s, m/s, rad/s]
+    w: np.ndarray  # (w_b, w_m), w_b inertial (m3) [rad/s]
+    z_e: np.ndarray  # end-effector pose (p_e, q_e) [m, rad (continuous) or MRP]
+    z_e_dot: np.ndarray  # its rate (dp_e/dt, dq_e/dt) [m/s, rad/s or 1/s]
     M: np.ndarray | None = None  # true reduced inertia (known-model scheme only)
     h: np.ndarray | None = None  # true C(q, w) w (known-model scheme only)
 
@@ -69,8 +76,8 @@ class ControlOutput(NamedTuple):
     u_m: np.ndarray  # joint torques [N m]
     w_mc: np.ndarray  # kinematic command [rad/s]
     w_mc_dot: np.ndarray  # its time derivative [rad/s^2]
-    err_b: np.ndarray  # attitude error [rad]
-    err_z: np.ndarray  # end-effector pose error [m, m, rad]
+    err_b: np.ndarray  # attitude error (m3) [rad or MRP]
+    err_z: np.ndarray  # end-effector task error (task components) [m, rad or MRP]
     w_tilde: np.ndarray  # w - w-hat [rad/s]
     sigma_min: float
     damping: float
@@ -81,30 +88,37 @@ class ControlOutput(NamedTuple):
 BACKENDS = ("auto", "numba", "numpy")
 
 
-def check_feasibility(n_joints: int, scheme: str) -> None:
+def check_feasibility(
+    n_joints: int, scheme: str, *, n_task: int = TASK_SIZE, m3: int = ATTITUDE_SIZE
+) -> None:
     """Refuse a robot whose joints cannot serve the task (plus the attitude, if regulated).
 
-    docs/model.md section 5: m_1 >= (m_2 + m_3) + m_3 = 4 for the planar pose task with attitude
-    regulation; m_1 >= 3 for Eq. (81), which does not regulate the attitude.
+    Eq. (25) needs H_bm (m3 x m1) of full row rank and Eq. (36) needs J_m U (n_task x m1) of
+    full row rank: m1 >= n_task + m3 (docs/model.md section 5, docs/spatial.md); m1 >= n_task
+    for Eq. (81), which does not regulate the attitude.
     """
     if scheme not in SCHEMES:
         raise InfeasibleTaskError(f"unknown scheme {scheme!r}; valid choices: {SCHEMES}")
-    need = TASK_SIZE + (0 if scheme == "no-attitude" else ATTITUDE_SIZE)
+    att = 0 if scheme == "no-attitude" else m3
+    need = n_task + att
     if n_joints < need:
-        what = "the 3-D pose task" + ("" if scheme == "no-attitude" else " plus base attitude")
+        what = f"the {n_task}-component end-effector task" + (
+            "" if not att else f" plus the {m3}-component base attitude"
+        )
         raise InfeasibleTaskError(
             f"scheme {scheme!r} needs at least {need} manipulator joints for {what} "
-            f"({TASK_SIZE} task + {need - TASK_SIZE} attitude), the robot has {n_joints}"
+            f"({n_task} task + {att} attitude), the robot has {n_joints}"
         )
 
 
 class CoordinatedController:
-    """Adaptive prescribed-performance coordinated controller for a planar FFSM.
+    """Adaptive prescribed-performance coordinated controller, planar or spatial.
 
     Parameters
     ----------
     model:
-        The barycentric model of the robot (regressors and estimate evaluators).
+        The reduced model of the robot (:class:`~ffsm_pin.reduced_model.ReducedModel`:
+        planar or spatial; regressors and estimate evaluators).
     scheme:
         One of :data:`SCHEMES`.
     theta_z0, theta_d0, theta_b0:
@@ -114,11 +128,13 @@ class CoordinatedController:
     null_space:
         Optional null-space term added to Eq. (36) (beyond the paper,
         :mod:`.null_space`); None = the paper's law.
+    task:
+        ``"pose"`` (m2 + m3 components) or ``"position"`` (m2).
     """
 
     def __init__(
         self,
-        model: BarycentricModel,
+        model: ReducedModel,
         *,
         scheme: str,
         gains: Gains,
@@ -133,8 +149,12 @@ class CoordinatedController:
         initial: Measurement,
         backend: str = "auto",
         null_space: NullSpace | None = None,
+        task: str = "pose",
     ):
-        check_feasibility(model.n_joints, scheme)
+        self.m2, self.m3 = model.m2, model.m3
+        self.task = task
+        self.n_task = task_size(self.m2, self.m3, task)
+        check_feasibility(model.n_joints, scheme, n_task=self.n_task, m3=self.m3)
         if backend not in BACKENDS:
             raise ParameterError(f"unknown backend {backend!r}; valid choices: {BACKENDS}")
         self.model = model
@@ -142,8 +162,20 @@ class CoordinatedController:
         self.gains = gains
         self.policy = singularity
         self.reference = reference
-        self.q_bd = float(base_attitude_ref)
-        err_b, err_z = task_errors(reference, self.q_bd, initial.t, initial.q_b, initial.z_e)
+        self.q_bd = np.atleast_1d(np.asarray(base_attitude_ref, dtype=float))
+        for name, size, want in (
+            ("base_attitude_ref", self.q_bd.size, self.m3),
+            ("reference.ee", len(reference.ee), self.n_task),
+            ("funnel_b", funnel_b.size, self.m3),
+            ("funnel_z", funnel_z.size, self.n_task),
+        ):
+            if size != want:
+                raise ParameterError(
+                    f"{name} has {size} components, the {task!r} task of this robot needs {want}"
+                )
+        err_b, err_z = task_errors(
+            reference, self.q_bd, initial.t, initial.q_b, initial.z_e, self.m3
+        )
         funnel_cls = IdentityFunnel if scheme == "no-ppc" else Funnel
         self.funnel_b = funnel_cls(funnel_b, err_b)
         self.funnel_z = funnel_cls(funnel_z, err_z)
@@ -158,6 +190,7 @@ class CoordinatedController:
             attitude=scheme != "no-attitude",
             null_space=null_space,
             null_space_center=initial.q_m,
+            task=task,
         )
         self.null_space = self.kinematic.null_space
         self.theta_z = np.array(theta_z0, dtype=float)
@@ -172,7 +205,7 @@ class CoordinatedController:
                 raise ParameterError(
                     f"{name} estimate has {vec.size} entries, the robot's layout needs {size}"
                 )
-        nb = model.n_joints + 1
+        nb = model.n_joints + self.m3
         self.w_hat = np.zeros(nb)  # Table 2: w-hat(0) = 0
         self.Y_df = np.zeros((nb, model.n_d))  # Table 2: Y_df(0) = 0
         self.adaptive = scheme != "known-model"
@@ -184,8 +217,17 @@ class CoordinatedController:
 
     def _choose_backend(self, backend: str) -> str:
         """'numba' (compiled period, :mod:`.fast`) unless numba is missing, the scheme is
-        the known-model baseline (which runs on Pinocchio's matrices), or 'numpy' is asked."""
-        if backend == "numpy" or not self.adaptive:
+        the known-model baseline (which runs on Pinocchio's matrices), 'numpy' is asked, or
+        the robot is not the planar pose task the kernel is written for (spatial robots and
+        the planar position task run the numpy reference, with the model's compiled
+        regressors)."""
+        planar_pose = isinstance(self.model, BarycentricModel) and self.n_task == TASK_SIZE
+        if backend == "numba" and not planar_pose:
+            raise ParameterError(
+                "backend 'numba' is the planar pose task's compiled period; use 'numpy' or "
+                "'auto' for this robot and task"
+            )
+        if backend == "numpy" or not self.adaptive or not planar_pose:
             return "numpy"
         try:
             from . import fast
@@ -201,7 +243,7 @@ class CoordinatedController:
             fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
             np.array([self.gains.k_b, self.gains.k_z, self.gains.k_de, self.gains.k_d,
                       self.gains.gamma_1, self.gains.gamma_2, self.gains.gamma_3,
-                      self.policy.threshold, self.q_bd]),
+                      self.policy.threshold, float(self.q_bd[0])]),
             self.reference._c, self.reference._A, self.reference._amp,
             self.reference._freq, self.reference._phase,
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
@@ -266,21 +308,24 @@ class CoordinatedController:
         )
 
     def _step_numpy(self, meas: Measurement, dt: float) -> ControlOutput:
-        m, g = self.model, self.gains
+        m, g, m3 = self.model, self.gains, self.m3
         t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
+        w_b = w[:m3]
 
         # 1. kinematic-level adaptation, Eqs. (28) and (42)
         if self.adaptive:
             theta_b = theta_b_step(self.theta_b, m.Y_b(q_b, q_m, w), g.gamma_1, dt)
-            Y_z = m.Y_z(q_b, q_m, w)[:2]  # the attitude row is parameter-free
-            theta_z = theta_z_step(self.theta_z, Y_z, meas.z_e_dot[:2], g.gamma_2, dt)
+            Y_z = m.Y_z(q_b, q_m, w)[: self.m2]  # the attitude rows are parameter-free
+            theta_z = theta_z_step(self.theta_z, Y_z, meas.z_e_dot[: self.m2], g.gamma_2, dt)
         else:
             theta_b, theta_z = self.theta_b, self.theta_z
 
         # 2. kinematic level, Eqs. (25)+(36) or (81), and d w_mc / dt
-        x = KinematicInputs(t, q_b, q_m, meas.z_e, self.theta_b, self.theta_z, w[0])
+        q_b_rate = w[0] if m3 == 1 else attitude_matrix(q_b, m3) @ w_b  # Eq. (1)
+        x = KinematicInputs(t, q_b, q_m, meas.z_e, self.theta_b, self.theta_z,
+                            w[0] if m3 == 1 else w_b)  # fmt: skip
         rates = KinematicInputs(
-            1.0, w[0], w[1:], meas.z_e_dot,
+            1.0, q_b_rate, w[m3:], meas.z_e_dot,
             (theta_b - self.theta_b) / dt, (theta_z - self.theta_z) / dt, 0.0,
         )  # fmt: skip
         try:
@@ -383,12 +428,13 @@ class CoordinatedController:
     def _funnel_stop(self, meas: Measurement, exc: FunnelExit) -> SimulationError:
         t = meas.t
         # which funnel: the attitude funnel is evaluated after the end-effector one
-        err_b, err_z = task_errors(self.reference, self.q_bd, t, meas.q_b, meas.z_e)
+        err_b, err_z = task_errors(self.reference, self.q_bd, t, meas.q_b, meas.z_e, self.m3)
         if not self.funnel_z.inside(t, err_z):
-            what = f"end-effector error component {exc.index} ({_COMPONENT_NAMES[exc.index]})"
+            name = component_names(self.m2, self.m3)[exc.index]
+            what = f"end-effector error component {exc.index} ({name})"
             which = "z"
         else:
-            what = "base attitude error"
+            what = "base attitude error" + (f" component {exc.index}" if self.m3 > 1 else "")
             which = "b"
         note = ""
         if self._damped_since is not None:

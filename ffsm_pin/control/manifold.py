@@ -43,8 +43,34 @@ def manifold_input(
 ) -> ManifoldInput:
     """Solve Eqs. (60a) and (64)-(65) for ``dw-hat/dt`` and ``u_m``.
 
-    M_hat: estimated reduced inertia, (n+1) x (n+1); r: right-hand side of Eq. (46) without u.
+    M_hat: estimated reduced inertia, (m3+n) x (m3+n); r: right-hand side of Eq. (46) without
+    u; dwmc_dwb: d w_mc / d w_b, (n x m3) (zero except for Eq. 81). The base rows (60a) are
+    ``(M_bb + M_bm dw_mc/dw_b) dw-hat_b/dt = r_b - M_bm target``.
     """
+    m3 = M_hat.shape[0] - len(w_mc)
+    if m3 == 1:  # planar: the scalar base row, as the compiled kernel writes it
+        return _planar(M_hat, r, w_hat, w_mc, w_mc_dot, np.ravel(dwmc_dwb), k_d, t)
+    Mbb, Mbm = M_hat[:m3, :m3], M_hat[:m3, m3:]
+    dwmc_dwb = np.asarray(dwmc_dwb).reshape(len(w_mc), m3)
+    target = w_mc_dot - k_d * (w_hat[m3:] - w_mc)  # Eq. (65), without the w_b term
+    denom = Mbb + Mbm @ dwmc_dwb
+    smallest = np.linalg.svd(denom, compute_uv=False)[-1]
+    if not smallest > 1e-12 * np.max(np.abs(Mbb)):
+        raise SimulationError(
+            f"t = {t:.4f} s: base rows of the filter are singular (sigma_min(M_bb-hat + "
+            f"M_bm-hat dw_mc/dw_b) = {smallest:.3g})",
+            time=t,
+            cause="singular",
+        )
+    wb_dot = np.linalg.solve(denom, r[:m3] - Mbm @ target)  # Eq. (60a)
+    wm_dot = target + dwmc_dwb @ wb_dot
+    w_hat_dot = np.concatenate((wb_dot, wm_dot))
+    u_m = M_hat[m3:] @ w_hat_dot - r[m3:]  # Eq. (60b) = (64)
+    return ManifoldInput(u_m, w_hat_dot, w_mc_dot + dwmc_dwb @ wb_dot)
+
+
+def _planar(M_hat, r, w_hat, w_mc, w_mc_dot, dwmc_dwb, k_d, t) -> ManifoldInput:
+    """Eqs. (60a), (64)-(65) with m3 = 1 (scalar base row)."""
     Mbb, Mbm = M_hat[0, 0], M_hat[0, 1:]
     target = w_mc_dot - k_d * (w_hat[1:] - w_mc)  # Eq. (65), without the w_b term
     denom = Mbb + Mbm @ dwmc_dwb

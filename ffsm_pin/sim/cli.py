@@ -18,6 +18,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
 from ..errors import FfsmError
 from .result import RunResult
 from .scenario import Scenario
@@ -25,6 +27,11 @@ from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 2, 3, 130
 COMPARE_CASES = ("case1", "case2", "case3")
+# --compare [SET]: the paper's planar cases 1-3, or their spatial counterparts
+COMPARE_SETS = {
+    "planar": COMPARE_CASES,
+    "spatial": ("spatial", "spatial-no-ppc", "spatial-no-attitude"),
+}
 _CASE_ALIASES = {"1": "case1", "2": "case2", "3": "case3", "1-paper": "case1-paper"}
 
 _EPILOG = """\
@@ -33,6 +40,9 @@ cases (--case): 1 = adaptive coordinated control with prescribed performance (th
 exact rho_b0 = 0.4, 2 = without prescribed performance, 3 = without base attitude regulation
 (Eq. 81), known-model = case 1 with the true parameters, planar5 = a 5-link robot with one
 spare joint and 30 % parameter error (null-space option: docs/null_space.md).
+spatial = a 7-joint arm (Panda) on a satellite, end-effector position tracking with MRP base
+attitude regulation (docs/spatial.md); spatial-known-model, spatial-no-ppc and
+spatial-no-attitude are its variants (--compare spatial runs spatial, -no-ppc, -no-attitude).
 
 output folder: trajectory.npz, summary.json, scenario.toml (the scenario as run),
 fig_*.png, replay.html (open it in a browser; no server needed).
@@ -62,10 +72,18 @@ def build_parser() -> argparse.ArgumentParser:
         "--case",
         metavar="CASE",
         type=_case_name,
-        help="built-in case: 1, 2, 3, 1-paper, known-model or planar5 (default: 1)",
+        help="built-in case: 1, 2, 3, 1-paper, known-model, planar5, spatial, "
+        "spatial-known-model, spatial-no-ppc or spatial-no-attitude (default: 1)",
     )
     what.add_argument(
-        "--compare", action="store_true", help="run cases 1, 2 and 3 and overlay their figures"
+        "--compare",
+        nargs="?",
+        const="planar",
+        default=None,
+        choices=tuple(COMPARE_SETS),
+        metavar="SET",
+        help="run cases 1, 2 and 3 (SET 'planar', the default) or the spatial cases spatial, "
+        "spatial-no-ppc and spatial-no-attitude (SET 'spatial') and overlay their figures",
     )
     what.add_argument("--scenario", metavar="FILE.toml", help="run a scenario file")
     p.add_argument("--duration", metavar="S", type=_positive_float, help="simulated time [s]")
@@ -160,7 +178,7 @@ def _run(args: argparse.Namespace, console: Console) -> int:
 
 def _scenarios(args: argparse.Namespace) -> list[Scenario]:
     if args.compare:
-        return [builtin_scenario(name) for name in COMPARE_CASES]
+        return [builtin_scenario(name) for name in COMPARE_SETS[args.compare]]
     if args.scenario:
         return [load_scenario(args.scenario)]
     return [builtin_scenario(args.case or "case1")]
@@ -266,6 +284,10 @@ def result_table(results: Sequence[RunResult], folders: Sequence[Path]) -> str:
 
 def _column(r: RunResult, folder: Path) -> dict[str, str]:
     s = r.summary()
+    spatial = np.asarray(r["err_b"]).reshape(len(r["t"]), -1).shape[1] == 3
+    n_z = np.asarray(r["err_z"]).shape[-1]
+    b_unit = "MRP" if spatial else "rad"
+    z_unit = ("m" if n_z == 3 else "m,MRP") if spatial else ("m" if n_z == 2 else "m,m,rad")
     settle = f"{_num(s['settle_time_b'], '{:.2f}')} / {_num(s['settle_time_z'], '{:.2f}')}"
     return {
         "scenario": r.scenario_name,
@@ -273,8 +295,8 @@ def _column(r: RunResult, folder: Path) -> dict[str, str]:
         "completed": _completed(r),
         "funnel b / z": f"{_kept(s['funnel_ok_b'])} / {_kept(s['funnel_ok_z'])}",
         "first violation [s]": _num(s["first_violation_t"], "{:.3f}"),
-        "final err_b [rad]": _vec(s["final_err_b"]),
-        "final err_z [m,m,rad]": _vec(s["final_err_z"]),
+        f"final err_b [{b_unit}]": _vec(s["final_err_b"]),
+        f"final err_z [{z_unit}]": _vec(s["final_err_z"]),
         "settle b / z [s]": settle,
         "max |u_m| [N m]": _num(s["max_abs_u"], "{:.4g}"),
         "max |F_r| [N m]": _num(s.get("max_abs_F_r"), "{:.4g}"),
@@ -424,7 +446,9 @@ def _out_dir(out: str | None) -> Path:
 def _case_name(text: str) -> str:
     name = _CASE_ALIASES.get(text, text)
     if name not in BUILTIN:
-        valid = ", ".join([*_CASE_ALIASES, "known-model", "planar5"])
+        valid = ", ".join(
+            [*_CASE_ALIASES, *(k for k in BUILTIN if k not in _CASE_ALIASES.values())]
+        )
         raise argparse.ArgumentTypeError(f"unknown case {text!r}; valid choices: {valid}")
     return name
 

@@ -8,6 +8,8 @@ Figures written:
 
 * ``fig_errors.png``: attitude error e_b [rad] and end-effector errors e_z (x, y [m],
   attitude [rad]), each with its funnel bounds (Eqs. 16, 17) as black dotted lines (Fig. 2);
+  spatial runs: one row per component (3 MRP attitude components, then x, y, z [m] and, for
+  the pose task, the 3 end-effector MRP components);
 * ``fig_velocities.png``: base rate w_b [rad/s], |d(p_e - p_e,d)/dt| [m/s],
   d(q_e - q_e,d)/dt [rad/s] and the joint rates w_m [rad/s] (Fig. 3);
 * ``fig_estimation.png``: estimation errors of theta_b, theta_z, theta_d, |w-tilde| [rad/s]
@@ -85,12 +87,9 @@ def write_figures(
 
 # ------------------------------------------------------------------------------ figures
 def _errors(runs, labels, thresholds) -> Figure:
-    fig, axes = _grid(4, "Tracking errors inside their prescribed-performance funnels", runs)
-    rows = (
-        ("err_b", 0, "bound_b", r"$e_b$ [rad]"),
-        ("err_z", 0, "bound_z", r"$e_{z,x}$ [m]"),
-        ("err_z", 1, "bound_z", r"$e_{z,y}$ [m]"),
-        ("err_z", 2, "bound_z", r"$e_{z,\phi}$ [rad]"),
+    rows = _error_rows(runs[0])
+    fig, axes = _grid(
+        len(rows), "Tracking errors inside their prescribed-performance funnels", runs
     )
     for ax, (key, i, bound, ylabel) in zip(axes, rows, strict=True):
         drawn_bounds: list[np.ndarray] = []
@@ -115,10 +114,14 @@ def _velocities(runs, labels, thresholds) -> Figure:
     for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
         t, color = run["t"], f"C{k}"
         de = run["z_e_dot"] - run["z_e_d_dot"]
-        _plot(axes[0], t, run["w"][:, 0], color=color, label=label)
-        _plot(axes[1], t, np.linalg.norm(de[:, :2], axis=1), color=color, label=label)
-        _plot(axes[2], t, de[:, 2], color=color, label=label)
-        w_m = run["w"][:, 1:]
+        m3, m2 = _sizes(run)
+        for i in range(m3):  # base angular velocity (inertial) components
+            _plot(axes[0], t, run["w"][:, i], color=color, label=label if i == 0 else None,
+                  linestyle=_RUN_STYLES[i % len(_RUN_STYLES)])  # fmt: skip
+        _plot(axes[1], t, np.linalg.norm(de[:, :m2], axis=1), color=color, label=label)
+        for i in range(m2, de.shape[1]):  # attitude components (pose task)
+            _plot(axes[2], t, de[:, i], color=color, label=label if i == m2 else None)
+        w_m = run["w"][:, m3:]
         for j in range(w_m.shape[1]):
             _plot(
                 axes[3],
@@ -129,12 +132,12 @@ def _velocities(runs, labels, thresholds) -> Figure:
             )
     axes[0].set_ylabel(r"$w_b$ [rad/s]")
     axes[1].set_ylabel(r"$|\dot p_e - \dot p_{e,d}|$ [m/s]")
-    axes[2].set_ylabel(r"$\dot q_e - \dot q_{e,d}$ [rad/s]")
+    axes[2].set_ylabel(r"$\dot q_e - \dot q_{e,d}$ [rad/s or 1/s]")
     axes[3].set_ylabel(r"$w_m$ [rad/s]")
     for ax in axes:
         _mark_stops(ax, runs)
     axes[0].legend(loc="upper right", fontsize=8)
-    n_m = max(r["w"].shape[1] for r in runs) - 1
+    n_m = max(r["w"].shape[1] - _sizes(r)[0] for r in runs)
     handles = [
         Line2D([], [], color=_JOINT_COLORS[j % len(_JOINT_COLORS)], label=f"$w_{{m{j + 1}}}$")
         for j in range(n_m)
@@ -184,7 +187,10 @@ def _torque(runs, labels, thresholds) -> Figure:
     any_damped = False
     for k, (run, label, thr) in enumerate(zip(runs, labels, thresholds, strict=True)):
         t, color = run["t"], f"C{k}"
-        _plot(axes[0], t, run["F_r"], color=color, label=label)
+        F_r = np.asarray(run["F_r"]).reshape(len(t), -1)
+        for i in range(F_r.shape[1]):  # planar: one value; spatial: x, y, z components
+            _plot(axes[0], t, F_r[:, i], color=color, label=label if i == 0 else None,
+                  linestyle=_RUN_STYLES[i % len(_RUN_STYLES)])  # fmt: skip
         _plot(axes[1], t, run["sigma_min"], color=color)
         if k == 0 or thr != thresholds[0]:
             axes[1].axhline(
@@ -233,6 +239,27 @@ def _path(runs, labels, thresholds) -> Figure:
 
 
 # ------------------------------------------------------------------------------ helpers
+def _sizes(run) -> tuple[int, int]:
+    """(m3, m2) of a run: attitude components (1 planar, 3 spatial) and position components."""
+    m3 = np.asarray(run["err_b"]).reshape(len(run["t"]), -1).shape[1]
+    return m3, (2 if m3 == 1 else 3)
+
+
+def _error_rows(run) -> list[tuple[str, int, str, str]]:
+    """(signal, column, bound, label) for every error component of a run."""
+    m3, m2 = _sizes(run)
+    n_task = run["err_z"].shape[1]
+    if m3 == 1:
+        rows = [("err_b", 0, "bound_b", r"$e_b$ [rad]")]
+        names = [r"$e_{z,x}$ [m]", r"$e_{z,y}$ [m]", r"$e_{z,\phi}$ [rad]"]
+    else:
+        rows = [("err_b", i, "bound_b", f"$e_{{b,s{i + 1}}}$ [MRP]") for i in range(3)]
+        names = [f"$e_{{z,{c}}}$ [m]" for c in "xyz"] + [
+            f"$e_{{z,s{i + 1}}}$ [MRP]" for i in range(3)
+        ]
+    return rows + [("err_z", i, "bound_z", names[i]) for i in range(n_task)]
+
+
 def _grid(rows: int, title: str, runs) -> tuple[Figure, list[Axes]]:
     fig = Figure(figsize=(8.0, 1.75 * rows + 0.8), layout="constrained")
     axes = list(fig.subplots(rows, 1, sharex=True))

@@ -21,9 +21,15 @@ from .. import paper
 from ..barycentric import BarycentricModel
 from ..control.controller import CoordinatedController, Measurement, check_feasibility
 from ..control.funnel import Funnel
-from ..control.kinematic import task_errors
+from ..control.kinematic import task_errors, task_size
 from ..errors import ScenarioError, SimulationError
+from ..reduced_model import ReducedModel
 from ..robot import FreeFloatingRobot, load_robot
+from ..spatial import mrp
+from ..spatial.barycentric import SpatialBarycentricModel
+from ..spatial.robot import SpatialRobot
+from ..spatial.state import SpatialState
+from ..spatial.state import reaction_torque as spatial_reaction_torque
 from ..state import FloatingBaseState, base_twist_to_local
 from .plant import Plant
 from .result import RunResult
@@ -39,8 +45,8 @@ class Setup:
     """A scenario made concrete: robot, models, initial state, truths and controller."""
 
     scenario: Scenario
-    robot: FreeFloatingRobot
-    model: BarycentricModel
+    robot: FreeFloatingRobot | SpatialRobot
+    model: ReducedModel
     q0: np.ndarray
     v0: np.ndarray
     theta_z: np.ndarray  # true parameters
@@ -52,10 +58,17 @@ class Setup:
 
 
 # ---------------------------------------------------------------------- initial state
+def is_spatial(robot) -> bool:
+    """True for a free-flyer root (:class:`~ffsm_pin.spatial.robot.SpatialRobot`)."""
+    return isinstance(robot, SpatialRobot)
+
+
 def initial_state(
-    robot: FreeFloatingRobot, init: InitialCondition
+    robot: FreeFloatingRobot | SpatialRobot, init: InitialCondition
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
+    if is_spatial(robot):
+        return _initial_state_spatial(robot, init)
     model = robot.model
     data = model.createData()
     n = robot.n_joints
@@ -88,21 +101,83 @@ def initial_state(
     return q, v
 
 
+def _sized(value, n: int, key: str) -> np.ndarray:
+    vec = np.atleast_1d(np.asarray(value, dtype=float))
+    if vec.shape != (n,):
+        raise ScenarioError(f"initial.{key} has {vec.size} values, a free-flyer base needs {n}")
+    return vec
+
+
+def _initial_state_spatial(robot: SpatialRobot, init: InitialCondition):
+    """Free-flyer (q, v): base_pose = (x, y, z, MRP); velocities in the inertial frame,
+    converted to Pinocchio's base-frame twist (docs/spatial.md section 1)."""
+    model = robot.model
+    data = model.createData()
+    n = robot.n_joints
+    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
+        if len(vec) != n:
+            raise ScenarioError(
+                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
+                f"(unlocked: {', '.join(robot.joint_names)})"
+            )
+    pose = np.asarray(init.base_pose, dtype=float)
+    if pose.shape != (6,):
+        raise ScenarioError(
+            f"initial.base_pose has {pose.size} values, a free-flyer base needs 6 "
+            "(x, y, z [m], then the attitude as an MRP s1, s2, s3)"
+        )
+    if pose[3:] @ pose[3:] > 1.0:
+        raise ScenarioError(
+            f"initial.base_pose: attitude MRP {pose[3:].tolist()} has |s| > 1; give the "
+            "shadow MRP -s / |s|^2 (|s| <= 1)"
+        )
+    q = robot.configuration(pose, init.joints)
+    if init.com_at_origin:
+        q[:3] -= pin.centerOfMass(model, data, q)
+    R0 = mrp.to_rotation(pose[3:])
+    v = np.zeros(model.nv)
+    v[6:] = init.joint_rates
+    if init.base_twist is not None:
+        twist = _sized(init.base_twist, 6, "base_twist")
+        v[:3], v[3:6] = R0.T @ twist[:3], R0.T @ twist[3:]
+        return q, v
+    mass = robot.geometry.total_mass
+    vcom = _sized(init.com_velocity, 3, "com_velocity")
+    Ag = pin.computeCentroidalMap(model, data, q)  # h_g = (P, L about the CoM) = Ag v
+    if init.base_rate is not None:
+        v[3:6] = R0.T @ _sized(init.base_rate, 3, "base_rate")
+        v[:3] = np.linalg.solve(Ag[:3, :3], mass * vcom - Ag[:3, 3:] @ v[3:])
+    else:
+        h = np.concatenate((mass * vcom, _sized(init.angular_momentum, 3, "angular_momentum")))
+        v[:6] = np.linalg.solve(Ag[:, :6], h - Ag[:, 6:] @ v[6:])
+    return q, v
+
+
 # ---------------------------------------------------------------------- measurement
 class Sensor:
-    """Measures what the controller needs from the plant state (Pinocchio kinematics)."""
+    """Measures what the controller needs from the plant state (Pinocchio kinematics).
 
-    def __init__(self, robot: FreeFloatingRobot, model: BarycentricModel, full_model: bool):
+    Planar: q_b the continuous base angle, z_e = (x, y, attitude). Free-flyer
+    (docs/spatial.md section 1): q_b the base MRP, w = (R_0 w_B, dq_m) with w_b in the
+    inertial frame, z_e = (p_e, q_e) with q_e the end-effector MRP (both on the |s| <= 1
+    branch), dz_e/dt = (dp_e/dt, 1/4 B(q_e) R_e^T w_e).
+    """
+
+    def __init__(self, robot, model: ReducedModel, full_model: bool):
         self.robot = robot
         self.pmodel = robot.model
         self.data = self.pmodel.createData()
         self.model = model
         self.fid = robot.ee_frame_id
         self.full_model = full_model
-        self.state = FloatingBaseState(robot) if full_model else None
+        self.spatial = is_spatial(robot)
+        state_cls = SpatialState if self.spatial else FloatingBaseState
+        self.state = state_cls(robot) if full_model else None
         self._q_b_prev: float | None = None
 
     def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
+        if self.spatial:
+            return self._measure_spatial(t, q, v)
         q_b = math.atan2(q[3], q[2])
         if self._q_b_prev is not None:  # continuous attitude
             q_b += 2 * math.pi * round((self._q_b_prev - q_b) / (2 * math.pi))
@@ -119,9 +194,26 @@ class Sensor:
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
 
+    def _measure_spatial(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
+        q_b = mrp.from_quaternion(q[3:7])
+        R0 = mrp.to_rotation(q_b)
+        pin.forwardKinematics(self.pmodel, self.data, q, v)
+        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
+        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        R_e = oMf.rotation
+        q_e = mrp.from_rotation(R_e)
+        z_e = np.concatenate((oMf.translation, q_e))
+        z_e_dot = np.concatenate((vel.linear, mrp.L_matrix(q_e, R_e) @ vel.angular))
+        w = np.concatenate((R0 @ v[3:6], v[6:]))
+        M = h = None
+        if self.full_model:
+            self.state.update(q, v)
+            M, h = self.state.M, self.state.h
+        return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)
+
 
 # ---------------------------------------------------------------------- prepare
-def _initial_estimates(scenario: Scenario, model: BarycentricModel, truth):
+def _initial_estimates(scenario: Scenario, model: ReducedModel, truth):
     est = scenario.controller.estimates
     tz, td, tb = truth
     if scenario.controller.scheme == "known-model" or est.initial == "true":
@@ -152,16 +244,22 @@ def _initial_estimates(scenario: Scenario, model: BarycentricModel, truth):
         if vec.shape != (size,):
             raise ScenarioError(
                 f"controller.estimates.{name} has {vec.size} entries, this robot needs {size} "
-                f"(layout: {'collinear' if model.layout.collinear else 'general 2-D'})"
+                f"(layout: {_layout_name(model)})"
             )
         out.append(vec)
     return tuple(out)
 
 
+def _layout_name(model) -> str:
+    if model.m3 == 3:
+        return "spatial"
+    return "collinear" if model.layout.collinear else "general 2-D"
+
+
 MAX_PERTURBATION_DRAWS = 200
 
 
-def _perturbed_estimates(model: BarycentricModel, truth, spread: float, seed: int):
+def _perturbed_estimates(model: ReducedModel, truth, spread: float, seed: int):
     """Every true parameter times (1 + U(-spread, spread)), from a generator seeded with
     ``seed``. A draw of theta_d whose inertia M(q, theta_d-hat) is not positive definite
     (at 64 seeded random configurations) is redrawn from the same stream: independent
@@ -169,7 +267,10 @@ def _perturbed_estimates(model: BarycentricModel, truth, spread: float, seed: in
     can use."""
     tz, td, tb = truth
     rng = np.random.default_rng(seed)
-    check = np.random.default_rng(seed + 1).uniform(-np.pi, np.pi, (64, model.n_joints + 1))
+    m3 = model.m3
+    check = np.random.default_rng(seed + 1).uniform(-np.pi, np.pi, (64, model.n_joints + m3))
+    if m3 > 1:  # base attitudes as MRPs on the |s| <= 1 branch: |s_i| <= 0.5
+        check[:, :m3] *= 0.5 / np.pi
 
     def perturb(x):
         return x * (1.0 + rng.uniform(-spread, spread, size=np.shape(x)))
@@ -177,7 +278,10 @@ def _perturbed_estimates(model: BarycentricModel, truth, spread: float, seed: in
     def inertia(x):
         for _ in range(MAX_PERTURBATION_DRAWS):
             cand = perturb(x)
-            if all(np.linalg.eigvalsh(model.mass_matrix(cand, c[0], c[1:]))[0] > 0 for c in check):
+            if all(
+                np.linalg.eigvalsh(model.mass_matrix(cand, _q_b(c[:m3]), c[m3:]))[0] > 0
+                for c in check
+            ):
                 return cand
         raise ScenarioError(
             f"controller.estimates: no positive-definite perturbation of theta_d found in "
@@ -186,17 +290,23 @@ def _perturbed_estimates(model: BarycentricModel, truth, spread: float, seed: in
 
     tz_hat = perturb(tz)
     td_hat = inertia(td)
-    tb_hat = np.concatenate((perturb(tb[:1]), inertia(td)))
+    tb_hat = np.concatenate((perturb(tb[:m3]), inertia(td)))
     return tz_hat, td_hat, tb_hat
 
 
-def reach_horizon(model: BarycentricModel, theta_z, com0, reference, duration: float, dt=0.01):
+def _q_b(x):
+    """The base attitude argument of a model: a number (planar) or an MRP 3-vector."""
+    return x[0] if len(x) == 1 else x
+
+
+def reach_horizon(model: ReducedModel, theta_z, com0, reference, duration: float, dt=0.01):
     """First time at which the reference position is farther from the (drifting) system CoM
     than the arm can reach (sum of |V_k|), or None."""
+    m2 = model.m2
     reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))
     ts = np.arange(0.0, duration + dt, dt)
-    com = np.asarray(com0)[None, :] + ts[:, None] * np.asarray(theta_z[:2])[None, :]
-    ref = np.array([reference.ee_pose(t)[:2] for t in ts])
+    com = np.asarray(com0)[None, :m2] + ts[:, None] * np.asarray(theta_z[:m2])[None, :]
+    ref = np.array([reference.ee_pose(t)[:m2] for t in ts])
     far = np.linalg.norm(ref - com, axis=1) > reach
     return float(ts[np.argmax(far)]) if far.any() else None
 
@@ -204,20 +314,35 @@ def reach_horizon(model: BarycentricModel, theta_z, com0, reference, duration: f
 def prepare(scenario: Scenario) -> Setup:
     """Load, validate and build everything for ``scenario``; raise FfsmError on bad input."""
     spec = scenario.robot
-    robot = load_robot(spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to)
-    ctrl = scenario.controller
-    check_feasibility(robot.n_joints, ctrl.scheme)
-    model = BarycentricModel(robot.geometry)
-    for name, fp, size in (("b", ctrl.funnel_b, 1), ("z", ctrl.funnel_z, 3)):
+    spatial = spec.base == "free-flyer"
+    options = {}
+    if spatial:
+        options = {"locked_joints": dict(spec.locked_joints) or None, "satellite": spec.satellite}
+    robot = load_robot(
+        spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
+    )
+    ctrl, ref = scenario.controller, scenario.reference
+    model = SpatialBarycentricModel(robot.geometry) if spatial else BarycentricModel(robot.geometry)
+    m3 = model.m3
+    n_task = task_size(model.m2, m3, ref.task)
+    check_feasibility(robot.n_joints, ctrl.scheme, n_task=n_task, m3=m3)
+    for name, fp, size in (("b", ctrl.funnel_b, m3), ("z", ctrl.funnel_z, n_task)):
         if fp.size != size:
-            raise ScenarioError(f"funnel {name} has {fp.size} components, the task needs {size}")
-    if len(scenario.reference.ee) != 3:
+            raise ScenarioError(
+                f"controller.funnel ({name}) has {fp.size} components, the {ref.task!r} task "
+                f"of this robot needs {size}"
+            )
+    if len(ref.ee) != n_task:
         raise ScenarioError(
-            f"reference.ee has {len(scenario.reference.ee)} components; the planar task needs 3 "
-            "(x, y, attitude)"
+            f"reference.ee has {len(ref.ee)} components; the {ref.task!r} task of this robot "
+            f"needs {n_task}"
+        )
+    if len(ref.base_attitude) != m3:
+        raise ScenarioError(
+            f"reference.base_attitude has {len(ref.base_attitude)} values, this robot needs {m3}"
         )
     q0, v0 = initial_state(robot, scenario.initial)
-    st = FloatingBaseState(robot).update(q0, v0)
+    st = (SpatialState if spatial else FloatingBaseState)(robot).update(q0, v0)
     truth = (
         np.array(model.true_theta_z(st.com_velocity)),
         np.array(model.theta_d),
@@ -227,8 +352,8 @@ def prepare(scenario: Scenario) -> Setup:
 
     sensor = Sensor(robot, model, full_model=False)
     meas0 = sensor.measure(0.0, q0, v0)
-    q_bd = scenario.reference.base_attitude[0]
-    err_b, err_z = task_errors(scenario.reference, q_bd, 0.0, meas0.q_b, meas0.z_e)
+    q_bd = np.array(ref.base_attitude, dtype=float)
+    err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
     for label, key, fp, err in (
         ("base attitude", "rho_b0", ctrl.funnel_b, err_b),
         ("end-effector", "rho_z0", ctrl.funnel_z, err_z),
@@ -247,7 +372,7 @@ def prepare(scenario: Scenario) -> Setup:
         gains=ctrl.gains,
         funnel_b=ctrl.funnel_b,
         funnel_z=ctrl.funnel_z,
-        reference=scenario.reference,
+        reference=ref,
         base_attitude_ref=q_bd,
         singularity=ctrl.singularity,
         theta_z0=estimates[0],
@@ -255,13 +380,15 @@ def prepare(scenario: Scenario) -> Setup:
         theta_b0=estimates[2],
         initial=meas0,
         null_space=ctrl.null_space,
+        task=ref.task,
     )
     events = []
     horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)
     if horizon is not None:
         msg = (
             f"the reference leaves the arm's reach at t = {horizon:.1f} s (the system CoM drifts "
-            f"with v_0 = {np.round(truth[0][:2], 4).tolist()} m/s); no controller can track it "
+            f"with v_0 = {np.round(truth[0][: model.m2], 4).tolist()} m/s); no controller can "
+            "track it "
             "beyond that"
         )
         events.append(msg)
@@ -274,14 +401,18 @@ class _Recorder:
     def __init__(self, n_samples: int, setup: Setup):
         m = setup.model
         nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
+        m3, nt = m.m3, setup.controller.n_task
+        planar = m3 == 1
+        nw = n + m3
         # per-step signals; rho, the funnel bounds and the reference depend on t only and
         # are added by finish()
         shapes = {
-            "t": (), "q": (nq,), "v": (nv,), "w": (n + 1,), "u_m": (n,), "z_e": (3,),
-            "err_z": (3,), "q_b": (1,), "err_b": (1,), "P": (2,), "L": (), "F_r": (),
-            "w_tilde": (n + 1,), "e": (n + 1,), "theta_z_hat": (m.n_z,),
-            "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (3,), "w_mc": (n,),
-            "w_hat": (n + 1,), "sigma_min": (), "damping": (),
+            "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
+            "err_z": (nt,), "q_b": (m3,), "err_b": (m3,), "P": (m.m2,),
+            "L": () if planar else (3,), "F_r": () if planar else (3,),
+            "w_tilde": (nw,), "e": (nw,), "theta_z_hat": (m.n_z,),
+            "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (nt,), "w_mc": (n,),
+            "w_hat": (nw,), "sigma_min": (), "damping": (),
         }  # fmt: skip
         self.arrays = {k: np.full((n_samples, *s), np.nan) for k, s in shapes.items()}
         self.k = 0
@@ -301,12 +432,13 @@ class _Recorder:
         return out
 
 
-def _diagnostics(model: BarycentricModel, theta_d: np.ndarray, compiled: bool):
+def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
     """f(q_b, q_m, w, w~, Y_df, theta_d-hat) -> (e of Eq. 54, M_bb, dM_bb/dt), true model.
 
     The recorder forms the reaction torque (Eq. 7) from these once the plant's acceleration is
-    known: ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b``, as
-    :meth:`~ffsm_pin.barycentric.BarycentricModel.reaction_torque` (tested against Pinocchio).
+    known: ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` (planar), plus the gyroscopic
+    ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
+    against Pinocchio).
     """
     if compiled:
         from ..control import fast
@@ -317,6 +449,17 @@ def _diagnostics(model: BarycentricModel, theta_d: np.ndarray, compiled: bool):
             return fast.diagnostics(*args, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
 
         return compiled_diag
+    m3 = model.m3
+    if m3 > 1:
+        basis = np.eye(model.n_joints + m3)[:m3]
+
+        def spatial_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
+            M = model.mass_matrix(theta_d, q_b, q_m)
+            # columns of the symmetric dM/dt: compiled regressors, as Eq. (7) needs
+            Mbb_dot = np.column_stack([model.Y_Mdot(q_b, q_m, w, e)[:m3] @ theta_d for e in basis])
+            return M @ w_tilde + Y_df @ (theta_d - theta_d_hat), M[:m3, :m3], Mbb_dot
+
+        return spatial_diag
     e0 = np.zeros(model.n_joints + 1)
     e0[0] = 1.0
 
@@ -346,10 +489,15 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     completed, stop_reason, stop_time = True, None, None
     stop_cause = stop_funnel = None
     next_progress = 0.0
-    nb = model.n_joints + 1  # compile / load the recording kernel before the clock starts
+    m3, nt = model.m3, ctrl.n_task
+    spatial = m3 > 1
+    nb = model.n_joints + m3  # compile / load the recording kernel before the clock starts
     zero = np.zeros(nb)
-    diagnostics(0.0, setup.q0[4:].copy(), zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
+    meas0 = sensor.measure(0.0, q, v)
+    sensor._q_b_prev = None  # the run measures t = 0 again
+    diagnostics(meas0.q_b, meas0.q_m, zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
+    n_lin = 3 if spatial else 2  # base linear velocity entries of v
     wall0 = time.perf_counter()
     k = 0
     adaptive = ctrl.adaptive
@@ -386,11 +534,17 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
         if record:
             A["t"][i] = t
             A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, out.u_m
-            A["z_e"][i], A["z_e_dot"][i] = meas.z_e, meas.z_e_dot
+            A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
             A["err_z"][i], A["err_b"][i], A["q_b"][i] = out.err_z, out.err_b, meas.q_b
             mom = plant.momentum(q, v)
-            A["P"][i], A["L"][i] = mom[:2], mom[2]
-            A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]  # Eqs. (6)-(7), Christoffel C
+            if spatial:
+                A["P"][i], A["L"][i] = mom[:3], mom[3:]
+                w_b_dot = mrp.to_rotation(meas.q_b) @ a[3:6]  # docs/spatial.md section 1
+                A["F_r"][i] = spatial_reaction_torque(Mbb, Mbb_dot, meas.w[:3], w_b_dot)
+            else:
+                A["P"][i], A["L"][i] = mom[:2], mom[2]
+                # Eqs. (6)-(7), Christoffel C
+                A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]
             A["w_mc"][i] = out.w_mc
             A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
             rec.k += 1
@@ -400,11 +554,11 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
             completed, stop_time, stop_cause = False, t + dt, "nonfinite"
             stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
             break
-        if np.max(np.abs(v_new[2:])) > 1e4:
+        if np.max(np.abs(v_new[n_lin:])) > 1e4:
             completed, stop_time, stop_cause = False, t + dt, "nonfinite"
             stop_reason = (
                 f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
-                f"(max |w| = {np.max(np.abs(v_new[2:])):.3g})"
+                f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})"
             )
             break
         q, v = q_new, v_new

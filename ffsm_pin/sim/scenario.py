@@ -9,12 +9,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..control.controller import SCHEMES
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
+from ..control.kinematic import TASKS
 from ..control.null_space import NullSpace
 from ..errors import ParameterError, choices_text
 from .plant import INTEGRATORS
@@ -54,12 +56,22 @@ class ComponentReference:
 
 @dataclass(frozen=True)
 class Reference:
-    """Desired end-effector pose z_e,d(t) (Eq. 80 form) and base attitude q_b,d."""
+    """Desired end-effector task z_e,d(t) (Eq. 80 form) and base attitude q_b,d.
+
+    ``task = "pose"``: one entry of ``ee`` per pose component (planar x, y, attitude [rad];
+    spatial x, y, z [m] then an MRP s1, s2, s3); ``"position"``: the position components only.
+    ``base_attitude``: planar (angle,) [rad], spatial an MRP (3).
+    """
 
     ee: tuple[ComponentReference, ...]
     base_attitude: tuple[float, ...] = (0.0,)
+    task: str = "pose"
 
     def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise ParameterError(
+                f"reference.task {self.task!r} unknown; valid choices: {choices_text(TASKS)}"
+            )
         # all harmonic terms flattened: value = c + A @ (amp * cos(freq t + phase))
         terms = [
             (i, h.amplitude, h.frequency, phase)
@@ -85,7 +97,7 @@ class Reference:
         return self._A @ (-self._amp * self._freq * np.sin(self._freq * t + self._phase))
 
     def sample(self, ts) -> tuple[np.ndarray, np.ndarray]:
-        """(z_e,d, dz_e,d/dt) at the times ``ts`` [s], each of shape (len(ts), 3)."""
+        """(z_e,d, dz_e,d/dt) at the times ``ts`` [s], each of shape (len(ts), len(ee))."""
         arg = np.multiply.outer(np.asarray(ts, dtype=float), self._freq) + self._phase
         pose = self._c + (self._amp * np.cos(arg)) @ self._A.T
         rate = (-self._amp * self._freq * np.sin(arg)) @ self._A.T
@@ -94,33 +106,40 @@ class Reference:
 
 @dataclass(frozen=True)
 class RobotSpec:
+    """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
+    optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
+    :class:`~ffsm_pin.spatial.robot.Satellite` added under an arm-only URDF's root)."""
+
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
     base: str = "planar"
     end_effector: str = "ee"
     relative_to: str | None = None  # folder of the scenario file
+    locked_joints: tuple[tuple[str, float], ...] = ()
+    satellite: Any = None  # ffsm_pin.spatial.robot.Satellite | None
 
 
 @dataclass(frozen=True)
 class InitialCondition:
-    """Initial plant state.
+    """Initial plant state (planar / spatial sizes).
 
-    base_pose: (x, y, q_b) [m, m, rad], base frame origin in the inertial frame.
-    com_at_origin: shift (x, y) so that the *system* CoM starts at the inertial origin.
+    base_pose: (x, y, q_b) [m, m, rad] / (x, y, z, s1, s2, s3) [m, MRP], base frame origin in
+        the inertial frame.
+    com_at_origin: shift the position so that the *system* CoM starts at the inertial origin.
     joints, joint_rates: q_m(0) [rad], w_m(0) [rad/s].
-    Base velocity, exactly one of:
-      * base_twist = (v_x, v_y, w_b), linear part in the inertial frame [m/s, m/s, rad/s];
-      * com_velocity = (v_x, v_y) [m/s] with base_rate = w_b [rad/s];
-      * com_velocity with angular_momentum = A_0 about the system CoM [kg m^2/s].
+    Base velocity, exactly one of (all in the inertial frame):
+      * base_twist = (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s];
+      * com_velocity = v_0 (2 / 3) [m/s] with base_rate = w_b (number / 3) [rad/s];
+      * com_velocity with angular_momentum = A_0 about the system CoM (number / 3) [kg m^2/s].
     """
 
-    base_pose: tuple[float, float, float]
+    base_pose: tuple[float, ...]
     joints: tuple[float, ...]
     joint_rates: tuple[float, ...]
     com_at_origin: bool = False
-    base_twist: tuple[float, float, float] | None = None
-    com_velocity: tuple[float, float] | None = None
-    base_rate: float | None = None
-    angular_momentum: float | None = None
+    base_twist: tuple[float, ...] | None = None
+    com_velocity: tuple[float, ...] | None = None
+    base_rate: float | tuple[float, ...] | None = None
+    angular_momentum: float | tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         by_twist = self.base_twist is not None

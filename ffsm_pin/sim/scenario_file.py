@@ -10,9 +10,11 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``name`` (top level): the scenario's name, default the file's stem;
 * ``[robot]``: ``urdf = "ffsm_planar4.urdf"``, ``base = "planar"``, ``end_effector = "ee"``;
 * ``[initial]``: ``com_at_origin = false``, ``joint_rates`` = zeros;
-* ``[reference]``: ``base_attitude = [0.0]``;
+* ``[reference]``: ``task = "pose"`` (or ``"position"``: the m2 position components only),
+  ``base_attitude`` = zeros (1 angle planar, 3 MRP components spatial);
 * ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
-  a funnel entry may be a single number, used for every component;
+  a funnel entry may be a single number, used for every component; spatial robots and the
+  position task have no default funnels (the paper's are planar pose funnels);
 * ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
   ``gain = 1.0``, ``center`` = the initial joint angles,
   :class:`~ffsm_pin.control.null_space.NullSpace`;
@@ -21,7 +23,15 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
   (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
-The paper's cases ship as files in ``ffsm_pin/sim/scenarios/`` (:data:`BUILTIN`).
+Spatial robots (``base = "free-flyer"``, docs/cli.md "Spatial robots"): ``[robot]`` also takes
+``locked_joints = { name = value }`` and ``[robot.satellite]``
+(:class:`~ffsm_pin.spatial.robot.Satellite`); ``[initial] base_pose`` is x, y, z and an MRP
+(|s| <= 1), or x, y, z with ``base_attitude_rpy`` or ``base_attitude_quaternion`` (x, y, z,
+w), converted to the MRP (written back as such by :func:`scenario_to_toml`); the velocity
+keys are 3-vectors (``base_twist`` 6), all in the inertial frame.
+
+The paper's cases and the spatial cases ship as files in ``ffsm_pin/sim/scenarios/``
+(:data:`BUILTIN`).
 """
 
 from __future__ import annotations
@@ -33,8 +43,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
+from ..control.kinematic import TASKS
 from ..control.null_space import OBJECTIVES, NullSpace
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
 from .plant import INTEGRATORS
@@ -64,6 +77,11 @@ BUILTIN: dict[str, str] = {
     "case3": "case3.toml",
     "known-model": "known_model.toml",
     "planar5": "planar5.toml",
+    "spatial": "spatial.toml",
+    "spatial-known-model": "spatial_known_model.toml",
+    "spatial-no-ppc": "spatial_no_ppc.toml",
+    "spatial-no-attitude": "spatial_no_attitude.toml",
+    "spatial-pose": "spatial_pose.toml",
 }
 
 # Allowed keys per table. A nested dict is a sub-table; a string is a type tag.
@@ -71,6 +89,7 @@ _NUM, _INT, _BOOL, _STR, _VEC, _NUMVEC, _TERMS = (
     "number", "integer", "boolean", "string", "list of numbers",
     "number or list of numbers", "list of [amplitude, frequency] pairs",
 )  # fmt: skip
+_TABLE = "table of joint_name = value"
 _FUNNEL_KEYS = (
     "rho_b0",
     "rho_binf",
@@ -85,18 +104,33 @@ _GAIN_KEYS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
 SCHEMA: dict[str, Any] = {
     "name": _STR,
     "description": _STR,
-    "robot": {"urdf": _STR, "base": _STR, "end_effector": _STR},
+    "robot": {
+        "urdf": _STR,
+        "base": _STR,
+        "end_effector": _STR,
+        "locked_joints": _TABLE,
+        "satellite": {
+            "mass": _NUM,
+            "inertia": _VEC,
+            "size": _VEC,
+            "mount_xyz": _VEC,
+            "mount_rpy": _VEC,
+            "name": _STR,
+        },
+    },
     "initial": {
         "base_pose": _VEC,
+        "base_attitude_rpy": _VEC,
+        "base_attitude_quaternion": _VEC,
         "com_at_origin": _BOOL,
         "joints": _VEC,
         "joint_rates": _VEC,
         "base_twist": _VEC,
         "com_velocity": _VEC,
-        "base_rate": _NUM,
-        "angular_momentum": _NUM,
+        "base_rate": _NUMVEC,
+        "angular_momentum": _NUMVEC,
     },
-    "reference": {"base_attitude": _VEC, "ee": "list of tables"},
+    "reference": {"task": _STR, "base_attitude": _VEC, "ee": "list of tables"},
     "controller": {
         "scheme": _STR,
         **{k: _NUM for k in _GAIN_KEYS},
@@ -116,8 +150,8 @@ SCHEMA: dict[str, Any] = {
 }
 _EE_KEYS = {"c": _NUM, "cos": _TERMS, "sin": _TERMS}
 _REQUIRED = ("initial.base_pose", "initial.joints", "reference.ee")
-# Task sizes for each supported base: (end-effector pose components, base attitude components).
-_TASK_SIZE = {"planar": (3, 1)}
+# For each supported base: (m2 end-effector position components, m3 attitude components).
+_TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
 
 
 # ------------------------------------------------------------------------------ public API
@@ -184,9 +218,10 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
             if name not in d.get(section, {}):
                 raise ScenarioError(f"{key}: missing (required key)")
         robot = _robot(d.get("robot", {}), src)
-        n_ee, n_b = _TASK_SIZE[robot.base]
-        initial = _initial(d["initial"])
-        reference = _reference(d["reference"], n_ee, n_b)
+        m2, n_b = _TASK_SIZE[robot.base]
+        initial = _initial(d["initial"], robot.base)
+        reference = _reference(d["reference"], m2, n_b)
+        n_ee = len(reference.ee)
         controller = _controller(d.get("controller", {}), n_ee, n_b)
         sim = d.get("sim", {})
         duration = _number(sim, "duration", "sim", default=30.0, positive=True)
@@ -231,6 +266,18 @@ def scenario_to_toml(scenario: Scenario) -> str:
         f"urdf = {_toml(urdf)}",
         f"base = {_toml(r.base)}",
         f"end_effector = {_toml(r.end_effector)}",
+    ]
+    if r.locked_joints:
+        inner = ", ".join(f"{_toml(k)} = {_toml(v)}" for k, v in r.locked_joints)
+        lines.append(f"locked_joints = {{ {inner} }}")
+    if r.satellite is not None:
+        sat = r.satellite
+        lines += ["", "[robot.satellite]"]
+        lines += [
+            f"{k} = {_toml(getattr(sat, k))}"
+            for k in ("mass", "inertia", "size", "mount_xyz", "mount_rpy", "name")
+        ]
+    lines += [
         "",
         "[initial]",
         f"base_pose = {_toml(ini.base_pose)}",
@@ -241,7 +288,8 @@ def scenario_to_toml(scenario: Scenario) -> str:
     for key in ("base_twist", "com_velocity", "base_rate", "angular_momentum"):
         if getattr(ini, key) is not None:
             lines.append(f"{key} = {_toml(getattr(ini, key))}")
-    lines += ["", "[reference]", f"base_attitude = {_toml(ref.base_attitude)}", "ee = ["]
+    lines += ["", "[reference]", f"task = {_toml(ref.task)}"]
+    lines += [f"base_attitude = {_toml(ref.base_attitude)}", "ee = ["]
     for comp in ref.ee:
         parts = [f"c = {_toml(comp.c)}"]
         for kind in ("cos", "sin"):
@@ -314,12 +362,92 @@ def _robot(sec: Mapping, src: Path | None) -> RobotSpec:
         )
     ee = _string(sec, "end_effector", "robot", default=RobotSpec.end_effector)
     rel = str(src.parent.resolve()) if src is not None else None
-    return RobotSpec(urdf=urdf, base=base, end_effector=ee, relative_to=rel)
+    locked = sec.get("locked_joints", {})
+    sat = sec.get("satellite")
+    if (locked or sat is not None) and base != "free-flyer":
+        raise ScenarioError(
+            "robot.locked_joints and [robot.satellite] apply only to base = 'free-flyer'"
+        )
+    for name, value in locked.items():
+        if not _is_number(value) or not math.isfinite(float(value)):
+            raise ScenarioError(
+                f"robot.locked_joints.{name}: expected a finite number, got {_describe(value)}"
+            )
+    satellite = None
+    if sat is not None:
+        from ..spatial.robot import Satellite
+
+        try:
+            satellite = Satellite.from_mapping(sat)
+        except (ParameterError, TypeError, ValueError) as exc:
+            raise ScenarioError(f"robot.{exc}") from None
+    return RobotSpec(
+        urdf=urdf,
+        base=base,
+        end_effector=ee,
+        relative_to=rel,
+        locked_joints=tuple((str(k), float(v)) for k, v in locked.items()),
+        satellite=satellite,
+    )
 
 
-def _initial(sec: Mapping) -> InitialCondition:
+def _mrp(value, key: str):
+    """An attitude MRP must be on the |s| <= 1 branch (the shadow set is the same attitude)."""
+    norm = math.sqrt(sum(x * x for x in value))
+    if norm > 1.0:
+        raise ScenarioError(
+            f"{key}: MRP {list(value)} has |s| = {norm:.4g} > 1; give the shadow MRP "
+            "-s / |s|^2 of the same attitude (|s| <= 1)"
+        )
+    return value
+
+
+def _base_attitude_mrp(sec: Mapping, p: str):
+    """The base attitude of [initial] as an MRP from base_pose[3:], base_attitude_rpy or
+    base_attitude_quaternion (exactly one), converted to an MRP on the |s| <= 1 branch."""
+    from ..spatial import mrp
+
+    rpy = _vector(sec, "base_attitude_rpy", p, length=3, default=None)
+    quat = _vector(sec, "base_attitude_quaternion", p, length=4, default=None)
+    if rpy is not None and quat is not None:
+        raise ScenarioError(
+            f"{p}.base_attitude_rpy and {p}.base_attitude_quaternion: give one of them"
+        )
+    if rpy is not None:
+        return tuple(float(x) for x in mrp.from_rpy(rpy))
+    if quat is not None:
+        norm = math.sqrt(sum(x * x for x in quat))
+        if not abs(norm - 1.0) < 1e-6:
+            raise ScenarioError(
+                f"{p}.base_attitude_quaternion: (x, y, z, w) must have unit norm, got {norm:.6g}"
+            )
+        return tuple(float(x) for x in mrp.from_quaternion(np.array(quat) / norm))
+    return None
+
+
+def _initial(sec: Mapping, base: str = "planar") -> InitialCondition:
     p = "initial"
-    base_pose = _vector(sec, "base_pose", p, length=3)
+    spatial = base == "free-flyer"
+    att = _base_attitude_mrp(sec, p) if spatial else None
+    if not spatial:
+        for key in ("base_attitude_rpy", "base_attitude_quaternion"):
+            if key in sec:
+                raise ScenarioError(f"{p}.{key}: only for base = 'free-flyer' (planar: base_pose)")
+    if spatial:
+        base_pose = _vector(sec, "base_pose", p)
+        want = 3 if att is not None else 6
+        if len(base_pose) != want:
+            what = (
+                "x, y, z [m] (the attitude is given by base_attitude_rpy / _quaternion)"
+                if att is not None
+                else "x, y, z [m] and an MRP s1, s2, s3"
+            )
+            raise ScenarioError(f"{p}.base_pose: {len(base_pose)} values, expected {want} ({what})")
+        if att is not None:
+            base_pose = tuple(base_pose) + att
+        _mrp(base_pose[3:], f"{p}.base_pose[3:6]")
+    else:
+        base_pose = _vector(sec, "base_pose", p, length=3)
     joints = _vector(sec, "joints", p)
     if not joints:
         raise ScenarioError("initial.joints: empty; give one angle [rad] per joint")
@@ -328,10 +456,14 @@ def _initial(sec: Mapping) -> InitialCondition:
         raise ScenarioError(
             f"initial.joint_rates: {len(rates)} values, but initial.joints has {len(joints)}"
         )
-    twist = _vector(sec, "base_twist", p, length=3, default=None)
-    com_v = _vector(sec, "com_velocity", p, length=2, default=None)
-    rate = _number(sec, "base_rate", p, default=None)
-    mom = _number(sec, "angular_momentum", p, default=None)
+    twist = _vector(sec, "base_twist", p, length=6 if spatial else 3, default=None)
+    com_v = _vector(sec, "com_velocity", p, length=3 if spatial else 2, default=None)
+    if spatial:
+        rate = _vector(sec, "base_rate", p, length=3, default=None)
+        mom = _vector(sec, "angular_momentum", p, length=3, default=None)
+    else:
+        rate = _number(sec, "base_rate", p, default=None)
+        mom = _number(sec, "angular_momentum", p, default=None)
     com = _bool(sec, "com_at_origin", p, default=False)
     try:
         return InitialCondition(
@@ -348,8 +480,18 @@ def _initial(sec: Mapping) -> InitialCondition:
         raise ScenarioError(f"[initial] {exc}") from None
 
 
-def _reference(sec: Mapping, n_ee: int, n_b: int) -> Reference:
+def _reference(sec: Mapping, m2: int, n_b: int) -> Reference:
+    task = _string(sec, "task", "reference", default="pose")
+    if task not in TASKS:
+        raise ScenarioError(
+            f"reference.task: {task!r} unknown{did_you_mean(task, TASKS)}; "
+            f"valid choices: {choices_text(TASKS)}"
+        )
+    n_ee = m2 + n_b if task == "pose" else m2
+    names = (("x", "y", "z")[:m2] + (("attitude",) if n_b == 1 else ("s1", "s2", "s3")))[:n_ee]
     base = _vector(sec, "base_attitude", "reference", length=n_b, default=(0.0,) * n_b)
+    if n_b == 3:
+        _mrp(base, "reference.base_attitude")
     ee = sec["ee"]
     if not isinstance(ee, list) or not all(isinstance(x, Mapping) for x in ee):
         raise ScenarioError(
@@ -358,8 +500,8 @@ def _reference(sec: Mapping, n_ee: int, n_b: int) -> Reference:
         )
     if len(ee) != n_ee:
         raise ScenarioError(
-            f"reference.ee: {len(ee)} entries, expected {n_ee} (one per task component: "
-            "x, y, attitude)"
+            f"reference.ee: {len(ee)} entries, expected {n_ee} (one per component of the "
+            f"{task!r} task: {', '.join(names)})"
         )
     comps = []
     for i, entry in enumerate(ee):
@@ -368,7 +510,7 @@ def _reference(sec: Mapping, n_ee: int, n_b: int) -> Reference:
         c = _number(entry, "c", where, default=0.0)
         terms = {kind: _terms(entry, kind, where) for kind in ("cos", "sin")}
         comps.append(ComponentReference(c=c, **terms))
-    return Reference(ee=tuple(comps), base_attitude=base)
+    return Reference(ee=tuple(comps), base_attitude=base, task=task)
 
 
 def _terms(entry: Mapping, kind: str, where: str) -> tuple[Harmonic, ...]:
@@ -463,11 +605,15 @@ def _funnel(sec: Mapping, tag: str, n: int, default: FunnelParams) -> FunnelPara
         "beta": f"beta_{tag}",
         "sigma": f"sigma_{tag}",
     }
-    what = "the base attitude" if tag == "b" else "the end-effector pose (x, y, attitude)"
+    what = "the base attitude" if tag == "b" else "the end-effector task"
     vals = {}
     for field_name, key in keys.items():
         full = f"controller.funnel.{key}"
         if key not in sec:
+            if default.size != n:  # the defaults are the paper's planar funnels
+                raise ScenarioError(
+                    f"{full}: missing; required for {what} ({n} components, no default)"
+                )
             vals[field_name] = getattr(default, field_name)
             continue
         raw = sec[key]
@@ -545,6 +691,9 @@ def _check_keys(table: Mapping, schema: Mapping, where: str) -> None:
             if not isinstance(value, Mapping):
                 raise ScenarioError(f"{full}: expected a table [{full}], got {_describe(value)}")
             _check_keys(value, sub, full)
+        elif sub == _TABLE:
+            if not isinstance(value, Mapping):
+                raise ScenarioError(f"{full}: expected a {sub}, got {_describe(value)}")
         elif isinstance(value, Mapping):
             raise ScenarioError(f"{full}: expected a {sub}, got a table")
 
