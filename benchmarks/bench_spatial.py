@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
         f"example-robot-data:{args.robot}",
         ee,
         locked_joints=locks,
-        satellite={"mass": 500.0, "inertia": (80.0, 0.0, 0.0, 80.0, 0.0, 80.0)},
+        satellite={"mass": 500.0, "inertia": (80.0, 80.0, 80.0, 0.0, 0.0, 0.0)},
     )
     model, data = robot.model, robot.model.createData()
     rng = np.random.default_rng(0)

@@ -8,13 +8,13 @@ equivalent dict)::
 
     [base]
     mass = 200.0                           # [kg]
-    inertia = [40.0, 0.0, 0.0, 40.0, 0.0, 40.0]   # ixx ixy ixz iyy iyz izz about the CoM [kg m^2]
+    inertia = [40.0, 40.0, 40.0, 0.0, 0.0, 0.0]   # ixx iyy izz ixy ixz iyz about the CoM [kg m^2]
     com = [0.0, 0.0, 0.0]                  # CoM in the base frame [m] (optional)
     size = [1.0, 1.0, 1.0]                 # visual box [m] (optional)
 
     [[links]]                              # one table per link, base outwards
     mass = 5.0
-    inertia = [0.2, 0.01, 0.0, 0.2, 0.0, 0.05]
+    inertia = [0.2, 0.2, 0.05, 0.01, 0.0, 0.0]
     com = [0.0, 0.05, 0.2]                 # link CoM in the link (= joint) frame [m]
     origin_xyz = [0.5, 0.0, 0.5]           # this link's joint in the parent frame [m]
     origin_rpy = [0.0, 0.3, 0.0]           # its rotation (URDF roll-pitch-yaw) [rad] (optional)
@@ -48,7 +48,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-_INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+_INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")  # table order (as the scenario files)
 
 
 def _vec(x, n: int, key: str) -> tuple[float, ...]:
@@ -72,7 +72,7 @@ def _num(value, key: str) -> float:
 
 @dataclass(frozen=True)
 class SpatialBody:
-    """Mass properties of one rigid body: mass [kg], inertia (ixx ixy ixz iyy iyz izz) about
+    """Mass properties of one rigid body: mass [kg], inertia (ixx iyy izz ixy ixz iyz) about
     the CoM in the body frame [kg m^2], CoM in the body frame [m]."""
 
     mass: float

@@ -66,13 +66,13 @@ _INERTIA_REL_TOL = 1e-9
 class Satellite:
     """A satellite body added under an arm's root link (for arm-only URDFs).
 
-    ``inertia`` = (ixx, ixy, ixz, iyy, iyz, izz) about the satellite's CoM, which is the
+    ``inertia`` = (ixx, iyy, izz, ixy, ixz, iyz) about the satellite's CoM, which is the
     origin of the new root link [kg m^2]; ``size`` is the visual box [m]; the arm's root link
     is mounted at ``mount_xyz`` [m] with ``mount_rpy`` [rad] in the satellite frame.
     """
 
     mass: float = 500.0  # [kg]
-    inertia: tuple[float, ...] = (80.0, 0.0, 0.0, 80.0, 0.0, 80.0)
+    inertia: tuple[float, ...] = (80.0, 80.0, 80.0, 0.0, 0.0, 0.0)
     size: tuple[float, float, float] = (1.0, 1.0, 1.0)
     mount_xyz: tuple[float, float, float] = (0.0, 0.0, 0.5)
     mount_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -100,7 +100,7 @@ class Satellite:
         return cls(**dict(table))
 
     def inertia_matrix(self) -> np.ndarray:
-        xx, xy, xz, yy, yz, zz = self.inertia
+        xx, yy, zz, xy, xz, yz = self.inertia
         return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
 
 
@@ -250,7 +250,7 @@ def _add_satellite(root: ET.Element, sat: Satellite, arm_root: str, source: str)
         "inertia",
         **{
             k: repr(v)
-            for k, v in zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), sat.inertia, strict=True)
+            for k, v in zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"), sat.inertia, strict=True)
         },
     )
     visual = ET.SubElement(link, "visual")

@@ -28,11 +28,11 @@ from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_
 
 
 def _inertia(rng, scale):
-    """(ixx, ixy, ixz, iyy, iyz, izz): principal moments in [0.5, 1] scale, random axes."""
+    """(ixx, iyy, izz, ixy, ixz, iyz): principal moments in [0.5, 1] scale, random axes."""
     lam = rng.uniform(0.5, 1.0, 3) * scale
     Q = pin.rpy.rpyToMatrix(*rng.uniform(-np.pi, np.pi, 3))
     inertia = Q @ np.diag(lam) @ Q.T
-    return tuple(float(inertia[i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))
+    return tuple(float(inertia[i, j]) for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,7 @@ import pinocchio as pin
 import pytest
 
 from ffsm_pin.errors import FfsmError
+from ffsm_pin.robot import urdf_dir
 from ffsm_pin.sim.run import initial_state, prepare
 from ffsm_pin.sim.scenario_file import (
     BUILTIN,
@@ -203,6 +204,6 @@ def test_spatial9_urdf_is_its_table():
 
     from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
 
-    folder = builtin_path("spatial-pose").parent
-    table = tomllib.loads((folder / "spatial9_chain.toml").read_text())
+    folder = urdf_dir()
+    table = tomllib.loads((folder / "spatial9.toml").read_text())
     assert chain_to_urdf(chain_from_table(table)) == (folder / "spatial9.urdf").read_text()

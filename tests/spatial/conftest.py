@@ -19,12 +19,12 @@ from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_
 
 
 def random_inertia(rng, scale):
-    """(ixx, ixy, ixz, iyy, iyz, izz) of a physical body: principal moments in [0.5, 1] scale
+    """(ixx, iyy, izz, ixy, ixz, iyz) of a physical body: principal moments in [0.5, 1] scale
     (triangle inequality holds), random principal axes."""
     lam = rng.uniform(0.5, 1.0, 3) * scale
     Q = pin.rpy.rpyToMatrix(*rng.uniform(-np.pi, np.pi, 3))
     inertia = Q @ np.diag(lam) @ Q.T
-    return tuple(float(inertia[i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))
+    return tuple(float(inertia[i, j]) for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)))
 
 
 def random_spatial_chain(n_links: int, seed: int) -> SpatialChain:

@@ -253,7 +253,7 @@ def test_example_robot_data_arms_on_a_satellite(spatial_state, rng, name, ee, lo
         f"example-robot-data:{name}",
         ee,
         locked_joints=locks,
-        satellite={"mass": 300.0, "inertia": (50, 1, 0, 40, 0, 30), "mount_rpy": (0.1, 0, 0)},
+        satellite={"mass": 300.0, "inertia": (50, 40, 30, 1, 0, 0), "mount_rpy": (0.1, 0, 0)},
     )
     bm = SpatialBarycentricModel(robot.geometry)
     for _ in range(3):

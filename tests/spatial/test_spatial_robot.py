@@ -50,7 +50,7 @@ def test_generated_chain_geometry(tmp_path, table, urdf_text):
     links = table["links"]
     assert np.allclose(g.masses, [table["base"]["mass"]] + [lk["mass"] for lk in links], rtol=0)
     assert np.allclose(g.coms[1:], [lk["com"] for lk in links], rtol=0, atol=1e-15)
-    xx, xy, xz, yy, yz, zz = links[1]["inertia"]
+    xx, yy, zz, xy, xz, yz = links[1]["inertia"]
     assert np.allclose(g.inertias[2], [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]], atol=1e-15)
     for k, lk in enumerate(links):
         axis = np.array(lk["axis"]) / np.linalg.norm(lk["axis"])
@@ -138,7 +138,7 @@ def test_satellite_mass_and_inertia():
     body 0's spatial inertia is the satellite's plus the root link's moved by the mount."""
     sat = Satellite(
         mass=400.0,
-        inertia=(60.0, 1.0, 0.5, 70.0, -0.3, 50.0),
+        inertia=(60.0, 70.0, 50.0, 1.0, 0.5, -0.3),
         size=(1.2, 1.0, 0.8),
         mount_xyz=(0.1, -0.2, 0.4),
         mount_rpy=(0.0, 0.2, 0.3),
