@@ -65,12 +65,18 @@ def measure(run: Path) -> dict[str, str]:
         ),
         "final \\|dp_e\\| [m]": f"{pos[-1]:.1e}",
         "\\|dp_e\\| < 1 cm after [s]": fmt(stays_below(t, pos, ERR_P)),
+        "final \\|dq_e\\| [MRP] (pose task)": (
+            f"{np.linalg.norm(err_z[-1, 3:]):.1e}" if err_z.shape[1] == 6 else "-"
+        ),
         "final \\|dq_b\\| [MRP]": f"{np.linalg.norm(d['err_b'][-1]):.1e}",
         "max \\|u_m\\| [N m] (norm)": f"{s['max_abs_u']:.3g} at {t[i_max]:.2f} s",
+        "max \\|u_m\\| [N m] after 1 s (norm)": f"{np.linalg.norm(u[t >= 1.0], axis=1).max():.2g}",
         "max \\|u_m,i\\| per joint [N m]": ", ".join(f"{x:.2g}" for x in u_joint),
         "max \\|w_m,i\\| [rad/s]": f"{np.abs(w_m).max():.2g}",
         "max \\|F_r\\| component [N m]": f"{s['max_abs_F_r']:.2g}",
-        "min sigma(J_m-hat U-hat) [m]": f"{s['min_sigma']:.3g}",
+        "min sigma(J_m-hat U-hat) [m]": (
+            f"{s['min_sigma']:.3g} at {t[int(np.argmin(d['sigma_min']))]:.1f} s"
+        ),
         "damped share of samples": f"{s['damped_fraction']:.3f}",
         "momentum drift P / L": f"{s['drift_P']:.1e} / {s['drift_L']:.1e}",
         "\\|theta_z~\\| start -> end": (
