@@ -544,8 +544,9 @@ def _controller(sec: Mapping, n_ee: int, n_b: int) -> ControllerSpec:
     gains = {k: _number(sec, k, p, default=getattr(defaults, k), positive=True) for k in _GAIN_KEYS}
     fsec = sec.get("funnel", {})
     dflt = ControllerSpec()
-    funnel_b = _funnel(fsec, "b", n_b, dflt.funnel_b)
-    funnel_z = _funnel(fsec, "z", n_ee, dflt.funnel_z)
+    planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
+    funnel_b = _funnel(fsec, "b", n_b, dflt.funnel_b if planar else None)
+    funnel_z = _funnel(fsec, "z", n_ee, dflt.funnel_z if planar else None)
     estimates = _estimates(sec.get("estimates", {}))
     ssec = sec.get("singularity", {})
     sp = SingularityPolicy()
@@ -598,7 +599,7 @@ def _null_space_lines(ns: NullSpace) -> list[str]:
     return lines
 
 
-def _funnel(sec: Mapping, tag: str, n: int, default: FunnelParams) -> FunnelParams:
+def _funnel(sec: Mapping, tag: str, n: int, default: FunnelParams | None) -> FunnelParams:
     keys = {
         "rho0": f"rho_{tag}0",
         "rhoinf": f"rho_{tag}inf",
@@ -610,7 +611,7 @@ def _funnel(sec: Mapping, tag: str, n: int, default: FunnelParams) -> FunnelPara
     for field_name, key in keys.items():
         full = f"controller.funnel.{key}"
         if key not in sec:
-            if default.size != n:  # the defaults are the paper's planar funnels
+            if default is None or default.size != n:  # defaults: the paper's planar funnels
                 raise ScenarioError(
                     f"{full}: missing; required for {what} ({n} components, no default)"
                 )

@@ -130,6 +130,11 @@ BAD = {
         lambda t: _edit(t, "base_pose", "[0.0, 0.0, 0.0, 0.1]"),
         ("initial.base_pose", "4 values, expected 6"),
     ),
+    # the paper's planar funnels are no default for a spatial task, even of the same size (3)
+    "missing funnel key": (
+        lambda t: re.sub(r"(?m)^rho_z0 = .*\n", "", t),
+        ("controller.funnel.rho_z0", "missing", "no default"),
+    ),
     "joint count": (
         lambda t: _edit(_edit(t, "joints", "[0.0, 0.0, 0.0]"), "joint_rates", "[0.0, 0.0, 0.0]"),
         ("initial.joints", "has 7 joints"),
