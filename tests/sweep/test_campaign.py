@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from sweep_cases import SMALL
 
-from ffsm_pin.sim.scenario_file import BUILTIN, builtin_scenario, scenario_from_toml
+from ffsm_pin.sim.scenario_file import builtin_scenario, scenario_from_toml
 from ffsm_pin.sweep import cli
 from ffsm_pin.sweep.campaign import (
     BUILTIN_CAMPAIGNS,
@@ -181,17 +181,12 @@ def test_builtin_robustness_campaign_is_valid():
     check_cases(cases, campaign.source)
 
 
-@pytest.mark.skipif(
-    "planar5" not in BUILTIN,
-    reason="the built-in scenario 'planar5' and controller.null_space come with the "
-    "null-space branch; this campaign validates once it is merged",
-)
 def test_builtin_nullspace_campaign_is_valid():
     campaign = load_campaign("nullspace-planar5")
     cases = expand(campaign)
-    assert len(cases) == 1 + 2 * campaign.repeat
+    assert len(cases) == 1 + 3 * campaign.repeat
     objectives = {c.values["controller.null_space.objective"] for c in cases[1:]}
-    assert objectives == {"none", "manipulability"}
+    assert objectives == {"none", "manipulability", "joint-centering"}
     check_cases(cases, campaign.source)
 
 
