@@ -27,6 +27,14 @@ process (client, scheduler, Parquet, report) plus every worker process (``getrus
 workers). On a machine shared with other jobs, wall-time ratios measure the cores the other
 jobs leave free; the CPU-time overhead still measures what the campaign machinery costs.
 ``--big N`` then runs one N-case campaign on the 2-worker cluster and reports its wall time.
+
+**Paired per-case CPU** (``--paired N``, robust to machine load): the same case, one after the
+other, (a) in this process's main thread, (b) on the worker of a 1-worker cluster started as
+the campaign starts it (:func:`ffsm_pin.sweep.engine.start_client`) and (c) on the worker of a
+1-worker LocalCluster with Dask's default settings, in a shuffled order per case. Reported: the
+case's thread CPU in each (median of the per-case ratios to (a)), its minor page faults and
+system time, and the worker process's CPU outside the case (profiler, event loop, monitors,
+task transfer), as a share of the case's CPU.
 """
 
 from __future__ import annotations
@@ -35,6 +43,8 @@ import argparse
 import contextlib
 import io
 import os
+import random
+import resource
 import shutil
 import statistics
 import sys
@@ -85,8 +95,6 @@ def serial(path: Path) -> float:
 
 
 def _worker_cpu() -> float:
-    import resource
-
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
 
@@ -111,13 +119,85 @@ def campaign(path: Path, client, out: Path, force: bool = True) -> tuple[float, 
     return wall, cpu + sum(client.run(_worker_cpu).values()) - w0
 
 
-def start_cluster(n: int):
+def start_cluster(n: int, dask_defaults: bool = False):
+    """A LocalCluster of ``n`` workers as the campaign starts it, or with Dask's defaults."""
     from distributed import Client, LocalCluster
 
+    from ffsm_pin.sweep.engine import start_client
+
     t0 = time.perf_counter()
-    lc = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None, silence_logs=50)
-    client = Client(lc)
+    if dask_defaults:
+        os.environ.pop("MALLOC_TRIM_THRESHOLD_", None)  # leaked by an earlier nanny: not ours
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            lc = LocalCluster(
+                n_workers=n, threads_per_worker=1, dashboard_address=None, silence_logs=50
+            )
+        client = Client(lc)
+    else:
+        client, lc = start_client(n, quiet=True)
     return lc, client, time.perf_counter() - t0
+
+
+def _one_case(scenario_toml: str) -> dict[str, float]:
+    """Run one case in the calling thread: its thread CPU (user + system) [s], system time [s],
+    minor page faults, and the CPU of the whole process over the same interval [s]."""
+    from ffsm_pin.sim.run import prepare, simulate
+    from ffsm_pin.sim.scenario_file import scenario_from_toml
+
+    t0 = resource.getrusage(resource.RUSAGE_THREAD)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        simulate(prepare(scenario_from_toml(scenario_toml)))
+    t1 = resource.getrusage(resource.RUSAGE_THREAD)
+    return {
+        "cpu": t1.ru_utime + t1.ru_stime - t0.ru_utime - t0.ru_stime,
+        "sys": t1.ru_stime - t0.ru_stime,
+        "minflt": t1.ru_minflt - t0.ru_minflt,
+    }
+
+
+def paired(path: Path, clients: dict) -> None:
+    """Per-case CPU of the same cases in this process and on 1-worker clusters, interleaved
+    case by case (shuffled order), and the worker processes' CPU outside their cases."""
+    from ffsm_pin.sweep.campaign import expand, load_campaign
+
+    tomls = [case.scenario_toml for case in expand(load_campaign(path))]
+    rows: dict[str, list[dict[str, float]]] = {"this process": [], **{m: [] for m in clients}}
+    for c in clients.values():
+        c.submit(_one_case, tomls[0], pure=False).result()  # warm
+    rng = random.Random(0)
+    for toml in tomls:
+        order = list(rows)
+        rng.shuffle(order)
+        for m in order:
+            if m == "this process":
+                rows[m].append(_one_case(toml))
+                continue
+            c = clients[m]
+            p0 = sum(c.run(_worker_cpu).values())
+            row = c.submit(_one_case, toml, pure=False).result()
+            row["process"] = sum(c.run(_worker_cpu).values()) - p0
+            rows[m].append(row)
+    base = [r["cpu"] for r in rows["this process"]]
+    print(
+        f"\npaired per-case CPU, {len(tomls)} cases, each in turn here and on each 1-worker "
+        f"cluster (load average {os.getloadavg()[0]:.2f}):"
+    )
+    print("| where | case CPU [s] | / here | system [ms] | page faults | worker CPU off the case |")
+    print("|---|---|---|---|---|---|")
+    for m, v in rows.items():
+        cpu = statistics.median(r["cpu"] for r in v)
+        ratio = statistics.median(r["cpu"] / b for r, b in zip(v, base, strict=True))
+        sys_ms = 1e3 * statistics.median(r["sys"] for r in v)
+        flt = statistics.median(r["minflt"] for r in v)
+        if "process" in v[0]:
+            extra = [(r["process"] - r["cpu"]) for r in v]
+            share = statistics.median(e / r["cpu"] for e, r in zip(extra, v, strict=True))
+            outside = f"{1e3 * statistics.median(extra):.1f} ms = {100 * share:.1f} %"
+        else:
+            outside = "-"
+        print(f"| {m} | {cpu:.3f} | {ratio:.3f} | {sys_ms:.1f} | {flt:.0f} | {outside} |")
 
 
 def main(argv=None) -> int:
@@ -125,6 +205,9 @@ def main(argv=None) -> int:
     p.add_argument("--cases", type=int, default=20, help="cases per trial (default 20)")
     p.add_argument("--trials", type=int, default=3, help="interleaved trials (default 3)")
     p.add_argument("--big", type=int, default=100, help="cases of the big campaign (0: skip)")
+    p.add_argument(
+        "--paired", type=int, default=10, help="cases of the paired CPU comparison (0: skip)"
+    )
     args = p.parse_args(argv)
     n = args.cases
 
@@ -132,6 +215,15 @@ def main(argv=None) -> int:
     try:
         path = write_campaign(tmp, n, seed=1)
         serial(write_campaign(tmp, 2, seed=99))  # compile / load the kernels here
+        if args.paired:
+            lcq, cq, _ = start_cluster(1)
+            lcd, cd, _ = start_cluster(1, dask_defaults=True)
+            paired(
+                write_campaign(tmp, args.paired, seed=3),
+                {"worker, campaign's cluster": cq, "worker, Dask defaults": cd},
+            )
+            for x in (cq, lcq, cd, lcd):
+                x.close()
         lc2, c2, start2 = start_cluster(2)
         lc1, c1, start1 = start_cluster(1)
         warm = write_campaign(tmp, 3, seed=98)
