@@ -482,13 +482,7 @@ class SpatialBarycentricModel:
         w = np.ascontiguousarray(w, dtype=float)
         s_vec = np.ascontiguousarray(s_vec, dtype=float)
         if self._use_fast(q_b, q_m):
-            R, z, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
-            Y_Mdot = np.empty((self._N, self.n_d))
-            Y_h = np.empty((self._N, self.n_d))
-            kern.ym_rate(Rc, zc, s_vec, Yc, Y_Mdot)
-            kern.ym_rate(Rc, zc, w, Yc, Y_h)
-            kern.subtract_dT(R, z, w, Y_h)
-            return Y_Mdot, Y_h
+            return self._fast_velocity(q_b, q_m, w, s_vec)
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, w)
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
@@ -500,21 +494,20 @@ class SpatialBarycentricModel:
         Y_h[3:] -= dT
         return Y_Mdot, Y_h
 
-    def _fast_motion(self, q_b, q_m, w):
+    def _fast_velocity(self, q_b, q_m, w, s_vec):
+        """(Y_Mdot(w, s), Y_h(w)) from the compiled kernels (real, contiguous w and s)."""
         R, z = self._rz(q_b, q_m)
-        Rc = np.empty((self._nb, 3, 3), dtype=complex)
-        zc = np.empty((self.n_joints, 3), dtype=complex)
-        kern.motion_step(R, z, w, Rc, zc)
-        return R, z, Rc, zc, np.empty((self._N, self.n_d), dtype=complex)
+        Y_Mdot = np.empty((self._N, self.n_d))
+        Y_h = np.empty((self._N, self.n_d))
+        kern.velocity_terms(R, z, w, w, s_vec, Y_Mdot, Y_Mdot, Y_h, np.empty((3, self.n_d)), False)
+        kern.subtract_dT(R, z, w, Y_h)
+        return Y_Mdot, Y_h
 
     def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
         """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
         w = np.ascontiguousarray(w, dtype=float)
         if self._use_fast(q_b, q_m):
-            _, _, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
-            Y = np.empty((self._N, self.n_d))
-            kern.ym_rate(Rc, zc, np.ascontiguousarray(s_vec, dtype=float), Yc, Y)
-            return Y
+            return self._fast_velocity(q_b, q_m, w, np.ascontiguousarray(s_vec, dtype=float))[0]
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, w)
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
@@ -524,11 +517,7 @@ class SpatialBarycentricModel:
         """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
         w = np.ascontiguousarray(w, dtype=float)
         if self._use_fast(q_b, q_m):
-            R, z, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
-            Y_h = np.empty((self._N, self.n_d))
-            kern.ym_rate(Rc, zc, w, Yc, Y_h)
-            kern.subtract_dT(R, z, w, Y_h)
-            return Y_h
+            return self._fast_velocity(q_b, q_m, w, w)[1]
         return self.velocity_regressors(q_b, q_m, w, np.zeros(self._N))[1]
 
     def Y_T(self, q_b, q_m, w) -> np.ndarray:
