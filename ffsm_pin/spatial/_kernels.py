@@ -313,7 +313,7 @@ def controller_terms(
     position_jacobian(R, z, V, J[:3])
     attitude_rows(R[m], ee_rot, z, m, J[3:])
     y_z(R, z, w, Yz)
-    velocity_terms(R, z, w, a, sv, YM, YMdot, Yh, Yb, True)
+    velocity_terms(R, z, w, a, sv, YM, YMdot, Yh, Yb)
     subtract_dT(R, z, w, Yh)
     mass_matrix(R, z, theta_d, M)
 
@@ -501,9 +501,9 @@ _PHI_I1 = (0, 1, 2, 1, 2, 2)
 
 
 @njit(cache=True)
-def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb, with_a):
-    """Y_M(a) (if with_a), Y_Mdot(w, s), the dM/dt w part of Y_h(w) (before subtract_dT) and
-    the base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above)."""
+def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
+    """Y_M(a), Y_Mdot(w, s), the dM/dt w part of Y_h(w) (before :func:`subtract_dT`) and the
+    base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above)."""
     nb, n = R.shape[0], z.shape[0]
     N = n + 3
     om = np.empty((nb, 3))
@@ -546,8 +546,7 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb, with_a):
             if i0 == i1:
                 for r in range(3 + k):
                     p, dp = PR[k, i0, r], dPR[k, i0, r]
-                    if with_a:
-                        YM[r, col] = ba * p
+                    YM[r, col] = ba * p
                     YMdot[r, col] = ds * p + bs * dp
                     Yh[r, col] = dw * p + bw * dp
                 for r in range(3):
@@ -558,15 +557,13 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb, with_a):
                 for r in range(3 + k):
                     p, dp = PR[k, i0, r], dPR[k, i0, r]
                     p2, dp2 = PR[k, i1, r], dPR[k, i1, r]
-                    if with_a:
-                        YM[r, col] = ba * p + ba2 * p2
+                    YM[r, col] = ba * p + ba2 * p2
                     YMdot[r, col] = ds * p + bs * dp + ds2 * p2 + bs2 * dp2
                     Yh[r, col] = dw * p + bw * dp + dw2 * p2 + bw2 * dp2
                 for r in range(3):
                     Yb[r, col] = bw * PR[k, i0, r] + bw2 * PR[k, i1, r]
             for r in range(3 + k, N):
-                if with_a:
-                    YM[r, col] = 0.0
+                YM[r, col] = 0.0
                 YMdot[r, col] = 0.0
                 Yh[r, col] = 0.0
     # ---- pair columns: D_kl, Eq. (9a) second sum
@@ -574,6 +571,8 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb, with_a):
     du = np.empty((3, 3))
     g = np.empty((3, 3))
     dg = np.empty((3, 3))
+    PS = np.empty((3, N))  # S^T (b_k + b_l) for each vector, rows < 3 + k
+    dPS = np.empty((3, N))
     col = 6 * nb
     for k in range(nb):
         for l in range(k + 1, nb):
@@ -585,6 +584,9 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb, with_a):
                     du[v, i] = _tdot(dRk, i, bl) + _tdot(Rk, i, dbl)
                     g[v, i] = _tdot(Rl, i, bk)  # R_l^T b_k
                     dg[v, i] = _tdot(dRl, i, bk) + _tdot(Rl, i, dbk)
+                for r in range(3 + k):
+                    PS[v, r] = Pb[v, l, r] + Pb[v, k, r]
+                    dPS[v, r] = dPb[v, l, r] + dPb[v, k, r]
             for i in range(3):
                 for j in range(3):
                     q = _tdot(Rk, i, Rl[:, j])  # Q_kl = R_k^T R_l
@@ -598,30 +600,24 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb, with_a):
                     for r in range(3 + k):
                         pl, dpl = PR[l, j, r], dPR[l, j, r]
                         pk, dpk = PR[k, i, r], dPR[k, i, r]
-                        if with_a:
-                            YM[r, col] = q * (Pb[0, l, r] + Pb[0, k, r]) - ua * pl - ga * pk
+                        YM[r, col] = q * PS[0, r] - ua * pl - ga * pk
                         YMdot[r, col] = (
-                            dq * (Pb[1, l, r] + Pb[1, k, r]) + q * (dPb[1, l, r] + dPb[1, k, r])
+                            dq * PS[1, r] + q * dPS[1, r]
                             - dus * pl - us * dpl - dgs * pk - gs * dpk
                         )  # fmt: skip
                         Yh[r, col] = (
-                            dq * (Pb[2, l, r] + Pb[2, k, r]) + q * (dPb[2, l, r] + dPb[2, k, r])
+                            dq * PS[2, r] + q * dPS[2, r]
                             - duw * pl - uw * dpl - dgw * pk - gw * dpk
                         )  # fmt: skip
                     for r in range(3 + k, 3 + l):
                         pk, dpk = PR[k, i, r], dPR[k, i, r]
-                        if with_a:
-                            YM[r, col] = q * Pb[0, k, r] - ga * pk
+                        YM[r, col] = q * Pb[0, k, r] - ga * pk
                         YMdot[r, col] = dq * Pb[1, k, r] + q * dPb[1, k, r] - dgs * pk - gs * dpk
                         Yh[r, col] = dq * Pb[2, k, r] + q * dPb[2, k, r] - dgw * pk - gw * dpk
                     for r in range(3 + l, N):
-                        if with_a:
-                            YM[r, col] = 0.0
+                        YM[r, col] = 0.0
                         YMdot[r, col] = 0.0
                         Yh[r, col] = 0.0
                     for r in range(3):
-                        Yb[r, col] = (
-                            q * (Pb[2, l, r] + Pb[2, k, r])
-                            - uw * PR[l, j, r] - gw * PR[k, i, r]
-                        )  # fmt: skip
+                        Yb[r, col] = q * PS[2, r] - uw * PR[l, j, r] - gw * PR[k, i, r]
                     col += 1

@@ -497,9 +497,10 @@ class SpatialBarycentricModel:
     def _fast_velocity(self, q_b, q_m, w, s_vec):
         """(Y_Mdot(w, s), Y_h(w)) from the compiled kernels (real, contiguous w and s)."""
         R, z = self._rz(q_b, q_m)
-        Y_Mdot = np.empty((self._N, self.n_d))
-        Y_h = np.empty((self._N, self.n_d))
-        kern.velocity_terms(R, z, w, w, s_vec, Y_Mdot, Y_Mdot, Y_h, np.empty((3, self.n_d)), False)
+        N, nd = self._N, self.n_d
+        Y_Mdot, Y_h = np.empty((N, nd)), np.empty((N, nd))
+        scratch, rows = np.empty((N, nd)), np.empty((3, nd))  # Y_M(w), Y_b rows: not used
+        kern.velocity_terms(R, z, w, w, s_vec, scratch, Y_Mdot, Y_h, rows)
         kern.subtract_dT(R, z, w, Y_h)
         return Y_Mdot, Y_h
 
