@@ -303,17 +303,29 @@ def attitude_rows(R_m, ee_rot, z, m, out):
 
 @njit(cache=True)
 def controller_terms(
-    s_b, q_m, joint_rot, axes, ee_rot, m, V, theta_d, w, a, sv,
-    R, z, J, Yz, Yb, YM, YMdot, Yh, M,
+    s_b, q_m, joint_rot, axes, ee_rot, m, theta_z, theta_d, w, a, sv,
+    J, Yz, Yb, YM, YMdot, Yh, M,
 ):  # fmt: skip
-    """Everything of one controller period in one call (one dispatch): kinematics, J (6, N)
-    with position rows for the barycentric vectors V and MRP attitude rows, the position rows
-    of Y_z, the base rows of Y_M(w) (for Y_b), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d)."""
+    """Everything of one controller period in one call (one dispatch, every output written in
+    full): kinematics, J (6, N) with position rows for the barycentric vectors V_k of theta_z
+    and MRP attitude rows, Y_z (6, n_z), Y_b (3, n_b), Y_M(a), Y_Mdot(w, s), Y_h(w) and
+    M(theta_d)."""
+    nb, n = joint_rot.shape[0] + 1, joint_rot.shape[0]
+    R = np.empty((nb, 3, 3))
+    z = np.empty((n, 3))
+    V = np.empty((nb, 3))
+    for k in range(nb):
+        for i in range(3):
+            V[k, i] = theta_z[3 + 3 * k + i]
     kinematics(s_b, q_m, joint_rot, axes, R, z)
     position_jacobian(R, z, V, J[:3])
     attitude_rows(R[m], ee_rot, z, m, J[3:])
-    y_z(R, z, w, Yz)
-    velocity_terms(R, z, w, a, sv, YM, YMdot, Yh, Yb)
+    y_z(R, z, w, Yz[:3])
+    Yz[3:] = 0.0
+    for i in range(3):
+        for j in range(3):
+            Yb[i, j] = -1.0 if i == j else 0.0
+    velocity_terms(R, z, w, a, sv, YM, YMdot, Yh, Yb[:, 3:])
     subtract_dT(R, z, w, Yh)
     mass_matrix(R, z, theta_d, M)
 

@@ -212,6 +212,7 @@ class SpatialBarycentricModel:
         self._axes_c = np.ascontiguousarray(self._axes, dtype=float)
         self._ee_rot_c = np.ascontiguousarray(self._ee_rot, dtype=float)
         self._Vc = np.ascontiguousarray(V, dtype=float)
+        self._nd, self._nz, self._ee_body = self.layout.n_d, self.layout.n_z, g.ee_body
 
     # ------------------------------------------------------------------ sizes, truth
     @property
@@ -276,7 +277,12 @@ class SpatialBarycentricModel:
         return out
 
     def _use_fast(self, *args) -> bool:
-        return self._numba and not any(np.iscomplexobj(x) for x in args)
+        if not self._numba:
+            return False
+        for x in args:  # the dtype test first: np.iscomplexobj costs more per call
+            if (x.dtype.kind == "c") if isinstance(x, np.ndarray) else np.iscomplexobj(x):
+                return False
+        return True
 
     def _rz(self, q_b, q_m):
         """(R, z) from the compiled kinematics (real arguments), memoised like kinematics()."""
@@ -560,27 +566,21 @@ class SpatialBarycentricModel:
                 J_b, J_m, self.Y_z(q_b, q_m, w), self.Y_b(q_b, q_m, w), self.Y_M(q_b, q_m, a),
                 Y_Mdot, Y_h, self.mass_matrix(theta_d, q_b, q_m),
             )  # fmt: skip
-        N, nd = self._N, self.n_d
-        R = np.empty((self._nb, 3, 3))
-        z = np.empty((self.n_joints, 3))
+        N, nd = self._N, self._nd
         J = np.empty((6, N))
-        Yz = np.zeros((6, self.n_z))
-        Yb = np.empty((3, self.n_b))
-        Yb[:, :3] = -np.eye(3)
-        rows = np.empty((3, nd))
+        Yz = np.empty((6, self._nz))
+        Yb = np.empty((3, self._nd + 3))
         YM = np.empty((N, nd))
         YMdot = np.empty((N, nd))
         Yh = np.empty((N, nd))
         M = np.empty((N, N))
         kern.controller_terms(
             np.ascontiguousarray(q_b, dtype=float), np.ascontiguousarray(q_m, dtype=float),
-            self._joint_rot_c, self._axes_c, self._ee_rot_c, self.geometry.ee_body,
-            np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3), dtype=float),
-            np.ascontiguousarray(theta_d, dtype=float), np.ascontiguousarray(w, dtype=float),
-            np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(s_vec, dtype=float),
-            R, z, J, Yz[:3], rows, YM, YMdot, Yh, M,
+            self._joint_rot_c, self._axes_c, self._ee_rot_c, self._ee_body,
+            np.ascontiguousarray(theta_z, dtype=float), np.ascontiguousarray(theta_d, dtype=float),
+            np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(a, dtype=float),
+            np.ascontiguousarray(s_vec, dtype=float), J, Yz, Yb, YM, YMdot, Yh, M,
         )  # fmt: skip
-        Yb[:, 3:] = rows
         return ControllerTerms(J[:, :3], J[:, 3:], Yz, Yb, YM, YMdot, Yh, M)
 
     # ------------------------------------------------------------------ momentum
