@@ -578,13 +578,26 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 YM[r, col] = 0.0
                 YMdot[r, col] = 0.0
                 Yh[r, col] = 0.0
-    # ---- pair columns: D_kl, Eq. (9a) second sum
-    u = np.empty((3, 3))
-    du = np.empty((3, 3))
-    g = np.empty((3, 3))
-    dg = np.empty((3, 3))
-    PS = np.empty((3, N))  # S^T (b_k + b_l) for each vector, rows < 3 + k
-    dPS = np.empty((3, N))
+    # ---- pair columns: D_kl, Eq. (9a) second sum, 9 columns (i, j) at a time
+    # per body: PP[k, r, 3 i + j] = PR[k, i, r] (repeated over j), PT[k, r, 3 i + j] = PR[k, j, r]
+    PP = np.empty((nb, N, 9))
+    PT = np.empty((nb, N, 9))
+    dPP = np.empty((nb, N, 9))
+    dPT = np.empty((nb, N, 9))
+    for k in range(nb):
+        for r in range(N):
+            for i in range(3):
+                for j in range(3):
+                    PP[k, r, 3 * i + j] = PR[k, i, r]
+                    dPP[k, r, 3 * i + j] = dPR[k, i, r]
+                    PT[k, r, 3 * i + j] = PR[k, j, r]
+                    dPT[k, r, 3 * i + j] = dPR[k, j, r]
+    U9 = np.empty((3, 9))
+    dU9 = np.empty((3, 9))
+    G9 = np.empty((3, 9))
+    dG9 = np.empty((3, 9))
+    q9 = np.empty(9)
+    dq9 = np.empty(9)
     col = 6 * nb
     for k in range(nb):
         for l in range(k + 1, nb):
@@ -592,44 +605,58 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
             for v in range(3):
                 bk, bl, dbk, dbl = b[v, k], b[v, l], db[v, k], db[v, l]
                 for i in range(3):
-                    u[v, i] = _tdot(Rk, i, bl)  # R_k^T b_l
-                    du[v, i] = _tdot(dRk, i, bl) + _tdot(Rk, i, dbl)
-                    g[v, i] = _tdot(Rl, i, bk)  # R_l^T b_k
-                    dg[v, i] = _tdot(dRl, i, bk) + _tdot(Rl, i, dbk)
-                for r in range(3 + k):
-                    PS[v, r] = Pb[v, l, r] + Pb[v, k, r]
-                    dPS[v, r] = dPb[v, l, r] + dPb[v, k, r]
+                    ui = _tdot(Rk, i, bl)  # R_k^T b_l
+                    dui = _tdot(dRk, i, bl) + _tdot(Rk, i, dbl)
+                    gi = _tdot(Rl, i, bk)  # R_l^T b_k
+                    dgi = _tdot(dRl, i, bk) + _tdot(Rl, i, dbk)
+                    for j in range(3):
+                        U9[v, 3 * i + j] = ui
+                        dU9[v, 3 * i + j] = dui
+                        G9[v, 3 * j + i] = gi
+                        dG9[v, 3 * j + i] = dgi
             for i in range(3):
                 for j in range(3):
-                    q = _tdot(Rk, i, Rl[:, j])  # Q_kl = R_k^T R_l
-                    dq = _tdot(dRk, i, Rl[:, j]) + _tdot(Rk, i, dRl[:, j])
-                    ua, us, uw = u[0, i], u[1, i], u[2, i]
-                    dus, duw = du[1, i], du[2, i]
-                    ga, gs, gw = g[0, j], g[1, j], g[2, j]
-                    dgs, dgw = dg[1, j], dg[2, j]
-                    # rows of S_k^T x_k + S_l^T x_l, x_k = q b_l - u_i R_l e_j,
-                    # x_l = q b_k - g_j R_k e_i
-                    for r in range(3 + k):
-                        pl, dpl = PR[l, j, r], dPR[l, j, r]
-                        pk, dpk = PR[k, i, r], dPR[k, i, r]
-                        YM[r, col] = q * PS[0, r] - ua * pl - ga * pk
-                        YMdot[r, col] = (
-                            dq * PS[1, r] + q * dPS[1, r]
-                            - dus * pl - us * dpl - dgs * pk - gs * dpk
-                        )  # fmt: skip
-                        Yh[r, col] = (
-                            dq * PS[2, r] + q * dPS[2, r]
-                            - duw * pl - uw * dpl - dgw * pk - gw * dpk
-                        )  # fmt: skip
-                    for r in range(3 + k, 3 + l):
-                        pk, dpk = PR[k, i, r], dPR[k, i, r]
-                        YM[r, col] = q * Pb[0, k, r] - ga * pk
-                        YMdot[r, col] = dq * Pb[1, k, r] + q * dPb[1, k, r] - dgs * pk - gs * dpk
-                        Yh[r, col] = dq * Pb[2, k, r] + q * dPb[2, k, r] - dgw * pk - gw * dpk
-                    for r in range(3 + l, N):
-                        YM[r, col] = 0.0
-                        YMdot[r, col] = 0.0
-                        Yh[r, col] = 0.0
-                    for r in range(3):
-                        Yb[r, col] = q * PS[2, r] - uw * PR[l, j, r] - gw * PR[k, i, r]
-                    col += 1
+                    q9[3 * i + j] = _tdot(Rk, i, Rl[:, j])  # Q_kl = R_k^T R_l
+                    dq9[3 * i + j] = _tdot(dRk, i, Rl[:, j]) + _tdot(Rk, i, dRl[:, j])
+            # rows of S_k^T x_k + S_l^T x_l, x_k = q b_l - u_i R_l e_j, x_l = q b_k - g_j R_k e_i
+            for r in range(3 + k):
+                p0 = Pb[0, l, r] + Pb[0, k, r]
+                p1 = Pb[1, l, r] + Pb[1, k, r]
+                p2 = Pb[2, l, r] + Pb[2, k, r]
+                d1 = dPb[1, l, r] + dPb[1, k, r]
+                d2 = dPb[2, l, r] + dPb[2, k, r]
+                ptl, dptl, ppk, dppk = PT[l, r], dPT[l, r], PP[k, r], dPP[k, r]
+                ym, ymd, yh = YM[r, col : col + 9], YMdot[r, col : col + 9], Yh[r, col : col + 9]
+                for c in range(9):
+                    q, dq = q9[c], dq9[c]
+                    pl, dpl, pk, dpk = ptl[c], dptl[c], ppk[c], dppk[c]
+                    ym[c] = q * p0 - U9[0, c] * pl - G9[0, c] * pk
+                    ymd[c] = (
+                        dq * p1 + q * d1
+                        - dU9[1, c] * pl - U9[1, c] * dpl - dG9[1, c] * pk - G9[1, c] * dpk
+                    )  # fmt: skip
+                    yh[c] = (
+                        dq * p2 + q * d2
+                        - dU9[2, c] * pl - U9[2, c] * dpl - dG9[2, c] * pk - G9[2, c] * dpk
+                    )  # fmt: skip
+            for r in range(3):
+                p2 = Pb[2, l, r] + Pb[2, k, r]
+                for c in range(9):
+                    Yb[r, col + c] = q9[c] * p2 - U9[2, c] * PT[l, r, c] - G9[2, c] * PP[k, r, c]
+            for r in range(3 + k, 3 + l):
+                p0, p1, p2 = Pb[0, k, r], Pb[1, k, r], Pb[2, k, r]
+                d1, d2 = dPb[1, k, r], dPb[2, k, r]
+                ppk, dppk = PP[k, r], dPP[k, r]
+                ym, ymd, yh = YM[r, col : col + 9], YMdot[r, col : col + 9], Yh[r, col : col + 9]
+                for c in range(9):
+                    q, dq = q9[c], dq9[c]
+                    pk, dpk = ppk[c], dppk[c]
+                    ym[c] = q * p0 - G9[0, c] * pk
+                    ymd[c] = dq * p1 + q * d1 - dG9[1, c] * pk - G9[1, c] * dpk
+                    yh[c] = dq * p2 + q * d2 - dG9[2, c] * pk - G9[2, c] * dpk
+            for r in range(3 + l, N):
+                for c in range(9):
+                    YM[r, col + c] = 0.0
+                    YMdot[r, col + c] = 0.0
+                    Yh[r, col + c] = 0.0
+            col += 9
