@@ -32,7 +32,9 @@ Derivatives along the motion (``dM/dt s``) and with respect to the joint angles 
 in ``C w``, docs/spatial.md section 4) are taken exactly by forward-mode differentiation of the
 same bilinear expressions: the tangents of R_k and z_j are closed-form (``dR_k = [w_k]x R_k``,
 ``dz_j = w_j x z_j``; ``dR_k/dq_j = [z_j]x R_k`` for k >= j) and are carried as the imaginary
-part of a complex step, which for these polynomial expressions is exact to rounding.
+part of a complex step, which for these polynomial expressions is exact to rounding (numpy
+reference); the compiled kernels carry the same tangents as (value, tangent) pairs in real
+arithmetic (:func:`ffsm_pin.spatial._kernels.velocity_terms`).
 """
 
 from __future__ import annotations
