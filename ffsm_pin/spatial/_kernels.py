@@ -535,16 +535,15 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
         dz[j, 0] = o1 * r2 - o2 * r1
         dz[j, 1] = o2 * r0 - o0 * r2
         dz[j, 2] = o0 * r1 - o1 * r0
-    PR = np.empty((nb, 3, N))
-    dPR = np.empty((nb, 3, N))
+    # scratch in few allocations (each costs more than the loops over small arrays)
+    P2 = np.empty((2, nb, 3, N))
+    PR, dPR = P2[0], P2[1]
     _extended(R, z, dR, dz, PR, dPR)
     # vectors: 0 = a, 1 = s, 2 = w
-    b = np.empty((3, nb, 3))
-    db = np.empty((3, nb, 3))
-    Pb = np.empty((3, nb, N))
-    dPb = np.empty((3, nb, N))
-    beta = np.empty((3, nb, 3))
-    dbeta = np.empty((3, nb, 3))
+    B4 = np.empty((4, 3, nb, 3))
+    b, db, beta, dbeta = B4[0], B4[1], B4[2], B4[3]
+    Pb2 = np.empty((2, 3, nb, N))
+    Pb, dPb = Pb2[0], Pb2[1]
     _vector_terms(R, z, dR, dz, a, b[0], db[0], Pb[0], dPb[0], beta[0], dbeta[0])
     _vector_terms(R, z, dR, dz, s, b[1], db[1], Pb[1], dPb[1], beta[1], dbeta[1])
     _vector_terms(R, z, dR, dz, w, b[2], db[2], Pb[2], dPb[2], beta[2], dbeta[2])
@@ -580,10 +579,8 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 Yh[r, col] = 0.0
     # ---- pair columns: D_kl, Eq. (9a) second sum, 9 columns (i, j) at a time
     # per body: PP[k, r, 3 i + j] = PR[k, i, r] (repeated over j), PT[k, r, 3 i + j] = PR[k, j, r]
-    PP = np.empty((nb, N, 9))
-    PT = np.empty((nb, N, 9))
-    dPP = np.empty((nb, N, 9))
-    dPT = np.empty((nb, N, 9))
+    P4 = np.empty((4, nb, N, 9))
+    PP, PT, dPP, dPT = P4[0], P4[1], P4[2], P4[3]
     for k in range(nb):
         for r in range(N):
             for i in range(3):
@@ -592,12 +589,10 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                     dPP[k, r, 3 * i + j] = dPR[k, i, r]
                     PT[k, r, 3 * i + j] = PR[k, j, r]
                     dPT[k, r, 3 * i + j] = dPR[k, j, r]
-    U9 = np.empty((3, 9))
-    dU9 = np.empty((3, 9))
-    G9 = np.empty((3, 9))
-    dG9 = np.empty((3, 9))
-    q9 = np.empty(9)
-    dq9 = np.empty(9)
+    W4 = np.empty((4, 3, 9))
+    U9, dU9, G9, dG9 = W4[0], W4[1], W4[2], W4[3]
+    Q2 = np.empty((2, 9))
+    q9, dq9 = Q2[0], Q2[1]
     col = 6 * nb
     for k in range(nb):
         for l in range(k + 1, nb):
