@@ -32,7 +32,9 @@ Derivatives along the motion (``dM/dt s``) and with respect to the joint angles 
 in ``C w``, docs/spatial.md section 4) are taken exactly by forward-mode differentiation of the
 same bilinear expressions: the tangents of R_k and z_j are closed-form (``dR_k = [w_k]x R_k``,
 ``dz_j = w_j x z_j``; ``dR_k/dq_j = [z_j]x R_k`` for k >= j) and are carried as the imaginary
-part of a complex step, which for these polynomial expressions is exact to rounding.
+part of a complex step, which for these polynomial expressions is exact to rounding (numpy
+reference); the compiled kernels carry the same tangents as (value, tangent) pairs in real
+arithmetic (:func:`ffsm_pin.spatial._kernels.velocity_terms`).
 """
 
 from __future__ import annotations
@@ -212,6 +214,7 @@ class SpatialBarycentricModel:
         self._axes_c = np.ascontiguousarray(self._axes, dtype=float)
         self._ee_rot_c = np.ascontiguousarray(self._ee_rot, dtype=float)
         self._Vc = np.ascontiguousarray(V, dtype=float)
+        self._nd, self._nz, self._ee_body = self.layout.n_d, self.layout.n_z, g.ee_body
 
     # ------------------------------------------------------------------ sizes, truth
     @property
@@ -276,7 +279,12 @@ class SpatialBarycentricModel:
         return out
 
     def _use_fast(self, *args) -> bool:
-        return self._numba and not any(np.iscomplexobj(x) for x in args)
+        if not self._numba:
+            return False
+        for x in args:  # the dtype test first: np.iscomplexobj costs more per call
+            if (x.dtype.kind == "c") if isinstance(x, np.ndarray) else np.iscomplexobj(x):
+                return False
+        return True
 
     def _rz(self, q_b, q_m):
         """(R, z) from the compiled kinematics (real arguments), memoised like kinematics()."""
@@ -482,13 +490,7 @@ class SpatialBarycentricModel:
         w = np.ascontiguousarray(w, dtype=float)
         s_vec = np.ascontiguousarray(s_vec, dtype=float)
         if self._use_fast(q_b, q_m):
-            R, z, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
-            Y_Mdot = np.empty((self._N, self.n_d))
-            Y_h = np.empty((self._N, self.n_d))
-            kern.ym_rate(Rc, zc, s_vec, Yc, Y_Mdot)
-            kern.ym_rate(Rc, zc, w, Yc, Y_h)
-            kern.subtract_dT(R, z, w, Y_h)
-            return Y_Mdot, Y_h
+            return self._fast_velocity(q_b, q_m, w, s_vec)
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, w)
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
@@ -500,21 +502,21 @@ class SpatialBarycentricModel:
         Y_h[3:] -= dT
         return Y_Mdot, Y_h
 
-    def _fast_motion(self, q_b, q_m, w):
+    def _fast_velocity(self, q_b, q_m, w, s_vec):
+        """(Y_Mdot(w, s), Y_h(w)) from the compiled kernels (real, contiguous w and s)."""
         R, z = self._rz(q_b, q_m)
-        Rc = np.empty((self._nb, 3, 3), dtype=complex)
-        zc = np.empty((self.n_joints, 3), dtype=complex)
-        kern.motion_step(R, z, w, Rc, zc)
-        return R, z, Rc, zc, np.empty((self._N, self.n_d), dtype=complex)
+        N, nd = self._N, self.n_d
+        Y_Mdot, Y_h = np.empty((N, nd)), np.empty((N, nd))
+        scratch, rows = np.empty((N, nd)), np.empty((3, nd))  # Y_M(w), Y_b rows: not used
+        kern.velocity_terms(R, z, w, w, s_vec, scratch, Y_Mdot, Y_h, rows)
+        kern.subtract_dT(R, z, w, Y_h)
+        return Y_Mdot, Y_h
 
     def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
         """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
         w = np.ascontiguousarray(w, dtype=float)
         if self._use_fast(q_b, q_m):
-            _, _, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
-            Y = np.empty((self._N, self.n_d))
-            kern.ym_rate(Rc, zc, np.ascontiguousarray(s_vec, dtype=float), Yc, Y)
-            return Y
+            return self._fast_velocity(q_b, q_m, w, np.ascontiguousarray(s_vec, dtype=float))[0]
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, w)
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
@@ -524,11 +526,7 @@ class SpatialBarycentricModel:
         """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
         w = np.ascontiguousarray(w, dtype=float)
         if self._use_fast(q_b, q_m):
-            R, z, Rc, zc, Yc = self._fast_motion(q_b, q_m, w)
-            Y_h = np.empty((self._N, self.n_d))
-            kern.ym_rate(Rc, zc, w, Yc, Y_h)
-            kern.subtract_dT(R, z, w, Y_h)
-            return Y_h
+            return self._fast_velocity(q_b, q_m, w, w)[1]
         return self.velocity_regressors(q_b, q_m, w, np.zeros(self._N))[1]
 
     def Y_T(self, q_b, q_m, w) -> np.ndarray:
@@ -570,27 +568,21 @@ class SpatialBarycentricModel:
                 J_b, J_m, self.Y_z(q_b, q_m, w), self.Y_b(q_b, q_m, w), self.Y_M(q_b, q_m, a),
                 Y_Mdot, Y_h, self.mass_matrix(theta_d, q_b, q_m),
             )  # fmt: skip
-        N, nd = self._N, self.n_d
-        R = np.empty((self._nb, 3, 3))
-        z = np.empty((self.n_joints, 3))
+        N, nd = self._N, self._nd
         J = np.empty((6, N))
-        Yz = np.zeros((6, self.n_z))
-        Yb = np.empty((3, self.n_b))
-        Yb[:, :3] = -np.eye(3)
-        rows = np.empty((3, nd))
+        Yz = np.empty((6, self._nz))
+        Yb = np.empty((3, self._nd + 3))
         YM = np.empty((N, nd))
         YMdot = np.empty((N, nd))
         Yh = np.empty((N, nd))
         M = np.empty((N, N))
         kern.controller_terms(
             np.ascontiguousarray(q_b, dtype=float), np.ascontiguousarray(q_m, dtype=float),
-            self._joint_rot_c, self._axes_c, self._ee_rot_c, self.geometry.ee_body,
-            np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3), dtype=float),
-            np.ascontiguousarray(theta_d, dtype=float), np.ascontiguousarray(w, dtype=float),
-            np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(s_vec, dtype=float),
-            R, z, J, Yz[:3], rows, YM, YMdot, Yh, M,
+            self._joint_rot_c, self._axes_c, self._ee_rot_c, self._ee_body,
+            np.ascontiguousarray(theta_z, dtype=float), np.ascontiguousarray(theta_d, dtype=float),
+            np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(a, dtype=float),
+            np.ascontiguousarray(s_vec, dtype=float), J, Yz, Yb, YM, YMdot, Yh, M,
         )  # fmt: skip
-        Yb[:, 3:] = rows
         return ControllerTerms(J[:, :3], J[:, 3:], Yz, Yb, YM, YMdot, Yh, M)
 
     # ------------------------------------------------------------------ momentum
