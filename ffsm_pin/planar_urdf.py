@@ -31,24 +31,17 @@ Command line::
 
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import escape as _escape
 
-from .errors import FfsmError, ParameterError
+from ._urdf_cli import table_to_urdf_main
+from .errors import ParameterError
 
 
 def escape(text: str) -> str:
     """Escape text for an XML attribute value (quotes included)."""
     return _escape(text, {'"': "&quot;"})
-
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 
 @dataclass(frozen=True)
@@ -263,24 +256,13 @@ def write_urdf(chain: PlanarChain, path: str | Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m ffsm_pin.planar_urdf",
-        description="Write a planar free-floating manipulator URDF from a TOML table.",
+    return table_to_urdf_main(
+        "python -m ffsm_pin.planar_urdf",
+        "Write a planar free-floating manipulator URDF from a TOML table.",
+        chain_from_table,
+        chain_to_urdf,
+        argv,
     )
-    parser.add_argument("table", type=Path, help="TOML parameter table")
-    parser.add_argument("-o", "--output", type=Path, help="URDF to write (default: stdout)")
-    args = parser.parse_args(argv)
-    try:
-        chain = chain_from_table(tomllib.loads(args.table.read_text()))
-    except (OSError, tomllib.TOMLDecodeError, FfsmError) as exc:
-        print(f"error: {args.table}: {exc}", file=sys.stderr)
-        return 2
-    text = chain_to_urdf(chain)
-    if args.output:
-        args.output.write_text(text)
-    else:
-        sys.stdout.write(text)
-    return 0
 
 
 if __name__ == "__main__":

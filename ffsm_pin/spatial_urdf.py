@@ -35,18 +35,12 @@ Command line::
 
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import FfsmError, ParameterError
+from ._urdf_cli import table_to_urdf_main
+from .errors import ParameterError
 from .planar_urdf import escape
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")  # table order (as the scenario files)
 
@@ -247,24 +241,13 @@ def write_urdf(chain: SpatialChain, path: str | Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m ffsm_pin.spatial_urdf",
-        description="Write a spatial free-floating manipulator URDF from a TOML table.",
+    return table_to_urdf_main(
+        "python -m ffsm_pin.spatial_urdf",
+        "Write a spatial free-floating manipulator URDF from a TOML table.",
+        chain_from_table,
+        chain_to_urdf,
+        argv,
     )
-    parser.add_argument("table", type=Path, help="TOML parameter table")
-    parser.add_argument("-o", "--output", type=Path, help="URDF to write (default: stdout)")
-    args = parser.parse_args(argv)
-    try:
-        chain = chain_from_table(tomllib.loads(args.table.read_text()))
-    except (OSError, tomllib.TOMLDecodeError, FfsmError) as exc:
-        print(f"error: {args.table}: {exc}", file=sys.stderr)
-        return 2
-    text = chain_to_urdf(chain)
-    if args.output:
-        args.output.write_text(text)
-    else:
-        sys.stdout.write(text)
-    return 0
 
 
 if __name__ == "__main__":

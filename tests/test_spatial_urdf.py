@@ -10,8 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from ffsm_pin._urdf_cli import tomllib
 from ffsm_pin.errors import ParameterError
-from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf, tomllib
+from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
 
 REPO = Path(__file__).resolve().parents[1]
 TABLE = REPO / "tests" / "data" / "spatial3.toml"

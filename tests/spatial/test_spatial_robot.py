@@ -11,6 +11,7 @@ import pinocchio as pin
 import pytest
 
 from ffsm_pin import load_robot
+from ffsm_pin._urdf_cli import tomllib
 from ffsm_pin.errors import (
     FrameNotFoundError,
     InertiaError,
@@ -21,7 +22,7 @@ from ffsm_pin.errors import (
 )
 from ffsm_pin.spatial import Satellite, load_spatial_robot
 from ffsm_pin.spatial.robot import EXAMPLE_ROBOTS
-from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf, tomllib
+from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
 
 PANDA_LOCK = {"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02}
 
