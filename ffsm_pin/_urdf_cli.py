@@ -8,6 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ._cli import fail
 from .errors import FfsmError
 
 try:
@@ -35,8 +36,7 @@ def table_to_urdf_main(
     try:
         chain = chain_from_table(tomllib.loads(args.table.read_text()))
     except (OSError, tomllib.TOMLDecodeError, FfsmError) as exc:
-        print(f"error: {args.table}: {exc}", file=sys.stderr)
-        return 2
+        return fail(f"{args.table}: {exc}")
     text = chain_to_urdf(chain)
     if args.output:
         args.output.write_text(text)

@@ -20,6 +20,7 @@ from typing import TextIO
 
 import numpy as np
 
+from .._cli import Parser, UsageError, fail, positive_float, positive_int
 from ..errors import FfsmError
 from .result import RunResult
 from .scenario import Scenario
@@ -49,18 +50,9 @@ fig_*.png, replay.html (open it in a browser; no server needed).
 exit status: 0 completed, 3 stopped early (outputs still written), 2 bad input."""
 
 
-class _UsageError(Exception):
-    """A bad command line (argparse's error(), raised instead of exiting)."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # noqa: D102 - argparse API
-        raise _UsageError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The command-line parser (options of docs/cli.md)."""
-    p = _Parser(
+    p = Parser(
         prog="python -m ffsm_pin.sim",
         description="Simulate a free-floating space manipulator under the adaptive "
         "prescribed-performance coordinated controller of Lu & Jia (2019).",
@@ -86,15 +78,15 @@ def build_parser() -> argparse.ArgumentParser:
         "spatial-no-ppc and spatial-no-attitude (SET 'spatial') and overlay their figures",
     )
     what.add_argument("--scenario", metavar="FILE.toml", help="run a scenario file")
-    p.add_argument("--duration", metavar="S", type=_positive_float, help="simulated time [s]")
-    p.add_argument("--dt", metavar="S", type=_positive_float, help="time step [s]")
+    p.add_argument("--duration", metavar="S", type=positive_float, help="simulated time [s]")
+    p.add_argument("--dt", metavar="S", type=positive_float, help="time step [s]")
     p.add_argument(
         "--out", metavar="DIR", help="output folder (default: ./runs/<YYYYmmdd-HHMMSS>/)"
     )
     p.add_argument(
         "--record-every",
         metavar="N",
-        type=_positive_int,
+        type=positive_int,
         default=1,
         help="record every N-th step (default 1: every step)",
     )
@@ -117,8 +109,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     try:
         args = build_parser().parse_args(argv)
-    except _UsageError as exc:
-        return _fail(f"{exc} (see --help)")
+    except UsageError as exc:
+        return fail(f"{exc} (see --help)")
     console = Console(quiet=args.quiet)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore" if args.quiet else "default")
@@ -129,11 +121,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _run(args, console)
         except FfsmError as exc:
             console.clear()
-            return _fail(str(exc))
+            return fail(str(exc))
         except OSError as exc:
             console.clear()
             name = f" {exc.filename!r}" if exc.filename else ""
-            return _fail(f"cannot write{name}: {exc.strerror or exc}")
+            return fail(f"cannot write{name}: {exc.strerror or exc}")
         except KeyboardInterrupt:
             console.clear()
             print("interrupted", file=sys.stderr)
@@ -453,30 +445,5 @@ def _case_name(text: str) -> str:
     return name
 
 
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
 def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "run"
-
-
-def _fail(message: str) -> int:
-    print(f"error: {' '.join(message.split())}", file=sys.stderr)
-    return EXIT_BAD_INPUT

@@ -15,6 +15,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from .._cli import Parser, UsageError, fail, positive_int
 from ..errors import FfsmError
 from .campaign import BUILTIN_CAMPAIGNS, Campaign, Case, check_cases, expand, load_campaign
 
@@ -30,18 +31,9 @@ exit status: 0 every case has a row, 3 some case failed with an error, 2 bad inp
 130 interrupted."""
 
 
-class _UsageError(Exception):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # noqa: D102 - argparse API
-        raise _UsageError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The command-line parser (docs/campaigns.md)."""
-    p = _Parser(
+    p = Parser(
         prog="python -m ffsm_pin.sweep",
         description="Run many variations of a scenario on a Dask cluster; write "
         "results.parquet and report.md.",
@@ -54,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument(
         "--workers",
         metavar="N",
-        type=_positive_int,
+        type=positive_int,
         help="local worker processes, one thread each (default: number of cores)",
     )
     where.add_argument(
@@ -74,17 +66,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     try:
         args = build_parser().parse_args(argv)
-    except _UsageError as exc:
-        return _fail(f"{exc} (see --help)")
+    except UsageError as exc:
+        return fail(f"{exc} (see --help)")
     try:
         campaign = load_campaign(args.campaign)
         cases = expand(campaign)
         check_cases(cases, campaign.source)
         out = _out_dir(args.out, campaign.name)
     except FfsmError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     except OSError as exc:
-        return _fail(f"cannot create the output folder: {exc}")
+        return fail(f"cannot create the output folder: {exc}")
     try:
         return run(campaign, cases, out, args)
     except KeyboardInterrupt:
@@ -92,7 +84,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     except OSError as exc:
         name = f" {exc.filename!r}" if exc.filename else ""
-        return _fail(f"cannot write{name}: {exc.strerror or exc}")
+        return fail(f"cannot write{name}: {exc.strerror or exc}")
 
 
 def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespace) -> int:
@@ -189,21 +181,6 @@ def _out_dir(out: str | None, name: str) -> Path:
     return path
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
 def _warn(args, message: str) -> None:
     if not args.quiet:
         print(f"warning: {message}", file=sys.stderr)
-
-
-def _fail(message: str) -> int:
-    print(f"error: {' '.join(message.split())}", file=sys.stderr)
-    return EXIT_BAD_INPUT
