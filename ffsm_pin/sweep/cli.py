@@ -153,12 +153,13 @@ def _run_on_cluster(todo, table, out: Path, args, name: str, total: int) -> None
     try:
         bar.set_postfix_str("stopped 0, failed 0")
         for case, outcome in run_cases(client, todo, keep):
-            table.add(case, outcome)
+            table.add(case, outcome, write=table.write_due())
             if outcome["status"] in counts:
                 counts[outcome["status"]] += 1
             bar.set_postfix_str(f"stopped {counts['stopped']}, failed {counts['error']}")
             bar.update(1)
-    finally:
+    finally:  # also on Ctrl-C: every finished row reaches the file
+        table.flush()
         bar.close()
         client.close()
         if cluster is not None:

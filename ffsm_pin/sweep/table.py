@@ -1,13 +1,23 @@
 """results.parquet: one row per case, rewritten atomically (temp file + rename) as rows arrive.
 
-A reader (or an interrupted campaign) always sees a complete Parquet file holding every row
+A reader (or an interrupted campaign) always sees a complete Parquet file holding the rows
 finished so far. Rows are kept by ``case_hash``: adding the row of a hash that is already there
 replaces it, so a case never has two rows.
+
+A rewrite costs time proportional to the rows already there, so rewriting after every row is
+quadratic in the campaign's size. The campaign therefore rewrites when
+:meth:`ResultsTable.write_due` says so: at least ``min_interval_s`` after the previous write and
+no more often than keeps the writes at ``write_share`` of the wall time (1 % by default), plus a
+final :meth:`ResultsTable.flush` when the loop ends or is interrupted. A campaign killed
+outright (SIGKILL, power loss) loses at most the rows of that last interval, which a resume runs
+again (docs/campaigns.md).
 """
 
 from __future__ import annotations
 
+import math
 import os
+import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -80,10 +90,24 @@ def case_columns(case: Case) -> dict[str, Any]:
 class ResultsTable:
     """The rows of a campaign, by case hash, and their Parquet file."""
 
-    def __init__(self, path: Path, key_columns: Iterable[str]):
+    def __init__(
+        self,
+        path: Path,
+        key_columns: Iterable[str],
+        *,
+        min_interval_s: float = 1.0,
+        write_share: float = 0.01,
+    ):
         self.path = Path(path)
         self.key_columns = list(key_columns)
         self.rows: dict[str, dict[str, Any]] = {}
+        self.min_interval_s = min_interval_s  # [s] between two rewrites (write_due)
+        self.write_share = write_share  # largest share of wall time spent rewriting
+        self.dirty = False  # rows added since the last write
+        self.writes = 0  # rewrites so far
+        self.write_seconds = 0.0  # [s] spent in them
+        self._last_end = -math.inf
+        self._last_cost = 0.0
 
     def read(self) -> list[dict[str, Any]]:
         """The rows of an existing file ([] if there is none)."""
@@ -92,10 +116,12 @@ class ResultsTable:
         return pq.read_table(self.path).to_pylist()
 
     def add(self, case: Case, outcome: Mapping[str, Any], write: bool = True) -> dict[str, Any]:
-        """Record one case's outcome (replacing a row of the same hash) and rewrite the file."""
+        """Record one case's outcome (replacing a row of the same hash); rewrite the file if
+        ``write``."""
         row = {**case_columns(case), **{k: None for k in SUMMARY_TYPES}, **outcome}
         row["scenario_toml"] = case.scenario_toml
         self.rows[case.case_hash] = row
+        self.dirty = True
         if write:
             self.write()
         return row
@@ -119,8 +145,19 @@ class ResultsTable:
             fields.append(pa.field(name, typ))
         return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
 
+    def write_due(self) -> bool:
+        """Whether a rewrite now keeps to ``min_interval_s`` and ``write_share``."""
+        wait = max(self.min_interval_s, self._last_cost / self.write_share)
+        return self.dirty and time.perf_counter() - self._last_end >= wait
+
+    def flush(self) -> None:
+        """Rewrite the file if rows were added since the last write."""
+        if self.dirty:
+            self.write()
+
     def write(self) -> None:
         """Write the file atomically: a temporary file in the same folder, then a rename."""
+        start = time.perf_counter()
         tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
         try:
             pq.write_table(self.table(), tmp)
@@ -128,6 +165,11 @@ class ResultsTable:
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
+        self.dirty = False
+        self._last_end = time.perf_counter()
+        self._last_cost = self._last_end - start
+        self.writes += 1
+        self.write_seconds += self._last_cost
 
 
 def _infer(values: list[Any]) -> pa.DataType:

@@ -214,3 +214,39 @@ def test_keep_runs_writes_each_run_folder(cluster, campaign_file, tmp_path):
             assert (folder / name).is_file(), name
         summary = json.loads((folder / "summary.json").read_text())
         assert summary["max_abs_u"] == r["max_abs_u"] and summary["steps"] == r["steps"]
+
+
+def test_an_interrupted_campaign_keeps_every_finished_row(campaign_file, tmp_path, monkeypatch):
+    """Ctrl-C after 3 finished cases (rewrites throttled, so not yet on disk): the final
+    flush writes all 3 rows; a resume runs only the others."""
+    from ffsm_pin.sweep import engine
+
+    path = campaign_file(SMALL)
+    cases = expand(load_campaign(path))
+    done = {"status": "completed", "error": None, "max_abs_u": 1.0}
+
+    def three_then_interrupt(client, todo, keep):
+        for case in todo[:3]:
+            yield case, done
+        raise KeyboardInterrupt
+
+    class FakeClient:
+        def close(self):
+            pass
+
+    monkeypatch.setattr(engine, "start_client", lambda *a, **k: (FakeClient(), None))
+    monkeypatch.setattr(engine, "run_cases", three_then_interrupt)
+    out = tmp_path / "out"
+    assert cli.main([str(path), "--out", str(out), "--quiet"]) == cli.EXIT_INTERRUPTED
+    got = rows(out)
+    assert sorted(r["case_hash"] for r in got) == sorted(c.case_hash for c in cases[:3])
+    seen = []
+
+    def record(client, todo, keep):
+        seen.extend(todo)
+        yield from ((c, done) for c in todo)
+
+    monkeypatch.setattr(engine, "run_cases", record)
+    assert cli.main([str(path), "--out", str(out), "--quiet"]) == 0
+    assert [c.case_hash for c in seen] == [c.case_hash for c in cases[3:]]
+    assert len(rows(out)) == len(cases)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -74,3 +76,24 @@ def test_a_failed_write_leaves_the_previous_file(cases, tmp_path, monkeypatch):
     monkeypatch.undo()
     assert pq.read_table(t.path).num_rows == 2  # the last complete file, still readable
     assert not list(tmp_path.glob(".*.tmp"))  # the half-written temporary file is removed
+
+
+def test_rewrites_are_throttled_to_a_share_of_wall_time(cases, tmp_path):
+    campaign, cs = cases
+    t = ResultsTable(tmp_path / "results.parquet", campaign.columns, min_interval_s=0.0,
+                     write_share=1e-9)  # fmt: skip
+    assert not t.write_due()  # nothing to write yet
+    t.add(cs[0], outcome(0))  # written: the file exists with one row
+    t.add(cs[1], outcome(1), write=t.write_due())
+    # the last write took > 0 s, so waiting cost / 1e-9 means: not due for years
+    assert not t.write_due() and t.dirty and pq.read_table(t.path).num_rows == 1
+    t.flush()
+    assert not t.dirty and pq.read_table(t.path).num_rows == 2 and t.writes == 2
+    t.flush()  # nothing new: no rewrite
+    assert t.writes == 2
+    eager = ResultsTable(tmp_path / "eager.parquet", campaign.columns, min_interval_s=0.0,
+                         write_share=1.0)  # fmt: skip
+    eager.add(cs[0], outcome(0))
+    eager.add(cs[1], outcome(1), write=False)
+    time.sleep(0.3)  # a 1-row rewrite takes milliseconds: its own duration has passed again
+    assert eager.write_due()
