@@ -5,8 +5,9 @@ point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt
 (``[[vary]]``: a dotted scenario key and its values) and randomly sampled keys (``[[sample]]``:
 a dotted key and a distribution). :func:`expand` turns it into cases:
 
-* case 0 is the nominal scenario: the scenario file as it is, with only ``duration``/``dt``
-  applied (no ``[campaign.set]``, no varied or sampled key, its own estimates seed);
+* case 0 is the nominal scenario: the scenario file as it is, with only the run length and
+  step applied (``duration``/``dt``, or ``sim.duration``/``sim.dt`` of ``[campaign.set]``;
+  no other set, varied or sampled key, its own estimates seed);
 * cases 1.. are the Cartesian product of the ``[[vary]]`` axes (in file order, the last axis
   fastest) times ``repeat`` draws, repeats innermost. Each case sets
   ``controller.estimates.seed`` and draws its sampled keys from its own random stream
@@ -347,11 +348,12 @@ def expand(campaign: Campaign) -> list[Case]:
         raise CampaignError(
             f"{campaign.source}: scenario {str(campaign.scenario_path)!r}: {exc}"
         ) from None
-    common = {}
-    if campaign.duration is not None:
-        common["sim.duration"] = campaign.duration
-    if campaign.dt is not None:
-        common["sim.dt"] = campaign.dt
+    common = {}  # run length and step, also for the nominal case (comparable rows)
+    for opt, full in (("duration", "sim.duration"), ("dt", "sim.dt")):
+        if getattr(campaign, opt) is not None:
+            common[full] = getattr(campaign, opt)
+        elif full in campaign.set:
+            common[full] = campaign.set[full]
     cases = [
         _case(campaign, base, 0, None, None, {}, common, _seed_of(base), label="nominal scenario")
     ]

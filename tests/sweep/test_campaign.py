@@ -125,6 +125,19 @@ def test_expansion(campaign_file):
     assert len({c.case_hash for c in cases}) == 5
 
 
+def test_run_length_in_campaign_set_also_applies_to_the_nominal_case(campaign_file):
+    """sim.duration / sim.dt in [campaign.set] are the run length and step of every case,
+    the nominal one included (its other keys stay the scenario's)."""
+    text = SMALL.replace("duration = 4.0\ndt = 0.002\n", "").replace(
+        "[campaign.set]\n", '[campaign.set]\n"sim.duration" = 3.0\n"sim.dt" = 0.004\n'
+    )
+    cases = expand(load_campaign(campaign_file(text)))
+    for c in cases:
+        assert (c.scenario.duration, c.scenario.dt) == (3.0, 0.004)
+    nominal = builtin_scenario("case1")
+    assert cases[0].scenario.controller == nominal.controller  # "perturbed" not applied
+
+
 def test_values_are_read_back_from_the_resolved_scenario(campaign_file):
     """An integer spread resolves to a float; a funnel entry given as one number resolves to
     one per component (recorded as that number when the column allows it); a sampled gain lies
