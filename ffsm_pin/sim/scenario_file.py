@@ -3,7 +3,8 @@
 Validation is strict: unknown sections or keys, wrong types, wrong lengths and values out of
 range are :class:`~ffsm_pin.errors.ScenarioError` whose message starts with the TOML key path
 (``controller.funnel.rho_b0[0]: ...``) and, for unknown keys, suggests the closest valid key
-and lists all of them.
+and lists all of them. The checks are the pydantic models of
+:mod:`ffsm_pin.sim.scenario_schema`; this module reads files and builds the dataclasses.
 
 Optional keys and their defaults (everything else in docs/cli.md is required):
 
