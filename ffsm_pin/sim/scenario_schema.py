@@ -4,8 +4,8 @@ The models declare the keys of every table (``extra="forbid"``), their types (st
 is no number, a boolean no integer; an integer is accepted for a number), lengths, ranges and
 choices. Checks that need the robot and the task (lengths of funnel arrays, base pose and
 velocities; MRP on the |s| <= 1 branch; rho_inf < rho_0) are the :class:`ScenarioModel`
-validator. :func:`scenario_error` turns a ``pydantic.ValidationError`` into one
-:class:`~ffsm_pin.errors.ScenarioError` whose message starts with the TOML key path
+validator. :func:`first_error` turns a ``pydantic.ValidationError`` into the one-line
+:class:`~ffsm_pin.errors.ScenarioError` message that starts with the TOML key path
 (``controller.funnel.rho_b0[0]: ...``), with the valid choices or keys and a did-you-mean hint.
 """
 
@@ -424,26 +424,35 @@ def key_path(loc: tuple) -> str:
     return out
 
 
-def _model_at(loc: tuple) -> type[BaseModel] | None:
-    """The model class of the table at ``loc`` (for the valid keys of an unknown key)."""
-    model: Any = ScenarioModel
+def _model_at(loc: tuple, root: type[BaseModel]) -> type[BaseModel] | None:
+    """The model class of the table at ``loc`` (for the valid keys of an unknown key); a part
+    ``"<tag>"`` picks the member of a tagged union."""
+    model: Any = root
+    annotation: Any = None
     for part in loc:
         if isinstance(part, int):
             continue
-        field = model.model_fields.get(part)
-        if field is None:
-            return None
-        model = _model_in(field.annotation)
-        if model is None:
-            return None
+        if part.startswith("<"):
+            model = _model_in(annotation, part)
+        else:
+            field = model.model_fields.get(part) if model is not None else None
+            if field is None:
+                return None
+            annotation = field.annotation
+            model = _model_in(annotation)
     return model
 
 
-def _model_in(annotation: Any) -> type[BaseModel] | None:
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+def _model_in(annotation: Any, tag: str | None = None) -> type[BaseModel] | None:
+    """The first model class in an annotation (or the union member tagged ``tag``)."""
+    if tag is None and isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
+    if tag is not None and any(
+        isinstance(m, Tag) and m.tag == tag for m in getattr(annotation, "__metadata__", ())
+    ):
+        return _model_in(annotation.__args__[0])
     for arg in getattr(annotation, "__args__", ()):
-        found = _model_in(arg)
+        found = _model_in(arg, tag)
         if found is not None:
             return found
     return None
@@ -474,8 +483,9 @@ _BOUND = {
 }
 
 
-def message(err: Mapping[str, Any]) -> str:
-    """One line for one pydantic error (``ValidationError.errors()`` entry)."""
+def message(err: Mapping[str, Any], root: type[BaseModel]) -> str:
+    """One line for one pydantic error (a ``ValidationError.errors()`` entry) of a document
+    validated by the model ``root``."""
     kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
     loc = tuple(err["loc"]) + tuple(ctx.get("at", ()))
     path = key_path(loc)
@@ -483,7 +493,7 @@ def message(err: Mapping[str, Any]) -> str:
         return f"{path}{ctx['text']}"
     if kind == "extra_forbidden":
         where, key = loc[:-1], str(loc[-1])
-        model = _model_at(where)
+        model = _model_at(where, root)
         keys = list(model.model_fields) if model is not None else []
         what = "section" if isinstance(value, Mapping) else "key"
         place = f"in [{key_path(where)}]" if where else "at the top level"
@@ -508,6 +518,7 @@ def message(err: Mapping[str, Any]) -> str:
         return f"{path} = {value}: must be finite"
     if kind in _BOUND:
         bound = next(iter(ctx.values()))
+        bound = f"{bound:g}" if _is_number(bound) else bound
         return f"{path} = {value}: must be {_BOUND[kind]} {bound}"
     if kind in ("too_short", "too_long"):
         n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
@@ -521,14 +532,15 @@ def message(err: Mapping[str, Any]) -> str:
     return f"{path}: {err.get('msg', 'invalid value')}"  # pragma: no cover - a new pydantic type
 
 
-def scenario_error(exc: ValidationError) -> ScenarioError:
-    """The first error as one line (unknown keys first, like a reader scanning the file)."""
+def first_error(exc: ValidationError, root: type[BaseModel]) -> str:
+    """The first error as one line (unknown keys first, like a reader scanning the file), and
+    how many more there are."""
     errors = exc.errors(include_url=False)
     errors.sort(key=lambda e: e["type"] != "extra_forbidden")
-    text = message(errors[0])
+    text = message(errors[0], root)
     if len(errors) > 1:
         text += f" (and {len(errors) - 1} more)"
-    return ScenarioError(text.replace("\n", " "))
+    return text.replace("\n", " ")
 
 
 def validate(d: Mapping[str, Any]) -> ScenarioModel:
@@ -536,4 +548,4 @@ def validate(d: Mapping[str, Any]) -> ScenarioModel:
     try:
         return ScenarioModel.model_validate(d)
     except ValidationError as exc:
-        raise scenario_error(exc) from None
+        raise ScenarioError(first_error(exc, ScenarioModel)) from None
