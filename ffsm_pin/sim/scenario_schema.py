@@ -110,13 +110,30 @@ def vec(n: int) -> Any:
     return Annotated[Vec, Field(min_length=n, max_length=n)]
 
 
-# a number or a list of numbers (funnel entries broadcast, planar/spatial rates); tags "<...>"
-# are stripped from error paths
-NumOrVec = Annotated[
-    Annotated[Num, Tag("<number>")] | Annotated[list[Num], Tag("<list>")],
-    Discriminator(lambda v: "<list>" if isinstance(v, list) else "<number>"),
-    BeforeValidator(_number_or_numbers),
-]
+def or_list(item: Any) -> Any:
+    """``item`` or a list of them (funnel entries broadcast, planar/spatial rates); the union's
+    tags "<...>" are left out of error paths."""
+    return Annotated[
+        Annotated[item, Tag("<number>")] | Annotated[list[item], Tag("<list>")],
+        Discriminator(lambda v: "<list>" if isinstance(v, list) else "<number>"),
+        BeforeValidator(_number_or_numbers),
+    ]
+
+
+def interval(text: str, inside) -> AfterValidator:
+    """A range check, ``inside(x)`` true, with the message "must be in <text>"."""
+
+    def check(x: float) -> float:
+        if not inside(x):
+            fail((), f" = {x}: must be in {text}")
+        return x
+
+    return AfterValidator(check)
+
+
+NumOrVec = or_list(Num)
+Fraction = Annotated[Num, interval("[0, 1)", lambda x: 0 <= x < 1)]
+Sigma = Annotated[Num, interval("(0, 1]", lambda x: 0 < x <= 1)]
 
 
 class _Table(BaseModel):
@@ -200,25 +217,19 @@ class ReferenceModel(_Table):
 class FunnelModel(_Table):
     """``[controller.funnel]``: a number is used for every component."""
 
-    rho_b0: NumOrVec | None = None
-    rho_binf: NumOrVec | None = None
-    beta_b: NumOrVec | None = None  # [1/s]
-    sigma_b: NumOrVec | None = None
-    rho_z0: NumOrVec | None = None
+    rho_b0: or_list(Pos) | None = None
+    rho_binf: NumOrVec | None = None  # 0 < rho_inf < rho_0: ScenarioModel's check
+    beta_b: or_list(Pos) | None = None  # [1/s]
+    sigma_b: or_list(Sigma) | None = None
+    rho_z0: or_list(Pos) | None = None
     rho_zinf: NumOrVec | None = None
-    beta_z: NumOrVec | None = None  # [1/s]
-    sigma_z: NumOrVec | None = None
-
-
-def _fraction(x: float) -> float:
-    if not 0 <= x < 1:
-        fail((), f" = {x}: must be in [0, 1)")
-    return x
+    beta_z: or_list(Pos) | None = None  # [1/s]
+    sigma_z: or_list(Sigma) | None = None
 
 
 class EstimatesModel(_Table):
     initial: Literal[ESTIMATE_KINDS] = "paper"
-    spread: Annotated[Num, AfterValidator(_fraction)] = 0.3
+    spread: Fraction = 0.3
     seed: int = 0
     theta_z: Vec | None = None
     theta_d: Vec | None = None
@@ -379,7 +390,8 @@ def check_mrp(s, at: tuple, suffix: str = "") -> None:
 
 def funnel_arrays(model: FunnelModel, tag: str, n: int, default) -> dict[str, tuple]:
     """FunnelParams fields of funnel ``tag`` ("b" or "z", n components): numbers broadcast,
-    missing keys from ``default`` (FunnelParams of size n, else an error), element ranges."""
+    missing keys from ``default`` (FunnelParams of size n, else an error), rho_inf < rho_0
+    (the other ranges are the FunnelModel's types)."""
     names = (f"rho_{tag}0", f"rho_{tag}inf", f"beta_{tag}", f"sigma_{tag}")
     keys = dict(zip(FUNNEL_KEYS, names, strict=True))
     what = "the base attitude" if tag == "b" else "the end-effector task"
@@ -397,18 +409,10 @@ def funnel_arrays(model: FunnelModel, tag: str, n: int, default) -> dict[str, tu
             fail(at, f": {len(v)} values, expected {n} (one per component of {what})")
         vals[field] = v
     k = {f: f"controller.funnel.{key}" for f, key in keys.items()}
-    for i in range(n):
-        r0, ri, b, s = (vals[f][i] for f in FUNNEL_KEYS)
-        at = {f: ("controller", "funnel", keys[f], i) for f in FUNNEL_KEYS}
-        if not r0 > 0:
-            fail(at["rho0"], f" = {r0}: must be > 0")
+    for i, (r0, ri) in enumerate(zip(vals["rho0"], vals["rhoinf"], strict=True)):
         if not 0 < ri < r0:
-            fail(at["rhoinf"], f" = {ri}: must satisfy 0 < rho_inf < rho_0 = {r0} "
-                 f"({k['rho0']}[{i}])")  # fmt: skip
-        if not b > 0:
-            fail(at["beta"], f" = {b}: must be > 0 [1/s]")
-        if not 0 < s <= 1:
-            fail(at["sigma"], f" = {s}: must be in (0, 1]")
+            why = f"must satisfy 0 < rho_inf < rho_0 = {r0} ({k['rho0']}[{i}])"
+            fail(("controller", "funnel", keys["rhoinf"], i), f" = {ri}: {why}")
     return vals
 
 

@@ -110,7 +110,7 @@ BAD = {
     "funnel element": ("spatial", "controller.funnel.sigma_b", [0.8, 0.8, 1.2],
                        ("controller.funnel.sigma_b[2] = 1.2: must be in (0, 1]",)),
     "funnel scalar broadcast": ("case1", "controller.funnel.beta_z", 0.0,
-                                ("controller.funnel.beta_z[0] = 0.0: must be > 0",)),
+                                ("controller.funnel.beta_z = 0.0: must be > 0",)),
     "quaternion not unit": ("spatial", "initial.base_attitude_quaternion", [0, 0, 0.5, 0.5],
                             ("initial.base_attitude_quaternion: (x, y, z, w) must have unit "
                              "norm, got 0.707107",)),
