@@ -17,6 +17,9 @@ Every case's scenario is the scenario file's TOML document with the keys replace
 :func:`ffsm_pin.sim.scenario_file.scenario_from_dict` exactly like a file; the case records the
 value each key has in the resolved scenario (read back from its TOML form). Its ``case_hash``
 hashes that scenario's TOML text and the package version.
+
+The file's keys, types and ranges are the pydantic models of
+:mod:`ffsm_pin.sweep.campaign_schema`; this module builds the :class:`Campaign` and its cases.
 """
 
 from __future__ import annotations
