@@ -17,6 +17,9 @@ Every case's scenario is the scenario file's TOML document with the keys replace
 :func:`ffsm_pin.sim.scenario_file.scenario_from_dict` exactly like a file; the case records the
 value each key has in the resolved scenario (read back from its TOML form). Its ``case_hash``
 hashes that scenario's TOML text and the package version.
+
+The file's keys, types and ranges are the pydantic models of
+:mod:`ffsm_pin.sweep.campaign_schema`; this module builds the :class:`Campaign` and its cases.
 """
 
 from __future__ import annotations
@@ -34,11 +37,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import ValidationError
 
 from .. import __version__
 from ..errors import FfsmError, choices_text, did_you_mean
 from ..sim.scenario import Scenario
 from ..sim.scenario_file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
+from ..sim.scenario_schema import first_error
+from . import campaign_schema as schema
+from .campaign_schema import DISTRIBUTIONS, SEED_KEY
 from .seeds import case_stream, estimates_seed
 
 if sys.version_info >= (3, 11):
@@ -58,15 +65,6 @@ __all__ = [
     "expand",
     "load_campaign",
 ]
-
-SEED_KEY = "controller.estimates.seed"
-DISTRIBUTIONS = {
-    "uniform": ("low", "high"),
-    "normal": ("mean", "std"),
-    "log-uniform": ("low", "high"),
-}
-_TOP = ("campaign", "vary", "sample")
-_CAMPAIGN_KEYS = ("name", "description", "scenario", "seed", "repeat", "duration", "dt", "set")
 
 
 class CampaignError(FfsmError, ValueError):
@@ -207,113 +205,31 @@ def campaign_from_toml(text: str, path: Path) -> Campaign:
 
 
 def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
-    _known(d, _TOP, "", "section")
-    c = d.get("campaign")
-    if not isinstance(c, Mapping):
-        raise CampaignError("[campaign]: missing table (needs at least scenario = ...)")
-    _known(c, _CAMPAIGN_KEYS, "campaign", "key")
-    if "scenario" not in c:
-        raise CampaignError("campaign.scenario: missing (a built-in case name or a file)")
-    scenario = _typed(c, "scenario", str, "campaign", "a string")
-    name = _typed(c, "name", str, "campaign", "a string", default=path.stem)
-    description = _typed(c, "description", str, "campaign", "a string", default="")
-    seed = _typed(c, "seed", int, "campaign", "an integer", default=0)
-    if seed < 0:
-        raise CampaignError(f"campaign.seed = {seed}: must be >= 0")
-    repeat = _typed(c, "repeat", int, "campaign", "an integer", default=1)
-    if repeat < 1:
-        raise CampaignError(f"campaign.repeat = {repeat}: must be >= 1 (draws per grid point)")
-    duration = _positive(c, "duration")
-    dt = _positive(c, "dt")
-    sets = c.get("set", {})
-    if not isinstance(sets, Mapping):
-        raise CampaignError(f"campaign.set: expected a table of dotted keys, got {_describe(sets)}")
-    sets = _flatten(sets)
-
-    vary = []
-    raw = d.get("vary", [])
-    if not isinstance(raw, list) or not all(isinstance(x, Mapping) for x in raw):
-        raise CampaignError(f"vary: expected [[vary]] tables, got {_describe(raw)}")
-    for i, v in enumerate(raw):
-        at = f"vary[{i}]"
-        _known(v, ("key", "values"), at, "key")
-        key = _key(v, at)
-        values = v.get("values")
-        if not isinstance(values, list) or not values:
-            raise CampaignError(
-                f"{at}.values ({key}): expected a non-empty list of values, got {_describe(values)}"
-            )
-        seen = []
-        for x in values:
-            if any(_same(x, y) for y in seen):
-                raise CampaignError(f"{at}.values ({key}): {x!r} appears twice")
-            seen.append(x)
-        vary.append(Vary(key, tuple(values)))
-
-    samples = []
-    raw = d.get("sample", [])
-    if not isinstance(raw, list) or not all(isinstance(x, Mapping) for x in raw):
-        raise CampaignError(f"sample: expected [[sample]] tables, got {_describe(raw)}")
-    for i, s in enumerate(raw):
-        at = f"sample[{i}]"
-        key = _key(s, at)
-        dist = _typed(s, "distribution", str, at, "a string", default=None)
-        if dist not in DISTRIBUTIONS:
-            raise CampaignError(
-                f"{at}.distribution ({key}): {dist!r} unknown"
-                f"{did_you_mean(str(dist), DISTRIBUTIONS)}; valid choices: "
-                f"{choices_text(DISTRIBUTIONS)}"
-            )
-        names = DISTRIBUTIONS[dist]
-        _known(s, ("key", "distribution", *names), at, "key")
-        params = []
-        for p in names:
-            if p not in s:
-                raise CampaignError(f"{at}.{p}: missing ({dist} needs {', '.join(names)})")
-            x = s[p]
-            if not _is_number(x) or not math.isfinite(x):
-                raise CampaignError(f"{at}.{p}: expected a finite number, got {_describe(x)}")
-            params.append(float(x))
-        a, b = params
-        if dist == "normal" and not b > 0:
-            raise CampaignError(f"{at}.std = {b}: must be > 0")
-        if dist != "normal" and not a < b:
-            raise CampaignError(f"{at}: low = {a} must be < high = {b}")
-        if dist == "log-uniform" and not a > 0:
-            raise CampaignError(f"{at}.low = {a}: log-uniform needs low > 0")
-        samples.append(Sample(key, dist, (a, b)))
-
-    where: dict[str, str] = {}
-    for key, place in [
-        *((k, "campaign.set") for k in sets),
-        *((v.key, "[[vary]]") for v in vary),
-        *((s.key, "[[sample]]") for s in samples),
-    ]:
-        if key in where:
-            raise CampaignError(f"{key}: given twice (in {where[key]} and in {place})")
-        where[key] = place
-        if key == SEED_KEY:
-            raise CampaignError(
-                f"{key}: set by the campaign for every case (from campaign.seed, its grid point "
-                "and its repeat index); use campaign.seed and campaign.repeat instead"
-            )
-        for opt, full in (("duration", "sim.duration"), ("dt", "sim.dt")):
-            if key == full and c.get(opt) is not None:
-                raise CampaignError(f"{key}: given twice (in {place} and as campaign.{opt})")
+    """Validated by :class:`~ffsm_pin.sweep.campaign_schema.CampaignModel`."""
+    try:
+        m = schema.CampaignModel.model_validate(d)
+    except ValidationError as exc:
+        raise CampaignError(first_error(exc, schema.CampaignModel)) from None
+    c = m.campaign
     return Campaign(
-        name=name,
-        scenario=scenario,
-        scenario_path=_scenario_path(scenario, path),
-        seed=seed,
-        repeat=repeat,
-        duration=duration,
-        dt=dt,
-        set=sets,
-        vary=tuple(vary),
-        sample=tuple(samples),
+        name=c.name or path.stem,
+        scenario=c.scenario,
+        scenario_path=_scenario_path(c.scenario, path),
+        seed=c.seed,
+        repeat=c.repeat,
+        duration=c.duration,
+        dt=c.dt,
+        set=c.set,
+        vary=tuple(Vary(v.key, tuple(v.values)) for v in m.vary),
+        sample=tuple(
+            Sample(
+                s.key, s.distribution, tuple(getattr(s, k) for k in DISTRIBUTIONS[s.distribution])
+            )
+            for s in m.sample
+        ),
         source=str(path),
         text=text,
-        description=description,
+        description=c.description,
     )
 
 
@@ -473,72 +389,8 @@ def _readback(resolved: Any, given: Any) -> Any:
     return resolved
 
 
-def _flatten(table: Mapping, prefix: str = "") -> dict[str, Any]:
-    """``{"a": {"b": 1}}`` and ``{"a.b": 1}`` both -> ``{"a.b": 1}`` (quoted or dotted keys)."""
-    out: dict[str, Any] = {}
-    for k, v in table.items():
-        full = f"{prefix}.{k}" if prefix else k
-        if isinstance(v, Mapping):
-            out.update(_flatten(v, full))
-        else:
-            if full in out:
-                raise CampaignError(f"campaign.set: {full} given twice")
-            out[full] = v
-    return out
-
-
-def _known(table: Mapping, valid, where: str, kind: str) -> None:
-    for key in table:
-        if key not in valid:
-            place = f"in [{where}]" if where else "at the top level"
-            raise CampaignError(
-                f"{where + '.' if where else ''}{key}: unknown {kind} {place}"
-                f"{did_you_mean(key, valid)}; valid: {choices_text(valid)}"
-            )
-
-
-def _key(table: Mapping, at: str) -> str:
-    key = table.get("key")
-    if not isinstance(key, str) or not key:
-        raise CampaignError(f"{at}.key: expected a dotted scenario key (a string), got "
-                            f"{_describe(key)}")  # fmt: skip
-    return key
-
-
-def _typed(table: Mapping, key: str, kind, where: str, what: str, default: Any = None):
-    if key not in table:
-        return default
-    value = table[key]
-    if not isinstance(value, kind) or isinstance(value, bool):
-        raise CampaignError(f"{where}.{key}: expected {what}, got {_describe(value)}")
-    return value
-
-
-def _positive(table: Mapping, key: str) -> float | None:
-    if key not in table:
-        return None
-    value = table[key]
-    if not _is_number(value) or not (math.isfinite(value) and value > 0):
-        raise CampaignError(f"campaign.{key}: expected a positive number [s], got "
-                            f"{_describe(value)}")  # fmt: skip
-    return float(value)
-
-
 def _is_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def _same(a: Any, b: Any) -> bool:
-    if _is_number(a) and _is_number(b):
-        return float(a) == float(b)
-    return type(a) is type(b) and a == b
-
-
-def _describe(x: Any) -> str:
-    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list"}
-    kind = names.get(type(x), "table" if isinstance(x, Mapping) else type(x).__name__)
-    text = repr(x)
-    return f"{text[:60] + '...' if len(text) > 60 else text} ({kind})"
 
 
 def _fmt(v: Any) -> str:

@@ -1,0 +1,143 @@
+"""The campaign file (docs/campaigns.md) as pydantic v2 models: ``[campaign]``, ``[[vary]]``,
+``[[sample]]`` (one model per distribution). Errors become one line through
+:func:`ffsm_pin.sim.scenario_schema.first_error`, like the scenario file's."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, model_validator
+
+from ..errors import choices_text, did_you_mean
+from ..sim.scenario_schema import Num, Pos, _Table, describe, fail
+
+SEED_KEY = "controller.estimates.seed"
+DISTRIBUTIONS = {
+    "uniform": ("low", "high"),
+    "normal": ("mean", "std"),
+    "log-uniform": ("low", "high"),
+}
+
+
+def flatten(table: Mapping, prefix: str = "") -> dict[str, Any]:
+    """``{"a": {"b": 1}}`` and ``{"a.b": 1}`` both -> ``{"a.b": 1}`` (quoted or dotted keys)."""
+    out: dict[str, Any] = {}
+    for k, v in table.items():
+        full = f"{prefix}.{k}" if prefix else k
+        if isinstance(v, Mapping):
+            out.update(flatten(v, full))
+        else:
+            if full in out:
+                fail((), f": {full} given twice")
+            out[full] = v
+    return out
+
+
+def same(a: Any, b: Any) -> bool:
+    """Equal values (1 and 1.0 are the same number; True is not 1)."""
+    numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (a, b))
+    return float(a) == float(b) if numbers else type(a) is type(b) and a == b
+
+
+def _values(values: Any) -> Any:
+    if not isinstance(values, list) or not values:
+        fail((), f": expected a non-empty list of values, got {describe(values)}")
+    for i, x in enumerate(values):
+        if any(same(x, y) for y in values[:i]):
+            fail((), f": {x!r} appears twice")
+    return values
+
+
+def _distribution(table: Any) -> Any:
+    dist = table.get("distribution") if isinstance(table, Mapping) else None
+    if isinstance(table, Mapping) and dist not in DISTRIBUTIONS:
+        what = (
+            "missing"
+            if dist is None
+            else f"{dist!r} unknown{did_you_mean(str(dist), DISTRIBUTIONS)}"
+        )
+        fail(("distribution",), f": {what}; valid choices: {choices_text(DISTRIBUTIONS)}")
+    return table
+
+
+Key = Annotated[str, Field(min_length=1)]  # a dotted scenario key
+
+
+class CampaignTable(_Table):
+    scenario: str  # a built-in scenario name or a file (relative to the campaign file)
+    name: str | None = None  # default: the file's stem
+    description: str = ""
+    seed: Annotated[int, Field(ge=0)] = 0
+    repeat: Annotated[int, Field(ge=1)] = 1  # draws per grid point
+    duration: Pos | None = None  # [s]
+    dt: Pos | None = None  # [s]
+    set: Annotated[dict[str, Any], AfterValidator(flatten)] = {}
+
+
+class VaryTable(_Table):
+    key: Key
+    values: Annotated[list[Any], BeforeValidator(_values)]
+
+
+class Uniform(_Table):
+    key: Key
+    distribution: Literal["uniform"]
+    low: Num
+    high: Num
+
+    @model_validator(mode="after")
+    def low_below_high(self):
+        if not self.low < self.high:
+            fail((), f": low = {self.low} must be < high = {self.high}")
+        return self
+
+
+class LogUniform(Uniform):
+    distribution: Literal["log-uniform"]
+    low: Pos  # log-uniform needs low > 0
+
+
+class Normal(_Table):
+    key: Key
+    distribution: Literal["normal"]
+    mean: Num
+    std: Pos
+
+
+SampleTable = Annotated[
+    Annotated[Uniform, Tag("<uniform>")]
+    | Annotated[Normal, Tag("<normal>")]
+    | Annotated[LogUniform, Tag("<log-uniform>")],
+    Discriminator(lambda t: f"<{t.get('distribution')}>" if isinstance(t, Mapping) else None),
+    BeforeValidator(_distribution),
+]
+
+
+class CampaignModel(_Table):
+    """A whole campaign file; the validator refuses a key given twice or set by the campaign."""
+
+    campaign: CampaignTable = Field(default_factory=dict, validate_default=True)
+    vary: list[VaryTable] = []
+    sample: list[SampleTable] = []
+
+    @model_validator(mode="after")
+    def keys_once(self):
+        where: dict[str, str] = {}
+        c = self.campaign
+        for key, place in [
+            *((k, "campaign.set") for k in c.set),
+            *((v.key, "[[vary]]") for v in self.vary),
+            *((s.key, "[[sample]]") for s in self.sample),
+        ]:
+            if key in where:
+                fail((key,), f": given twice (in {where[key]} and in {place})")
+            where[key] = place
+            if key == SEED_KEY:
+                fail((key,), ": set by the campaign for every case (from campaign.seed, its "
+                     "grid point and its repeat index); use campaign.seed and campaign.repeat "
+                     "instead")  # fmt: skip
+            for opt, full in (("duration", "sim.duration"), ("dt", "sim.dt")):
+                if key == full and getattr(c, opt) is not None:
+                    fail((key,), f": given twice (in {place} and as campaign.{opt})")
+        return self
