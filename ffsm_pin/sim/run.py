@@ -485,7 +485,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
-    diagnostics = _diagnostics(model, setup.theta_d, ctrl.backend == "numba")
+    diagnostics = _diagnostics(model, setup.theta_d, ctrl.backend == "numba" and model.m3 == 1)
     completed, stop_reason, stop_time = True, None, None
     stop_cause = stop_funnel = None
     next_progress = 0.0
