@@ -304,9 +304,7 @@ class CoordinatedController:
         """Compile (or load from numba's cache) the kernel now, on copies of the states, so
         that the first control period of a run is not the one that pays for it."""
         saved = (self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df)
-        self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = (
-            x.copy() for x in saved
-        )
+        self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = (x.copy() for x in saved)
         try:
             self._period(self._initial, 1e-3, np.empty(self._layout["size"]))
         finally:
@@ -338,10 +336,8 @@ class CoordinatedController:
         if status == fast.STATUS_M_NOT_PD:
             raise self._inertia_stop(t)
         if status == fast.STATUS_BASE_ROW:
-            rows = "row" if self.m3 == 1 else "rows"
-            raise SimulationError(
-                f"t = {t:.4f} s: base {rows} of the filter is singular", time=t, cause="singular"
-            )
+            what = "base row of the filter is" if self.m3 == 1 else "base rows of the filter are"
+            raise SimulationError(f"t = {t:.4f} s: {what} singular", time=t, cause="singular")
         if status == fast.STATUS_NONFINITE:
             raise self._nonfinite_stop(t)
         return ControlOutput(

@@ -35,6 +35,14 @@ from ..spatial._kernels import (
     ym,
 )
 from .fast import (
+    F_A,
+    F_B1,
+    F_B2,
+    F_BETA,
+    F_LO,
+    F_R0,
+    F_RI,
+    F_UP,
     NS_CENTER,
     NS_CODE,
     NS_GAIN,
@@ -46,7 +54,6 @@ from .fast import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _funnel,
     _reference,
     _spd_det,
     pack_funnel,
@@ -157,6 +164,37 @@ def _l_matrix(s, R0):
     B[1, 0], B[1, 1], B[1, 2] = 2 * (s1 * s0 + s2), d + 2 * s1 * s1, 2 * (s1 * s2 - s0)
     B[2, 0], B[2, 1], B[2, 2] = 2 * (s2 * s0 - s1), 2 * (s2 * s1 + s0), d + 2 * s2 * s2
     return 0.25 * _cmmt(B, R0)
+
+
+@njit(cache=True)
+def _funnel(f, t, e, identity):
+    """(psi, Phi, exit index or -1) of Eqs. (20)-(22), complex; the exit index is the
+    component nearest to (or farthest beyond) its bound, as control/funnel.py reports it."""
+    m = e.size
+    psi = np.empty(m, dtype=np.complex128)
+    Phi = np.empty(m, dtype=np.complex128)
+    if identity:
+        for i in range(m):
+            psi[i] = e[i]
+            Phi[i] = 1.0
+        return psi, Phi, -1
+    rho = np.empty(m, dtype=np.complex128)
+    s = np.empty(m, dtype=np.complex128)
+    worst, idx = np.inf, -1
+    for i in range(m):
+        rho[i] = (f[F_R0, i] - f[F_RI, i]) * np.exp(-f[F_BETA, i] * t) + f[F_RI, i]  # Eq. (18)
+        s[i] = e[i] / rho[i]
+        margin = min(f[F_UP, i] - s[i].real, s[i].real - f[F_LO, i])
+        if margin < worst:
+            worst, idx = margin, i
+    if worst <= 0:
+        return psi, Phi, idx
+    for i in range(m):
+        num = f[F_A, i] + f[F_B1, i] * s[i]
+        den = f[F_A, i] + f[F_B2, i] * s[i]
+        psi[i] = np.log(num / den)  # Eq. (21)
+        Phi[i] = (f[F_B1, i] / num - f[F_B2, i] / den) / rho[i]  # Eq. (22)
+    return psi, Phi, -1
 
 
 # ---------------------------------------------------------------------- kinematic level

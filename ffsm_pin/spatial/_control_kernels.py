@@ -23,7 +23,6 @@ def base_columns(R, z, theta, Mc):
     nb = R.shape[0]
     Mc[:] = 0.0
     J = np.empty((3, 3), dtype=Mc.dtype)
-    x = np.empty(3, dtype=Mc.dtype)
     T1 = np.empty((3, 3), dtype=Mc.dtype)
     B = np.empty((3, 3), dtype=Mc.dtype)
     for k in range(nb):
