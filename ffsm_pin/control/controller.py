@@ -262,6 +262,7 @@ class CoordinatedController:
             self.reference._freq, self.reference._phase,
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
+        self._fast_consts = consts  # the kernel's constant arguments (also used by tests)
         self._layout = fast.out_layout(m.n_joints)
         period = fast.period
 
@@ -285,6 +286,7 @@ class CoordinatedController:
               for x in (ref._c, ref._A, ref._amp, ref._freq, ref._phase)),
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
+        self._fast_consts = consts
         self._layout = fast.out_layout(m.n_joints, self.n_task)
         period = fast.period
         N = m.n_joints + 3
@@ -305,8 +307,11 @@ class CoordinatedController:
         that the first control period of a run is not the one that pays for it."""
         saved = (self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df)
         self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = (x.copy() for x in saved)
+        m0 = self._initial
+        if m0.M is None and not self.adaptive:  # known model: any M, C w do for compiling
+            m0 = m0._replace(M=np.eye(len(m0.w)), h=np.zeros(len(m0.w)))
         try:
-            self._period(self._initial, 1e-3, np.empty(self._layout["size"]))
+            self._period(m0, 1e-3, np.empty(self._layout["size"]))
         finally:
             self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = saved
 

@@ -432,3 +432,27 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
     out[2 * n : 3 * n] = w_mc_dot + sens @ wb_dot
     out[e:o] = w_tilde
     return STATUS_OK, -1
+
+
+@njit(cache=True)
+def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
+    """(e of Eq. 54 with the true M and theta_d, M_bb, dM_bb/dt) for recording (the spatial
+    counterpart of :func:`ffsm_pin.control.fast.diagnostics`); dM_bb/dt along the motion
+    (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step of the base columns of M."""
+    n = q_m.size
+    nb = n + 1
+    N = n + 3
+    R = np.empty((nb, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    M = np.empty((N, N))
+    mass_matrix(R, z, theta_d, M)
+    e = M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+    hj = 1j * _H
+    q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    Rc = np.empty((nb, 3, 3), dtype=np.complex128)
+    zc = np.empty((n, 3), dtype=np.complex128)
+    kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
+    Mc = np.empty((N, 3), dtype=np.complex128)
+    base_columns(Rc, zc, theta_d, Mc)
+    return e, M[:3, :3].copy(), Mc[:3, :3].imag / _H

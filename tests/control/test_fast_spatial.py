@@ -248,9 +248,9 @@ def test_closed_loop_equals_numpy(case):
         results.append(simulate(setup))
     a, b = results
     assert a.completed and b.completed and a.steps == b.steps
-    for key in ("q", "v", "u_m", "w_mc", "w_mc_dot", "theta_b_hat", "theta_d_hat"):
-        if key in b.signals:
-            assert _rel(a[key], b[key]) < 1e-10, key
+    for key in ("q", "v", "u_m", "w_mc", "w_hat", "err_z", "err_b", "theta_z_hat",
+                "theta_d_hat", "theta_b_hat"):  # fmt: skip
+        assert _rel(a[key], b[key]) < 1e-10, key
 
 
 # ---------------------------------------------------------------------- stops (status codes)
