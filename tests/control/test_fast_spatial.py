@@ -236,7 +236,10 @@ def test_w_mc_dot_is_the_time_derivative(robots):
     assert _rel(fd, at(0.0).w_mc_dot) < 1e-6
 
 
-@pytest.mark.parametrize("case", ["spatial", "spatial-pose"])
+@pytest.mark.parametrize(
+    "case",
+    ["spatial", "spatial-pose", "spatial-known-model", "spatial-no-ppc", "spatial-no-attitude"],
+)
 def test_closed_loop_equals_numpy(case):
     """2 s of the built-in case with both backends: the same trajectory."""
     results = []
