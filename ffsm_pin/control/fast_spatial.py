@@ -255,7 +255,7 @@ def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
             qq[j] += h if side == 0 else -h
             J, _, Hbm, _ = _geometry(jr, ax, er, m, nt, q_b, qq, theta_z, td)
             _, U, _ = _projector(Hbm)
-            A = _cmm(J[:, 3:], U)
+            A = _cmm(np.ascontiguousarray(J[:, 3:]), U)
             mu[side] = np.sqrt(_spd_det(_cmmt(A, A)))
         grad[j] = (mu[0] - mu[1]) / (2.0 * h)
     return grad
@@ -454,5 +454,5 @@ def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
     zc = np.empty((n, 3), dtype=np.complex128)
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
     Mc = np.empty((N, 3), dtype=np.complex128)
-    base_columns(Rc, zc, theta_d, Mc)
+    base_columns(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
     return e, M[:3, :3].copy(), Mc[:3, :3].imag / _H
