@@ -29,6 +29,7 @@ import numpy as np
 from ..barycentric import BarycentricModel
 from ..errors import InfeasibleTaskError, ParameterError, SimulationError
 from ..reduced_model import ReducedModel
+from ..spatial.barycentric import SpatialBarycentricModel
 from .adaptation import (
     regressor_filter_step,
     theta_b_step,
@@ -216,28 +217,41 @@ class CoordinatedController:
         self.backend = self._choose_backend(backend)
 
     def _choose_backend(self, backend: str) -> str:
-        """'numba' (compiled period, :mod:`.fast`) unless numba is missing, the scheme is
-        the known-model baseline (which runs on Pinocchio's matrices), 'numpy' is asked, or
-        the robot is not the planar pose task the kernel is written for (spatial robots and
-        the planar position task run the numpy reference, with the model's compiled
-        regressors)."""
+        """'numba' (a compiled period) unless numba is missing or 'numpy' is asked.
+
+        Planar robots: :mod:`.fast`, for the pose task of the adaptive schemes (the planar
+        known-model baseline and position task run the numpy reference). Spatial robots
+        (m3 = 3): :mod:`.fast_spatial`, every scheme, task and null-space option.
+        """
+        spatial = isinstance(self.model, SpatialBarycentricModel)
         planar_pose = isinstance(self.model, BarycentricModel) and self.n_task == TASK_SIZE
-        if backend == "numba" and not planar_pose:
+        if backend == "numba" and not (planar_pose or spatial):
             raise ParameterError(
-                "backend 'numba' is the planar pose task's compiled period; use 'numpy' or "
-                "'auto' for this robot and task"
+                "backend 'numba' is the compiled period of the planar pose task and of spatial "
+                "robots; use 'numpy' or 'auto' for this robot and task"
             )
-        if backend == "numpy" or not self.adaptive or not planar_pose:
+        if backend == "numpy" or not (spatial or (self.adaptive and planar_pose)):
             return "numpy"
         try:
-            from . import fast
+            if spatial:
+                from . import fast_spatial as fast
+            else:
+                from . import fast
         except ImportError:
             if backend == "numba":
                 raise
             return "numpy"
-        m = self.model
         self._fast = fast
-        self._fast_consts = (
+        if spatial:
+            self._setup_spatial(fast)
+        else:
+            self._setup_planar(fast)
+        self._warm_up()
+        return "numba"
+
+    def _setup_planar(self, fast) -> None:
+        m = self.model
+        consts = (
             m.S, m._phi_offset, m._K, m._L, m._ee_row, m.layout.collinear,
             self.scheme != "no-attitude", self.scheme == "no-ppc",
             fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
@@ -248,19 +262,58 @@ class CoordinatedController:
             self.reference._freq, self.reference._phase,
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
+        self._fast_consts = consts  # the kernel's constant arguments (also used by tests)
         self._layout = fast.out_layout(m.n_joints)
-        self._warm_up(fast)
-        return "numba"
+        period = fast.period
 
-    def _warm_up(self, fast) -> None:
+        def call(meas: Measurement, dt: float, out: np.ndarray):
+            return period(
+                *consts, dt, meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
+                self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, out,
+            )  # fmt: skip
+
+        self._period = call
+
+    def _setup_spatial(self, fast) -> None:
+        m = self.model
+        ref = self.reference
+        consts = (
+            m._joint_rot_c, m._axes_c, m._ee_rot_c, int(m.geometry.ee_body), self.n_task,
+            self.scheme != "no-attitude", self.scheme == "no-ppc", self.adaptive,
+            fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
+            fast.gains_array(self.gains, self.policy.threshold, self.q_bd),
+            *(np.ascontiguousarray(x, dtype=float)
+              for x in (ref._c, ref._A, ref._amp, ref._freq, ref._phase)),
+            fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
+        )  # fmt: skip
+        self._fast_consts = consts
+        self._layout = fast.out_layout(m.n_joints, self.n_task)
+        period = fast.period
+        N = m.n_joints + 3
+        no_M, no_h = np.zeros((N, N)), np.zeros(N)
+        adaptive = self.adaptive
+
+        def call(meas: Measurement, dt: float, out: np.ndarray):
+            M, h = (no_M, no_h) if adaptive else (meas.M, meas.h)
+            return period(
+                *consts, dt, meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h,
+                self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, out,
+            )  # fmt: skip
+
+        self._period = call
+
+    def _warm_up(self) -> None:
         """Compile (or load from numba's cache) the kernel now, on copies of the states, so
         that the first control period of a run is not the one that pays for it."""
+        saved = (self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df)
+        self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = (x.copy() for x in saved)
         m0 = self._initial
-        fast.period(
-            *self._fast_consts, 1e-3, m0.t, m0.q_b, m0.q_m, m0.w, m0.z_e, m0.z_e_dot,
-            self.theta_z.copy(), self.theta_d.copy(), self.theta_b.copy(), self.w_hat.copy(),
-            self.Y_df.copy(), np.empty(self._layout["size"]),
-        )  # fmt: skip
+        if m0.M is None and not self.adaptive:  # known model: any M, C w do for compiling
+            m0 = m0._replace(M=np.eye(len(m0.w)), h=np.zeros(len(m0.w)))
+        try:
+            self._period(m0, 1e-3, np.empty(self._layout["size"]))
+        finally:
+            self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = saved
 
     # ------------------------------------------------------------------ one period
     def step(self, meas: Measurement, dt: float) -> ControlOutput:
@@ -273,10 +326,7 @@ class CoordinatedController:
         fast, lay = self._fast, self._layout
         out = np.empty(lay["size"])  # fresh each period: the outputs below are views of it
         t = meas.t
-        status, idx = fast.period(
-            *self._fast_consts, dt, t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
-            self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, out,
-        )  # fmt: skip
+        status, idx = self._period(meas, dt, out)
         if status in (fast.STATUS_FUNNEL_Z, fast.STATUS_FUNNEL_B):
             funnel = self.funnel_z if status == fast.STATUS_FUNNEL_Z else self.funnel_b
             rho = float(funnel.rho(t)[idx])
@@ -291,9 +341,8 @@ class CoordinatedController:
         if status == fast.STATUS_M_NOT_PD:
             raise self._inertia_stop(t)
         if status == fast.STATUS_BASE_ROW:
-            raise SimulationError(
-                f"t = {t:.4f} s: base row of the filter is singular", time=t, cause="singular"
-            )
+            what = "base row of the filter is" if self.m3 == 1 else "base rows of the filter are"
+            raise SimulationError(f"t = {t:.4f} s: {what} singular", time=t, cause="singular")
         if status == fast.STATUS_NONFINITE:
             raise self._nonfinite_stop(t)
         return ControlOutput(

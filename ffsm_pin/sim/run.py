@@ -174,6 +174,7 @@ class Sensor:
         state_cls = SpatialState if self.spatial else FloatingBaseState
         self.state = state_cls(robot) if full_model else None
         self._q_b_prev: float | None = None
+        self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
 
     def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
         if self.spatial:
@@ -196,7 +197,7 @@ class Sensor:
 
     def _measure_spatial(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
         q_b = mrp.from_quaternion(q[3:7])
-        R0 = mrp.to_rotation(q_b)
+        self.R0 = R0 = mrp.to_rotation(q_b)  # kept for the recorder (one evaluation a step)
         pin.forwardKinematics(self.pmodel, self.data, q, v)
         oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
         vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
@@ -440,6 +441,15 @@ def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
     ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
     against Pinocchio).
     """
+    if compiled and model.m3 == 3:
+        from ..control import fast_spatial
+
+        geo = (model._joint_rot_c, model._axes_c)
+
+        def compiled_spatial(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
+            return fast_spatial.diagnostics(*geo, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
+
+        return compiled_spatial
     if compiled:
         from ..control import fast
 
@@ -539,7 +549,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
             mom = plant.momentum(q, v)
             if spatial:
                 A["P"][i], A["L"][i] = mom[:3], mom[3:]
-                w_b_dot = mrp.to_rotation(meas.q_b) @ a[3:6]  # docs/spatial.md section 1
+                w_b_dot = sensor.R0 @ a[3:6]  # R_0(q_b) of this measurement, docs/spatial.md 1
                 A["F_r"][i] = spatial_reaction_torque(Mbb, Mbb_dot, meas.w[:3], w_b_dot)
             else:
                 A["P"][i], A["L"][i] = mom[:2], mom[2]

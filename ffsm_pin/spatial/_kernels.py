@@ -36,11 +36,12 @@ def _mmt(A, B, out):
 
 @njit(cache=True)
 def kinematics(s, q_m, joint_rot, axes, R, z):
-    """Body rotations R_k and inertial joint axes z_j from the base MRP s and joint angles."""
+    """Body rotations R_k and inertial joint axes z_j from the base MRP s and joint angles
+    (real or complex: the scratch arrays take the dtype of R)."""
     ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
-    S = np.zeros((3, 3))
+    S = np.zeros((3, 3), dtype=R.dtype)
     S[0, 1], S[0, 2], S[1, 0], S[1, 2], S[2, 0], S[2, 1] = -s[2], s[1], s[2], -s[0], -s[1], s[0]
-    S2 = np.empty((3, 3))
+    S2 = np.empty((3, 3), dtype=R.dtype)
     _mm(S, S, S2)
     d = (1.0 + ss) ** 2
     for i in range(3):
@@ -48,10 +49,10 @@ def kinematics(s, q_m, joint_rot, axes, R, z):
             R[0, i, j] = (1.0 if i == j else 0.0) + (
                 8.0 * S2[i, j] + 4.0 * (1.0 - ss) * S[i, j]
             ) / d
-    U = np.zeros((3, 3))
-    U2 = np.empty((3, 3))
-    rot = np.empty((3, 3))
-    tmp = np.empty((3, 3))
+    U = np.zeros((3, 3), dtype=R.dtype)
+    U2 = np.empty((3, 3), dtype=R.dtype)
+    rot = np.empty((3, 3), dtype=R.dtype)
+    tmp = np.empty((3, 3), dtype=R.dtype)
     for k in range(1, R.shape[0]):
         u = axes[k - 1]
         U[0, 1], U[0, 2], U[1, 0], U[1, 2], U[2, 0], U[2, 1] = -u[2], u[1], u[2], -u[0], -u[1], u[0]
@@ -212,11 +213,11 @@ def mass_matrix(R, z, theta, M):
 
 @njit(cache=True)
 def position_jacobian(R, z, V, J):
-    """J (3, N) = -sum_k [R_k V_k]x S_k (d(p_e - p_com)/dt = J w)."""
+    """J (3, N) = -sum_k [R_k V_k]x S_k (d(p_e - p_com)/dt = J w); real or complex (dtype of J)."""
     nb = R.shape[0]
     J[:] = 0.0
-    r = np.zeros(3)
-    tot = np.zeros(3)
+    r = np.zeros(3, dtype=J.dtype)
+    tot = np.zeros(3, dtype=J.dtype)
     # column c of S_k is shared by all k >= (c - 2): accumulate r from the tip down
     for k in range(nb - 1, -1, -1):
         for i in range(3):
@@ -254,19 +255,20 @@ def y_z(R, z, w, Y):
 @njit(cache=True)
 def attitude_rows(R_m, ee_rot, z, m, out):
     """Rows 4-6 of Eq. (3): out (3, N) = 1/4 B(q_e) R_e^T S_m with R_e = R_m ee_rot and q_e
-    its MRP on the |s| <= 1 branch (quaternion by Shepperd's method, w >= 0). Returns q_e."""
-    Re = np.empty((3, 3))
+    its MRP on the |s| <= 1 branch (quaternion by Shepperd's method, w >= 0; branches chosen on
+    the real parts, so complex-step arguments pass through). Returns q_e."""
+    Re = np.empty((3, 3), dtype=out.dtype)
     _mm(R_m, ee_rot, Re)
     tr = Re[0, 0] + Re[1, 1] + Re[2, 2]
-    if tr > 0.0:
+    if tr.real > 0.0:
         t = np.sqrt(tr + 1.0) * 2.0
         qw, qx = 0.25 * t, (Re[2, 1] - Re[1, 2]) / t
         qy, qz = (Re[0, 2] - Re[2, 0]) / t, (Re[1, 0] - Re[0, 1]) / t
-    elif Re[0, 0] > Re[1, 1] and Re[0, 0] > Re[2, 2]:
+    elif Re[0, 0].real > Re[1, 1].real and Re[0, 0].real > Re[2, 2].real:
         t = np.sqrt(1.0 + Re[0, 0] - Re[1, 1] - Re[2, 2]) * 2.0
         qw, qx = (Re[2, 1] - Re[1, 2]) / t, 0.25 * t
         qy, qz = (Re[0, 1] + Re[1, 0]) / t, (Re[0, 2] + Re[2, 0]) / t
-    elif Re[1, 1] > Re[2, 2]:
+    elif Re[1, 1].real > Re[2, 2].real:
         t = np.sqrt(1.0 + Re[1, 1] - Re[0, 0] - Re[2, 2]) * 2.0
         qw, qx = (Re[0, 2] - Re[2, 0]) / t, (Re[0, 1] + Re[1, 0]) / t
         qy, qz = 0.25 * t, (Re[1, 2] + Re[2, 1]) / t
@@ -274,12 +276,12 @@ def attitude_rows(R_m, ee_rot, z, m, out):
         t = np.sqrt(1.0 + Re[2, 2] - Re[0, 0] - Re[1, 1]) * 2.0
         qw, qx = (Re[1, 0] - Re[0, 1]) / t, (Re[0, 2] + Re[2, 0]) / t
         qy, qz = (Re[1, 2] + Re[2, 1]) / t, 0.25 * t
-    if qw < 0.0:
+    if qw.real < 0.0:
         qw, qx, qy, qz = -qw, -qx, -qy, -qz
-    s = np.empty(3)
+    s = np.empty(3, dtype=out.dtype)
     s[0], s[1], s[2] = qx / (1.0 + qw), qy / (1.0 + qw), qz / (1.0 + qw)
     ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
-    B = np.empty((3, 3))
+    B = np.empty((3, 3), dtype=out.dtype)
     for i in range(3):
         for j in range(3):
             B[i, j] = 2.0 * s[i] * s[j]
@@ -290,7 +292,7 @@ def attitude_rows(R_m, ee_rot, z, m, out):
     B[1, 2] -= 2.0 * s[0]
     B[2, 0] -= 2.0 * s[1]
     B[2, 1] += 2.0 * s[0]
-    L = np.empty((3, 3))
+    L = np.empty((3, 3), dtype=out.dtype)
     _mmt(B, Re, L)
     out[:] = 0.0
     for i in range(3):

@@ -1,0 +1,458 @@
+"""Compiled (numba) kernel of one spatial control period (m3 = 3, MRP attitudes).
+
+The readable reference is the numpy implementation (:mod:`.controller`, :mod:`.kinematic`,
+:mod:`.adaptation`, :mod:`.manifold`, :mod:`.null_space` on
+:class:`~ffsm_pin.spatial.barycentric.SpatialBarycentricModel`); this module fuses one period
+of it into a single compiled call, like :mod:`.fast` does for the planar model. The test suite
+checks that both give the same outputs and trajectories (``tests/control/test_fast_spatial.py``).
+
+* Regressors, M-hat and the Jacobians come from the compiled spatial kernels
+  (:mod:`ffsm_pin.spatial._kernels`); the kinematic law (Eqs. 25+36 or 81, with the optional
+  null-space term) is evaluated once with complex arguments ``x + i h dx/dt``
+  (:mod:`ffsm_pin.spatial._control_kernels` and the dtype-generic kinematics), so that
+  ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part over h.
+* Schemes ``ppc``, ``no-ppc``, ``no-attitude`` and ``known-model`` (``adaptive = False``:
+  Pinocchio's M and C w passed in, no adaptation); tasks ``pose`` (6 rows) and
+  ``position`` (3 rows); null-space objectives none, manipulability, joint-centering.
+
+Status codes and the packed funnel/null-space arrays are those of :mod:`.fast`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..spatial._control_kernels import base_columns
+from ..spatial._kernels import (
+    attitude_rows,
+    kinematics,
+    mass_matrix,
+    position_jacobian,
+    subtract_dT,
+    velocity_terms,
+    y_z,
+    ym,
+)
+from .fast import (
+    F_A,
+    F_B1,
+    F_B2,
+    F_BETA,
+    F_LO,
+    F_R0,
+    F_RI,
+    F_UP,
+    NS_CENTER,
+    NS_CODE,
+    NS_GAIN,
+    NS_STEP,
+    STATUS_BASE_ROW,
+    STATUS_FUNNEL_B,
+    STATUS_FUNNEL_Z,
+    STATUS_H_COLLAPSE,
+    STATUS_M_NOT_PD,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    _reference,
+    _spd_det,
+    pack_funnel,
+    pack_null_space,
+)
+
+__all__ = ["gains_array", "out_layout", "pack_funnel", "pack_null_space", "period"]
+
+# entries of the packed gains array (gains_array)
+G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)  # q_bd: 3 entries
+_H = 1e-30  # complex step, as in control/kinematic.py
+
+
+def gains_array(gains, threshold: float, q_bd) -> np.ndarray:
+    """(11,) array: k_b, k_z, k_de, k_d, gamma_1..3, singularity threshold, q_bd (MRP)."""
+    return np.array(
+        [gains.k_b, gains.k_z, gains.k_de, gains.k_d, gains.gamma_1, gains.gamma_2,
+         gains.gamma_3, threshold, *np.asarray(q_bd, dtype=float).reshape(3)]
+    )  # fmt: skip
+
+
+def out_layout(n: int, n_task: int) -> dict[str, slice | int]:
+    """Where :func:`period` writes each output in ``out`` (n joints, n_task task rows)."""
+    N = n + 3
+    e = 3 * n + 3 + n_task
+    o = e + N
+    return {
+        "u_m": slice(0, n), "w_mc": slice(n, 2 * n), "w_mc_dot": slice(2 * n, 3 * n),
+        "err_b": slice(3 * n, 3 * n + 3), "err_z": slice(3 * n + 3, e),
+        "w_tilde": slice(e, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
+        "exit_value": o + 3, "size": o + 4,
+    }  # fmt: skip
+
+
+# ---------------------------------------------------------------------- complex helpers
+@njit(cache=True)
+def _cmm(A, B):
+    """A @ B as complex128 (A, B real or complex, any layout)."""
+    m, k = A.shape
+    p = B.shape[1]
+    out = np.zeros((m, p), dtype=np.complex128)
+    for i in range(m):
+        for l in range(k):
+            a = A[i, l]
+            for j in range(p):
+                out[i, j] += a * B[l, j]
+    return out
+
+
+@njit(cache=True)
+def _cmmt(A, B):
+    """A @ B.T (plain transpose) as complex128."""
+    m, k = A.shape
+    p = B.shape[0]
+    out = np.zeros((m, p), dtype=np.complex128)
+    for i in range(m):
+        for j in range(p):
+            acc = 0j
+            for l in range(k):
+                acc += A[i, l] * B[j, l]
+            out[i, j] = acc
+    return out
+
+
+@njit(cache=True)
+def _cmv(A, x):
+    """A @ x as complex128."""
+    out = np.zeros(A.shape[0], dtype=np.complex128)
+    for i in range(A.shape[0]):
+        acc = 0j
+        for j in range(A.shape[1]):
+            acc += A[i, j] * x[j]
+        out[i] = acc
+    return out
+
+
+@njit(cache=True)
+def _cmtv(A, x):
+    """A.T @ x as complex128."""
+    out = np.zeros(A.shape[1], dtype=np.complex128)
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            out[j] += A[i, j] * x[i]
+    return out
+
+
+@njit(cache=True)
+def _damped_pinv(A, thr):
+    """A^T (A A^T + lambda^2 E)^-1 with the damping of control/linalg.damped_row_pinv."""
+    gram = _cmmt(A, A)
+    eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
+    sigma = np.sqrt(max(eig[0], 0.0))
+    damping = 0.0
+    if sigma < thr:
+        damping = thr * thr - sigma * sigma
+        for i in range(gram.shape[0]):
+            gram[i, i] += damping
+    return _cmm(A.T, np.linalg.inv(gram)), sigma, damping
+
+
+@njit(cache=True)
+def _l_matrix(s, R0):
+    """L_b = 1/4 B(s) R0^T of Eq. (1) (spatial/mrp.L_matrix), real or complex."""
+    s0, s1, s2 = s[0], s[1], s[2]
+    d = 1.0 - (s0 * s0 + s1 * s1 + s2 * s2)
+    B = np.empty((3, 3), dtype=np.complex128)
+    B[0, 0], B[0, 1], B[0, 2] = d + 2 * s0 * s0, 2 * (s0 * s1 - s2), 2 * (s0 * s2 + s1)
+    B[1, 0], B[1, 1], B[1, 2] = 2 * (s1 * s0 + s2), d + 2 * s1 * s1, 2 * (s1 * s2 - s0)
+    B[2, 0], B[2, 1], B[2, 2] = 2 * (s2 * s0 - s1), 2 * (s2 * s1 + s0), d + 2 * s2 * s2
+    return 0.25 * _cmmt(B, R0)
+
+
+@njit(cache=True)
+def _funnel(f, t, e, identity):
+    """(psi, Phi, exit index or -1) of Eqs. (20)-(22), complex; the exit index is the
+    component nearest to (or farthest beyond) its bound, as control/funnel.py reports it."""
+    m = e.size
+    psi = np.empty(m, dtype=np.complex128)
+    Phi = np.empty(m, dtype=np.complex128)
+    if identity:
+        for i in range(m):
+            psi[i] = e[i]
+            Phi[i] = 1.0
+        return psi, Phi, -1
+    rho = np.empty(m, dtype=np.complex128)
+    s = np.empty(m, dtype=np.complex128)
+    worst, idx = np.inf, -1
+    for i in range(m):
+        rho[i] = (f[F_R0, i] - f[F_RI, i]) * np.exp(-f[F_BETA, i] * t) + f[F_RI, i]  # Eq. (18)
+        s[i] = e[i] / rho[i]
+        margin = min(f[F_UP, i] - s[i].real, s[i].real - f[F_LO, i])
+        if margin < worst:
+            worst, idx = margin, i
+    if worst <= 0:
+        return psi, Phi, idx
+    for i in range(m):
+        num = f[F_A, i] + f[F_B1, i] * s[i]
+        den = f[F_A, i] + f[F_B2, i] * s[i]
+        psi[i] = np.log(num / den)  # Eq. (21)
+        Phi[i] = (f[F_B1, i] / num - f[F_B2, i] / den) / rho[i]  # Eq. (22)
+    return psi, Phi, -1
+
+
+# ---------------------------------------------------------------------- kinematic level
+@njit(cache=True)
+def _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
+    """(J (nt, n+3) of Eq. 3 for theta_z, H_bb (3x3), H_bm (3xn) of Eq. 13 for theta_d, R_0)
+    at complex arguments."""
+    n = q_m.size
+    nb = n + 1
+    R = np.empty((nb, 3, 3), dtype=np.complex128)
+    z = np.empty((n, 3), dtype=np.complex128)
+    kinematics(q_b, q_m, jr, ax, R, z)
+    V = np.empty((nb, 3), dtype=np.complex128)
+    for k in range(nb):
+        for i in range(3):
+            V[k, i] = theta_z[3 + 3 * k + i]
+    J = np.empty((nt, n + 3), dtype=np.complex128)
+    position_jacobian(R, z, V, J[:3])
+    if nt > 3:
+        attitude_rows(R[m], er, z, m, J[3:6])
+    Mc = np.empty((n + 3, 3), dtype=np.complex128)
+    base_columns(R, z, theta_d, Mc)
+    Hbb = np.ascontiguousarray(Mc[:3].T)
+    Hbm = np.ascontiguousarray(Mc[3:].T)
+    return J, Hbb, Hbm, R[0].copy()
+
+
+@njit(cache=True)
+def _projector(Hbm):
+    """(H_bm^+ = H^T (H H^T)^-1, U = E - H^+ H, smallest singular value of Re H)."""
+    n = Hbm.shape[1]
+    HH = _cmmt(Hbm, Hbm)
+    hnorm = np.sqrt(max(np.linalg.eigvalsh(np.ascontiguousarray(HH.real))[0], 0.0))
+    if not hnorm > 1e-9:
+        return np.zeros((n, 3), dtype=np.complex128), np.zeros((n, n), dtype=np.complex128), hnorm
+    Hp = _cmm(Hbm.T, np.linalg.inv(HH))
+    U = -_cmm(Hp, Hbm)
+    for i in range(n):
+        U[i, i] += 1.0
+    return Hp, U, hnorm
+
+
+@njit(cache=True)
+def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
+    """grad_{q_m} mu of the null-space objective (control/null_space.py), complex."""
+    n = q_m.size
+    grad = np.empty(n, dtype=np.complex128)
+    if ns[NS_CODE] == 2:  # joint-centering: mu = -1/2 |q_m - center|^2
+        for j in range(n):
+            grad[j] = ns[NS_CENTER + j] - q_m[j]
+        return grad
+    h = ns[NS_STEP]  # manipulability: central difference of real perturbations of q_m
+    td = theta_b[3:]
+    for j in range(n):
+        mu = np.empty(2, dtype=np.complex128)
+        for side in range(2):
+            qq = q_m.copy()
+            qq[j] += h if side == 0 else -h
+            J, _, Hbm, _ = _geometry(jr, ax, er, m, nt, q_b, qq, theta_z, td)
+            _, U, _ = _projector(Hbm)
+            A = _cmm(np.ascontiguousarray(J[:, 3:]), U)
+            mu[side] = np.sqrt(_spd_det(_cmmt(A, A)))
+        grad[j] = (mu[0] - mu[1]) / (2.0 * h)
+    return grad
+
+
+@njit(cache=True)
+def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase,
+               ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+    """w_mc of Eqs. (25)+(36) or (81) at complex arguments; returns (w_mc, d w_mc/d w_b,
+    sigma_min, damping, |H_bm|, err_b, err_z, status, exit index)."""
+    n = q_m.size
+    ref = _reference(rc, rA, ramp, rfreq, rphase, t, False)
+    err_z = np.empty(nt, dtype=np.complex128)
+    for i in range(nt):
+        err_z[i] = z_e[i] - ref[i]  # Eq. (17)
+    err_b = np.empty(3, dtype=np.complex128)
+    for i in range(3):
+        err_b[i] = q_b[i] - g[G_QBD + i]  # Eq. (16), MRP components
+    w_mc = np.zeros(n, dtype=np.complex128)
+    sens = np.zeros((n, 3))
+    psi_z, Phi_z, iz = _funnel(fz, t, err_z, identity)
+    if iz >= 0:
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
+    J, Hbb, Hbm, R0 = _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
+    Jb = np.ascontiguousarray(J[:, :3])
+    Jm = np.ascontiguousarray(J[:, 3:])
+    target = _reference(rc, rA, ramp, rfreq, rphase, t, True) - g[G_KZ] * Phi_z * psi_z
+    for i in range(3):
+        target[i] -= theta_z[i]  # -v0bar-hat
+    if not attitude:  # Eq. (81)
+        pinv, sigma, damping = _damped_pinv(Jm, g[G_THR])
+        w_mc = _cmv(pinv, target - _cmv(Jb, w_b))
+        sens = np.ascontiguousarray(-_cmm(pinv, Jb).real)
+        return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
+    psi_b, Phi_b, ib = _funnel(fb, t, err_b, identity)
+    if ib >= 0:
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
+    Hp, U, hnorm = _projector(Hbm)
+    if not hnorm > 1e-9:
+        return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
+    L_b = _l_matrix(q_b, R0)
+    a_b = theta_b[:3] + g[G_KB] * _cmv(Hbb, _cmtv(L_b, Phi_b * psi_b))  # Eq. (25)
+    A = _cmm(Jm, U)
+    pinv, sigma, damping = _damped_pinv(A, g[G_THR])
+    Hp_ab = _cmv(Hp, a_b)
+    xi = _cmv(pinv, target - _cmv(Jm, Hp_ab))  # Eq. (36)
+    if ns[NS_CODE] != 0:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
+        grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
+        xi = xi + ns[NS_GAIN] * (grad - _cmv(pinv, _cmv(A, grad)))
+    w_mc = Hp_ab + _cmv(U, xi)  # Eq. (25)
+    return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
+
+
+# ---------------------------------------------------------------------- one period
+@njit(cache=True)
+def period(jr, ax, er, m, nt, attitude, identity, adaptive,
+           fb, fz, g, rc, rA, ramp, rfreq, rphase, ns, dt,
+           t, q_b, q_m, w, z_e, z_e_dot, M_true, h_true,
+           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
+    """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64) of the spatial
+    controller; updates the estimator states in place, writes ``out`` (see
+    :func:`out_layout`) and returns (status, exit index). ``M_true``, ``h_true``: Pinocchio's
+    reduced M and C w (known-model scheme, ``adaptive = False``; ignored otherwise)."""
+    n = q_m.size
+    nb = n + 1
+    N = n + 3
+    nd = theta_d.size
+    nz = theta_z.size
+    R = np.empty((nb, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    tb_new = theta_b.copy()
+    tz_new = theta_z.copy()
+    YM = np.empty((N, nd))
+    YMdot = np.empty((N, nd))
+    Yh = np.empty((N, nd))
+    w_tilde = np.zeros(N)
+    if adaptive:
+        w_tilde = w - w_hat
+        Yb = np.empty((3, nd + 3))
+        velocity_terms(R, z, w, w, w_tilde, YM, YMdot, Yh, Yb[:, 3:])
+        subtract_dT(R, z, w, Yh)
+        for i in range(3):
+            for j in range(3):
+                Yb[i, j] = -1.0 if i == j else 0.0
+        # Eq. (28): exact zero-order hold, exp(-g dt Y^T Y) through the 3x3 G = Y Y^T
+        lam, V = np.linalg.eigh(Yb @ Yb.T)
+        f = np.empty(3)
+        for i in range(3):
+            f[i] = -np.expm1(-g[G_G1] * dt * lam[i]) / lam[i] if lam[i] > 0 else g[G_G1] * dt
+        tb_new = theta_b - Yb.T @ (V @ (f * (V.T @ (Yb @ theta_b))))
+        # Eq. (42): backward Euler, position rows of Y_z
+        Yz = np.empty((3, nz))
+        y_z(R, z, w, Yz)
+        r = z_e_dot[:3] - Yz @ theta_z
+        gram = Yz @ Yz.T
+        for i in range(3):
+            gram[i, i] += 1.0 / (g[G_G2] * dt)
+        tz_new = theta_z + Yz.T @ np.linalg.solve(gram, r)
+
+    # kinematic level, value and exact derivative in one complex evaluation
+    hj = 1j * _H
+    q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
+        jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
+        t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:], z_e + hj * z_e_dot,
+        theta_b + hj * (tb_new - theta_b) / dt, theta_z + hj * (tz_new - theta_z) / dt,
+        w[:3] + 0j,
+    )  # fmt: skip
+    e = 3 * n + 3 + nt
+    o = e + N  # offset of the scalars in `out`, see out_layout()
+    for i in range(3):
+        out[3 * n + i] = err_b[i].real
+    for i in range(nt):
+        out[3 * n + 3 + i] = err_z[i].real
+    out[o] = sigma
+    out[o + 1] = damping
+    out[o + 2] = hnorm
+    if status != STATUS_OK:
+        if idx >= 0:
+            out[o + 3] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real
+        return status, idx
+    w_mc = w_mc_c.real.copy()
+    w_mc_dot = w_mc_c.imag / _H
+
+    # dynamic level, Eqs. (46), (50)-(52), (60)-(64)
+    if adaptive:
+        M_hat = np.empty((N, N))
+        mass_matrix(R, z, theta_d, M_hat)
+        if np.linalg.eigvalsh(M_hat)[0] <= 0:
+            return STATUS_M_NOT_PD, -1
+        cg = g[G_G3] * dt
+        d_theta_d = -cg * (
+            Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
+        )  # Eq. (51), linearly implicit
+        eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
+        rr = (YMdot - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
+        wh = w_hat
+    else:  # known model: computed torque on the true reduced dynamics
+        M_hat = np.ascontiguousarray(M_true)
+        rr = -h_true
+        wh = w
+        d_theta_d = np.zeros(nd)
+    # Eqs. (60a), (64)-(65), base rows 3x3
+    tgt = w_mc_dot - g[G_KD] * (wh[3:] - w_mc)
+    Mbb = np.ascontiguousarray(M_hat[:3, :3])
+    Mbm = np.ascontiguousarray(M_hat[:3, 3:])
+    denom = Mbb + Mbm @ sens
+    smallest = np.linalg.svd(denom)[1][2]
+    if not smallest > 1e-12 * np.max(np.abs(Mbb)):
+        out[o + 3] = smallest
+        return STATUS_BASE_ROW, -1
+    wb_dot = np.linalg.solve(denom, rr[:3] - Mbm @ tgt)
+    w_hat_dot = np.empty(N)
+    w_hat_dot[:3] = wb_dot
+    w_hat_dot[3:] = tgt + sens @ wb_dot
+    u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
+    if not np.all(np.isfinite(u_m)):
+        return STATUS_NONFINITE, -1
+    # advance the controller's states to t + dt
+    if adaptive:
+        ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
+        decay = np.exp(-g[G_KDE] * dt)
+        gain = -np.expm1(-g[G_KDE] * dt) / g[G_KDE]
+        Y_df[:, :] = decay * Y_df + gain * (YM - YMdot + Yh)  # Eq. (50)
+        theta_d += d_theta_d  # Eq. (51)
+        w_hat += dt * w_hat_dot  # Eq. (46)
+        theta_b[:] = tb_new
+        theta_z[:] = tz_new
+    else:
+        w_hat[:] = w + dt * w_hat_dot
+    out[:n] = u_m
+    out[n : 2 * n] = w_mc
+    out[2 * n : 3 * n] = w_mc_dot + sens @ wb_dot
+    out[e:o] = w_tilde
+    return STATUS_OK, -1
+
+
+@njit(cache=True)
+def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
+    """(e of Eq. 54 with the true M and theta_d, M_bb, dM_bb/dt) for recording (the spatial
+    counterpart of :func:`ffsm_pin.control.fast.diagnostics`); dM_bb/dt along the motion
+    (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step of the base columns of M."""
+    n = q_m.size
+    nb = n + 1
+    N = n + 3
+    R = np.empty((nb, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    M = np.empty((N, N))
+    mass_matrix(R, z, theta_d, M)
+    e = M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+    hj = 1j * _H
+    q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    Rc = np.empty((nb, 3, 3), dtype=np.complex128)
+    zc = np.empty((n, 3), dtype=np.complex128)
+    kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
+    Mc = np.empty((N, 3), dtype=np.complex128)
+    base_columns(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
+    return e, M[:3, :3].copy(), Mc[:3, :3].imag / _H
