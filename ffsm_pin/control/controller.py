@@ -310,6 +310,11 @@ class CoordinatedController:
         m0 = self._initial
         if m0.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             m0 = m0._replace(M=np.eye(len(m0.w)), h=np.zeros(len(m0.w)))
+        if self._fast.__name__.endswith("fast_spatial"):  # first run: use both cores
+            self._fast.compile_in_parallel(
+                self._fast_consts, m0.t, m0.q_b, m0.q_m, m0.w, m0.z_e, self.theta_z,
+                self.theta_d, self.theta_b,
+            )  # fmt: skip
         try:
             self._period(m0, 1e-3, np.empty(self._layout["size"]))
         finally:

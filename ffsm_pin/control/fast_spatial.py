@@ -20,8 +20,14 @@ Status codes and the packed funnel/null-space arrays are those of :mod:`.fast`.
 
 from __future__ import annotations
 
+import os
+import pickle
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
-from numba import njit
+from numba import njit, typeof, types
 
 from ..spatial._control_kernels import base_columns
 from ..spatial._kernels import (
@@ -60,7 +66,14 @@ from .fast import (
     pack_null_space,
 )
 
-__all__ = ["gains_array", "out_layout", "pack_funnel", "pack_null_space", "period"]
+__all__ = [
+    "compile_in_parallel",
+    "gains_array",
+    "out_layout",
+    "pack_funnel",
+    "pack_null_space",
+    "period",
+]
 
 # entries of the packed gains array (gains_array)
 G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)  # q_bd: 3 entries
@@ -456,3 +469,104 @@ def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
     Mc = np.empty((N, 3), dtype=np.complex128)
     base_columns(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
     return e, M[:3, :3].copy(), Mc[:3, :3].imag / _H
+
+
+# ---------------------------------------------------------------------- first compilation
+def _cold(dispatcher) -> bool:
+    """True when numba's on-disk cache has no entry at all for ``dispatcher`` (a first run)."""
+    try:
+        return not os.path.exists(dispatcher._cache._cache_file._index_path)
+    except AttributeError:  # internals of another numba version: assume it is cached
+        return False
+
+
+def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
+    """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex arrays
+    of the measurement's shapes); the values only need to be finite."""
+    jr, ax, er, m, nt, attitude, identity, _, fb, fz, g, rc, rA, ramp, rfreq, rphase, ns = consts
+    c = 1j * _H
+    return (jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
+            t + c, q_b + c, q_m + c, z_e + c, theta_b + c, theta_z + c, w[:3] + 0j)  # fmt: skip
+
+
+def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
+    """Compile the real kernels :func:`period` calls, with the argument types it passes, and
+    the recorder's :func:`diagnostics` with those of ``ffsm_pin.sim.run``."""
+    jr, ax = consts[0], consts[1]
+    n = q_m.size
+    N, nd = n + 3, theta_d.size
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    YM, YMdot, Yh = np.empty((N, nd)), np.empty((N, nd)), np.empty((N, nd))
+    Yb = np.empty((3, nd + 3))
+    velocity_terms(R, z, w, w, w - w, YM, YMdot, Yh, Yb[:, 3:])
+    subtract_dT(R, z, w, Yh)
+    y_z(R, z, w, np.empty((3, theta_z.size)))
+    mass_matrix(R, z, theta_d, np.empty((N, N)))
+    # period passes the constant False, which numba types as a literal
+    ym.compile(tuple(typeof(x) for x in (R, z, w - w, YM)) + (types.literal(False),))
+    _l_matrix(q_b, R[0])
+    diagnostics(jr, ax, q_b, q_m, np.zeros(N), np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
+
+
+def _with_flags(x):
+    """(x, writeable) for arrays, recursively: numba types a read-only array differently, and
+    pickling drops the flag."""
+    if isinstance(x, np.ndarray):
+        return ("array", x, bool(x.flags.writeable))
+    if isinstance(x, tuple):
+        return ("tuple", tuple(_with_flags(v) for v in x), None)
+    return ("value", x, None)
+
+
+def _restore_flags(item):
+    kind, x, writeable = item
+    if kind == "array":
+        x = x.copy()  # an unpickled array may sit on a read-only buffer
+        x.setflags(write=writeable)
+        return x
+    if kind == "tuple":
+        return tuple(_restore_flags(v) for v in x)
+    return x
+
+
+def _compile_real_kernels_from_stdin() -> None:
+    """Entry point of the second process of :func:`compile_in_parallel`."""
+    _compile_real_kernels(*_restore_flags(pickle.load(sys.stdin.buffer)))
+
+
+def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+    """On a first run (nothing in numba's cache yet), compile the real kernels of
+    :func:`period` and :func:`diagnostics` in a second process while this one compiles the
+    complex kinematic law; :func:`period` then loads the former from the cache. On two cores
+    this takes about a quarter off the first spatial run (benchmarks/README.md, "Spatial
+    closed loop"). Nothing changes in what is computed: both processes compile the same
+    source. When the cache is warm, or a second process cannot be started, it does nothing
+    and :func:`period` compiles (or loads) everything itself as before."""
+    if not (_cold(period) and _cold(_kinematic)):
+        return
+    root = str(Path(__file__).resolve().parents[2])  # the folder that holds ffsm_pin/
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    code = "from ffsm_pin.control.fast_spatial import _compile_real_kernels_from_stdin as f; f()"
+    try:
+        child = subprocess.Popen(
+            [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL, env=env,
+        )  # fmt: skip
+        child.stdin.write(pickle.dumps(_with_flags((consts, q_b, q_m, w, theta_z, theta_d))))
+        child.stdin.close()
+    except OSError:
+        return
+    try:
+        _kinematic(*_kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b))
+    except Exception:  # noqa: BLE001 - only the compilation matters; period reports errors
+        pass
+    except BaseException:  # Ctrl-C: do not leave the second process compiling
+        child.kill()
+        child.wait()
+        raise
+    try:
+        child.wait(timeout=600)
+    except subprocess.TimeoutExpired:  # period compiles what is missing itself
+        child.kill()
+        child.wait()
