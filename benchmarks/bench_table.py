@@ -1,6 +1,6 @@
 """Cost of keeping results.parquet up to date during a campaign (ffsm_pin.sweep.table).
 
-The rows are those of the built-in ``robustness-case1`` campaign's cases (its 550 cases, the
+The rows are those of the built-in ``robustness-case1`` campaign's cases (301, the
 table repeated to the sizes asked) with a typical summary each. For each table size n the
 median time of one atomic rewrite of n rows is measured; from those:
 
