@@ -9,7 +9,7 @@ checks that both give the same outputs and trajectories (``tests/control/test_fa
 * Regressors, M-hat and the Jacobians come from the compiled spatial kernels
   (:mod:`ffsm_pin.spatial._kernels`); the kinematic law (Eqs. 25+36 or 81, with the optional
   null-space term) is evaluated once with complex arguments ``x + i h dx/dt``
-  (:mod:`ffsm_pin.spatial._control_kernels` and the dtype-generic kinematics), so that
+  (the dtype-generic kinematics, Jacobian and mass-matrix kernels), so that
   ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part over h.
 * Schemes ``ppc``, ``no-ppc``, ``no-attitude`` and ``known-model`` (``adaptive = False``:
   Pinocchio's M and C w passed in, no adaptation); tasks ``pose`` (6 rows) and
@@ -29,7 +29,6 @@ from pathlib import Path
 import numpy as np
 from numba import njit, typeof, types
 
-from ..spatial._control_kernels import base_columns
 from ..spatial._kernels import (
     attitude_rows,
     kinematics,
@@ -229,7 +228,7 @@ def _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
     if nt > 3:
         attitude_rows(R[m], er, z, m, J[3:6])
     Mc = np.empty((n + 3, 3), dtype=np.complex128)
-    base_columns(R, z, theta_d, Mc)
+    mass_matrix(R, z, theta_d, Mc)  # the base columns only: Mc is (n + 3, 3)
     Hbb = np.ascontiguousarray(Mc[:3].T)
     Hbm = np.ascontiguousarray(Mc[3:].T)
     return J, Hbb, Hbm, R[0].copy()
@@ -467,7 +466,7 @@ def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
     zc = np.empty((n, 3), dtype=np.complex128)
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
     Mc = np.empty((N, 3), dtype=np.complex128)
-    base_columns(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
+    mass_matrix(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
     return e, M[:3, :3].copy(), Mc[:3, :3].imag / _H
 
 

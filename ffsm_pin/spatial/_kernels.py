@@ -160,19 +160,22 @@ def ym(R, z, a, Y, base_only):
 
 @njit(cache=True)
 def mass_matrix(R, z, theta, M):
-    """M(q, theta_d) (Eq. 9a)."""
+    """M(q, theta_d) (Eq. 9a), or its first columns when M has fewer columns than rows:
+    with M (N, 3), the base columns, i.e. the transposed momentum rows (H_bb H_bm) of
+    Eq. (13). Real or complex (dtype of M: the complex-step evaluation of the kinematic law in
+    :mod:`ffsm_pin.control.fast_spatial` passes complex arguments)."""
     nb = R.shape[0]
     M[:] = 0.0
-    N = M.shape[0]
-    J = np.empty((3, 3))
-    sc = np.zeros((N, 3))  # columns of S: e_0, e_1, e_2, z_1, ..., z_n
+    N, ncols = M.shape
+    J = np.empty((3, 3), dtype=M.dtype)
+    sc = np.zeros((N, 3), dtype=M.dtype)  # columns of S: e_0, e_1, e_2, z_1, ..., z_n
     for i in range(3):
         sc[i, i] = 1.0
     for j in range(nb - 1):
         sc[3 + j] = z[j]
-    x = np.empty(3)
-    T1 = np.empty((3, 3))
-    B = np.empty((3, 3))
+    x = np.empty(3, dtype=M.dtype)
+    T1 = np.empty((3, 3), dtype=M.dtype)
+    B = np.empty((3, 3), dtype=M.dtype)
     for k in range(nb):
         t = theta[6 * k : 6 * k + 6]
         J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
@@ -180,14 +183,14 @@ def mass_matrix(R, z, theta, M):
         J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
         _mm(R[k], J, T1)
         _mmt(T1, R[k], B)
-        for c in range(3 + k):
+        for c in range(min(3 + k, ncols)):
             for i in range(3):
                 x[i] = B[i, 0] * sc[c, 0] + B[i, 1] * sc[c, 1] + B[i, 2] * sc[c, 2]
             _add_st(M, c, k, z, x[0], x[1], x[2], False)
     p = 6 * nb
-    D = np.empty((3, 3))
-    X = np.empty((3, 3))
-    Km = np.empty((3, 3))
+    D = np.empty((3, 3), dtype=M.dtype)
+    X = np.empty((3, 3), dtype=M.dtype)
+    Km = np.empty((3, 3), dtype=M.dtype)
     for k in range(nb):
         for l in range(k + 1, nb):
             for i in range(3):
@@ -201,11 +204,11 @@ def mass_matrix(R, z, theta, M):
                 for j in range(3):
                     Km[i, j] = -X[j, i]
                 Km[i, i] += tr
-            for c in range(3 + l):  # S_k^T K S_l
+            for c in range(min(3 + l, ncols)):  # S_k^T K S_l
                 for i in range(3):
                     x[i] = Km[i, 0] * sc[c, 0] + Km[i, 1] * sc[c, 1] + Km[i, 2] * sc[c, 2]
                 _add_st(M, c, k, z, x[0], x[1], x[2], False)
-            for c in range(3 + k):  # S_l^T K^T S_k
+            for c in range(min(3 + k, ncols)):  # S_l^T K^T S_k
                 for i in range(3):
                     x[i] = Km[0, i] * sc[c, 0] + Km[1, i] * sc[c, 1] + Km[2, i] * sc[c, 2]
                 _add_st(M, c, l, z, x[0], x[1], x[2], False)

@@ -264,3 +264,39 @@ def test_example_robot_data_arms_on_a_satellite(spatial_state, rng, name, ee, lo
         assert rel(terms.Y_h @ bm.theta_d, s.h) < TOL
         assert rel(terms.J_b, s.J_b) < TOL and rel(terms.J_m, s.J_m) < TOL
         assert rel(terms.Y_b @ bm.true_theta_b(s.angular_momentum), np.zeros(3), 10.0) < TOL
+
+
+@PROPERTY
+@given(seed=SEEDS, n=st.integers(1, 8))
+def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial_state, seed, n):
+    """The compiled M kernel with a 3-column output gives M's base columns, and with complex
+    arguments x + i h dx its imaginary part over h is the exact rate: the parameter
+    direction plus dM/dt along the motion, i.e. M(theta') + sum_j (Y_Mdot(w, e_j) theta)
+    columns (the same kernel serves the complex-step kinematic law of fast_spatial)."""
+    from ffsm_pin.spatial import _kernels as kern
+
+    robot = spatial_chain(n, seed % 3)
+    rng = np.random.default_rng(seed)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    qb, qm, w = s.base_attitude, s.joint_angles, s.w
+    th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
+    dth = rng.normal(size=bm.n_d)
+    full = bm.mass_matrix(th, qb, qm)
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kern.kinematics(qb, qm, bm._joint_rot_c, bm._axes_c, R, z)
+    cols = np.empty((n + 3, 3))
+    kern.mass_matrix(R, z, th, cols)
+    assert np.array_equal(cols, full[:, :3])
+    h = 1e-30
+    qb_rate = mrp.L_matrix(qb) @ w[:3]
+    Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
+    kern.kinematics(qb + 1j * h * qb_rate, qm + 1j * h * w[3:], bm._joint_rot_c, bm._axes_c,
+                    Rc, zc)  # fmt: skip
+    colsc = np.empty((n + 3, 3), complex)
+    kern.mass_matrix(Rc, zc, th + 1j * h * dth, colsc)
+    rate = bm.mass_matrix(dth, qb, qm)[:, :3] + np.column_stack(
+        [bm.Y_Mdot(qb, qm, w, e) @ th for e in np.eye(n + 3)[:3]]
+    )
+    assert rel(colsc.real, full[:, :3]) < 1e-14
+    assert rel(colsc.imag / h, rate) < 1e-12
