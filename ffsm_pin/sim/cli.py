@@ -64,8 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--case",
         metavar="CASE",
         type=_case_name,
-        help="built-in case: 1, 2, 3, 1-paper, known-model, planar5, spatial, "
-        "spatial-known-model, spatial-no-ppc or spatial-no-attitude (default: 1)",
+        help=f"built-in case: {_case_choices()} (default: 1)",
     )
     what.add_argument(
         "--compare",
@@ -435,13 +434,15 @@ def _out_dir(out: str | None) -> Path:
     raise FileExistsError(f"runs/{stamp}: too many runs in the same second")
 
 
+def _case_choices() -> str:
+    """The names --case takes: the aliases, then every other built-in scenario."""
+    return ", ".join([*_CASE_ALIASES, *(k for k in BUILTIN if k not in _CASE_ALIASES.values())])
+
+
 def _case_name(text: str) -> str:
     name = _CASE_ALIASES.get(text, text)
     if name not in BUILTIN:
-        valid = ", ".join(
-            [*_CASE_ALIASES, *(k for k in BUILTIN if k not in _CASE_ALIASES.values())]
-        )
-        raise argparse.ArgumentTypeError(f"unknown case {text!r}; valid choices: {valid}")
+        raise argparse.ArgumentTypeError(f"unknown case {text!r}; valid choices: {_case_choices()}")
     return name
 
 

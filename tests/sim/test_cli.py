@@ -340,3 +340,14 @@ def test_divergent_run_stops_and_writes_what_it_has(tmp_path):
     assert re.search(r"completed\s+no, stopped at", proc.stdout)
     last = [s for s in re.split(r"[\r\n]", proc.stderr) if s.strip()][-1]
     assert "stopped early" in last
+
+
+def test_help_names_every_builtin_case():
+    """--case's help is made from the built-in scenarios, so a new one cannot be left out."""
+    from ffsm_pin.sim.cli import _CASE_ALIASES, build_parser
+    from ffsm_pin.sim.scenario_file import BUILTIN
+
+    text = " ".join(build_parser().format_help().split())
+    aliases = {v: k for k, v in _CASE_ALIASES.items()}
+    for name in BUILTIN:
+        assert aliases.get(name, name) in text.replace("- ", "-"), name
