@@ -114,15 +114,8 @@ def _pool_init() -> None:
 
 
 def _pool_case(scenario_toml: str) -> float:
-    """One case in a pool process; its thread CPU [s]."""
-    from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sim.scenario_file import scenario_from_toml
-
-    c0 = time.thread_time()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        simulate(prepare(scenario_from_toml(scenario_toml)))
-    return time.thread_time() - c0
+    """One case in a pool process; its thread CPU [s] (:func:`_one_case`)."""
+    return _one_case(scenario_toml)["cpu"]
 
 
 def processes(path: Path, pool) -> tuple[float, float]:
