@@ -10,7 +10,7 @@ Layers, from the bottom up:
 """
 
 from .errors import FfsmError
-from .robot import FreeFloatingRobot, load_robot, shipped_urdfs
+from .robot import FreeFloatingRobot, Robot, load_robot, shipped_urdfs
 
-__all__ = ["FfsmError", "FreeFloatingRobot", "load_robot", "shipped_urdfs"]
+__all__ = ["FfsmError", "FreeFloatingRobot", "Robot", "load_robot", "shipped_urdfs"]
 __version__ = "0.1.0"

@@ -23,7 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from ._arrays import read_only
-from .robot import FreeFloatingRobot
+from .robot import Robot
 
 _T = slice(0, 2)  # translational velocity block (base frame)
 _R = slice(2, None)  # (w_b, w_m)
@@ -45,7 +45,7 @@ def base_twist_to_local(q: np.ndarray, twist_world) -> np.ndarray:
 class FloatingBaseState:
     """Reduced CoM-frame dynamics and kinematics of a planar free-floating robot at (q, v)."""
 
-    def __init__(self, robot: FreeFloatingRobot):
+    def __init__(self, robot: Robot):
         self.robot = robot
         self.model = robot.model
         self.data = self.model.createData()

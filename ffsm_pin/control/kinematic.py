@@ -34,9 +34,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..attitude import mrp
 from ..errors import ParameterError
 from ..reduced_model import ReducedModel
-from ..spatial import mrp
 from .funnel import Funnel, FunnelEval
 from .gains import Gains
 from .linalg import damped_row_pinv, row_pinv

@@ -18,16 +18,15 @@ import numpy as np
 import pinocchio as pin
 
 from .. import paper
+from ..attitude import mrp
 from ..barycentric import BarycentricModel
 from ..control.controller import CoordinatedController, Measurement, check_feasibility
 from ..control.funnel import Funnel
 from ..control.kinematic import task_errors, task_size
 from ..errors import ScenarioError, SimulationError
 from ..reduced_model import ReducedModel
-from ..robot import FreeFloatingRobot, load_robot
-from ..spatial import mrp
+from ..robot import Robot, load_robot
 from ..spatial.barycentric import SpatialBarycentricModel
-from ..spatial.robot import SpatialRobot
 from ..spatial.state import SpatialState
 from ..spatial.state import reaction_torque as spatial_reaction_torque
 from ..state import FloatingBaseState, base_twist_to_local
@@ -45,7 +44,7 @@ class Setup:
     """A scenario made concrete: robot, models, initial state, truths and controller."""
 
     scenario: Scenario
-    robot: FreeFloatingRobot | SpatialRobot
+    robot: Robot
     model: ReducedModel
     q0: np.ndarray
     v0: np.ndarray
@@ -59,13 +58,11 @@ class Setup:
 
 # ---------------------------------------------------------------------- initial state
 def is_spatial(robot) -> bool:
-    """True for a free-flyer root (:class:`~ffsm_pin.spatial.robot.SpatialRobot`)."""
-    return isinstance(robot, SpatialRobot)
+    """True for a free-flyer root (``robot.base == "free-flyer"``)."""
+    return robot.base == "free-flyer"
 
 
-def initial_state(
-    robot: FreeFloatingRobot | SpatialRobot, init: InitialCondition
-) -> tuple[np.ndarray, np.ndarray]:
+def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.ndarray]:
     """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
     if is_spatial(robot):
         return _initial_state_spatial(robot, init)
@@ -108,7 +105,7 @@ def _sized(value, n: int, key: str) -> np.ndarray:
     return vec
 
 
-def _initial_state_spatial(robot: SpatialRobot, init: InitialCondition):
+def _initial_state_spatial(robot: Robot, init: InitialCondition):
     """Free-flyer (q, v): base_pose = (x, y, z, MRP); velocities in the inertial frame,
     converted to Pinocchio's base-frame twist (docs/spatial.md section 1)."""
     model = robot.model

@@ -259,7 +259,7 @@ def _vec(x: list[float] | None) -> tuple[float, ...] | None:
 def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
     satellite = None
     if r.satellite is not None:
-        from ..spatial.robot import Satellite
+        from ..robot import Satellite
 
         satellite = Satellite(**r.satellite.model_dump())
     return RobotSpec(
@@ -277,7 +277,7 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
     on the |s| <= 1 branch and appended to base_pose = (x, y, z)."""
     base_pose = _vec(ini.base_pose)
     if ini.base_attitude_rpy is not None or ini.base_attitude_quaternion is not None:
-        from ..spatial import mrp
+        from ..attitude import mrp
 
         if ini.base_attitude_rpy is not None:
             s = mrp.from_rpy(ini.base_attitude_rpy)

@@ -45,10 +45,10 @@ from typing import NamedTuple
 import numpy as np
 
 from .._arrays import read_only
+from ..attitude import mrp
 from ..errors import ParameterError
+from ..robot import SpatialGeometry
 from . import _kernels as kern
-from . import mrp
-from .robot import SpatialGeometry
 from .state import reaction_torque as _reaction_torque
 
 _H = 1e-20  # complex step (exact for the bilinear expressions here)

@@ -24,8 +24,8 @@ import numpy as np
 import pinocchio as pin
 
 from .._arrays import read_only
-from . import mrp
-from .robot import SpatialRobot
+from ..attitude import mrp
+from ..robot import Robot
 
 _T = slice(0, 3)  # translational block of x
 _R = slice(3, None)  # (w_b, dq_m)
@@ -52,7 +52,7 @@ def reaction_torque(M_bb, M_bb_dot, w_b, w_b_dot) -> np.ndarray:
 class SpatialState:
     """Reduced CoM-frame dynamics and kinematics of a spatial free-floating robot at (q, v)."""
 
-    def __init__(self, robot: SpatialRobot):
+    def __init__(self, robot: Robot):
         self.robot = robot
         self.model = robot.model
         self.data = self.model.createData()

@@ -14,6 +14,7 @@ import pytest
 from ffsm_pin.errors import (
     FrameNotFoundError,
     InertiaError,
+    ParameterError,
     RobotFileError,
     UnsupportedJointError,
     UrdfError,
@@ -179,7 +180,7 @@ def test_geometry_is_read_only(paper_robot):
 def test_configuration_checks_joint_count(paper_robot):
     q = paper_robot.configuration((1.0, 2.0, 0.3), [0.1, 0.2, 0.3, 0.4])
     np.testing.assert_allclose(q[:4], [1.0, 2.0, np.cos(0.3), np.sin(0.3)], rtol=0, atol=1e-15)
-    with pytest.raises(UrdfError, match="4 joint angles"):
+    with pytest.raises(ParameterError, match="4 joint angles"):
         paper_robot.configuration((0.0, 0.0, 0.0), [0.1, 0.2])
 
 

@@ -1,0 +1,295 @@
+"""The serial chain's geometry, read from a Pinocchio model and checked.
+
+Bodies are numbered 0..n (0 = the floating base, k = the body moved by joint k). The planar
+and spatial geometries hold the same items in their own dimension; the barycentric models are
+built from them. The checks here are the ones every free-floating chain needs (positive masses
+and physical inertias, revolute joints, a serial chain to the end effector); the checks a
+particular root joint adds (planar: axes along +-z) are in :mod:`.roots`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .._arrays import read_only
+from ..errors import (
+    FrameNotFoundError,
+    InertiaError,
+    UnsupportedJointError,
+    choices_text,
+    did_you_mean,
+)
+
+_REVOLUTE = {
+    "JointModelRX": np.array([1.0, 0.0, 0.0]),
+    "JointModelRY": np.array([0.0, 1.0, 0.0]),
+    "JointModelRZ": np.array([0.0, 0.0, 1.0]),
+}
+_JOINT_KINDS = {
+    "JointModelPX": "prismatic",
+    "JointModelPY": "prismatic",
+    "JointModelPZ": "prismatic",
+    "JointModelPrismaticUnaligned": "prismatic",
+    "JointModelSpherical": "spherical",
+    "JointModelSphericalZYX": "spherical",
+    "JointModelPlanar": "planar",
+    "JointModelFreeFlyer": "floating",
+}
+_INERTIA_REL_TOL = 1e-9
+
+
+class _Chain:
+    """What every chain geometry answers from its arrays (shared by both dimensions)."""
+
+    masses: np.ndarray
+    child_joints: np.ndarray
+
+    @property
+    def n_joints(self) -> int:
+        """m_1, the number of manipulator joints."""
+        return len(self.child_joints)
+
+    @property
+    def total_mass(self) -> float:
+        """Mass of the whole system [kg]."""
+        return float(self.masses.sum())
+
+
+@dataclass(frozen=True)
+class PlanarGeometry(_Chain):
+    """Planar serial chain extracted from a Pinocchio model (bodies 0..n, 0 = base).
+
+    All vectors are 2-D, in the frame of the body they belong to [m].
+    """
+
+    masses: np.ndarray  # (n+1,) [kg]
+    inertias: np.ndarray  # (n+1,) I_zz about each body CoM [kg m^2]
+    coms: np.ndarray  # (n+1, 2) c_k, CoM in body frame k
+    child_joints: np.ndarray  # (n, 2) a_k, origin of joint k+1 in body frame k
+    joint_yaws: np.ndarray  # (n,) fixed yaw of joint k's placement in its parent [rad]
+    axis_signs: np.ndarray  # (n,) s_j = +1 (axis +z) or -1 (axis -z)
+    ee_body: int  # body carrying the end-effector frame (1..n)
+    ee_position: np.ndarray  # (2,) e, end-effector origin in body frame ee_body
+    ee_yaw: float  # yaw of the end-effector frame in body frame ee_body [rad]
+
+
+@dataclass(frozen=True)
+class SpatialGeometry(_Chain):
+    """Spatial serial chain extracted from a Pinocchio model (bodies 0..n, 0 = base).
+
+    Body k's frame is the frame of joint k (the base frame for k = 0); vectors are in the
+    frame of the body they belong to [m].
+    """
+
+    masses: np.ndarray  # (n+1,) [kg]
+    inertias: np.ndarray  # (n+1, 3, 3) I_k about the body CoM, body frame [kg m^2]
+    coms: np.ndarray  # (n+1, 3) c_k, CoM in body frame k
+    joint_rotations: np.ndarray  # (n, 3, 3) rotation of joint k's placement in body k-1
+    child_joints: np.ndarray  # (n, 3) a_k, origin of joint k+1 in body frame k
+    axes: np.ndarray  # (n, 3) unit axis of joint k in its own frame
+    ee_body: int  # body carrying the end-effector frame (1..n)
+    ee_position: np.ndarray  # (3,) e, end-effector origin in body frame ee_body
+    ee_rotation: np.ndarray  # (3, 3) end-effector frame orientation in body frame ee_body
+
+
+# ---------------------------------------------------------------------------- checks
+def check_inertia(mass: float, inertia: np.ndarray, what: str) -> None:
+    """Raise :class:`InertiaError` unless mass > 0 and the 3x3 inertia about the CoM is
+    symmetric positive definite and satisfies the triangle inequality of its principal
+    moments (I_a + I_b >= I_c, to a relative 1e-9)."""
+    if not mass > 0:
+        raise InertiaError(f"{what} has mass {mass}; every body needs a positive mass")
+    inertia = np.asarray(inertia, dtype=float)
+    scale = max(float(np.trace(inertia)), 1e-300)
+    if np.abs(inertia - inertia.T).max() > _INERTIA_REL_TOL * scale:
+        raise InertiaError(f"{what} has a non-symmetric inertia tensor")
+    lam = np.linalg.eigvalsh(inertia)
+    if not lam[0] > 0:
+        raise InertiaError(
+            f"{what} has principal moments {lam.tolist()} [kg m^2]; the inertia tensor must be "
+            "positive definite"
+        )
+    if lam[0] + lam[1] < lam[2] * (1 - _INERTIA_REL_TOL):
+        raise InertiaError(
+            f"{what} has principal moments {lam.tolist()} [kg m^2] violating the triangle "
+            "inequality I_a + I_b >= I_c; no rigid body has this inertia"
+        )
+
+
+def joint_axis(jm, name: str, source: str) -> np.ndarray:
+    """Unit axis of a revolute joint in its own frame; :class:`UnsupportedJointError` naming
+    the kind of any other joint."""
+    short = jm.shortname()
+    if short in _REVOLUTE:
+        return _REVOLUTE[short].copy()
+    if short == "JointModelRevoluteUnaligned":
+        axis = np.array(jm.extract().axis, dtype=float)
+        return axis / np.linalg.norm(axis)
+    kind = _JOINT_KINDS.get(short, short)
+    raise UnsupportedJointError(
+        f"{source}: joint {name!r} is {kind}; a spatial free-floating manipulator supports only "
+        "revolute/continuous and fixed joints (lock it with locked_joints to hold it still)"
+    )
+
+
+def body_names(model: pin.Model) -> tuple[str, ...]:
+    """URDF link name of each body 0..n (the joint's name where no body frame is found)."""
+    out = []
+    for j in range(1, model.njoints):
+        names = [
+            f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint == j
+        ]
+        out.append(names[0] if names else model.names[j])
+    return tuple(out)
+
+
+def end_effector_frame(model: pin.Model, name: str, source: str, hint: str = "") -> int:
+    """Frame id of the end effector; :class:`FrameNotFoundError` naming the frames there are,
+    or when the frame sits on the base."""
+    if not model.existFrame(name):
+        frames = [f.name for f in model.frames if f.name not in ("universe", "root_joint")]
+        raise FrameNotFoundError(
+            f"end-effector frame {name!r} not found in {source}"
+            f"{did_you_mean(name, frames)}{hint}; frames: {choices_text(frames)}"
+        )
+    fid = model.getFrameId(name)
+    if int(model.frames[fid].parentJoint) < 2:
+        raise FrameNotFoundError(
+            f"end-effector frame {name!r} is attached to the base; it must be on a link"
+        )
+    return fid
+
+
+def check_serial(model: pin.Model, fid: int, source: str, lock_hint: str | None) -> None:
+    """Refuse joints that branch off the chain from the base to the end effector.
+
+    ``lock_hint``: None where joints cannot be locked; otherwise the text appended to the list
+    of joints to lock (e.g. the usual ones of an example-robot-data arm).
+    """
+    branching = [j for j in range(2, model.njoints) if model.parents[j] != j - 1]
+    if not branching:
+        return
+    ee_name = model.frames[fid].name
+    text = (
+        f"{source}: joint(s) {choices_text(model.names[j] for j in branching)} branch off "
+        f"the chain to the end effector {ee_name!r}"
+    )
+    if lock_hint is None:
+        raise UnsupportedJointError(f"{text}; only serial chains are supported")
+    on_path = set(model.supports[int(model.frames[fid].parentJoint)])
+    off_path = [model.names[j] for j in range(2, model.njoints) if j not in on_path]
+    raise UnsupportedJointError(
+        f"{text}; lock the joints that are not on it with locked_joints: "
+        f"{choices_text(off_path)}{lock_hint}"
+    )
+
+
+# ---------------------------------------------------------------------------- extraction
+def _yaw(rotation: np.ndarray) -> float:
+    return math.atan2(rotation[1, 0], rotation[0, 0])
+
+
+def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: str):
+    """:class:`PlanarGeometry` of a chain on a planar root; refuses what is not planar."""
+    masses, inertias, coms = [], [], []
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        mass = float(inertia.mass)
+        izz = float(inertia.inertia[2, 2])
+        if not mass > 0:
+            raise InertiaError(
+                f"{source}: link {names[j - 1]!r} has mass {mass}; every body of a "
+                "free-floating robot needs a positive mass (<inertial><mass>)"
+            )
+        if not izz > 0:
+            raise InertiaError(
+                f"{source}: link {names[j - 1]!r} has I_zz = {izz}; every body needs "
+                "a positive rotational inertia about z"
+            )
+        masses.append(mass)
+        inertias.append(izz)
+        coms.append(np.array(inertia.lever[:2]))
+
+    axis_signs, yaws, child = [], [], []
+    for j in range(2, model.njoints):
+        jm = model.joints[j]
+        short = jm.shortname()
+        if short == "JointModelRZ":
+            sign = 1.0
+        elif short == "JointModelRevoluteUnaligned":
+            sign = float(np.sign(jm.extract().axis[2]))
+        else:
+            raise UnsupportedJointError(
+                f"{source}: joint {model.names[j]!r} is a {short}; only revolute joints "
+                "about +-z are supported"
+            )
+        axis_signs.append(sign)
+        placement = model.jointPlacements[j]
+        if abs(placement.rotation[2, 2] - 1.0) > 1e-9:  # e.g. a tilted fixed joint merged in
+            raise UnsupportedJointError(
+                f"{source}: joint {model.names[j]!r} is placed with a roll/pitch relative to "
+                "the previous joint (through a tilted joint origin or fixed joint); a planar "
+                "chain allows only yaw rotations"
+            )
+        yaws.append(_yaw(placement.rotation))
+        child.append(np.array(placement.translation[:2]))
+
+    frame = model.frames[fid]
+    rot = frame.placement.rotation
+    if abs(rot[2, 2] - 1.0) > 1e-9:
+        raise UnsupportedJointError(
+            f"{source}: end-effector frame {frame.name!r} is tilted out of the plane "
+            "(only a yaw is allowed)"
+        )
+    return PlanarGeometry(
+        masses=read_only(np.array(masses)),
+        inertias=read_only(np.array(inertias)),
+        coms=read_only(np.array(coms)),
+        child_joints=read_only(np.array(child)),
+        joint_yaws=read_only(np.array(yaws)),
+        axis_signs=read_only(np.array(axis_signs)),
+        ee_body=int(frame.parentJoint) - 1,
+        ee_position=read_only(np.array(frame.placement.translation[:2])),
+        ee_yaw=_yaw(rot),
+    )
+
+
+def spatial_geometry(
+    model: pin.Model, fid: int, names: tuple[str, ...], source: str, base_hint: str = ""
+):
+    """:class:`SpatialGeometry` of a chain on a free-flyer root.
+
+    ``base_hint`` is appended to an inertia error of the floating base itself.
+    """
+    axes = [joint_axis(model.joints[j], model.names[j], source) for j in range(2, model.njoints)]
+    masses, inertias, coms = [], [], []
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        what = f"{source}: body {names[j - 1]!r}"
+        try:
+            check_inertia(float(inertia.mass), inertia.inertia, what)
+        except InertiaError as exc:
+            if j == 1 and base_hint:  # the floating base itself
+                raise InertiaError(f"{exc}{base_hint}") from None
+            raise
+        masses.append(float(inertia.mass))
+        inertias.append(np.array(inertia.inertia))
+        coms.append(np.array(inertia.lever))
+    rotations = [np.array(model.jointPlacements[j].rotation) for j in range(2, model.njoints)]
+    child = [np.array(model.jointPlacements[j].translation) for j in range(2, model.njoints)]
+    frame = model.frames[fid]
+    return SpatialGeometry(
+        masses=read_only(np.array(masses)),
+        inertias=read_only(np.array(inertias)),
+        coms=read_only(np.array(coms)),
+        joint_rotations=read_only(np.array(rotations)),
+        child_joints=read_only(np.array(child)),
+        axes=read_only(np.array(axes)),
+        ee_body=int(frame.parentJoint) - 1,
+        ee_position=read_only(np.array(frame.placement.translation)),
+        ee_rotation=read_only(np.array(frame.placement.rotation)),
+    )

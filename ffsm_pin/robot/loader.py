@@ -1,0 +1,186 @@
+"""``load_robot``: URDF -> Pinocchio model on a floating root -> a validated :class:`Robot`.
+
+One pipeline for both roots: find the file, repair its joint limits, let the root joint check
+the XML (:mod:`.roots`), add a satellite body, build the Pinocchio model with the root joint
+and zero gravity, lock joints, find the end effector, refuse branches, read the geometry.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from pathlib import Path
+
+import pinocchio as pin
+
+from ..errors import UnsupportedJointError, UrdfError, choices_text, did_you_mean
+from .geometry import body_names, check_serial, end_effector_frame
+from .robot import Robot
+from .roots import ROOTS, SUPPORTED_BASES
+from .satellite import Satellite
+from .urdf import (
+    EXAMPLE_ROBOTS,
+    example_robot_name,
+    parse_urdf,
+    read_urdf,
+    repair_limits,
+    resolve_source,
+    root_links,
+)
+
+
+def load_robot(
+    urdf: str | Path,
+    end_effector: str = "ee",
+    *,
+    base: str = "planar",
+    relative_to: str | Path | None = None,
+    locked_joints: Mapping[str, float] | None = None,
+    satellite: Satellite | Mapping | None = None,
+) -> Robot:
+    """Load and validate a free-floating manipulator.
+
+    Parameters
+    ----------
+    urdf:
+        Path to a URDF, the name of a shipped robot (see :func:`shipped_urdfs`), or
+        ``"example-robot-data:<name>"`` (names: :data:`EXAMPLE_ROBOTS`).
+    end_effector:
+        Name of the end-effector frame (a link or a fixed joint of the URDF).
+    base:
+        Root joint: ``"planar"`` (every joint revolute about +-z) or ``"free-flyer"``
+        (any revolute chain, spatial).
+    relative_to:
+        Directory that relative paths are resolved against (e.g. a scenario file's folder).
+    locked_joints:
+        Free-flyer only: ``{joint name: value}`` [rad or m] of joints held fixed (grippers,
+        unused branches).
+    satellite:
+        Free-flyer only: a :class:`Satellite` (or its dict) added as the new root body under
+        the URDF's root link, for arm-only URDFs.
+
+    Returns
+    -------
+    Robot
+        With ``robot.root`` the root-joint row and ``robot.geometry`` the chain's geometry.
+
+    Raises
+    ------
+    RobotFileError, UrdfError, UnsupportedJointError, InertiaError, FrameNotFoundError,
+    ParameterError
+    """
+    if base not in ROOTS:
+        raise UnsupportedJointError(
+            f"base {base!r} is not supported; valid choices: {choices_text(SUPPORTED_BASES)}"
+        )
+    root = ROOTS[base]
+    if not root.options and (locked_joints or satellite is not None):
+        raise UrdfError("options 'locked_joints' and 'satellite' apply only to base 'free-flyer'")
+    path, package_dirs = resolve_source(urdf, relative_to)
+    source = path.name
+    xml, satellite = _prepared_xml(read_urdf(path), source, root.check_xml, satellite)
+    try:
+        model = pin.buildModelFromXML(xml, root.joint_model())
+    except (RuntimeError, ValueError) as exc:
+        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {exc}") from None
+    model.gravity.setZero()
+    locked = {str(k): float(v) for k, v in (locked_joints or {}).items()}
+    if locked:
+        model = _lock(model, locked, source)
+    if model.njoints - 2 < 1:
+        raise UrdfError(f"{source}: the robot has no movable joint besides its floating base")
+
+    erd = example_robot_name(urdf)
+    hint = ""
+    if erd is not None:
+        _, ee_hint, lock_hint = EXAMPLE_ROBOTS[erd]
+        hint = f" (example-robot-data {erd!r}: end effector {ee_hint!r}"
+        hint += f", usually locked: {choices_text(lock_hint)})" if lock_hint else ")"
+    fid = end_effector_frame(model, end_effector, source, hint)
+    check_serial(model, fid, source, hint if root.options else None)
+    names = body_names(model)
+    extra = {}
+    if root.options and satellite is None:
+        extra["base_hint"] = (
+            "; it is the floating base (for an arm-only URDF, add a satellite body with "
+            "satellite=...)"
+        )
+    geometry = root.geometry(model, fid, names, source, **extra)
+    return Robot(
+        model=model,
+        root=root,
+        urdf_path=path,
+        urdf_xml=xml,
+        ee_frame=end_effector,
+        ee_frame_id=fid,
+        geometry=geometry,
+        body_names=names,
+        joint_names=tuple(model.names[j] for j in range(2, model.njoints)),
+        locked_joints=locked,
+        package_dirs=package_dirs,
+    )
+
+
+def _prepared_xml(text: str, source: str, check_xml, satellite) -> tuple[str, Satellite | None]:
+    """The URDF text Pinocchio reads: limits repaired, checked for the root, a satellite added
+    (the original text when nothing changed)."""
+    xml_root = parse_urdf(text, source)
+    changed = repair_limits(xml_root, source)
+    check_xml(xml_root, source)
+    roots = root_links(xml_root)
+    if len(roots) != 1:
+        raise UrdfError(
+            f"{source}: the URDF must have a single root link (the floating base), found "
+            f"{len(roots)}: {choices_text(roots)}"
+        )
+    if satellite is not None:
+        if isinstance(satellite, Mapping):
+            satellite = Satellite.from_mapping(satellite)
+        satellite.add_to(xml_root, roots[0], source)
+        changed = True
+    return (ET.tostring(xml_root, encoding="unicode") if changed else text), satellite
+
+
+def _lock(model: pin.Model, locked: dict[str, float], source: str) -> pin.Model:
+    """The model with ``locked`` joints held at their values (``pin.buildReducedModel``)."""
+    movable = [model.names[j] for j in range(2, model.njoints)]
+    q_ref = pin.neutral(model)
+    ids = []
+    for name, value in locked.items():
+        if not model.existJointName(name):
+            raise UrdfError(
+                f"{source}: locked joint {name!r} not found{did_you_mean(name, movable)}; "
+                f"joints: {choices_text(movable)}"
+            )
+        jid = model.getJointId(name)
+        if jid == 1:
+            raise UrdfError(f"{source}: the floating root joint cannot be locked")
+        if model.joints[jid].nq != 1:
+            raise UnsupportedJointError(
+                f"{source}: locked joint {name!r} has {model.joints[jid].nq} coordinates; "
+                "only 1-coordinate joints can be locked at a value"
+            )
+        q_ref[model.joints[jid].idx_q] = value
+        ids.append(jid)
+    reduced = pin.buildReducedModel(model, sorted(ids), q_ref)
+    reduced.gravity.setZero()
+    return reduced
+
+
+def load_spatial_robot(
+    urdf: str | Path,
+    end_effector: str,
+    *,
+    relative_to: str | Path | None = None,
+    locked_joints: Mapping[str, float] | None = None,
+    satellite: Satellite | Mapping | None = None,
+) -> Robot:
+    """``load_robot(..., base="free-flyer")`` (kept for the spatial loader's callers)."""
+    return load_robot(
+        urdf,
+        end_effector,
+        base="free-flyer",
+        relative_to=relative_to,
+        locked_joints=locked_joints,
+        satellite=satellite,
+    )

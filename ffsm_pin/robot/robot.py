@@ -1,0 +1,76 @@
+"""One robot class for planar and free-flying roots."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ParameterError
+from .geometry import PlanarGeometry, SpatialGeometry
+from .roots import RootJoint
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A validated free-floating robot: Pinocchio model, its root joint and its geometry.
+
+    Attributes
+    ----------
+    model:
+        Pinocchio model, gravity zero, the root joint first (``root.joint_model``).
+    root:
+        The root-joint row (:data:`ffsm_pin.robot.roots.ROOTS`): planar or free-flyer.
+    geometry:
+        :class:`PlanarGeometry` or :class:`SpatialGeometry` of the serial chain.
+    urdf_xml:
+        The (possibly repaired or extended) URDF text given to Pinocchio.
+    """
+
+    model: pin.Model
+    root: RootJoint
+    urdf_path: Path
+    urdf_xml: str
+    ee_frame: str
+    ee_frame_id: int
+    geometry: PlanarGeometry | SpatialGeometry
+    body_names: tuple[str, ...]  # URDF link name of each body 0..n
+    joint_names: tuple[str, ...]  # manipulator joints 1..n
+    locked_joints: Mapping[str, float] = field(default_factory=dict)
+    package_dirs: tuple[Path, ...] = ()  # where package:// mesh paths resolve
+
+    @property
+    def base(self) -> str:
+        """The root joint's name: ``"planar"`` or ``"free-flyer"``."""
+        return self.root.name
+
+    @property
+    def n_joints(self) -> int:
+        """m_1, the number of manipulator joints."""
+        return self.geometry.n_joints
+
+    @property
+    def name(self) -> str:
+        """The robot's name (the URDF's ``<robot name>``)."""
+        return self.model.name
+
+    def neutral(self) -> np.ndarray:
+        """Neutral configuration q (base at the origin, identity attitude, joints at zero)."""
+        return pin.neutral(self.model)
+
+    def configuration(self, base_pose, joints) -> np.ndarray:
+        """Pinocchio q from a base pose and joint angles [rad].
+
+        The base pose is (x, y, q_b) [m, m, rad] on a planar root and
+        (x, y, z, s1, s2, s3) [m, MRP] on a free-flyer root.
+        """
+        joints = np.asarray(joints, dtype=float)
+        base_q = self.root.pose_to_q(base_pose)
+        if joints.shape != (self.n_joints,):
+            raise ParameterError(
+                f"expected {self.n_joints} joint angles for {self.name!r}, got {joints.shape}"
+            )
+        return np.concatenate((base_q, joints))

@@ -1,0 +1,85 @@
+"""A satellite body added under an arm's root link, for arm-only URDFs."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError, UrdfError, choices_text, did_you_mean
+
+
+@dataclass(frozen=True)
+class Satellite:
+    """A satellite body added under an arm's root link (for arm-only URDFs).
+
+    ``inertia`` = (ixx, iyy, izz, ixy, ixz, iyz) about the satellite's CoM, which is the
+    origin of the new root link [kg m^2]; ``size`` is the visual box [m]; the arm's root link
+    is mounted at ``mount_xyz`` [m] with ``mount_rpy`` [rad] in the satellite frame.
+    """
+
+    mass: float = 500.0  # [kg]
+    inertia: tuple[float, ...] = (80.0, 80.0, 80.0, 0.0, 0.0, 0.0)
+    size: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    mount_xyz: tuple[float, float, float] = (0.0, 0.0, 0.5)
+    mount_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    name: str = "satellite"
+
+    def __post_init__(self) -> None:
+        for key, n in (("inertia", 6), ("size", 3), ("mount_xyz", 3), ("mount_rpy", 3)):
+            value = tuple(float(x) for x in getattr(self, key))
+            if len(value) != n:
+                raise ParameterError(f"satellite.{key}: expected {n} numbers, got {value}")
+            object.__setattr__(self, key, value)
+        object.__setattr__(self, "mass", float(self.mass))
+
+    @classmethod
+    def from_mapping(cls, table: Mapping) -> Satellite:
+        """Build from a dict (e.g. a scenario's ``[robot.satellite]`` table); unknown keys are
+        errors."""
+        valid = ("mass", "inertia", "size", "mount_xyz", "mount_rpy", "name")
+        for key in table:
+            if key not in valid:
+                raise ParameterError(
+                    f"satellite: unknown key {key!r}{did_you_mean(key, valid)}; "
+                    f"valid keys: {choices_text(valid)}"
+                )
+        return cls(**dict(table))
+
+    def inertia_matrix(self) -> np.ndarray:
+        """The 3x3 inertia about the satellite's CoM, satellite frame [kg m^2]."""
+        xx, yy, zz, xy, xz, yz = self.inertia
+        return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+    def add_to(self, root: ET.Element, arm_root: str, source: str) -> None:
+        """Insert this satellite into a URDF's XML as the new root link, carrying ``arm_root``
+        through a fixed joint."""
+        names = {link.get("name") for link in root.findall("link")}
+        if self.name in names:
+            raise UrdfError(
+                f"{source}: satellite link name {self.name!r} is already a link of the URDF"
+            )
+        link = ET.Element("link", name=self.name)
+        inertial = ET.SubElement(link, "inertial")
+        ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
+        ET.SubElement(inertial, "mass", value=repr(self.mass))
+        keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+        ET.SubElement(
+            inertial, "inertia", **{k: repr(v) for k, v in zip(keys, self.inertia, strict=True)}
+        )
+        visual = ET.SubElement(link, "visual")
+        geometry = ET.SubElement(visual, "geometry")
+        ET.SubElement(geometry, "box", size=" ".join(repr(s) for s in self.size))
+        joint = ET.Element("joint", name=f"{self.name}_mount", type="fixed")
+        ET.SubElement(joint, "parent", link=self.name)
+        ET.SubElement(joint, "child", link=arm_root)
+        ET.SubElement(
+            joint,
+            "origin",
+            xyz=" ".join(repr(v) for v in self.mount_xyz),
+            rpy=" ".join(repr(v) for v in self.mount_rpy),
+        )
+        root.insert(0, joint)
+        root.insert(0, link)
