@@ -45,10 +45,11 @@ import numpy as np
 import pinocchio as pin
 from _timing import Timing, time_interleaved
 
-from ffsm_pin.barycentric import BarycentricModel
+from ffsm_pin.model._state_planar import base_twist_to_local
+from ffsm_pin.model.planar import BarycentricModel
+from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import UrdfWarning, add_missing_limits, load_robot
 from ffsm_pin.sim.plant import Plant
-from ffsm_pin.state import FloatingBaseState, base_twist_to_local
 
 GATE = 1e-9  # relative tolerance of the gated checks
 DT = 1e-3  # plant step [s]

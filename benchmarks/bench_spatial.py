@@ -33,9 +33,10 @@ import pinocchio as pin  # noqa: E402
 from _timing import time_interleaved  # noqa: E402
 
 import ffsm_pin  # noqa: E402
-from ffsm_pin.spatial import load_spatial_robot, mrp  # noqa: E402
-from ffsm_pin.spatial.barycentric import SpatialBarycentricModel  # noqa: E402
-from ffsm_pin.spatial.state import SpatialState  # noqa: E402
+from ffsm_pin.attitude import mrp
+from ffsm_pin.model.spatial import SpatialBarycentricModel  # noqa: E402
+from ffsm_pin.model.state import State as SpatialState  # noqa: E402
+from ffsm_pin.robot import load_spatial_robot  # noqa: E402
 
 ROBOTS = {
     "panda": (

@@ -33,11 +33,11 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from ffsm_pin.control.null_space import NullSpace  # noqa: E402
+from ffsm_pin.model.state import State as FloatingBaseState  # noqa: E402
 from ffsm_pin.robot import load_robot  # noqa: E402
 from ffsm_pin.sim.run import initial_state, prepare, simulate  # noqa: E402
 from ffsm_pin.sim.scenario import Estimates, Reference  # noqa: E402
 from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
-from ffsm_pin.state import FloatingBaseState  # noqa: E402
 
 # Gains k_s chosen in docs/null_space.md (section "Gain").
 DEFAULT_GAINS = {"none": 0.0, "manipulability": 1.0, "joint-centering": 1.0}

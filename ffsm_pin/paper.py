@@ -1,7 +1,7 @@
 """Inputs taken from Lu & Jia (2019), Section 4: initial estimates (Table 2) and the scenario.
 
 These are *inputs* of the paper's simulation, not truths: the true parameter vectors are
-always derived from the URDF (:class:`ffsm_pin.barycentric.BarycentricModel`). The true
+always derived from the URDF (:class:`ffsm_pin.model.planar.BarycentricModel`). The true
 vectors the paper prints belong to a 3-link chain (docs/model.md section 2) and are kept here
 only so that tests can show that.
 """

@@ -1,114 +1,13 @@
-"""The interface shared by the planar and the spatial reduced models.
+"""Deprecated location of :mod:`ffsm_pin.model.interface` (an alias for one release)."""
 
-The paper writes one theory over m2 (end-effector position components) and m3 (attitude
-components): m2 = 2, m3 = 1 for planar robots (:class:`ffsm_pin.barycentric.BarycentricModel`)
-and m2 = m3 = 3 for spatial robots with attitudes as modified Rodrigues parameters
-(:class:`ffsm_pin.spatial.barycentric.SpatialBarycentricModel`). The controller, the plant and
-the recorder are written once against :class:`ReducedModel`.
+import sys
+import warnings
 
-Conventions: ``q_b`` is the base attitude (planar: an angle [rad]; spatial: an MRP 3-vector),
-``q_m`` the joint angles [rad] (m1 of them), ``w = (w_b, w_m)`` the velocity (m3 + m1) with
-w_b the base angular velocity in the inertial frame [rad/s]. Matrices are read-only or fresh
-arrays. Sizes: n_z = len(theta_z), n_d = len(theta_d), n_b = len(theta_b) = m3 + n_d.
-Equation numbers are the paper's (docs/model.md, docs/spatial.md).
-"""
+from .model import interface as _moved
 
-from __future__ import annotations
-
-from typing import Any, Protocol, runtime_checkable
-
-import numpy as np
-
-
-@runtime_checkable
-class ReducedModel(Protocol):
-    """Parametric reduced model of a free-floating manipulator (Eqs. 3, 4, 8, 9a, 12-14)."""
-
-    m2: int  # end-effector position components (2 planar, 3 spatial)
-    m3: int  # attitude components (1 planar, 3 spatial)
-    n_joints: int  # m1
-    theta_d: np.ndarray  # true dynamic parameters (Eq. 12)
-
-    @property
-    def n_z(self) -> int:
-        """n_1 = len(theta_z) (Eq. 4)."""
-        ...
-
-    @property
-    def n_d(self) -> int:
-        """n_2 = len(theta_d) (Eq. 12)."""
-        ...
-
-    @property
-    def n_b(self) -> int:
-        """n_3 = len(theta_b) = m3 + n_d (Eq. 14)."""
-        ...
-
-    def true_theta_z(self, com_velocity) -> np.ndarray:
-        """theta_z = col(v_0, V_0..V_n) for the CoM velocity v_0 (m2) [m/s] (Eq. 4)."""
-        ...
-
-    def true_theta_b(self, angular_momentum) -> np.ndarray:
-        """theta_b = col(A_0, theta_d), A_0 (m3) about the CoM [kg m^2/s] (Eq. 14)."""
-        ...
-
-    def ee_offset(self, theta_z, q_b: Any, q_m) -> np.ndarray:
-        """p_e - p_com (m2) [m], inertial frame."""
-        ...
-
-    def ee_pose(self, theta_z, q_b: Any, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) (m2 + m3) [m, rad or MRP] for the system CoM position [m]."""
-        ...
-
-    def jacobians(self, theta_z, q_b: Any, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """(J_b ((m2+m3) x m3), J_m ((m2+m3) x m1)) of Eq. (3); attitude rows parameter-free."""
-        ...
-
-    def Y_z(self, q_b: Any, q_m, w) -> np.ndarray:
-        """((m2+m3) x n_z): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, dq_e/dt), Eq. (4);
-        the attitude rows are zero."""
-        ...
-
-    def mass_matrix(self, theta_d, q_b: Any, q_m) -> np.ndarray:
-        """M(q, theta_d), (m3+m1) square, Eq. (9a) [kg m^2]."""
-        ...
-
-    def mass_matrix_rate(self, theta_d, q_b: Any, q_m, w) -> np.ndarray:
-        """dM/dt along w, (m3+m1) square [kg m^2/s]."""
-        ...
-
-    def Y_M(self, q_b: Any, q_m, a) -> np.ndarray:
-        """((m3+m1) x n_d): Y_M theta_d = M a."""
-        ...
-
-    def Y_Mdot(self, q_b: Any, q_m, w, s_vec) -> np.ndarray:
-        """((m3+m1) x n_d): Y theta_d = dM/dt s along w."""
-        ...
-
-    def Y_h(self, q_b: Any, q_m, w) -> np.ndarray:
-        """((m3+m1) x n_d): Y theta_d = C(q, w) w, Eq. (8)."""
-        ...
-
-    def velocity_regressors(self, q_b: Any, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass."""
-        ...
-
-    def Y_d(self, q_b: Any, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: Y_d theta_d = M s1 - dM/dt s2 + C w."""
-        ...
-
-    def velocity_product(self, theta_d, q_b: Any, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w (m3+m1) [N m], Eq. (8)."""
-        ...
-
-    def reaction_torque(self, theta_d, q_b: Any, q_m, w, w_dot) -> Any:
-        """F_r of Eqs. (6)-(7) [N m] (float planar, 3-vector spatial)."""
-        ...
-
-    def Y_b(self, q_b: Any, q_m, w) -> np.ndarray:
-        """(m3 x n_b): Y_b theta_b = H_bb w_b + H_bm w_m - A_0, Eq. (14)."""
-        ...
-
-    def momentum_matrices(self, theta_b, q_b: Any, q_m) -> tuple[np.ndarray, np.ndarray, Any]:
-        """(H_bb (m3 x m3), H_bm (m3 x m1), A_0) of Eq. (13)."""
-        ...
+warnings.warn(
+    "ffsm_pin.reduced_model moved to ffsm_pin.model.interface; this alias goes in the next release",
+    DeprecationWarning,
+    stacklevel=2,
+)
+sys.modules[__name__] = _moved

@@ -1,112 +1,14 @@
-"""The paper's reduced quantities for one plant state, computed by Pinocchio's algorithms.
+"""Deprecated location: the planar state is :class:`ffsm_pin.model.State` (one class for both
+roots); kept as an alias for one release."""
 
-:class:`FloatingBaseState` owns a Pinocchio ``Data`` and computes everything for a state in
-one :meth:`FloatingBaseState.update` call; the results are read-only arrays.
+import warnings
 
-Conventions (docs/model.md section 1): Pinocchio's planar root has q = (x, y, cos q_b, sin q_b,
-q_m) and v = (v_x, v_y, w_b, w_m) with (v_x, v_y) in the *base* frame. The paper's
-velocity is w = (w_b, w_m); base translation is eliminated through the conserved linear
-momentum, so every reduced quantity is about the system centre of mass:
+from .model._state_planar import base_twist_to_local, base_twist_to_world  # noqa: F401
+from .model.state import State as FloatingBaseState  # noqa: F401
 
-* ``M = M_rr - M_rt M_tt^-1 M_tr`` (Schur complement of CRBA's translational block), Eq. (9a);
-* ``h = h_r - M_rt M_tt^-1 h_t`` = C(q, w) w from RNEA's velocity terms, Eq. (8);
-* ``H_bb, H_bm`` = angular row of the centroidal momentum matrix, Eq. (13);
-* ``J_b, J_m`` = Jacobians of (p_e - p_com, q_e) w.r.t. (q_b, q_m), Eq. (3);
-* ``v_0 = P / m`` and ``A_0 = L`` (angular momentum about the CoM).
-"""
-
-from __future__ import annotations
-
-import math
-
-import numpy as np
-import pinocchio as pin
-
-from ._arrays import read_only
-from .robot import Robot
-
-_T = slice(0, 2)  # translational velocity block (base frame)
-_R = slice(2, None)  # (w_b, w_m)
-
-
-def base_twist_to_world(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(v_x, v_y, w_b) with the linear part in the inertial frame [m/s, m/s, rad/s]."""
-    c, s = q[2], q[3]
-    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
-
-
-def base_twist_to_local(q: np.ndarray, twist_world) -> np.ndarray:
-    """Inverse of :func:`base_twist_to_world`: inertial-frame base twist to Pinocchio's."""
-    c, s = q[2], q[3]
-    vx, vy, wb = (float(x) for x in twist_world)
-    return np.array([c * vx + s * vy, -s * vx + c * vy, wb])
-
-
-class FloatingBaseState:
-    """Reduced CoM-frame dynamics and kinematics of a planar free-floating robot at (q, v)."""
-
-    def __init__(self, robot: Robot):
-        self.robot = robot
-        self.model = robot.model
-        self.data = self.model.createData()
-        self.n_joints = robot.n_joints
-        self.total_mass = robot.geometry.total_mass
-        self._fid = robot.ee_frame_id
-        self.q: np.ndarray | None = None
-        self.v: np.ndarray | None = None
-
-    def update(self, q, v) -> FloatingBaseState:
-        """Compute every quantity for the plant state (q, v) in Pinocchio conventions."""
-        model, data = self.model, self.data
-        q = np.array(q, dtype=float)
-        v = np.array(v, dtype=float)
-        if q.shape != (model.nq,) or v.shape != (model.nv,):
-            raise ValueError(
-                f"state shapes must be q ({model.nq},) and v ({model.nv},), "
-                f"got {q.shape} and {v.shape}"
-            )
-        self.q, self.v = read_only(q), read_only(v)
-
-        M = pin.crba(model, data, q).copy()
-        M = np.triu(M) + np.triu(M, 1).T
-        h = pin.rnea(model, data, q, v, np.zeros(model.nv)).copy()
-        pin.ccrba(model, data, q, v)  # Ag, hg, com about the CoM (world-aligned)
-        Ag = data.Ag.copy()
-        hg = data.hg.copy()
-        com = data.com[0].copy()
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        J_ee = pin.getFrameJacobian(model, data, self._fid, pin.LOCAL_WORLD_ALIGNED)
-        J_com = pin.jacobianCenterOfMass(model, data, q, False)
-        oMe = data.oMf[self._fid]
-
-        Mtt_inv_Mtr = np.linalg.solve(M[_T, _T], np.column_stack((M[_T, _R], h[_T])))
-        self.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv)
-        self.nonlinear_effects = read_only(h)  # full RNEA velocity terms (nv)
-        self.M = read_only(M[_R, _R] - M[_R, _T] @ Mtt_inv_Mtr[:, :-1])  # Eq. (9a)
-        self.h = read_only(h[_R] - M[_R, _T] @ Mtt_inv_Mtr[:, -1])  # C(q, w) w, Eq. (8)
-        self.H_bb = read_only(Ag[5:6, 2:3].copy())  # Eq. (13)
-        self.H_bm = read_only(Ag[5:6, 3:].copy())
-        self.centroidal_map = read_only(Ag)
-        self.linear_momentum = read_only(hg.linear[:2].copy())  # P, inertial frame [kg m/s]
-        self.angular_momentum = float(hg.angular[2])  # L about the CoM [kg m^2/s]
-        self.com_position = read_only(com[:2].copy())  # [m]
-        self.com_velocity = read_only(self.linear_momentum / self.total_mass)  # v_0 [m/s]
-
-        Jr = np.empty((3, model.nv - 2))
-        Jr[:2] = (J_ee[:2] - J_com[:2])[:, _R]  # d(p_e - p_com)
-        Jr[2] = J_ee[5, _R]
-        self.J_b = read_only(Jr[:, :1].copy())  # Eq. (3)
-        self.J_m = read_only(Jr[:, 1:].copy())
-        rot = oMe.rotation
-        self.base_attitude = math.atan2(q[3], q[2])  # q_b in (-pi, pi] [rad]
-        self.ee_pose = read_only(
-            np.array([oMe.translation[0], oMe.translation[1], math.atan2(rot[1, 0], rot[0, 0])])
-        )  # z_e with q_e in (-pi, pi]
-        self.w = read_only(v[_R].copy())  # (w_b, w_m) [rad/s]
-        self.base_twist_world = read_only(base_twist_to_world(q, v))
-        return self
-
-    @property
-    def joint_angles(self) -> np.ndarray:
-        return self.q[4:]
+warnings.warn(
+    "ffsm_pin.state moved to ffsm_pin.model.state (FloatingBaseState is now State); this alias "
+    "goes in the next release",
+    DeprecationWarning,
+    stacklevel=2,
+)

@@ -26,10 +26,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..barycentric import BarycentricModel
 from ..errors import InfeasibleTaskError, ParameterError, SimulationError
-from ..reduced_model import ReducedModel
-from ..spatial.barycentric import SpatialBarycentricModel
+from ..model.interface import ReducedModel
+from ..model.planar import BarycentricModel
+from ..model.spatial import SpatialBarycentricModel
 from .adaptation import (
     regressor_filter_step,
     theta_b_step,

@@ -1,13 +1,13 @@
 """Compiled (numba) kernel of one control period: the same equations as the numpy modules.
 
-The readable reference is the numpy implementation (:mod:`ffsm_pin.barycentric`,
+The readable reference is the numpy implementation (:mod:`ffsm_pin.model.planar`,
 :mod:`.funnel`, :mod:`.kinematic`, :mod:`.adaptation`, :mod:`.manifold`,
 :mod:`.controller`); this module fuses one period of it into a single compiled call,
 because a period is a few hundred operations on 5-vectors where interpreter overhead
 dominates (about 300 us in numpy, see ``benchmarks/bench_closed_loop.py``). The test
 suite checks that both give the same trajectory (``tests/control/test_fast.py``).
 
-Layout conventions are those of :class:`~ffsm_pin.barycentric.BarycentricModel`:
+Layout conventions are those of :class:`~ffsm_pin.model.planar.BarycentricModel`:
 theta_d = (Dc_kk, Dc_kl (k<l), [Ds_kl (k<l)]), theta_z = (v_0, V_0..V_n) with scalar or
 2-vector V_k. Status codes returned by :func:`period`: see ``STATUS_*``.
 """

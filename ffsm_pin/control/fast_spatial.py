@@ -2,12 +2,12 @@
 
 The readable reference is the numpy implementation (:mod:`.controller`, :mod:`.kinematic`,
 :mod:`.adaptation`, :mod:`.manifold`, :mod:`.null_space` on
-:class:`~ffsm_pin.spatial.barycentric.SpatialBarycentricModel`); this module fuses one period
+:class:`~ffsm_pin.model.spatial.SpatialBarycentricModel`); this module fuses one period
 of it into a single compiled call, like :mod:`.fast` does for the planar model. The test suite
 checks that both give the same outputs and trajectories (``tests/control/test_fast_spatial.py``).
 
 * Regressors, M-hat and the Jacobians come from the compiled spatial kernels
-  (:mod:`ffsm_pin.spatial._kernels`); the kinematic law (Eqs. 25+36 or 81, with the optional
+  (:mod:`ffsm_pin.model._spatial_kernels`); the kinematic law (Eqs. 25+36 or 81, with the optional
   null-space term) is evaluated once with complex arguments ``x + i h dx/dt``
   (the dtype-generic kinematics, Jacobian and mass-matrix kernels), so that
   ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part over h.
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit, typeof, types
 
-from ..spatial._kernels import (
+from ..model._spatial_kernels import (
     attitude_rows,
     kinematics,
     mass_matrix,

@@ -36,7 +36,7 @@ import numpy as np
 
 from ..attitude import mrp
 from ..errors import ParameterError
-from ..reduced_model import ReducedModel
+from ..model.interface import ReducedModel
 from .funnel import Funnel, FunnelEval
 from .gains import Gains
 from .linalg import damped_row_pinv, row_pinv

@@ -19,17 +19,14 @@ import pinocchio as pin
 
 from .. import paper
 from ..attitude import mrp
-from ..barycentric import BarycentricModel
 from ..control.controller import CoordinatedController, Measurement, check_feasibility
 from ..control.funnel import Funnel
 from ..control.kinematic import task_errors, task_size
 from ..errors import ScenarioError, SimulationError
-from ..reduced_model import ReducedModel
+from ..model import ReducedModel, State, make_model
+from ..model._state_planar import base_twist_to_local
+from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..robot import Robot, load_robot
-from ..spatial.barycentric import SpatialBarycentricModel
-from ..spatial.state import SpatialState
-from ..spatial.state import reaction_torque as spatial_reaction_torque
-from ..state import FloatingBaseState, base_twist_to_local
 from .plant import Plant
 from .result import RunResult
 from .scenario import InitialCondition, Scenario
@@ -168,8 +165,7 @@ class Sensor:
         self.fid = robot.ee_frame_id
         self.full_model = full_model
         self.spatial = is_spatial(robot)
-        state_cls = SpatialState if self.spatial else FloatingBaseState
-        self.state = state_cls(robot) if full_model else None
+        self.state = State(robot) if full_model else None
         self._q_b_prev: float | None = None
         self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
 
@@ -320,7 +316,7 @@ def prepare(scenario: Scenario) -> Setup:
         spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
     )
     ctrl, ref = scenario.controller, scenario.reference
-    model = SpatialBarycentricModel(robot.geometry) if spatial else BarycentricModel(robot.geometry)
+    model = make_model(robot)
     m3 = model.m3
     n_task = task_size(model.m2, m3, ref.task)
     check_feasibility(robot.n_joints, ctrl.scheme, n_task=n_task, m3=m3)
@@ -340,7 +336,7 @@ def prepare(scenario: Scenario) -> Setup:
             f"reference.base_attitude has {len(ref.base_attitude)} values, this robot needs {m3}"
         )
     q0, v0 = initial_state(robot, scenario.initial)
-    st = (SpatialState if spatial else FloatingBaseState)(robot).update(q0, v0)
+    st = State(robot).update(q0, v0)
     truth = (
         np.array(model.true_theta_z(st.com_velocity)),
         np.array(model.theta_d),

@@ -11,7 +11,6 @@ import warnings
 import numpy as np
 import pytest
 
-from ffsm_pin.barycentric import BarycentricModel
 from ffsm_pin.control.controller import (
     SCHEMES,
     CoordinatedController,
@@ -21,6 +20,7 @@ from ffsm_pin.control.controller import (
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.gains import Gains, SingularityPolicy
 from ffsm_pin.errors import FfsmError, InfeasibleTaskError, ScenarioError
+from ffsm_pin.model.planar import BarycentricModel
 from ffsm_pin.sim.run import Sensor, prepare, simulate
 from ffsm_pin.sim.scenario import (
     ComponentReference,

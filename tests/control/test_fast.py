@@ -17,6 +17,7 @@ import pytest
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import SimulationError
+from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.run import Sensor, initial_state, prepare
 from ffsm_pin.sim.scenario import (
@@ -30,7 +31,6 @@ from ffsm_pin.sim.scenario import (
     Scenario,
 )
 from ffsm_pin.sim.scenario_file import builtin_scenario
-from ffsm_pin.state import FloatingBaseState
 
 pytest.importorskip("numba")
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -165,8 +165,8 @@ def test_compiled_diagnostics_match_the_model(urdf):
     """fast.diagnostics (used to record e of Eq. 54 and the reaction torque) equals the
     numpy model: e = M w~ + Y_df (theta_d - theta_d-hat), M_bb, and the reaction torque of
     BarycentricModel.reaction_torque (checked against Pinocchio in tests/model)."""
-    from ffsm_pin.barycentric import BarycentricModel
     from ffsm_pin.control import fast
+    from ffsm_pin.model.planar import BarycentricModel
     from ffsm_pin.robot import load_robot
 
     model = BarycentricModel(load_robot(urdf).geometry)

@@ -12,16 +12,17 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from ffsm_pin.attitude import mrp
 from ffsm_pin.control.controller import CoordinatedController, Measurement
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.gains import Gains, SingularityPolicy
 from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import ParameterError, SimulationError
+from ffsm_pin.model.spatial import SpatialBarycentricModel
+from ffsm_pin.robot import load_spatial_robot
 from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sim.scenario import ComponentReference, Harmonic, Reference
 from ffsm_pin.sim.scenario_file import builtin_scenario
-from ffsm_pin.spatial import load_spatial_robot, mrp
-from ffsm_pin.spatial.barycentric import SpatialBarycentricModel
 from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_urdf
 
 SPATIAL9 = Path(__file__).resolve().parents[2] / "urdf" / "spatial9.urdf"

@@ -31,6 +31,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import load_robot
 from ffsm_pin.sim.run import initial_state, prepare, simulate
 from ffsm_pin.sim.scenario import (
@@ -43,7 +44,6 @@ from ffsm_pin.sim.scenario import (
     RobotSpec,
     Scenario,
 )
-from ffsm_pin.state import FloatingBaseState
 
 pytestmark = pytest.mark.slow
 

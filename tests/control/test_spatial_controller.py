@@ -13,17 +13,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from ffsm_pin.attitude import mrp
 from ffsm_pin.control.controller import CoordinatedController, check_feasibility
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.gains import Gains, SingularityPolicy
 from ffsm_pin.control.kinematic import KinematicInputs, attitude_matrix
 from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import InfeasibleTaskError
+from ffsm_pin.model.spatial import SpatialBarycentricModel
+from ffsm_pin.robot import load_spatial_robot
 from ffsm_pin.sim.run import Sensor, prepare, simulate
 from ffsm_pin.sim.scenario import ComponentReference, Reference
 from ffsm_pin.sim.scenario_file import builtin_scenario
-from ffsm_pin.spatial import load_spatial_robot, mrp
-from ffsm_pin.spatial.barycentric import SpatialBarycentricModel
 from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_urdf
 
 
@@ -305,7 +306,7 @@ def test_spatial_run_records_the_contract_shapes(short_run):
 def test_sensor_measures_the_spatial_state(short_run):
     """The sensor's q_b, w, z_e and dz_e/dt against SpatialState (Pinocchio), at a state of
     the run."""
-    from ffsm_pin.spatial.state import SpatialState
+    from ffsm_pin.model.state import State as SpatialState
 
     setup, res = short_run
     q, v = res.signals["q"][-1], res.signals["v"][-1]

@@ -17,8 +17,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import load_robot
-from ffsm_pin.state import FloatingBaseState
 
 # MuJoCo and Pinocchio both run recursive rigid-body algorithms in double precision; they differ
 # only in operation order (observed ~1e-14 relative). 1e-9 of the largest entry is the brief's

@@ -9,8 +9,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from ffsm_pin.model._state_planar import base_twist_to_local, base_twist_to_world
+from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import load_robot
-from ffsm_pin.state import FloatingBaseState, base_twist_to_local, base_twist_to_world
 
 N_STATES = 5  # random states per robot and test
 
@@ -225,7 +226,7 @@ def test_reaction_torque_matches_pinocchio(paper_robot):
     from ABA, and the second form uses Pinocchio's reduced M and C w with
     C_bm w_m = (C w)_b - C_bb w_b. Bound: central difference with eps = 1e-6, error ~1e-9.
     """
-    from ffsm_pin.barycentric import BarycentricModel
+    from ffsm_pin.model.planar import BarycentricModel
 
     model = paper_robot.model
     data = model.createData()

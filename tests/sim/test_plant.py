@@ -10,8 +10,9 @@ import pinocchio as pin
 import pytest
 
 from ffsm_pin.errors import ParameterError
+from ffsm_pin.model._state_planar import base_twist_to_local
+from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.sim.plant import Plant
-from ffsm_pin.state import FloatingBaseState, base_twist_to_local
 
 N_TERMS = 3  # sinusoids per joint torque
 

@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.sim.scenario_file import (
     BUILTIN,
@@ -24,7 +25,6 @@ from ffsm_pin.sim.scenario_file import (
     scenario_to_toml,
 )
 from ffsm_pin.sim.scenario_schema import ScenarioModel, key_path
-from ffsm_pin.spatial import mrp
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -12,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import FfsmError
 from ffsm_pin.robot import urdf_dir
 from ffsm_pin.sim.run import initial_state, prepare
@@ -22,7 +23,6 @@ from ffsm_pin.sim.scenario_file import (
     scenario_from_toml,
     scenario_to_toml,
 )
-from ffsm_pin.spatial import mrp
 
 SPATIAL_TEXT = builtin_path("spatial").read_text()
 

@@ -14,7 +14,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from ffsm_pin.spatial import load_spatial_robot, mrp
+from ffsm_pin.attitude import mrp
+from ffsm_pin.robot import load_spatial_robot
 from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_urdf
 
 

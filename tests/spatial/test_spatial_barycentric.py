@@ -12,11 +12,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ffsm_pin.barycentric import BarycentricModel
-from ffsm_pin.reduced_model import ReducedModel
-from ffsm_pin.spatial import mrp
-from ffsm_pin.spatial.barycentric import SpatialBarycentricModel
-from ffsm_pin.spatial.state import SpatialState
+from ffsm_pin.attitude import mrp
+from ffsm_pin.model.interface import ReducedModel
+from ffsm_pin.model.planar import BarycentricModel
+from ffsm_pin.model.spatial import SpatialBarycentricModel
+from ffsm_pin.model.state import State as SpatialState
 
 PROPERTY = settings(derandomize=True, max_examples=15, deadline=None)
 SEEDS = st.integers(0, 10_000)
@@ -247,7 +247,7 @@ def test_complex_step_through_the_kinematics(spatial_chain, spatial_state, rng):
 def test_example_robot_data_arms_on_a_satellite(spatial_state, rng, name, ee, locks):
     """A real arm (fixed links merged, fingers locked off-centre, world link at the root) on a
     satellite: the barycentric model equals Pinocchio."""
-    from ffsm_pin.spatial import load_spatial_robot
+    from ffsm_pin.robot import load_spatial_robot
 
     robot = load_spatial_robot(
         f"example-robot-data:{name}",
@@ -273,7 +273,7 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     arguments x + i h dx its imaginary part over h is the exact rate: the parameter
     direction plus dM/dt along the motion, i.e. M(theta') + sum_j (Y_Mdot(w, e_j) theta)
     columns (the same kernel serves the complex-step kinematic law of fast_spatial)."""
-    from ffsm_pin.spatial import _kernels as kern
+    from ffsm_pin.model import _spatial_kernels as kern
 
     robot = spatial_chain(n, seed % 3)
     rng = np.random.default_rng(seed)

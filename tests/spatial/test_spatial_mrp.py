@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from ffsm_pin.spatial import mrp
+from ffsm_pin.attitude import mrp
 
 
 @pytest.fixture

@@ -20,8 +20,7 @@ from ffsm_pin.errors import (
     UnsupportedJointError,
     UrdfError,
 )
-from ffsm_pin.spatial import Satellite, load_spatial_robot
-from ffsm_pin.spatial.robot import EXAMPLE_ROBOTS
+from ffsm_pin.robot import EXAMPLE_ROBOTS, Satellite, load_spatial_robot
 from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
 
 PANDA_LOCK = {"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02}
@@ -75,7 +74,7 @@ def test_configuration_round_trip(tmp_path, urdf_text):
     robot = load_spatial_robot(_write(tmp_path, urdf_text), "ee")
     s = np.array([0.1, -0.3, 0.2])
     q = robot.configuration([1.0, 2.0, 3.0, *s], [0.1, 0.2, 0.3])
-    from ffsm_pin.spatial import mrp
+    from ffsm_pin.attitude import mrp
 
     assert np.allclose(mrp.from_quaternion(q[3:7]), s, atol=1e-15)
     with pytest.raises(ParameterError, match="expected 3 joint angles"):

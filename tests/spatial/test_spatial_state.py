@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ffsm_pin.spatial import mrp
-from ffsm_pin.spatial.state import SpatialState
+from ffsm_pin.attitude import mrp
+from ffsm_pin.model.state import State as SpatialState
 
 PROPERTY = settings(derandomize=True, max_examples=12, deadline=None)
 SEEDS = st.integers(0, 10_000)

@@ -10,12 +10,11 @@ import math
 import numpy as np
 import pytest
 
-from ffsm_pin.barycentric import BarycentricModel
-from ffsm_pin.robot import load_robot
-from ffsm_pin.spatial import load_spatial_robot
-from ffsm_pin.spatial.barycentric import SpatialBarycentricModel
-from ffsm_pin.spatial.state import SpatialState
-from ffsm_pin.state import FloatingBaseState
+from ffsm_pin.model.planar import BarycentricModel
+from ffsm_pin.model.spatial import SpatialBarycentricModel
+from ffsm_pin.model.state import State as FloatingBaseState
+from ffsm_pin.model.state import State as SpatialState
+from ffsm_pin.robot import load_robot, load_spatial_robot
 
 TOL = 1e-10
 

@@ -1,0 +1,606 @@
+"""The spatial parametric model: 3-D barycentric vectors, theta_z, theta_d, theta_b, regressors.
+
+Bodies k = 0..n (0 = base), R_k the rotation of body k (body to inertial), a_k the origin of
+joint k+1 in body k, c_k the CoM, e the end effector in body m = ``ee_body``,
+mu_k = m_k / m_total (docs/spatial.md section 2):
+
+* ``G_ik = a_k (k < i), c_i (k = i), 0 (k > i)``, ``W_ik = G_ik - sum_j mu_j G_jk``,
+  ``V_k = E_k - sum_j mu_j G_jk`` with ``E_k = a_k (k < m), e (k = m), 0 (k > m)``;
+* ``p_e - p_com = sum_k R_k V_k``; body angular velocities ``w_k = S_k w`` with
+  ``S_k = [E_3, z_1, ..., z_k, 0, ...]`` (z_j the inertial axis of joint j) and
+  ``w = (w_b, dq_m)``, w_b the base angular velocity in the *inertial* frame;
+* reduced kinetic energy (docs/spatial.md section 3), with ``D_kl = sum_i m_i W_ik W_il^T``
+  and ``Jbar_k = I_k + tr(D_kk) E_3 - D_kk``::
+
+      T = 1/2 sum_k w_k^T R_k Jbar_k R_k^T w_k
+          + sum_{k<l} [ (w_k . w_l) tr(R_k D_kl R_l^T) - w_l^T R_k D_kl R_l^T w_k ]
+
+  so ``M = sum_k S_k^T R_k Jbar_k R_k^T S_k + sum_{k<l} (S_k^T K_kl S_l + S_l^T K_kl^T S_k)``,
+  ``K_kl = tr(R_k D_kl R_l^T) E_3 - R_l D_kl^T R_k^T`` (Eq. 9a).
+
+Parameter vectors (sizes for n joints):
+
+* ``theta_z = col(v_0, V_0, ..., V_n)`` (Eq. 4), 3 + 3(n+1), each V_k in body k's frame;
+* ``theta_d = (Jbar_0..Jbar_n as (xx, xy, xz, yy, yz, zz), D_kl for k<l row-major 3x3)``
+  (Eq. 12), 6(n+1) + 9 n(n+1)/2;
+* ``theta_b = col(A_0, theta_d)`` (Eq. 14), A_0 the angular momentum about the CoM.
+
+The end-effector attitude rows of Eq. (3) (MRP rate ``1/4 B(q_e) R_e^T w_e``) carry no
+parameter; they are known terms (``Y_z`` has zero attitude rows, as in the planar model).
+
+Derivatives along the motion (``dM/dt s``) and with respect to the joint angles (``dT/dq_m``
+in ``C w``, docs/spatial.md section 4) are taken exactly by forward-mode differentiation of the
+same bilinear expressions: the tangents of R_k and z_j are closed-form (``dR_k = [w_k]x R_k``,
+``dz_j = w_j x z_j``; ``dR_k/dq_j = [z_j]x R_k`` for k >= j) and are carried as the imaginary
+part of a complex step, which for these polynomial expressions is exact to rounding (numpy
+reference); the compiled kernels carry the same tangents as (value, tangent) pairs in real
+arithmetic (:func:`ffsm_pin.model._spatial_kernels.velocity_terms`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from .._arrays import read_only
+from ..attitude import mrp
+from ..errors import ParameterError
+from ..robot import SpatialGeometry
+from . import _spatial_kernels as kern
+from ._state_spatial import reaction_torque as _reaction_torque
+
+_H = 1e-20  # complex step (exact for the bilinear expressions here)
+_SYM6 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # (xx, xy, xz, yy, yz, zz)
+
+
+@dataclass(frozen=True)
+class SpatialParameterLayout:
+    """Sizes and meaning of the spatial parameter vectors."""
+
+    n_bodies: int  # n + 1
+
+    @property
+    def n_pairs(self) -> int:
+        return self.n_bodies * (self.n_bodies - 1) // 2
+
+    @property
+    def n_z(self) -> int:
+        """n_1, size of theta_z."""
+        return 3 + 3 * self.n_bodies
+
+    @property
+    def n_d(self) -> int:
+        """n_2, size of theta_d."""
+        return 6 * self.n_bodies + 9 * self.n_pairs
+
+    @property
+    def n_b(self) -> int:
+        """n_3, size of theta_b."""
+        return 3 + self.n_d
+
+    def theta_z_names(self) -> list[str]:
+        names = ["v0x", "v0y", "v0z"]
+        for k in range(self.n_bodies):
+            names += [f"V{k}{c}" for c in "xyz"]
+        return names
+
+    def theta_d_names(self) -> list[str]:
+        nb = self.n_bodies
+        names = [f"J{k}{'xyz'[i]}{'xyz'[j]}" for k in range(nb) for i, j in _SYM6]
+        for k in range(nb):
+            for l in range(k + 1, nb):
+                names += [f"D{k}_{l}{'xyz'[i]}{'xyz'[j]}" for i in range(3) for j in range(3)]
+        return names
+
+
+class ControllerTerms(NamedTuple):
+    """Everything the controller needs for one period (see
+    :meth:`SpatialBarycentricModel.controller_terms`)."""
+
+    J_b: np.ndarray  # (6, 3) Eq. (3)
+    J_m: np.ndarray  # (6, n)
+    Y_z: np.ndarray  # (6, n_z) Eq. (4), attitude rows zero
+    Y_b: np.ndarray  # (3, n_b) Eq. (14)
+    Y_M: np.ndarray  # (n+3, n_d): Y_M theta_d = M a
+    Y_Mdot: np.ndarray  # (n+3, n_d): Y theta_d = dM/dt s
+    Y_h: np.ndarray  # (n+3, n_d): Y theta_d = C w, Eq. (8)
+    M: np.ndarray  # (n+3, n+3) M(q, theta_d), Eq. (9a)
+
+
+class Kinematics(NamedTuple):
+    """Rotations of one configuration (see :meth:`SpatialBarycentricModel.kinematics`)."""
+
+    R: np.ndarray  # (n+1, 3, 3) body rotations R_k (body to inertial)
+    z: np.ndarray  # (n, 3) inertial joint axes z_j
+    S: np.ndarray  # (n+1, 3, n+3) S_k: w_k = S_k w
+
+
+def _phi6(beta):
+    """(..., 3) -> (..., 3, 6): Jbar beta = Phi(beta) (xx, xy, xz, yy, yz, zz)."""
+    out = np.zeros((*beta.shape, 6), dtype=beta.dtype)
+    b1, b2, b3 = beta[..., 0], beta[..., 1], beta[..., 2]
+    out[..., 0, 0] = b1
+    out[..., 0, 1] = b2
+    out[..., 1, 1] = b1
+    out[..., 0, 2] = b3
+    out[..., 2, 2] = b1
+    out[..., 1, 3] = b2
+    out[..., 1, 4] = b3
+    out[..., 2, 4] = b2
+    out[..., 2, 5] = b3
+    return out
+
+
+def _skew_batch(v):
+    """(..., 3) -> (..., 3, 3) cross-product matrices."""
+    out = np.zeros((*v.shape, 3), dtype=v.dtype)
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+class SpatialBarycentricModel:
+    """The reduced, parametric free-floating model of a spatial serial chain.
+
+    Configuration arguments: ``q_b`` the base attitude as an MRP 3-vector, ``q_m`` the joint
+    angles [rad]; velocity arguments ``w = (w_b, w_m)`` [rad/s] with w_b in the inertial frame.
+    Method names and argument order are those of the planar
+    :class:`ffsm_pin.model.planar.BarycentricModel` (the shared interface is
+    :class:`ffsm_pin.reduced_model.ReducedModel`).
+
+    ``backend="numba"`` (default) evaluates real arguments with the compiled kernels of
+    :mod:`ffsm_pin.model._spatial_kernels`; ``"numpy"`` uses the vectorised numpy reference
+    (also used for complex arguments).
+    """
+
+    m2 = 3  # end-effector position components
+    m3 = 3  # attitude components (MRP)
+
+    def __init__(self, geometry: SpatialGeometry, *, backend: str = "numba"):
+        if backend not in ("numba", "numpy"):
+            raise ParameterError(f"backend {backend!r} is not one of 'numba', 'numpy'")
+        self.backend = backend
+        self._numba = backend == "numba"
+        g = geometry
+        n = g.n_joints
+        nb = n + 1
+        self.geometry = g
+        self.n_joints = n
+        self.layout = SpatialParameterLayout(n_bodies=nb)
+        mu = g.masses / g.total_mass
+        a = np.zeros((nb, 3))
+        a[:n] = g.child_joints
+        G = np.zeros((nb, nb, 3))
+        for i in range(nb):
+            G[i, :i] = a[:i]
+            G[i, i] = g.coms[i]
+        Gbar = np.einsum("j,jkd->kd", mu, G)
+        W = G - Gbar[None]
+        m = g.ee_body
+        E = np.zeros((nb, 3))
+        E[:m] = a[:m]
+        E[m] = g.ee_position
+        V = E - Gbar
+        D = np.einsum("i,ikx,ily->klxy", g.masses, W, W)  # D_kl = sum_i m_i W_ik W_il^T
+        Jbar = (
+            g.inertias
+            + np.trace(D[np.arange(nb), np.arange(nb)], axis1=1, axis2=2)[:, None, None] * np.eye(3)
+            - D[np.arange(nb), np.arange(nb)]
+        )
+        self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
+        self._P = len(self._K)
+        rows, cols = zip(*_SYM6, strict=True)
+        self.theta_d = read_only(
+            np.concatenate((Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1)))
+        )
+        self.barycentric_W = read_only(W)
+        self.barycentric_V = read_only(V)
+        self._V_body = read_only(V.ravel().copy())
+        self._nb, self._N = nb, n + 3
+        self._joint_rot = np.array(g.joint_rotations)
+        self._axes = np.array(g.axes)
+        self._ee_rot = np.array(g.ee_rotation)
+        # pattern of S: S[k, :, 3 + j] = z_j for joints j (0-based) with j < k
+        self._smask = (np.arange(n)[None, :] < np.arange(nb)[:, None]).astype(float)
+        # dR_k/dq_j nonzero for bodies k >= j + 1 (0-based joint j); dz_i/dq_j for i > j
+        self._below = (np.arange(nb)[None, :] >= np.arange(1, n + 1)[:, None]).astype(float)
+        self._after = (np.arange(n)[None, :] > np.arange(n)[:, None]).astype(float)
+        self._memo: dict = {}
+        self._memo_fast: dict = {}
+        self._joint_rot_c = np.ascontiguousarray(self._joint_rot, dtype=float)
+        self._axes_c = np.ascontiguousarray(self._axes, dtype=float)
+        self._ee_rot_c = np.ascontiguousarray(self._ee_rot, dtype=float)
+        self._Vc = np.ascontiguousarray(V, dtype=float)
+        self._nd, self._nz, self._ee_body = self.layout.n_d, self.layout.n_z, g.ee_body
+
+    # ------------------------------------------------------------------ sizes, truth
+    @property
+    def n_z(self) -> int:
+        return self.layout.n_z
+
+    @property
+    def n_d(self) -> int:
+        return self.layout.n_d
+
+    @property
+    def n_b(self) -> int:
+        return self.layout.n_b
+
+    def true_theta_z(self, com_velocity) -> np.ndarray:
+        """theta_z for a CoM velocity v_0 [m/s] (inertial frame), Eq. (4)."""
+        v0 = np.asarray(com_velocity, dtype=float).reshape(3)
+        return read_only(np.concatenate((v0, self._V_body)))
+
+    def true_theta_b(self, angular_momentum) -> np.ndarray:
+        """theta_b = col(A_0, theta_d) for A_0 about the CoM [kg m^2/s] (3-vector), Eq. (14)."""
+        A0 = np.asarray(angular_momentum, dtype=float).reshape(3)
+        return read_only(np.concatenate((A0, self.theta_d)))
+
+    def _check(self, theta, size, name):
+        theta = np.asarray(theta)
+        if theta.dtype.kind not in "fc":
+            theta = theta.astype(float)
+        if theta.shape != (size,):
+            raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
+        return theta
+
+    # ------------------------------------------------------------------ configuration
+    def kinematics(self, q_b, q_m) -> Kinematics:
+        """Body rotations R_k, joint axes z_j and S_k for one configuration (memoised; real or
+        complex arguments)."""
+        q_b = np.asarray(q_b)
+        q_m = np.asarray(q_m)
+        key = (q_b.tobytes(), q_m.tobytes(), q_b.dtype.char, q_m.dtype.char)
+        hit = self._memo.get(key)
+        if hit is not None:
+            return hit
+        dtype = np.result_type(q_b, q_m, float)
+        nb = self._nb
+        R = np.empty((nb, 3, 3), dtype=dtype)
+        R[0] = mrp.to_rotation(q_b)
+        c, s = np.cos(q_m), np.sin(q_m)
+        U = _skew_batch(self._axes)
+        # Rodrigues: rot(u, q) = E + sin q [u]x + (1 - cos q) [u]x^2
+        rot = (
+            np.eye(3)
+            + s[:, None, None] * U
+            + (1 - c)[:, None, None] * np.einsum("jxy,jyz->jxz", U, U)
+        )
+        for k in range(1, nb):
+            R[k] = R[k - 1] @ self._joint_rot[k - 1] @ rot[k - 1]
+        z = np.einsum("jxy,jy->jx", R[1:], self._axes)
+        out = Kinematics(R, z, self._s_matrix(z))
+        if len(self._memo) >= 4:
+            self._memo.clear()
+        self._memo[key] = out
+        return out
+
+    def _use_fast(self, *args) -> bool:
+        if not self._numba:
+            return False
+        for x in args:  # the dtype test first: np.iscomplexobj costs more per call
+            if (x.dtype.kind == "c") if isinstance(x, np.ndarray) else np.iscomplexobj(x):
+                return False
+        return True
+
+    def _rz(self, q_b, q_m):
+        """(R, z) from the compiled kinematics (real arguments), memoised like kinematics()."""
+        q_b = np.ascontiguousarray(q_b, dtype=float)
+        q_m = np.ascontiguousarray(q_m, dtype=float)
+        key = (q_b.tobytes(), q_m.tobytes())
+        hit = self._memo_fast.get(key)
+        if hit is not None:
+            return hit
+        R = np.empty((self._nb, 3, 3))
+        z = np.empty((self.n_joints, 3))
+        kern.kinematics(q_b, q_m, self._joint_rot_c, self._axes_c, R, z)
+        if len(self._memo_fast) >= 4:
+            self._memo_fast.clear()
+        self._memo_fast[key] = (R, z)
+        return R, z
+
+    def _s_matrix(self, z, mask=None):
+        """S (..., n+1, 3, n+3) from joint axes z (..., n, 3)."""
+        mask = self._smask if mask is None else mask
+        lead = z.shape[:-2]
+        S = np.zeros((*lead, self._nb, 3, self._N), dtype=z.dtype)
+        S[..., :, :, :3] = np.eye(3)
+        S[..., :, :, 3:] = np.swapaxes(z, -1, -2)[..., None, :, :] * mask[:, None, :]
+        return S
+
+    def _motion_tangent(self, kin: Kinematics, w):
+        """(dR/dt, dS/dt) along w: dR_k = [w_k]x R_k, dz_j = w_j x z_j."""
+        om = kin.S @ w  # (nb, 3) body angular velocities
+        dR = _skew_batch(om) @ kin.R
+        dz = np.cross(om[1:], kin.z)
+        dS = np.zeros_like(kin.S)
+        dS[:, :, 3:] = dz.T[None] * self._smask[:, None, :]
+        return dR, dS
+
+    def _joint_tangents(self, kin: Kinematics):
+        """(dR/dq_j, dS/dq_j) for every joint j, stacked on a leading axis of length n."""
+        Z = _skew_batch(kin.z)  # (n, 3, 3)
+        dR = np.einsum("jxy,kyz->jkxz", Z, kin.R) * self._below[:, :, None, None]
+        dz = np.cross(kin.z[:, None, :], kin.z[None, :, :]) * self._after[:, :, None]
+        dS = np.zeros((self.n_joints, *kin.S.shape), dtype=kin.S.dtype)
+        dS[..., 3:] = np.swapaxes(dz, -1, -2)[:, None, :, :] * self._smask[None, :, None, :]
+        return dR, dS
+
+    # ------------------------------------------------------------------ bilinear cores
+    def _ym_core(self, R, S, a):
+        """Y with Y theta_d = M a, for rotations R and S (real or complex)."""
+        K, L = self._K, self._L
+        b = S @ a  # (nb, 3)
+        beta = np.einsum("kyx,ky->kx", R, b)
+        Yd = R @ _phi6(beta)  # (nb, 3, 6)
+        RK, RL = R[K], R[L]
+        Q = np.einsum("pyi,pyj->pij", RK, RL)
+        bK, bL = b[K], b[L]
+        u = np.einsum("pyi,py->pi", RK, bL)
+        gam = np.einsum("pyj,py->pj", RL, bK)
+        A = Q[:, None] * bL[:, :, None, None] - u[:, None, :, None] * RL[:, :, None, :]
+        Bm = Q[:, None] * bK[:, :, None, None] - gam[:, None, None, :] * RK[:, :, :, None]
+        Y = np.empty((self._N, self.n_d), dtype=A.dtype)
+        Y[:, : 6 * self._nb] = np.einsum("kxn,kxc->nkc", S, Yd).reshape(self._N, -1)
+        Y[:, 6 * self._nb :] = (
+            np.einsum("pxn,pxc->npc", S[K], A.reshape(self._P, 3, 9))
+            + np.einsum("pxn,pxc->npc", S[L], Bm.reshape(self._P, 3, 9))
+        ).reshape(self._N, -1)
+        return Y
+
+    def _energy_core(self, R, S, w):
+        """Row y with y theta_d = T (kinetic energy about the CoM), batched over leading axes."""
+        K, L = self._K, self._L
+        om = np.einsum("...kxn,n->...kx", S, w)
+        beta = np.einsum("...kyx,...ky->...kx", R, om)
+        b1, b2, b3 = beta[..., 0], beta[..., 1], beta[..., 2]
+        diag = np.stack((b1 * b1 / 2, b1 * b2, b1 * b3, b2 * b2 / 2, b2 * b3, b3 * b3 / 2), -1)
+        RK, RL = R[..., K, :, :], R[..., L, :, :]
+        omK, omL = om[..., K, :], om[..., L, :]
+        Q = np.einsum("...pyi,...pyj->...pij", RK, RL)
+        dot = np.einsum("...px,...px->...p", omK, omL)
+        u = np.einsum("...pyi,...py->...pi", RK, omL)
+        gam = np.einsum("...pyj,...py->...pj", RL, omK)
+        pair = Q * dot[..., None, None] - u[..., :, None] * gam[..., None, :]
+        lead = diag.shape[:-2]
+        return np.concatenate((diag.reshape(*lead, -1), pair.reshape(*lead, -1)), axis=-1)
+
+    def _mass_core(self, R, S, theta_d):
+        nb, P = self._nb, self._P
+        j6 = theta_d[: 6 * nb].reshape(nb, 6)
+        J = np.empty((nb, 3, 3), dtype=j6.dtype)
+        for c, (i, j) in enumerate(_SYM6):
+            J[:, i, j] = j6[:, c]
+            J[:, j, i] = j6[:, c]
+        D = theta_d[6 * nb :].reshape(P, 3, 3)
+        RJR = R @ J @ np.swapaxes(R, 1, 2)
+        M = np.einsum("kxn,kxy,kym->nm", S, RJR, S)
+        if P:
+            RK, RL = R[self._K], R[self._L]
+            X = RK @ D @ np.swapaxes(RL, 1, 2)
+            tr = np.trace(X, axis1=1, axis2=2)
+            Kmat = tr[:, None, None] * np.eye(3) - np.swapaxes(X, 1, 2)
+            C = np.einsum("pxn,pxy,pym->nm", S[self._K], Kmat, S[self._L])
+            M = M + C + C.T
+        return M
+
+    # ------------------------------------------------------------------ kinematics
+    def ee_offset(self, theta_z, q_b, q_m) -> np.ndarray:
+        """p_e - p_com [m] = sum_k R_k V_k (inertial frame)."""
+        theta_z = self._check(theta_z, self.n_z, "theta_z")
+        R = self.kinematics(q_b, q_m).R
+        return np.einsum("kxy,ky->x", R, theta_z[3:].reshape(self._nb, 3))
+
+    def ee_rotation(self, q_b, q_m) -> np.ndarray:
+        """R_e, the end-effector frame's rotation (body to inertial); parameter-free."""
+        return self.kinematics(q_b, q_m).R[self.geometry.ee_body] @ self._ee_rot
+
+    def ee_attitude(self, q_b, q_m) -> np.ndarray:
+        """q_e, the end-effector attitude as an MRP on the |s| <= 1 branch."""
+        return mrp.from_rotation(self.ee_rotation(q_b, q_m))
+
+    def ee_pose(self, theta_z, q_b, q_m, com_position) -> np.ndarray:
+        """z_e = (p_e, q_e) [m, MRP] given the system CoM position [m]."""
+        p = np.asarray(com_position) + self.ee_offset(theta_z, q_b, q_m)
+        return np.concatenate((p, self.ee_attitude(q_b, q_m)))
+
+    def _attitude_rows(self, kin: Kinematics, q_b, q_m):
+        R_e = kin.R[self.geometry.ee_body] @ self._ee_rot
+        q_e = mrp.from_rotation(R_e)  # analytic: complex steps pass through
+        return mrp.L_matrix(q_e, R_e) @ kin.S[self.geometry.ee_body]
+
+    def jacobians(self, theta_z, q_b, q_m) -> tuple[np.ndarray, np.ndarray]:
+        """J_b (6 x 3) and J_m (6 x n) of Eq. (3) for a parameter vector theta_z.
+
+        Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate
+        1/4 B(q_e) R_e^T S_m w (parameter-free).
+        """
+        theta_z = self._check(theta_z, self.n_z, "theta_z")
+        if self._use_fast(theta_z, q_b, q_m):
+            R, z = self._rz(q_b, q_m)
+            J = np.empty((6, self._N))
+            V = np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3))
+            kern.position_jacobian(R, z, V, J[:3])
+            m = self.geometry.ee_body
+            kern.attitude_rows(R[m], self._ee_rot_c, z, m, J[3:])
+            return J[:, :3], J[:, 3:]
+        kin = self.kinematics(q_b, q_m)
+        r = np.einsum("kxy,ky->kx", kin.R, theta_z[3:].reshape(self._nb, 3))
+        J = np.empty((6, self._N), dtype=np.result_type(r, kin.S))
+        J[:3] = -np.einsum("kxy,kyn->xn", _skew_batch(r), kin.S)
+        J[3:] = self._attitude_rows(kin, q_b, q_m)
+        return J[:, :3], J[:, 3:]
+
+    def Y_z(self, q_b, q_m, w) -> np.ndarray:
+        """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
+
+        Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
+        """
+        if self._use_fast(q_b, q_m, w):
+            R, z = self._rz(q_b, q_m)
+            Y = np.zeros((6, self.n_z))
+            kern.y_z(R, z, np.ascontiguousarray(w, dtype=float), Y[:3])
+            return Y
+        kin = self.kinematics(q_b, q_m)
+        om = kin.S @ np.asarray(w, dtype=float)
+        Y = np.zeros((6, self.n_z))
+        Y[:3, :3] = np.eye(3)
+        Y[:3, 3:] = np.swapaxes(_skew_batch(om) @ kin.R, 0, 1).reshape(3, -1)
+        return Y
+
+    def ee_attitude_rate(self, w, q_b, q_m) -> np.ndarray:
+        """dq_e/dt [1/s], the parameter-free MRP rate of the end effector (rows 4-6 of Eq. 3)."""
+        kin = self.kinematics(q_b, q_m)
+        return self._attitude_rows(kin, q_b, q_m) @ np.asarray(w, dtype=float)
+
+    # ------------------------------------------------------------------ dynamics
+    def mass_matrix(self, theta_d, q_b, q_m) -> np.ndarray:
+        """M(q, theta_d) of Eq. (9a), (n+3) x (n+3)."""
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        if self._use_fast(theta_d, q_b, q_m):
+            R, z = self._rz(q_b, q_m)
+            M = np.empty((self._N, self._N))
+            kern.mass_matrix(R, z, np.ascontiguousarray(theta_d), M)
+            return M
+        kin = self.kinematics(q_b, q_m)
+        return self._mass_core(kin.R, kin.S, theta_d)
+
+    def mass_matrix_rate(self, theta_d, q_b, q_m, w) -> np.ndarray:
+        """dM/dt (q, w, theta_d), (n+3) x (n+3)."""
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        kin = self.kinematics(q_b, q_m)
+        dR, dS = self._motion_tangent(kin, np.asarray(w, dtype=float))
+        return self._mass_core(kin.R + 1j * _H * dR, kin.S + 1j * _H * dS, theta_d).imag / _H
+
+    def Y_M(self, q_b, q_m, a) -> np.ndarray:
+        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+3, n_d)."""
+        if self._use_fast(q_b, q_m, a):
+            R, z = self._rz(q_b, q_m)
+            Y = np.empty((self._N, self.n_d))
+            kern.ym(R, z, np.ascontiguousarray(a, dtype=float), Y, False)
+            return Y
+        kin = self.kinematics(q_b, q_m)
+        return self._ym_core(kin.R, kin.S, np.asarray(a))
+
+    def velocity_regressors(self, q_b, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
+        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`."""
+        w = np.ascontiguousarray(w, dtype=float)
+        s_vec = np.ascontiguousarray(s_vec, dtype=float)
+        if self._use_fast(q_b, q_m):
+            return self._fast_velocity(q_b, q_m, w, s_vec)
+        kin = self.kinematics(q_b, q_m)
+        dR, dS = self._motion_tangent(kin, w)
+        Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
+        Y_Mdot = self._ym_core(Rc, Sc, s_vec).imag / _H
+        # h = dM/dt w - (0_3, dT/dq_m) (docs/spatial.md section 4)
+        Y_h = self._ym_core(Rc, Sc, w).imag / _H
+        jR, jS = self._joint_tangents(kin)
+        dT = self._energy_core(kin.R + 1j * _H * jR, kin.S + 1j * _H * jS, w).imag / _H
+        Y_h[3:] -= dT
+        return Y_Mdot, Y_h
+
+    def _fast_velocity(self, q_b, q_m, w, s_vec):
+        """(Y_Mdot(w, s), Y_h(w)) from the compiled kernels (real, contiguous w and s)."""
+        R, z = self._rz(q_b, q_m)
+        N, nd = self._N, self.n_d
+        Y_Mdot, Y_h = np.empty((N, nd)), np.empty((N, nd))
+        scratch, rows = np.empty((N, nd)), np.empty((3, nd))  # Y_M(w), Y_b rows: not used
+        kern.velocity_terms(R, z, w, w, s_vec, scratch, Y_Mdot, Y_h, rows)
+        kern.subtract_dT(R, z, w, Y_h)
+        return Y_Mdot, Y_h
+
+    def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
+        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
+        w = np.ascontiguousarray(w, dtype=float)
+        if self._use_fast(q_b, q_m):
+            return self._fast_velocity(q_b, q_m, w, np.ascontiguousarray(s_vec, dtype=float))[0]
+        kin = self.kinematics(q_b, q_m)
+        dR, dS = self._motion_tangent(kin, w)
+        Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
+        return self._ym_core(Rc, Sc, np.asarray(s_vec, dtype=float)).imag / _H
+
+    def Y_h(self, q_b, q_m, w) -> np.ndarray:
+        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
+        w = np.ascontiguousarray(w, dtype=float)
+        if self._use_fast(q_b, q_m):
+            return self._fast_velocity(q_b, q_m, w, w)[1]
+        return self.velocity_regressors(q_b, q_m, w, np.zeros(self._N))[1]
+
+    def Y_T(self, q_b, q_m, w) -> np.ndarray:
+        """Regressor of the kinetic energy about the CoM: ``Y_T theta_d = 1/2 w^T M w``."""
+        kin = self.kinematics(q_b, q_m)
+        return self._energy_core(kin.R, kin.S, np.asarray(w, dtype=float))
+
+    def Y_d(self, q_b, q_m, w, s1, s2) -> np.ndarray:
+        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``."""
+        Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
+        return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
+
+    def velocity_product(self, theta_d, q_b, q_m, w) -> np.ndarray:
+        """C(q, w, theta_d) w, (n+3)."""
+        return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
+
+    def reaction_torque(self, theta_d, q_b, q_m, w, w_dot) -> np.ndarray:
+        """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m], 3-vector.
+
+        ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b + 1/2 w_b x (M_bb w_b)`` (see
+        :func:`ffsm_pin.model._state_spatial.reaction_torque`).
+        """
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        w = np.asarray(w, dtype=float)
+        M_bb = self.mass_matrix(theta_d, q_b, q_m)[:3, :3]
+        M_bb_dot = self.mass_matrix_rate(theta_d, q_b, q_m, w)[:3, :3]
+        return _reaction_torque(M_bb, M_bb_dot, w[:3], np.asarray(w_dot, dtype=float)[:3])
+
+    def controller_terms(self, theta_z, theta_d, q_b, q_m, w, a, s_vec) -> ControllerTerms:
+        """J_b, J_m (theta_z), Y_z(w), Y_b(w), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d) for
+        one configuration: the same values as the separate methods, in one compiled call
+        (numba backend) or by calling them (numpy backend, complex arguments)."""
+        theta_z = self._check(theta_z, self.n_z, "theta_z")
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        if not self._use_fast(theta_z, theta_d, q_b, q_m, w, a, s_vec):
+            J_b, J_m = self.jacobians(theta_z, q_b, q_m)
+            Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s_vec)
+            return ControllerTerms(
+                J_b, J_m, self.Y_z(q_b, q_m, w), self.Y_b(q_b, q_m, w), self.Y_M(q_b, q_m, a),
+                Y_Mdot, Y_h, self.mass_matrix(theta_d, q_b, q_m),
+            )  # fmt: skip
+        N, nd = self._N, self._nd
+        J = np.empty((6, N))
+        Yz = np.empty((6, self._nz))
+        Yb = np.empty((3, self._nd + 3))
+        YM = np.empty((N, nd))
+        YMdot = np.empty((N, nd))
+        Yh = np.empty((N, nd))
+        M = np.empty((N, N))
+        kern.controller_terms(
+            np.ascontiguousarray(q_b, dtype=float), np.ascontiguousarray(q_m, dtype=float),
+            self._joint_rot_c, self._axes_c, self._ee_rot_c, self._ee_body,
+            np.ascontiguousarray(theta_z, dtype=float), np.ascontiguousarray(theta_d, dtype=float),
+            np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(a, dtype=float),
+            np.ascontiguousarray(s_vec, dtype=float), J, Yz, Yb, YM, YMdot, Yh, M,
+        )  # fmt: skip
+        return ControllerTerms(J[:, :3], J[:, 3:], Yz, Yb, YM, YMdot, Yh, M)
+
+    # ------------------------------------------------------------------ momentum
+    def Y_b(self, q_b, q_m, w) -> np.ndarray:
+        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (3, n_b)."""
+        Y = np.empty((3, self.n_b))
+        Y[:, :3] = -np.eye(3)
+        if self._use_fast(q_b, q_m, w):
+            R, z = self._rz(q_b, q_m)
+            rows = np.empty((3, self.n_d))
+            kern.ym(R, z, np.ascontiguousarray(w, dtype=float), rows, True)
+            Y[:, 3:] = rows
+        else:
+            Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]
+        return Y
+
+    def momentum_matrices(self, theta_b, q_b, q_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(H_bb (3x3), H_bm (3 x n), A_0 (3)) of Eq. (13) from a parameter vector theta_b."""
+        theta_b = self._check(theta_b, self.n_b, "theta_b")
+        rows = self.mass_matrix(theta_b[3:], q_b, q_m)[:3]
+        return rows[:, :3], rows[:, 3:], theta_b[:3]

@@ -1,0 +1,82 @@
+"""The paper's reduced quantities for one plant state, from Pinocchio's algorithms.
+
+One class for both roots: :class:`State` owns a Pinocchio ``Data`` and computes everything for a
+state in one :meth:`State.update` call; the results are read-only arrays. How they are computed
+depends on the root joint only, so the work is done by one of two modules, picked from
+:data:`FILLERS` by ``robot.base``:
+
+* planar root (:mod:`._state_planar`, docs/model.md section 1): q = (x, y, cos q_b, sin q_b,
+  q_m), v = (v_x, v_y, w_b, w_m) with (v_x, v_y) in the base frame; w = (w_b, w_m);
+* free-flyer root (:mod:`._state_spatial`, docs/spatial.md section 1): q = (x, y, z, qx, qy,
+  qz, qw, q_m), v = (v_B, w_B, dq_m) in the base frame; w = (R_0 w_B, dq_m), w_b inertial.
+
+Every state has: ``M``, ``h`` = C(q, w) w (Eqs. 9a, 8), ``H_bb``, ``H_bm`` (Eq. 13), ``J_b``,
+``J_m`` (Eq. 3), ``mass_matrix``, ``nonlinear_effects``, ``centroidal_map``,
+``linear_momentum``, ``angular_momentum``, ``com_position``, ``com_velocity`` (v_0),
+``base_attitude`` (q_b), ``ee_pose`` (z_e), ``w``, ``base_twist_world``. Free-flyer states add
+``M_bb_dot``, ``L_b`` (Eq. 1), ``base_rotation``, ``ee_rotation``, ``ee_angular_jacobian`` and
+``base_velocity_world``.
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+import numpy as np
+
+from .._arrays import read_only
+from ..robot import Robot
+from . import _state_planar, _state_spatial
+
+#: the module that computes a state, by root joint
+FILLERS: dict[str, ModuleType] = {"planar": _state_planar, "free-flyer": _state_spatial}
+
+
+class State:
+    """Reduced CoM-frame dynamics and kinematics of a free-floating robot at (q, v).
+
+    Parameters
+    ----------
+    robot:
+        A loaded :class:`~ffsm_pin.robot.Robot` (planar or free-flyer root).
+    """
+
+    def __init__(self, robot: Robot):
+        self.robot = robot
+        self.model = robot.model
+        self.data = self.model.createData()
+        self.n_joints = robot.n_joints
+        self.total_mass = robot.geometry.total_mass
+        self.ee_frame_id = robot.ee_frame_id
+        self.lower_triangle = np.tril_indices(self.model.nv, -1)
+        self.q: np.ndarray | None = None
+        self.v: np.ndarray | None = None
+        self._filler = FILLERS[robot.base]
+
+    def update(self, q, v) -> State:
+        """Compute every quantity for the plant state (q, v) in Pinocchio conventions."""
+        model = self.model
+        q = np.array(q, dtype=float)
+        v = np.array(v, dtype=float)
+        if q.shape != (model.nq,) or v.shape != (model.nv,):
+            raise ValueError(
+                f"state shapes must be q ({model.nq},) and v ({model.nv},), "
+                f"got {q.shape} and {v.shape}"
+            )
+        self.q, self.v = read_only(q), read_only(v)
+        self._filler.fill(self, q, v)
+        return self
+
+    @property
+    def joint_angles(self) -> np.ndarray:
+        """q_m [rad]."""
+        return self.q[self.robot.root.nq :]
+
+    def acceleration_to_w_dot(self, a) -> np.ndarray:
+        """dw/dt = (dw_b/dt, ddq_m) [rad/s^2] from Pinocchio's acceleration ``a``."""
+        return self._filler.w_dot(self, np.asarray(a, dtype=float))
+
+    def reaction_torque(self, w_dot) -> np.ndarray:
+        """F_r of Eq. (7), the manipulator's reaction torque on the base (m3,) [N m], for an
+        acceleration ``w_dot = (dw_b/dt, ddq_m)`` [rad/s^2] at this state."""
+        return self._filler.state_reaction_torque(self, np.asarray(w_dot, dtype=float))

@@ -1,0 +1,96 @@
+"""The one State class, tested for both roots by the same parametrized tests: what it reports
+about accelerations and the reaction torque (Eq. 7) agrees with finite differences of its own
+Pinocchio quantities along the motion."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from ffsm_pin.attitude import mrp
+from ffsm_pin.model import State, make_model
+from ffsm_pin.robot import load_robot
+
+H = 1e-6  # central differences: truncation ~ H^2 ~ 1e-12, rounding ~ 1e-16 / H ~ 1e-10
+
+
+@pytest.fixture(scope="module", params=["planar", "free-flyer"])
+def robot(request):
+    if request.param == "planar":
+        return load_robot("ffsm_planar4.urdf")
+    return load_robot("spatial9.urdf", base="free-flyer")
+
+
+def _state(robot, rng):
+    q = robot.configuration(
+        np.concatenate(
+            (rng.uniform(-1, 1, robot.root.m2), 0.3 * rng.uniform(-1, 1, robot.root.m3))
+        ),
+        rng.uniform(-1.5, 1.5, robot.n_joints),
+    )
+    v = rng.normal(size=robot.model.nv) * 0.5
+    a = rng.normal(size=robot.model.nv)
+    return q, v, a
+
+
+def _at(robot, q, v, a, h):
+    """State after moving h along (v, a): q(t + h) to first order, v(t + h) = v + a h."""
+    return State(robot).update(pin.integrate(robot.model, q, v * h), v + a * h)
+
+
+def test_w_dot_is_the_derivative_of_w(robot, rng):
+    for _ in range(3):
+        q, v, a = _state(robot, rng)
+        st = State(robot).update(q, v)
+        fd = (_at(robot, q, v, a, H).w - _at(robot, q, v, a, -H).w) / (2 * H)
+        np.testing.assert_allclose(st.acceleration_to_w_dot(a), fd, rtol=0, atol=1e-7)
+
+
+def test_reaction_torque_matches_eq7_by_finite_differences(robot, rng):
+    """F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b (+ 1/2 w_b x M_bb w_b spatially), with M_bb = H_bb
+    and dM_bb/dt from a central difference of H_bb along the motion."""
+    m3 = robot.root.m3
+    for _ in range(3):
+        q, v, a = _state(robot, rng)
+        st = State(robot).update(q, v)
+        w_dot = st.acceleration_to_w_dot(a)
+        Mbb_dot = (_at(robot, q, v, a, H).H_bb - _at(robot, q, v, a, -H).H_bb) / (2 * H)
+        w_b = st.w[:m3]
+        expected = st.H_bb @ w_dot[:m3] + 0.5 * Mbb_dot @ w_b
+        if m3 == 3:
+            expected = expected + 0.5 * mrp.skew(w_b) @ (st.H_bb @ w_b)
+        F_r = st.reaction_torque(w_dot)
+        assert F_r.shape == (m3,)
+        np.testing.assert_allclose(F_r, expected, rtol=1e-6, atol=1e-8)
+
+
+def test_state_agrees_with_the_model_it_parameterises(robot, rng):
+    """M of the State equals the barycentric model's M(q, theta_d) (make_model picks the model
+    that fits the root)."""
+    model = make_model(robot)
+    assert (model.m2, model.m3) == (robot.root.m2, robot.root.m3)
+    q, v, _ = _state(robot, rng)
+    st = State(robot).update(q, v)
+    np.testing.assert_array_equal(st.joint_angles, q[robot.root.nq :])
+    M = model.mass_matrix(model.theta_d, st.base_attitude, st.joint_angles)
+    np.testing.assert_allclose(M, st.M, rtol=1e-10, atol=1e-10 * np.abs(st.M).max())
+
+
+def test_old_module_paths_still_import_with_a_warning():
+    import importlib
+    import sys
+
+    for name, new in (
+        ("ffsm_pin.barycentric", "ffsm_pin.model.planar"),
+        ("ffsm_pin.reduced_model", "ffsm_pin.model.interface"),
+        ("ffsm_pin.spatial.barycentric", "ffsm_pin.model.spatial"),
+    ):
+        sys.modules.pop(name, None)
+        with pytest.warns(DeprecationWarning, match=new):
+            old = importlib.import_module(name)
+        assert old is importlib.import_module(new)
+    sys.modules.pop("ffsm_pin.state", None)
+    with pytest.warns(DeprecationWarning, match="ffsm_pin.model.state"):
+        from ffsm_pin.state import FloatingBaseState
+    assert FloatingBaseState is State
