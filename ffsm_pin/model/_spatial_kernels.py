@@ -20,7 +20,7 @@ from numba import njit
 
 @njit(cache=True, inline="always")
 def _mm(A, B, out):
-    """out = A @ B for 3x3 (no BLAS call)."""
+    """Set ``out = A @ B`` for 3x3 (no BLAS call)."""
     for i in range(3):
         for j in range(3):
             out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
@@ -28,7 +28,7 @@ def _mm(A, B, out):
 
 @njit(cache=True, inline="always")
 def _mmt(A, B, out):
-    """out = A @ B^T for 3x3."""
+    """Set ``out = A @ B^T`` for 3x3."""
     for i in range(3):
         for j in range(3):
             out[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]

@@ -52,6 +52,7 @@ class ParameterLayout:
 
     @property
     def n_pairs(self) -> int:
+        """Number of body pairs k < l (the off-diagonal D_kl)."""
         return self.n_bodies * (self.n_bodies - 1) // 2
 
     @property
@@ -70,6 +71,7 @@ class ParameterLayout:
         return 1 + self.n_d
 
     def theta_d_names(self) -> list[str]:
+        """Names of the theta_d entries, in the vector's order (Eq. 12)."""
         nb = self.n_bodies
         names = [f"Dc{k}{k}" for k in range(nb)]
         pairs = [(k, l) for k in range(nb) for l in range(k + 1, nb)]
@@ -79,6 +81,7 @@ class ParameterLayout:
         return names
 
     def theta_z_names(self) -> list[str]:
+        """Names of the theta_z entries, in the vector's order (Eq. 4)."""
         names = ["v0x", "v0y"]
         for k in range(self.n_bodies):
             names += [f"V{k}"] if self.collinear else [f"V{k}x", f"V{k}y"]
@@ -121,12 +124,12 @@ class BarycentricModel:
         alpha = np.zeros(nb)
         collinear = True
         for k in range(nb):
-            vecs = [g.coms[k]]
+            points = [g.coms[k]]
             if k < n:
-                vecs.append(a[k])
+                points.append(a[k])
             if k == m:
-                vecs.append(g.ee_position)
-            vecs = np.array(vecs)
+                points.append(g.ee_position)
+            vecs = np.array(points)
             sv = np.linalg.svd(vecs, compute_uv=False)
             if len(sv) > 1 and sv[1] > _COLLINEAR_TOL * scale:
                 collinear = False
@@ -182,14 +185,17 @@ class BarycentricModel:
     # ------------------------------------------------------------------ sizes, truth
     @property
     def n_z(self) -> int:
+        """n_1 = len(theta_z) (Eq. 4)."""
         return self.layout.n_z
 
     @property
     def n_d(self) -> int:
+        """n_2 = len(theta_d) (Eq. 12)."""
         return self.layout.n_d
 
     @property
     def n_b(self) -> int:
+        """n_3 = len(theta_b) = m3 + n_d (Eq. 14)."""
         return self.layout.n_b
 
     def true_theta_z(self, com_velocity) -> np.ndarray:

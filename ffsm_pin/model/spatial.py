@@ -63,6 +63,7 @@ class SpatialParameterLayout:
 
     @property
     def n_pairs(self) -> int:
+        """Number of body pairs k < l (the off-diagonal D_kl)."""
         return self.n_bodies * (self.n_bodies - 1) // 2
 
     @property
@@ -81,12 +82,14 @@ class SpatialParameterLayout:
         return 3 + self.n_d
 
     def theta_z_names(self) -> list[str]:
+        """Names of the theta_z entries, in the vector's order (Eq. 4)."""
         names = ["v0x", "v0y", "v0z"]
         for k in range(self.n_bodies):
             names += [f"V{k}{c}" for c in "xyz"]
         return names
 
     def theta_d_names(self) -> list[str]:
+        """Names of the theta_d entries, in the vector's order (Eq. 12)."""
         nb = self.n_bodies
         names = [f"J{k}{'xyz'[i]}{'xyz'[j]}" for k in range(nb) for i, j in _SYM6]
         for k in range(nb):
@@ -219,14 +222,17 @@ class SpatialBarycentricModel:
     # ------------------------------------------------------------------ sizes, truth
     @property
     def n_z(self) -> int:
+        """n_1 = len(theta_z) (Eq. 4)."""
         return self.layout.n_z
 
     @property
     def n_d(self) -> int:
+        """n_2 = len(theta_d) (Eq. 12)."""
         return self.layout.n_d
 
     @property
     def n_b(self) -> int:
+        """n_3 = len(theta_b) = m3 + n_d (Eq. 14)."""
         return self.layout.n_b
 
     def true_theta_z(self, com_velocity) -> np.ndarray:

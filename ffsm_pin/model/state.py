@@ -25,6 +25,7 @@ from types import ModuleType
 import numpy as np
 
 from .._arrays import read_only
+from ..errors import ParameterError
 from ..robot import Robot
 from . import _state_planar, _state_spatial
 
@@ -69,7 +70,9 @@ class State:
 
     @property
     def joint_angles(self) -> np.ndarray:
-        """q_m [rad]."""
+        """q_m [rad] of the last :meth:`update`."""
+        if self.q is None:
+            raise ParameterError("State.joint_angles: call update(q, v) first")
         return self.q[self.robot.root.nq :]
 
     def acceleration_to_w_dot(self, a) -> np.ndarray:

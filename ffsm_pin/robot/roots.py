@@ -24,7 +24,7 @@ import pinocchio as pin
 
 from ..attitude import mrp
 from ..errors import ParameterError, UnsupportedJointError
-from .geometry import planar_geometry, spatial_geometry
+from .geometry import PlanarGeometry, SpatialGeometry, planar_geometry, spatial_geometry
 
 _ANGLE_TOL = 1e-9
 
@@ -91,7 +91,8 @@ class RootJoint:
     nv: int  # entries of the base in Pinocchio's v
     pose_to_q: Callable[..., np.ndarray]  # base pose -> the base's entries of q
     check_xml: Callable[[ET.Element, str], None]
-    geometry: Callable[..., object]  # (model, ee frame id, body names, source) -> geometry
+    # (model, ee frame id, body names, source) -> the chain's geometry
+    geometry: Callable[..., PlanarGeometry | SpatialGeometry]
     options: bool  # locked joints and a satellite body are supported
 
 

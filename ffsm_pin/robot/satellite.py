@@ -66,9 +66,8 @@ class Satellite:
         ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
         ET.SubElement(inertial, "mass", value=repr(self.mass))
         keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
-        ET.SubElement(
-            inertial, "inertia", **{k: repr(v) for k, v in zip(keys, self.inertia, strict=True)}
-        )
+        moments = {k: repr(v) for k, v in zip(keys, self.inertia, strict=True)}
+        ET.SubElement(inertial, "inertia", moments)
         visual = ET.SubElement(link, "visual")
         geometry = ET.SubElement(visual, "geometry")
         ET.SubElement(geometry, "box", size=" ".join(repr(s) for s in self.size))

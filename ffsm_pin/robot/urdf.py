@@ -206,8 +206,8 @@ def add_missing_limits(text: str, source: str = "URDF") -> str:
 
 def root_links(root: ET.Element) -> list[str]:
     """Names of the links that are no joint's child (a tree has exactly one)."""
-    links = [link.get("name") for link in root.findall("link")]
+    links = [link.get("name", "") for link in root.findall("link")]
     children = {
-        j.find("child").get("link") for j in root.findall("joint") if j.find("child") is not None
+        child.get("link") for j in root.findall("joint") if (child := j.find("child")) is not None
     }
     return [name for name in links if name not in children]
