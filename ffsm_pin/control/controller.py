@@ -252,7 +252,7 @@ class CoordinatedController:
     def _setup_planar(self, fast) -> None:
         m = self.model
         consts = (
-            m.S, m._phi_offset, m._K, m._L, m._ee_row, m.layout.collinear,
+            *m.kernel_constants(),
             self.scheme != "no-attitude", self.scheme == "no-ppc",
             fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
             np.array([self.gains.k_b, self.gains.k_z, self.gains.k_de, self.gains.k_d,
@@ -263,6 +263,7 @@ class CoordinatedController:
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._fast_consts = consts  # the kernel's constant arguments (also used by tests)
+        self._parallel_compile = None
         self._layout = fast.out_layout(m.n_joints)
         period = fast.period
 
@@ -278,7 +279,7 @@ class CoordinatedController:
         m = self.model
         ref = self.reference
         consts = (
-            m._joint_rot_c, m._axes_c, m._ee_rot_c, int(m.geometry.ee_body), self.n_task,
+            *m.kernel_constants(), self.n_task,
             self.scheme != "no-attitude", self.scheme == "no-ppc", self.adaptive,
             fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
             fast.gains_array(self.gains, self.policy.threshold, self.q_bd),
@@ -287,6 +288,7 @@ class CoordinatedController:
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._fast_consts = consts
+        self._parallel_compile = fast.compile_in_parallel
         self._layout = fast.out_layout(m.n_joints, self.n_task)
         period = fast.period
         N = m.n_joints + 3
@@ -310,8 +312,8 @@ class CoordinatedController:
         m0 = self._initial
         if m0.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             m0 = m0._replace(M=np.eye(len(m0.w)), h=np.zeros(len(m0.w)))
-        if self._fast.__name__.endswith("fast_spatial"):  # first run: use both cores
-            self._fast.compile_in_parallel(
+        if self._parallel_compile is not None:  # spatial first run: use both cores
+            self._parallel_compile(
                 self._fast_consts, m0.t, m0.q_b, m0.q_m, m0.w, m0.z_e, self.theta_z,
                 self.theta_d, self.theta_b,
             )  # fmt: skip

@@ -37,13 +37,7 @@ _TWO_PI = 2.0 * np.pi
 
 def pack_funnel(funnel) -> np.ndarray:
     """(8, m) array of a :class:`~ffsm_pin.control.funnel.Funnel`'s constants."""
-    return np.ascontiguousarray(
-        np.vstack(
-            (funnel.params.rho0, funnel.params.rhoinf, funnel.params.beta, funnel._a,
-             funnel._b1, funnel._b2, funnel.upper, funnel.lower)
-        ),
-        dtype=float,
-    )  # fmt: skip
+    return funnel.kernel_table()
 
 
 def pack_null_space(null_space, center, n: int) -> np.ndarray:

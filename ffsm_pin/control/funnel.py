@@ -130,6 +130,14 @@ class Funnel:
         self._b1 = np.where(pos, 1.0, sg)
         self._b2 = np.where(pos, -sg, -1.0)
 
+    def kernel_table(self) -> np.ndarray:
+        """(8, m) array of the constants a compiled kernel needs: rho_0, rho_inf, beta, and
+        a, b1, b2 of Eq. (21) as ``R(s) = ln((a + b1 s) / (a + b2 s))``, the upper and lower
+        bounds on s."""
+        p = self.params
+        rows = (p.rho0, p.rhoinf, p.beta, self._a, self._b1, self._b2, self.upper, self.lower)
+        return np.ascontiguousarray(np.vstack(rows), dtype=float)
+
     def rho(self, t) -> np.ndarray:
         """rho(t), Eq. (18)."""
         return self.params.rho(t)

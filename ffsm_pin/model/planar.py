@@ -88,6 +88,17 @@ class ParameterLayout:
         return names
 
 
+class PlanarKernelConstants(NamedTuple):
+    """The arrays the compiled planar kernels take for a robot (``control/fast.py``)."""
+
+    S: np.ndarray  # (n+1, n+1) body angle = S @ (q_b, q_m) + phi_offset
+    phi_offset: np.ndarray  # (n+1,) [rad]
+    K: np.ndarray  # (P,) first body of each pair k < l
+    L: np.ndarray  # (P,) second body of each pair
+    ee_row: np.ndarray  # (n+1,) end-effector angle row of Eq. (3)
+    collinear: bool  # the paper's collinear layout (no Ds_kl parameters)
+
+
 class BarycentricModel:
     """The reduced, parametric free-floating model of a planar serial chain.
 
@@ -181,6 +192,12 @@ class BarycentricModel:
         self._ps_cols = nb + self._P + np.arange(self._P)
         self._ar = np.arange(nb)
         self._memo: dict = {}
+
+    def kernel_constants(self) -> PlanarKernelConstants:
+        """The constant arrays of this robot that the compiled kernels take."""
+        return PlanarKernelConstants(
+            self.S, self._phi_offset, self._K, self._L, self._ee_row, self.layout.collinear
+        )
 
     # ------------------------------------------------------------------ sizes, truth
     @property

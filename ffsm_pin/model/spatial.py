@@ -145,6 +145,15 @@ def _skew_batch(v):
     return out
 
 
+class SpatialKernelConstants(NamedTuple):
+    """The arrays the compiled spatial kernels take for a robot (``control/fast_spatial.py``)."""
+
+    joint_rot: np.ndarray  # (n, 3, 3) joint placements' rotations, contiguous
+    axes: np.ndarray  # (n, 3) joint axes, contiguous
+    ee_rot: np.ndarray  # (3, 3) end-effector frame in its body, contiguous
+    ee_body: int  # body carrying the end effector (1..n)
+
+
 class SpatialBarycentricModel:
     """The reduced, parametric free-floating model of a spatial serial chain.
 
@@ -218,6 +227,12 @@ class SpatialBarycentricModel:
         self._ee_rot_c = np.ascontiguousarray(self._ee_rot, dtype=float)
         self._Vc = np.ascontiguousarray(V, dtype=float)
         self._nd, self._nz, self._ee_body = self.layout.n_d, self.layout.n_z, g.ee_body
+
+    def kernel_constants(self) -> SpatialKernelConstants:
+        """The constant arrays of this robot that the compiled kernels take."""
+        return SpatialKernelConstants(
+            self._joint_rot_c, self._axes_c, self._ee_rot_c, int(self.geometry.ee_body)
+        )
 
     # ------------------------------------------------------------------ sizes, truth
     @property

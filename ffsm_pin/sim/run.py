@@ -437,7 +437,7 @@ def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
     if compiled and model.m3 == 3:
         from ..control import fast_spatial
 
-        geo = (model._joint_rot_c, model._axes_c)
+        geo = model.kernel_constants()[:2]  # joint rotations, axes
 
         def compiled_spatial(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
             return fast_spatial.diagnostics(*geo, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
@@ -446,7 +446,8 @@ def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
     if compiled:
         from ..control import fast
 
-        args = (model.S, model._phi_offset, model._K, model._L, model.layout.collinear)
+        k = model.kernel_constants()
+        args = (k.S, k.phi_offset, k.K, k.L, k.collinear)
 
         def compiled_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
             return fast.diagnostics(*args, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
