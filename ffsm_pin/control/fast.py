@@ -17,51 +17,38 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-STATUS_OK = 0
-STATUS_FUNNEL_Z = 1  # end-effector error left its funnel
-STATUS_FUNNEL_B = 2  # attitude error left its funnel
-STATUS_M_NOT_PD = 3  # M(q, theta_d-hat) not positive definite
-STATUS_BASE_ROW = 4  # singular base row of the filter
-STATUS_H_COLLAPSE = 5  # |H_bm-hat| ~ 0
-STATUS_NONFINITE = 6  # u_m not finite
+from ._shared_kernels import (  # noqa: F401 - re-exported for the controller and tests
+    F_A,
+    F_B1,
+    F_B2,
+    F_BETA,
+    F_LO,
+    F_R0,
+    F_RI,
+    F_UP,
+    NS_CENTER,
+    NS_CODE,
+    NS_GAIN,
+    NS_STEP,
+    STATUS_BASE_ROW,
+    STATUS_FUNNEL_B,
+    STATUS_FUNNEL_Z,
+    STATUS_H_COLLAPSE,
+    STATUS_M_NOT_PD,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    _mv,
+    _reference,
+    _spd_det,
+    funnel_terms,
+    pack_funnel,
+    pack_null_space,
+)
 
-# rows of a packed funnel array (8, m)
-F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
 # entries of the packed gains array
 G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
-# entries of the packed null-space array (pack_null_space)
-NS_CODE, NS_GAIN, NS_STEP, NS_CENTER = range(4)
 _H = 1e-30
 _TWO_PI = 2.0 * np.pi
-
-
-def pack_funnel(funnel) -> np.ndarray:
-    """(8, m) array of a :class:`~ffsm_pin.control.funnel.Funnel`'s constants."""
-    return funnel.kernel_table()
-
-
-def pack_null_space(null_space, center, n: int) -> np.ndarray:
-    """(3 + n,) array of a :class:`~ffsm_pin.control.null_space.NullSpace`: objective code,
-    gain, gradient step, joint-centering centre (zeros when unused)."""
-    from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
-
-    out = np.zeros(3 + n)
-    out[NS_CODE] = OBJECTIVE_CODE[null_space.objective]
-    out[NS_GAIN] = null_space.gain
-    out[NS_STEP] = GRADIENT_STEP
-    if center is not None:
-        out[NS_CENTER:] = center
-    return out
-
-
-@njit(cache=True)
-def _mv(A, x):
-    """A @ x for a real matrix A and a real or complex vector x (dtype of x)."""
-    out = np.zeros(A.shape[0], dtype=x.dtype)
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            out[i] += A[i, j] * x[j]
-    return out
 
 
 @njit(cache=True)
@@ -143,38 +130,6 @@ def _jacobian(theta_z, c, s, S, ee_row, collinear):
 
 
 @njit(cache=True)
-def _funnel(f, t, e, identity):
-    """(psi, Phi, exit index or -1)."""
-    m = e.size
-    psi = np.empty(m, dtype=e.dtype)
-    Phi = np.empty(m, dtype=e.dtype)
-    if identity:
-        for i in range(m):
-            psi[i] = e[i]
-            Phi[i] = 1.0
-        return psi, Phi, -1
-    for i in range(m):
-        decay = (f[F_R0, i] - f[F_RI, i]) * np.exp(-f[F_BETA, i] * t)
-        rho = decay + f[F_RI, i]
-        s = e[i] / rho
-        if s.real >= f[F_UP, i] or s.real <= f[F_LO, i]:
-            return psi, Phi, i
-        num = f[F_A, i] + f[F_B1, i] * s
-        den = f[F_A, i] + f[F_B2, i] * s
-        psi[i] = np.log(num / den)  # Eq. (21)
-        Phi[i] = (f[F_B1, i] / num - f[F_B2, i] / den) / rho  # Eq. (22)
-    return psi, Phi, -1
-
-
-@njit(cache=True)
-def _reference(rc, rA, ramp, rfreq, rphase, t, rate):
-    arg = rfreq * t + rphase
-    if rate:
-        return _mv(rA, -ramp * rfreq * np.sin(arg))
-    return rc + _mv(rA, ramp * np.cos(arg))
-
-
-@njit(cache=True)
 def _wrap(d):
     return d - _TWO_PI * np.rint(d.real / _TWO_PI)
 
@@ -204,7 +159,7 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
     err_z[2] = _wrap(err_z[2])
     err_b = np.empty(1, dtype=err_z.dtype)
     err_b[0] = _wrap(q_b - g[G_QBD])
-    psi_z, Phi_z, iz = _funnel(fz, t, err_z, identity)
+    psi_z, Phi_z, iz = funnel_terms(fz, t, err_z, identity)
     w_mc = np.zeros(n, dtype=err_z.dtype)
     sens = np.zeros(n)
     if iz >= 0:
@@ -220,7 +175,7 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
         w_mc = pinv @ (target - Jb * w_b)
         sens = -(pinv @ Jb).real
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
-    psi_b, Phi_b, ib = _funnel(fb, t, err_b, identity)
+    psi_b, Phi_b, ib = funnel_terms(fb, t, err_b, identity)
     if ib >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
     Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
@@ -257,23 +212,6 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_
     Hbm = row[1:].copy()
     U = np.eye(n) - np.outer(Hbm / (Hbm * Hbm).sum(), Hbm)
     return np.ascontiguousarray(J[:, 1:]) @ U
-
-
-@njit(cache=True)
-def _spd_det(G):
-    """det of an SPD matrix by elimination without pivoting (complex-step safe; as
-    ffsm_pin.control.null_space.spd_det)."""
-    G = G.copy()
-    m = G.shape[0]
-    det = G[0, 0] * 1.0
-    for k in range(m):
-        if k > 0:
-            det = det * G[k, k]
-        for i in range(k + 1, m):
-            f = G[i, k] / G[k, k]
-            for j in range(k + 1, m):
-                G[i, j] -= f * G[k, j]
-    return det
 
 
 @njit(cache=True)

@@ -39,15 +39,7 @@ from ..model._spatial_kernels import (
     y_z,
     ym,
 )
-from .fast import (
-    F_A,
-    F_B1,
-    F_B2,
-    F_BETA,
-    F_LO,
-    F_R0,
-    F_RI,
-    F_UP,
+from ._shared_kernels import (
     NS_CENTER,
     NS_CODE,
     NS_GAIN,
@@ -61,6 +53,7 @@ from .fast import (
     STATUS_OK,
     _reference,
     _spd_det,
+    funnel_terms,
     pack_funnel,
     pack_null_space,
 )
@@ -178,37 +171,6 @@ def _l_matrix(s, R0):
     return 0.25 * _cmmt(B, R0)
 
 
-@njit(cache=True)
-def _funnel(f, t, e, identity):
-    """(psi, Phi, exit index or -1) of Eqs. (20)-(22), complex; the exit index is the
-    component nearest to (or farthest beyond) its bound, as control/funnel.py reports it."""
-    m = e.size
-    psi = np.empty(m, dtype=np.complex128)
-    Phi = np.empty(m, dtype=np.complex128)
-    if identity:
-        for i in range(m):
-            psi[i] = e[i]
-            Phi[i] = 1.0
-        return psi, Phi, -1
-    rho = np.empty(m, dtype=np.complex128)
-    s = np.empty(m, dtype=np.complex128)
-    worst, idx = np.inf, -1
-    for i in range(m):
-        rho[i] = (f[F_R0, i] - f[F_RI, i]) * np.exp(-f[F_BETA, i] * t) + f[F_RI, i]  # Eq. (18)
-        s[i] = e[i] / rho[i]
-        margin = min(f[F_UP, i] - s[i].real, s[i].real - f[F_LO, i])
-        if margin < worst:
-            worst, idx = margin, i
-    if worst <= 0:
-        return psi, Phi, idx
-    for i in range(m):
-        num = f[F_A, i] + f[F_B1, i] * s[i]
-        den = f[F_A, i] + f[F_B2, i] * s[i]
-        psi[i] = np.log(num / den)  # Eq. (21)
-        Phi[i] = (f[F_B1, i] / num - f[F_B2, i] / den) / rho[i]  # Eq. (22)
-    return psi, Phi, -1
-
-
 # ---------------------------------------------------------------------- kinematic level
 @njit(cache=True)
 def _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
@@ -288,7 +250,7 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
         err_b[i] = q_b[i] - g[G_QBD + i]  # Eq. (16), MRP components
     w_mc = np.zeros(n, dtype=np.complex128)
     sens = np.zeros((n, 3))
-    psi_z, Phi_z, iz = _funnel(fz, t, err_z, identity)
+    psi_z, Phi_z, iz = funnel_terms(fz, t, err_z, identity)
     if iz >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
     J, Hbb, Hbm, R0 = _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
@@ -302,7 +264,7 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
         w_mc = _cmv(pinv, target - _cmv(Jb, w_b))
         sens = np.ascontiguousarray(-_cmm(pinv, Jb).real)
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
-    psi_b, Phi_b, ib = _funnel(fb, t, err_b, identity)
+    psi_b, Phi_b, ib = funnel_terms(fb, t, err_b, identity)
     if ib >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
     Hp, U, hnorm = _projector(Hbm)

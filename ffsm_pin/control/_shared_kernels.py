@@ -1,0 +1,113 @@
+"""Compiled pieces shared by the planar and the spatial control periods.
+
+The status codes a period returns, the packed layouts of a funnel and of the null-space
+option, and the kernels both geometries use the same way: the funnel transformation
+(Eqs. 18-22), the Fourier reference and the determinant of an SPD matrix. Each is checked
+against its numpy reference through the periods (``tests/control/test_fast*.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+STATUS_OK = 0
+STATUS_FUNNEL_Z = 1  # end-effector error left its funnel
+STATUS_FUNNEL_B = 2  # attitude error left its funnel
+STATUS_M_NOT_PD = 3  # M(q, theta_d-hat) not positive definite
+STATUS_BASE_ROW = 4  # singular base row of the filter
+STATUS_H_COLLAPSE = 5  # |H_bm-hat| ~ 0
+STATUS_NONFINITE = 6  # u_m not finite
+
+# rows of a packed funnel array (8, m)
+F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
+# entries of the packed null-space array (pack_null_space)
+NS_CODE, NS_GAIN, NS_STEP, NS_CENTER = range(4)
+
+
+def pack_funnel(funnel) -> np.ndarray:
+    """(8, m) array of a :class:`~ffsm_pin.control.funnel.Funnel`'s constants."""
+    return funnel.kernel_table()
+
+
+def pack_null_space(null_space, center, n: int) -> np.ndarray:
+    """(3 + n,) array of a :class:`~ffsm_pin.control.null_space.NullSpace`: objective code,
+    gain, gradient step, joint-centering centre (zeros when unused)."""
+    from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
+
+    out = np.zeros(3 + n)
+    out[NS_CODE] = OBJECTIVE_CODE[null_space.objective]
+    out[NS_GAIN] = null_space.gain
+    out[NS_STEP] = GRADIENT_STEP
+    if center is not None:
+        out[NS_CENTER:] = center
+    return out
+
+
+@njit(cache=True)
+def _mv(A, x):
+    """A @ x for a real matrix A and a real or complex vector x (dtype of x)."""
+    out = np.zeros(A.shape[0], dtype=x.dtype)
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            out[i] += A[i, j] * x[j]
+    return out
+
+
+@njit(cache=True)
+def funnel_terms(f, t, e, identity):
+    """(psi, Phi, exit index or -1) of Eqs. (18)-(22) for the packed funnel ``f`` (see
+    :func:`pack_funnel`) at time ``t`` [s], in the dtype of the error ``e`` (real, or complex
+    for a complex step in ``t`` or the state). The exit index is the component nearest to
+    (or farthest beyond) its bound, as :class:`~ffsm_pin.control.funnel.Funnel` reports it;
+    ``identity`` gives psi = e, Phi = 1 (no prescribed performance)."""
+    m = e.size
+    psi = np.empty(m, dtype=e.dtype)
+    Phi = np.empty(m, dtype=e.dtype)
+    if identity:
+        for i in range(m):
+            psi[i] = e[i]
+            Phi[i] = 1.0
+        return psi, Phi, -1
+    rho = np.empty(m, dtype=e.dtype)  # complex when t is complex-stepped
+    s = np.empty(m, dtype=e.dtype)
+    worst, idx = np.inf, -1
+    for i in range(m):
+        rho[i] = (f[F_R0, i] - f[F_RI, i]) * np.exp(-f[F_BETA, i] * t) + f[F_RI, i]  # Eq. (18)
+        s[i] = e[i] / rho[i]
+        margin = min(f[F_UP, i] - s[i].real, s[i].real - f[F_LO, i])
+        if margin < worst:
+            worst, idx = margin, i
+    if worst <= 0:
+        return psi, Phi, idx
+    for i in range(m):
+        num = f[F_A, i] + f[F_B1, i] * s[i]
+        den = f[F_A, i] + f[F_B2, i] * s[i]
+        psi[i] = np.log(num / den)  # Eq. (21)
+        Phi[i] = (f[F_B1, i] / num - f[F_B2, i] / den) / rho[i]  # Eq. (22)
+    return psi, Phi, -1
+
+
+@njit(cache=True)
+def _reference(rc, rA, ramp, rfreq, rphase, t, rate):
+    arg = rfreq * t + rphase
+    if rate:
+        return _mv(rA, -ramp * rfreq * np.sin(arg))
+    return rc + _mv(rA, ramp * np.cos(arg))
+
+
+@njit(cache=True)
+def _spd_det(G):
+    """det of an SPD matrix by elimination without pivoting (complex-step safe; as
+    ffsm_pin.control.null_space.spd_det)."""
+    G = G.copy()
+    m = G.shape[0]
+    det = G[0, 0] * 1.0
+    for k in range(m):
+        if k > 0:
+            det = det * G[k, k]
+        for i in range(k + 1, m):
+            f = G[i, k] / G[k, k]
+            for j in range(k + 1, m):
+                G[i, j] -= f * G[k, j]
+    return det
