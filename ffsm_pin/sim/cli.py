@@ -185,7 +185,7 @@ def _check(scenarios: list[Scenario]) -> int:
         fmt = lambda v, u="": "n/a" if v is None else f"{v:.4g}{u}"  # noqa: E731
         print(
             f"{sc.name}: sigma_min(0) = {fmt(rep.sigma_min)} (threshold {fmt(rep.threshold)}), "
-            f"reach horizon = {'none' if rep.reach_horizon is None else fmt(rep.reach_horizon, ' s')}"
+            f"reach horizon = {fmt(rep.reach_horizon, ' s') if rep.reach_horizon else 'none'}"
             f", base attitude error = {fmt(rep.attitude_error, ' rad')} "
             f"(authority {fmt(rep.authority, ' rad')})"
         )
