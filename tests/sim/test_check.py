@@ -33,7 +33,7 @@ def test_builtin_passes(case, capsys, tmp_path, monkeypatch):
 @pytest.mark.parametrize(
     ("old", "new", "reason"),
     [
-        ("rho_z0 = [1.0, 1.0, 0.2]", "rho_z0 = [0.001, 0.001, 0.001]", "funnel"),
+        ("c = 3.9,", "c = 5.9,", "not strictly inside its funnel"),
         # far away, with a funnel wide enough to start inside it: only the reach speaks
         (
             "c = 3.9,|rho_z0 = [1.0, 1.0, 0.2]",
@@ -58,3 +58,13 @@ def test_doomed_exits_2(old, new, reason, tmp_path, capsys, monkeypatch):
     assert lines and any(reason in ln for ln in lines), err
     assert "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["doomed.toml"]  # no run folder
+
+
+def test_funnel_error_names_both_fixes(tmp_path, capsys):
+    path = _doomed(
+        tmp_path, "rho_z0 = [1.0, 1.0, 0.2]|c = 3.9,", "rho_z0 = [1.0, 1.0, 0.2]|c = 5.9,"
+    )
+    assert main(["--check", "--scenario", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "increase controller.funnel.rho_z0" in err
+    assert "move reference.ee" in err and "z_e(0) = [" in err
