@@ -75,7 +75,8 @@ def initial_state(
     for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
         if len(vec) != n:
             raise ScenarioError(
-                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints"
+                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
+                f"({', '.join(list(model.names)[-n:])})"
             )
     q = robot.configuration(init.base_pose, init.joints)
     if init.com_at_origin:

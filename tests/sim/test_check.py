@@ -68,3 +68,23 @@ def test_funnel_error_names_both_fixes(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "increase controller.funnel.rho_z0" in err
     assert "move reference.ee" in err and "z_e(0) = [" in err
+
+
+def test_short_joints_blames_joints(tmp_path, capsys):
+    path = _doomed(
+        tmp_path,
+        "joints = [1.0471975511965976, -1.0471975511965976, 1.0471975511965976, "
+        "-1.0471975511965976]",
+        "joints = [1.0, -1.0, 1.0]",
+    )
+    assert main(["--check", "--scenario", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "initial.joints has 3" in err and "has 4 joints" in err
+    assert "joint_rates" not in err
+
+
+def test_short_joint_rates_blames_joint_rates(tmp_path, capsys):
+    path = _doomed(tmp_path, "joint_rates = [0.0, 0.0, 0.0, 0.0]", "joint_rates = [0.0, 0.0]")
+    assert main(["--check", "--scenario", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "initial.joint_rates has 2" in err and "has 4 joints" in err
