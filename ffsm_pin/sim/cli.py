@@ -22,6 +22,7 @@ import numpy as np
 
 from .._cli import Parser, UsageError, fail, positive_float, positive_int
 from ..errors import FfsmError
+from .compile_note import note_compilation
 from .result import RunResult
 from .scenario import Scenario
 from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
@@ -142,6 +143,7 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     from .run import prepare, simulate  # heavy imports only once the command line is fine
 
     scenarios = [_override(sc, args) for sc in _scenarios(args)]
+    note_compilation(args.quiet)
     if args.check:
         return _check(scenarios)
     setups = []
