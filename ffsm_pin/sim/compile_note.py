@@ -21,7 +21,8 @@ def cache_is_cold() -> bool:
     control = Path(ffsm_pin.__file__).resolve().parent / "control"
     places = [control / "__pycache__"]
     cache = os.environ.get("NUMBA_CACHE_DIR")
-    if cache:
+    if cache:  # numba then uses this folder only
+        places = []
         # numba's folder for a source directory d: <basename(d)>_<sha1(d)>
         digest = hashlib.sha1(str(control).encode()).hexdigest()
         places.append(Path(cache) / f"control_{digest}")
