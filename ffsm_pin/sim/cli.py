@@ -22,6 +22,7 @@ import numpy as np
 
 from .._cli import Parser, UsageError, fail, positive_float, positive_int
 from ..errors import FfsmError
+from .compile_note import note_compilation
 from .result import RunResult
 from .scenario import Scenario
 from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
@@ -89,6 +90,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=1,
         help="record every N-th step (default 1: every step)",
     )
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="dry run: build the run, print what decides whether it can work, simulate nothing "
+        "(exit 2 with one error: line per reason)",
+    )
     p.add_argument("--no-plots", action="store_true", help="do not draw the figures")
     p.add_argument("--no-html", action="store_true", help="do not write replay.html")
     p.add_argument(
@@ -136,6 +143,9 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     from .run import prepare, simulate  # heavy imports only once the command line is fine
 
     scenarios = [_override(sc, args) for sc in _scenarios(args)]
+    note_compilation(args.quiet)
+    if args.check:
+        return _check(scenarios)
     setups = []
     for sc in scenarios:  # every bad input before any simulation
         console.context = sc.name if len(scenarios) > 1 else ""
@@ -164,6 +174,25 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     status = EXIT_OK if all(r.completed for r in results) else EXIT_STOPPED
     if args.meshcat:
         _serve(setups[0].robot, results)
+    return status
+
+
+def _check(scenarios: list[Scenario]) -> int:
+    """``--check``: the t = 0 conditions of each scenario; writes nothing."""
+    from .check import check
+
+    status = EXIT_OK
+    for sc in scenarios:
+        rep = check(sc)
+        fmt = lambda v, u="": "n/a" if v is None else f"{v:.4g}{u}"  # noqa: E731
+        print(
+            f"{sc.name}: sigma_min(0) = {fmt(rep.sigma_min)} (threshold {fmt(rep.threshold)}), "
+            f"reach horizon = {fmt(rep.reach_horizon, ' s') if rep.reach_horizon else 'none'}"
+            f", base attitude error = {fmt(rep.attitude_error, ' rad')} "
+            f"(authority {fmt(rep.authority, ' rad')})"
+        )
+        for problem in rep.problems:
+            status = fail(problem)
     return status
 
 

@@ -69,7 +69,8 @@ def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.
     for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
         if len(vec) != n:
             raise ScenarioError(
-                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints"
+                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
+                f"({', '.join(list(model.names)[-n:])})"
             )
     q = robot.configuration(init.base_pose, init.joints)
     if init.com_at_origin:
@@ -354,11 +355,18 @@ def prepare(scenario: Scenario) -> Setup:
     ):
         funnel = Funnel(fp, err)
         if not funnel.inside(0.0, err):
+            z0 = np.round(np.atleast_1d(meas0.z_e), 4).tolist()
+            qb0 = np.round(np.atleast_1d(meas0.q_b), 4).tolist()
+            hint = (
+                f"move reference.ee (c terms) toward the initial end-effector pose z_e(0) = {z0}"
+                if key == "rho_z0"
+                else f"set reference.base_attitude near q_b(0) = {qb0}"
+            )
             lo, hi = funnel.bounds(0.0)
             raise ScenarioError(
                 f"initial {label} error {np.round(err, 4).tolist()} is not strictly inside its "
                 f"funnel at t = 0 (bounds {np.round(lo, 4).tolist()} .. "
-                f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key}"
+                f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key} or {hint}"
             )
     controller = CoordinatedController(
         model,

@@ -192,9 +192,8 @@ class InitialModel(_Table):
 
     @model_validator(mode="after")
     def rates_and_attitude(self):
-        n, rates = len(self.joints), self.joint_rates
-        if rates is not None and len(rates) != n:
-            fail(("joint_rates",), f": {len(rates)} values, but initial.joints has {n}")
+        # the lengths of joints and joint_rates are checked against the robot's joint count
+        # where the robot is known (run.initial_state), so the list that is wrong is blamed
         if self.base_attitude_rpy is not None and self.base_attitude_quaternion is not None:
             fail(("base_attitude_rpy",), " and initial.base_attitude_quaternion: give one of them")
         return self

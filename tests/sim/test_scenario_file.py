@@ -203,7 +203,6 @@ def test_misspelt_key_in_reference_entry():
         ("initial", "com_at_origin", 1, ("initial.com_at_origin", "true or false")),
         ("initial", "base_pose", [0, 0], ("initial.base_pose", "2 values, expected 3")),
         ("initial", "joints", [1, "a", 2, 3], ("initial.joints", "list of numbers")),
-        ("initial", "joint_rates", [0, 0, 0], ("initial.joint_rates", "initial.joints has 4")),
         ("initial", "base_twist", [0, 0], ("initial.base_twist", "expected 3")),
         ("robot", "base", "spherical", ("robot.base", "not supported", "'free-flyer'")),
         ("robot", "urdf", 3, ("robot.urdf", "expected a string")),
