@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import sys
 from importlib import resources
 from pathlib import Path
 
 import pytest
 
+from ffsm_pin.planar_urdf import chain_from_table, write_urdf
+from ffsm_pin.robot import urdf_dir
 from ffsm_pin.sim.cli import main
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
 
 SCEN = Path(str(resources.files("ffsm_pin.sim") / "scenarios"))
 
@@ -88,3 +96,39 @@ def test_short_joint_rates_blames_joint_rates(tmp_path, capsys):
     assert main(["--check", "--scenario", str(path)]) == 2
     err = capsys.readouterr().err
     assert "initial.joint_rates has 2" in err and "has 4 joints" in err
+
+
+def test_too_few_joints_exits_2(tmp_path, capsys):
+    """A 3-joint arm cannot serve the planar pose task (3) plus the base attitude (1)."""
+    text = (SCEN / "case1.toml").read_text()
+    table = tomllib.loads((urdf_dir() / "ffsm_planar4.toml").read_text())
+    table["links"] = table["links"][:3]
+    write_urdf(chain_from_table(table), tmp_path / "arm3.urdf")
+    joints = "joints = [1.0471975511965976, -1.0471975511965976, 1.0471975511965976, "
+    joints += "-1.0471975511965976]"
+    assert joints in text and 'urdf = "ffsm_planar4.urdf"' in text
+    text = text.replace(joints, "joints = [1.0, -1.0, 1.0]")
+    text = text.replace("joint_rates = [0.0, 0.0, 0.0, 0.0]", "joint_rates = [0.0, 0.0, 0.0]")
+    text = text.replace('urdf = "ffsm_planar4.urdf"', 'urdf = "arm3.urdf"')
+    path = tmp_path / "doomed.toml"
+    path.write_text(text)
+    assert main(["--check", "--scenario", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "needs at least 4 manipulator joints" in err and "the robot has 3" in err, err
+    assert "Traceback" not in err
+
+
+def test_attitude_beyond_authority_exits_2(tmp_path, capsys):
+    """The shipped spatial case on a bus 1000 times stiffer in rotation (same mass, so the
+    initial pose and errors are unchanged): the arm can no longer buy the 12 degree
+    correction."""
+    text = (SCEN / "spatial.toml").read_text()
+    old = "inertia = [3.0, 3.24, 3.48, 0.0, 0.0, 0.0]"
+    assert old in text
+    text = text.replace(old, "inertia = [3000.0, 3240.0, 3480.0, 0.0, 0.0, 0.0]")
+    path = tmp_path / "doomed.toml"
+    path.write_text(text)
+    assert main(["--check", "--scenario", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert any("authority" in ln for ln in err.splitlines() if ln.startswith("error:")), err
+    assert main(["--check", "--case", "spatial"]) == 0  # the shipped bus passes
