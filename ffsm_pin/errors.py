@@ -47,6 +47,10 @@ class ScenarioError(FfsmError, ValueError):
     """A scenario file that is missing, malformed or inconsistent with its robot."""
 
 
+class StorageError(FfsmError, ValueError):
+    """A run whose recording would not fit in the memory or on the disk there is."""
+
+
 class SimulationError(FfsmError, RuntimeError):
     """A run that had to stop: funnel left, singular arm, non-finite numbers.
 

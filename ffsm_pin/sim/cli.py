@@ -140,7 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 # ------------------------------------------------------------------------------ the runs
 def _run(args: argparse.Namespace, console: Console) -> int:
-    from .run import prepare, simulate  # heavy imports only once the command line is fine
+    from .run import prepare, recording_size, simulate  # heavy imports: command line is fine
+    from .storage import check_storage
 
     scenarios = [_override(sc, args) for sc in _scenarios(args)]
     note_compilation(args.quiet)
@@ -150,6 +151,8 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     for sc in scenarios:  # every bad input before any simulation
         console.context = sc.name if len(scenarios) > 1 else ""
         setups.append(prepare(sc))
+        # memory and disk for the recording, before any folder is made or anything simulated
+        check_storage(*recording_size(setups[-1]), args.record_every, args.out or "runs")
     root = _out_dir(args.out)
     compare = len(setups) > 1
     results: list[RunResult] = []

@@ -30,6 +30,7 @@ from ..robot import Robot, load_robot
 from .plant import Plant
 from .result import RunResult
 from .scenario import InitialCondition, Scenario
+from .storage import check_storage, rows_recorded
 
 
 class ReachWarning(UserWarning):
@@ -294,11 +295,19 @@ def _q_b(x):
     return x[0] if len(x) == 1 else x
 
 
+REACH_SAMPLES = 100_000  # most samples of the reach scan; a longer run is scanned coarser
+
+
 def reach_horizon(model: ReducedModel, theta_z, com0, reference, duration: float, dt=0.01):
     """First time at which the reference position is farther from the (drifting) system CoM
-    than the arm can reach (sum of |V_k|), or None."""
+    than the arm can reach (sum of |V_k|), or None.
+
+    Sampled every ``dt`` [s], or every ``duration / REACH_SAMPLES`` for runs longer than
+    ``REACH_SAMPLES * dt`` (1000 s by default), so that the scan stays cheap however long the
+    run."""
     m2 = model.m2
     reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))
+    dt = max(dt, duration / REACH_SAMPLES)
     ts = np.arange(0.0, duration + dt, dt)
     com = np.asarray(com0)[None, :m2] + ts[:, None] * np.asarray(theta_z[:m2])[None, :]
     ref = np.array([reference.ee_pose(t)[:m2] for t in ts])
@@ -399,23 +408,38 @@ def prepare(scenario: Scenario) -> Setup:
 
 
 # ---------------------------------------------------------------------- simulate
+def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
+    """Shape of one recorded row of every per-step signal (the recorder's arrays)."""
+    m = setup.model
+    nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
+    m3, nt = m.m3, setup.controller.n_task
+    planar = m3 == 1
+    nw = n + m3
+    # per-step signals; rho, the funnel bounds and the reference depend on t only and
+    # are added by finish()
+    return {
+        "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
+        "err_z": (nt,), "q_b": (m3,), "err_b": (m3,), "P": (m.m2,),
+        "L": () if planar else (3,), "F_r": () if planar else (3,),
+        "w_tilde": (nw,), "e": (nw,), "theta_z_hat": (m.n_z,),
+        "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (nt,), "w_mc": (n,),
+        "w_hat": (nw,), "sigma_min": (), "damping": (),
+    }  # fmt: skip
+
+
+def recording_size(setup: Setup) -> tuple[int, int]:
+    """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
+    :meth:`_Recorder.finish` adds (funnels, their bounds, the reference)."""
+    sc = setup.scenario
+    steps = int(round(sc.duration / sc.dt))
+    per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
+    m3, nt = setup.model.m3, setup.controller.n_task
+    return steps, 8 * (per_step + 3 * m3 + 5 * nt)
+
+
 class _Recorder:
     def __init__(self, n_samples: int, setup: Setup):
-        m = setup.model
-        nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
-        m3, nt = m.m3, setup.controller.n_task
-        planar = m3 == 1
-        nw = n + m3
-        # per-step signals; rho, the funnel bounds and the reference depend on t only and
-        # are added by finish()
-        shapes = {
-            "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
-            "err_z": (nt,), "q_b": (m3,), "err_b": (m3,), "P": (m.m2,),
-            "L": () if planar else (3,), "F_r": () if planar else (3,),
-            "w_tilde": (nw,), "e": (nw,), "theta_z_hat": (m.n_z,),
-            "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (nt,), "w_mc": (n,),
-            "w_hat": (nw,), "sigma_min": (), "damping": (),
-        }  # fmt: skip
+        shapes = recorder_shapes(setup)
         self.arrays = {k: np.full((n_samples, *s), np.nan) for k, s in shapes.items()}
         self.k = 0
 
@@ -489,11 +513,12 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     dt, duration = sc.dt, sc.duration
     n_steps = int(round(duration / dt))
     record_every = max(1, int(record_every))
+    check_storage(*recording_size(setup), record_every)  # before allocating anything
     ctrl = setup.controller
     model = setup.model
     plant = Plant(setup.robot, integrator=sc.integrator)
     sensor = Sensor(setup.robot, model, full_model=not ctrl.adaptive)  # Pinocchio M, C w
-    rec = _Recorder(n_steps // record_every + 2, setup)
+    rec = _Recorder(rows_recorded(n_steps, record_every), setup)
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
