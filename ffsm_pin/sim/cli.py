@@ -28,6 +28,8 @@ from .scenario import Scenario
 from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 2, 3, 130
+# figures and replay.html of a longer run are drawn from this many evenly spaced rows
+PLOT_ROWS = 100_000
 COMPARE_CASES = ("case1", "case2", "case3")
 # --compare [SET]: the paper's planar cases 1-3, or their spatial counterparts
 COMPARE_SETS = {
@@ -151,8 +153,10 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     for sc in scenarios:  # every bad input before any simulation
         console.context = sc.name if len(scenarios) > 1 else ""
         setups.append(prepare(sc))
-        # memory and disk for the recording, before any folder is made or anything simulated
-        check_storage(*recording_size(setups[-1]), args.record_every, args.out or "runs")
+        # disk for the recording (spooled rows and trajectory.npz), before any folder is made
+        # or anything simulated
+        size = recording_size(setups[-1])
+        check_storage(*size, args.record_every, args.out or "runs", copies=2)
     root = _out_dir(args.out)
     compare = len(setups) > 1
     results: list[RunResult] = []
@@ -161,20 +165,27 @@ def _run(args: argparse.Namespace, console: Console) -> int:
         folder = root / _safe(sc.name) if compare else root
         console.context = sc.name if compare else ""
         console.start(sc.name, sc.duration, sc.dt)
-        result = simulate(setup, progress=console.progress, record_every=args.record_every)
+        result = simulate(
+            setup, progress=console.progress, record_every=args.record_every, spool_dir=root
+        )
         console.clear()
         write_outputs(folder, sc, setup.robot, result, args.no_plots, args.no_html, console)
         results.append(result)
+        if result.stop_cause == "interrupted":  # Ctrl-C: what was recorded is written; stop
+            break
     if compare and not args.no_plots:
         _guarded(console, "overlaid figures", _figures, results, root)
     if console.quiet:
         print(root)
     else:
-        print(result_table(results, [root / _safe(s.name) if compare else root for s in scenarios]))
+        folders = [root / _safe(r.scenario_name) if compare else root for r in results]
+        print(result_table(results, folders))
     for res in results:
         if not res.completed:
             print(f"{res.scenario_name}: {stop_line(res)}", file=sys.stderr)
     status = EXIT_OK if all(r.completed for r in results) else EXIT_STOPPED
+    if any(r.stop_cause == "interrupted" for r in results):
+        return EXIT_INTERRUPTED  # no replay server after a Ctrl-C
     if args.meshcat:
         _serve(setups[0].robot, results)
     return status
@@ -244,13 +255,14 @@ def write_outputs(
 def _figures(results, folder) -> list[Path]:
     from .figures import write_figures  # matplotlib only when figures are drawn
 
-    return write_figures(results, folder)  # labels and thresholds from the results
+    # labels and thresholds from the results; a long run drawn from evenly spaced rows
+    return write_figures([r.thinned(PLOT_ROWS) for r in results], folder)
 
 
 def _replay(robot, result, path) -> Path:
     from .replay import write_replay_html
 
-    return write_replay_html(robot, result, path)
+    return write_replay_html(robot, result.thinned(PLOT_ROWS), path)
 
 
 def _guarded(console: Console, what: str, fn, *args):

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .recorder import Signals, Thinned, write_npz
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
@@ -29,6 +33,26 @@ EXTRA_KEYS = (
 
 
 @dataclass
+class _Scan:
+    """Reductions over every recorded row (:meth:`RunResult._scan`)."""
+
+    outside: dict[str, int | None]  # first row outside funnel b / z, None if none
+    rows: int = 0
+    drift_P: float = 0.0
+    drift_L: float = 0.0
+    max_u: float = 0.0
+    min_sigma: float | None = None
+    damped: int = 0  # rows with damping > 0
+    max_F_r: float = 0.0
+
+
+def _inside(s: Mapping[str, np.ndarray], which: str) -> np.ndarray:
+    """Per row: every component of err_<which> strictly inside its funnel bounds."""
+    err = s[f"err_{which}"]
+    return np.all((err > s[f"bound_{which}_lower"]) & (err < s[f"bound_{which}_upper"]), 1)
+
+
+@dataclass
 class RunResult:
     """Signals of one run and what happened.
 
@@ -44,7 +68,7 @@ class RunResult:
     wall_time_s: float
     completed: bool
     stop_reason: str | None
-    signals: dict[str, np.ndarray]
+    signals: Mapping[str, np.ndarray]
     scenario_name: str = "scenario"
     stop_time: float | None = None
     stop_cause: str | None = None  # "funnel" | "singular" | "nonfinite" | "estimate"
@@ -56,6 +80,7 @@ class RunResult:
     rhoinf_z: tuple[float, ...] | None = None
     damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
     description: str = ""
+    _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
         return self.signals[key]
@@ -64,14 +89,12 @@ class RunResult:
     @property
     def funnel_inside_b(self) -> np.ndarray:
         """Per sample: every attitude error component strictly inside Eq. (16)."""
-        s = self.signals
-        return np.all((s["err_b"] > s["bound_b_lower"]) & (s["err_b"] < s["bound_b_upper"]), 1)
+        return _inside(self.signals, "b")
 
     @property
     def funnel_inside_z(self) -> np.ndarray:
         """Per sample: every end-effector error component strictly inside Eq. (17)."""
-        s = self.signals
-        return np.all((s["err_z"] > s["bound_z_lower"]) & (s["err_z"] < s["bound_z_upper"]), 1)
+        return _inside(self.signals, "z")
 
     def funnel_kept(self, which: str) -> bool:
         """Funnel ``which`` ("b" or "z") held over the whole run.
@@ -79,25 +102,28 @@ class RunResult:
         A run stopped because that funnel was left never records the sample outside it (the
         transformation (21) is undefined there), so the stop itself counts as a violation.
         """
-        inside = self.funnel_inside_b if which == "b" else self.funnel_inside_z
-        return bool(inside.all()) and self.stop_funnel != which
+        return self._scan().outside[which] is None and self.stop_funnel != which
 
     def first_violation_time(self) -> float | None:
         """First recorded sample outside a funnel, or the time of a funnel stop; None if
         neither happened [s]."""
-        bad = ~(self.funnel_inside_b & self.funnel_inside_z)
-        if bad.any():
-            return float(self.signals["t"][np.argmax(bad)])
+        first = [i for i in self._scan().outside.values() if i is not None]
+        if first:
+            return float(self.signals["t"][min(first)])
         return self.stop_time if self.stop_funnel is not None else None
 
     def settle_time(self, which: str, rhoinf) -> float | None:
         """Time after which |err| stays inside rho_inf (all components), None if never."""
-        err = np.abs(self.signals[f"err_{which}"])
-        inside = np.all(err < np.asarray(rhoinf)[None, :], axis=1)
-        if inside.size == 0 or not inside[-1]:
+        n, last_out = 0, None  # rows seen, last row with a component outside rho_inf
+        for block in self.signals_blocks([f"err_{which}"]):
+            err = np.abs(block[f"err_{which}"])
+            out = np.flatnonzero(~np.all(err < np.asarray(rhoinf)[None, :], axis=1))
+            if out.size:
+                last_out = n + int(out[-1])
+            n += len(err)
+        if n == 0 or last_out == n - 1:
             return None
-        outside = np.flatnonzero(~inside)
-        return 0.0 if outside.size == 0 else float(self.signals["t"][outside[-1] + 1])
+        return 0.0 if last_out is None else float(self.signals["t"][last_out + 1])
 
     def _settle(self, which: str, rhoinf) -> float | None:
         return (
@@ -108,18 +134,55 @@ class RunResult:
 
     def drift(self) -> tuple[float, float]:
         """(max |P - P0|, max |L - L0|) over the run [kg m/s, kg m^2/s]."""
-        P, L = self.signals["P"], self.signals["L"]
-        return (
-            float(np.max(np.linalg.norm(P - P[0], axis=1))) if len(P) else 0.0,
-            float(np.max(np.abs(L - L[0]))) if len(L) else 0.0,
-        )
+        scan = self._scan()
+        return scan.drift_P, scan.drift_L
+
+    def signals_blocks(self, keys) -> Iterator[dict[str, np.ndarray]]:
+        """Consecutive row blocks of the per-row signals ``keys`` (all rows in one block
+        unless the recording was spilled to disk, ``ffsm_pin.sim.recorder``)."""
+        if isinstance(self.signals, Signals):
+            yield from self.signals.blocks(keys)
+        else:
+            yield {k: self.signals[k] for k in keys}
+
+    def _scan(self) -> _Scan:
+        """The reductions over every row the summary needs, in one pass over the blocks."""
+        if self._scanned is not None:
+            return self._scanned
+        keys = ["err_b", "err_z", "bound_b_lower", "bound_b_upper", "bound_z_lower"]
+        keys += ["bound_z_upper", "u_m", "P", "L", "sigma_min", "damping", "F_r"]
+        scan = _Scan(outside={"b": None, "z": None})
+        P0 = L0 = None
+        n = 0
+        for b in self.signals_blocks(keys):
+            rows = len(b["u_m"])
+            if rows == 0:
+                continue
+            for which in ("b", "z"):
+                bad = np.flatnonzero(~_inside(b, which))
+                if bad.size and scan.outside[which] is None:
+                    scan.outside[which] = n + int(bad[0])
+            if P0 is None:
+                P0, L0 = b["P"][0], b["L"][0]
+            # np.max / np.min, not max(): a NaN propagates as it would over the whole run
+            scan.drift_P = _max(scan.drift_P, np.linalg.norm(b["P"] - P0, axis=1))
+            scan.drift_L = _max(scan.drift_L, np.abs(b["L"] - L0))
+            scan.max_u = _max(scan.max_u, np.linalg.norm(b["u_m"], axis=1))
+            low = float(np.min(b["sigma_min"]))
+            scan.min_sigma = low if scan.min_sigma is None else float(np.min((scan.min_sigma, low)))
+            scan.damped += int(np.count_nonzero(b["damping"] > 0))
+            scan.max_F_r = _max(scan.max_F_r, np.abs(b["F_r"]))
+            n += rows
+        scan.rows = n
+        self._scanned = scan
+        return scan
 
     def summary(self) -> dict:
         """The summary.json content (docs/cli.md keys and a few more)."""
         s = self.signals
-        drift_P, drift_L = self.drift()
+        scan = self._scan()
+        drift_P, drift_L = scan.drift_P, scan.drift_L
         n = len(s["t"])
-        u_norm = np.linalg.norm(s["u_m"], axis=1) if n else np.zeros(0)
         out = {
             "scheme": self.scheme,
             "robot": self.robot,
@@ -138,7 +201,7 @@ class RunResult:
             "first_violation_t": self.first_violation_time(),
             "final_err_b": s["err_b"][-1].tolist() if n else [],
             "final_err_z": s["err_z"][-1].tolist() if n else [],
-            "max_abs_u": float(u_norm.max()) if n else 0.0,
+            "max_abs_u": scan.max_u,
             "drift_P": drift_P,
             "drift_L": drift_L,
             "settle_time_b": self._settle("b", self.rhoinf_b),
@@ -148,25 +211,39 @@ class RunResult:
             "stop_time": self.stop_time,
             "stop_cause": self.stop_cause,
             "stop_funnel": self.stop_funnel,
-            "min_sigma": float(np.min(s["sigma_min"])) if n else None,
+            "min_sigma": scan.min_sigma,
             "damping_threshold": self.damping_threshold,
-            "damped_fraction": float(np.mean(s["damping"] > 0)) if n else 0.0,
-            "max_abs_F_r": float(np.max(np.abs(s["F_r"]))) if n else 0.0,
+            "damped_fraction": scan.damped / n if n else 0.0,
+            "max_abs_F_r": scan.max_F_r,
             "final_theta_z_error": _final_norm(s["theta_z_hat"], s["theta_z"]),
             "final_theta_d_error": _final_norm(s["theta_d_hat"], s["theta_d"]),
             "events": list(self.events),
         }
         return out
 
+    def thinned(self, max_rows: int) -> RunResult:
+        """This result with at most about ``max_rows`` evenly spaced rows (and the last one)
+        of every per-row signal, for figures and replays; ``self`` when it has no more."""
+        n = len(self.signals["t"])
+        if n <= max_rows:
+            return self
+        step = -(-(n - 1) // max(1, max_rows - 1))  # ceil: rows 0, step, ... and n - 1
+        return dataclasses.replace(self, signals=Thinned(self.signals, step, TRUTH_KEYS))
+
     # ---------------------------------------------------------------- files
     def save(self, out_dir: str | Path) -> dict:
         """Write ``trajectory.npz`` and ``summary.json`` into ``out_dir``; return the summary."""
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(out_dir / "trajectory.npz", **self.signals)
+        write_npz(out_dir / "trajectory.npz", self.signals)
         summary = self.summary()
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         return summary
+
+
+def _max(so_far: float, values: np.ndarray) -> float:
+    """max(so_far, max(values)), NaN-propagating as ``np.max``."""
+    return float(np.max((so_far, np.max(values))))
 
 
 def _final_norm(hat: np.ndarray, truth: np.ndarray) -> float | None:

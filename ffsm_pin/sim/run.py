@@ -10,9 +10,11 @@ reason, and everything recorded so far.
 from __future__ import annotations
 
 import math
+import tempfile
 import time
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -28,6 +30,7 @@ from ..model._state_planar import base_twist_to_local
 from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..robot import Robot, load_robot
 from .plant import Plant
+from .recorder import Recorder, extend
 from .result import RunResult
 from .scenario import InitialCondition, Scenario
 from .storage import check_storage, rows_recorded
@@ -437,25 +440,22 @@ def recording_size(setup: Setup) -> tuple[int, int]:
     return steps, 8 * (per_step + 3 * m3 + 5 * nt)
 
 
-class _Recorder:
-    def __init__(self, n_samples: int, setup: Setup):
-        shapes = recorder_shapes(setup)
-        self.arrays = {k: np.full((n_samples, *s), np.nan) for k, s in shapes.items()}
-        self.k = 0
+def _time_signals(setup: Setup):
+    """The recorded signals that depend on t only: funnels, their bounds, the reference."""
+    ctrl, ref = setup.controller, setup.scenario.reference
 
-    def finish(self, setup: Setup) -> dict[str, np.ndarray]:
-        """Trim to the recorded samples and add the signals that depend on t only."""
-        out = {k: a[: self.k] for k, a in self.arrays.items()}
-        t = out["t"]
-        ctrl, ref = setup.controller, setup.scenario.reference
+    def per_row(t: np.ndarray) -> dict[str, np.ndarray]:
+        out = {}
         for name, funnel in (("b", ctrl.funnel_b), ("z", ctrl.funnel_z)):
             rho = funnel.rho(t[:, None])  # (samples, components)
             out[f"rho_{name}"] = rho
             out[f"bound_{name}_lower"] = funnel.lower * rho
             out[f"bound_{name}_upper"] = funnel.upper * rho
         out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
-        out["theta_z"], out["theta_d"], out["theta_b"] = setup.theta_z, setup.theta_d, setup.theta_b
         return out
+
+    truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}
+    return per_row, truth
 
 
 def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
@@ -507,18 +507,40 @@ def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
     return numpy_diag
 
 
-def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
-    """Run the closed loop for the scenario's duration; see the module docstring."""
+def simulate(
+    setup: Setup,
+    progress=None,
+    record_every: int = 1,
+    spool_dir: str | Path | None = None,
+) -> RunResult:
+    """Run the closed loop for the scenario's duration; see the module docstring.
+
+    Parameters
+    ----------
+    setup:
+        The prepared run (:func:`prepare`).
+    progress:
+        Called with the simulated time [s] every 0.1 s of it, or None.
+    record_every:
+        Record every this many steps (and the last step).
+    spool_dir:
+        Where a recording longer than the recorder's memory chunk is spilled
+        (``ffsm_pin.sim.recorder``); the system's temporary folder when None.
+
+    A Ctrl-C (``KeyboardInterrupt``) ends the run like a stop: the result holds every row
+    recorded so far, ``stop_cause = "interrupted"``.
+    """
     sc = setup.scenario
     dt, duration = sc.dt, sc.duration
     n_steps = int(round(duration / dt))
     record_every = max(1, int(record_every))
-    check_storage(*recording_size(setup), record_every)  # before allocating anything
+    # the rows a run records go to disk past the first chunk (ffsm_pin.sim.recorder)
+    check_storage(*recording_size(setup), record_every, spool_dir or tempfile.gettempdir())
     ctrl = setup.controller
     model = setup.model
     plant = Plant(setup.robot, integrator=sc.integrator)
     sensor = Sensor(setup.robot, model, full_model=not ctrl.adaptive)  # Pinocchio M, C w
-    rec = _Recorder(rows_recorded(n_steps, record_every), setup)
+    rec = Recorder(recorder_shapes(setup), rows_recorded(n_steps, record_every), spool_dir)
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
@@ -538,67 +560,71 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
     wall0 = time.perf_counter()
     k = 0
     adaptive = ctrl.adaptive
-    for k in range(n_steps + 1):
-        t = k * dt
-        if progress is not None and t >= next_progress:
-            progress(t)
-            next_progress += 0.1
-        meas = sensor.measure(t, q, v)
-        record = k % record_every == 0 or k == n_steps
-        if record:  # states at t, before the controller advances them
-            i = rec.k
-            w_tilde = meas.w - ctrl.w_hat if adaptive else zero
-            e, Mbb, Mbb_dot = diagnostics(
-                meas.q_b, meas.q_m, meas.w, w_tilde, ctrl.Y_df, ctrl.theta_d
-            )
-            A["e"][i] = e  # Eq. (54) with the true M and theta_d
-            A["w_tilde"][i] = w_tilde
-            A["theta_z_hat"][i] = ctrl.theta_z
-            A["theta_d_hat"][i] = ctrl.theta_d
-            A["theta_b_hat"][i] = ctrl.theta_b
-            A["w_hat"][i] = ctrl.w_hat
-        try:
-            out = ctrl.step(meas, dt)
-        except SimulationError as exc:
-            completed, stop_reason, stop_time = False, str(exc), exc.time
-            stop_cause, stop_funnel = exc.cause, exc.funnel
-            break
-        final = k == n_steps
-        if not final:
-            q_new, v_new, a = plant.advance(q, v, out.u_m, dt, sc.substeps)
-        else:
-            a = plant.acceleration(q, v, out.u_m)
-        if record:
-            A["t"][i] = t
-            A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, out.u_m
-            A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
-            A["err_z"][i], A["err_b"][i], A["q_b"][i] = out.err_z, out.err_b, meas.q_b
-            mom = plant.momentum(q, v)
-            if spatial:
-                A["P"][i], A["L"][i] = mom[:3], mom[3:]
-                w_b_dot = sensor.R0 @ a[3:6]  # R_0(q_b) of this measurement, docs/spatial.md 1
-                A["F_r"][i] = spatial_reaction_torque(Mbb, Mbb_dot, meas.w[:3], w_b_dot)
+    try:
+        for k in range(n_steps + 1):
+            t = k * dt
+            if progress is not None and t >= next_progress:
+                progress(t)
+                next_progress += 0.1
+            meas = sensor.measure(t, q, v)
+            record = k % record_every == 0 or k == n_steps
+            if record:  # states at t, before the controller advances them
+                i = rec.i
+                w_tilde = meas.w - ctrl.w_hat if adaptive else zero
+                e, Mbb, Mbb_dot = diagnostics(
+                    meas.q_b, meas.q_m, meas.w, w_tilde, ctrl.Y_df, ctrl.theta_d
+                )
+                A["e"][i] = e  # Eq. (54) with the true M and theta_d
+                A["w_tilde"][i] = w_tilde
+                A["theta_z_hat"][i] = ctrl.theta_z
+                A["theta_d_hat"][i] = ctrl.theta_d
+                A["theta_b_hat"][i] = ctrl.theta_b
+                A["w_hat"][i] = ctrl.w_hat
+            try:
+                out = ctrl.step(meas, dt)
+            except SimulationError as exc:
+                completed, stop_reason, stop_time = False, str(exc), exc.time
+                stop_cause, stop_funnel = exc.cause, exc.funnel
+                break
+            final = k == n_steps
+            if not final:
+                q_new, v_new, a = plant.advance(q, v, out.u_m, dt, sc.substeps)
             else:
-                A["P"][i], A["L"][i] = mom[:2], mom[2]
-                # Eqs. (6)-(7), Christoffel C
-                A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]
-            A["w_mc"][i] = out.w_mc
-            A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
-            rec.k += 1
-        if final:
-            break
-        if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
-            completed, stop_time, stop_cause = False, t + dt, "nonfinite"
-            stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
-            break
-        if np.max(np.abs(v_new[n_lin:])) > 1e4:
-            completed, stop_time, stop_cause = False, t + dt, "nonfinite"
-            stop_reason = (
-                f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
-                f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})"
-            )
-            break
-        q, v = q_new, v_new
+                a = plant.acceleration(q, v, out.u_m)
+            if record:
+                A["t"][i] = t
+                A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, out.u_m
+                A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
+                A["err_z"][i], A["err_b"][i], A["q_b"][i] = out.err_z, out.err_b, meas.q_b
+                mom = plant.momentum(q, v)
+                if spatial:
+                    A["P"][i], A["L"][i] = mom[:3], mom[3:]
+                    w_b_dot = sensor.R0 @ a[3:6]  # R_0(q_b) of this measurement, docs/spatial.md 1
+                    A["F_r"][i] = spatial_reaction_torque(Mbb, Mbb_dot, meas.w[:3], w_b_dot)
+                else:
+                    A["P"][i], A["L"][i] = mom[:2], mom[2]
+                    # Eqs. (6)-(7), Christoffel C
+                    A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]
+                A["w_mc"][i] = out.w_mc
+                A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
+                rec.commit()
+            if final:
+                break
+            if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
+                completed, stop_time, stop_cause = False, t + dt, "nonfinite"
+                stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
+                break
+            if np.max(np.abs(v_new[n_lin:])) > 1e4:
+                completed, stop_time, stop_cause = False, t + dt, "nonfinite"
+                stop_reason = (
+                    f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
+                    f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})"
+                )
+                break
+            q, v = q_new, v_new
+    except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
+        completed, stop_time, stop_cause = False, k * dt, "interrupted"
+        stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
     wall = time.perf_counter() - wall0
     if progress is not None:
         progress(min(k * dt, duration))
@@ -611,7 +637,7 @@ def simulate(setup: Setup, progress=None, record_every: int = 1) -> RunResult:
         wall_time_s=wall,
         completed=completed,
         stop_reason=stop_reason,
-        signals=rec.finish(setup),
+        signals=extend(rec.finish(), *_time_signals(setup)),
         scenario_name=sc.name,
         stop_time=stop_time,
         stop_cause=stop_cause,

@@ -1,9 +1,10 @@
-"""Can a run's recording be stored? Checked before anything is allocated.
+"""Can a run's recording be stored? Checked before anything is simulated or written.
 
-A run records every signal of every recorded step and holds them in memory until it ends,
-then writes ``trajectory.npz``. A request that cannot be held (a fine step over a long time,
-``--record-every 1``) is bad input, refused at once with what it would need and the
-``--record-every`` that would fit, instead of failing in the middle of an allocation.
+A run keeps one bounded chunk of its rows in memory and spills the rest to disk as it goes
+(:mod:`ffsm_pin.sim.recorder`), then packs them into ``trajectory.npz``: what limits a
+recording is the free disk. A request whose rows cannot be stored (a fine step over a long
+time, ``--record-every 1``) is bad input, refused at once with what it would need and the
+``--record-every`` that would fit, instead of failing in the middle of a run.
 """
 
 from __future__ import annotations
@@ -12,22 +13,6 @@ import shutil
 from pathlib import Path
 
 from ..errors import StorageError
-
-# the recording is held in memory, and summarising and writing it needs temporaries of about
-# its own size: a recording may take at most this share of the available memory
-MEMORY_SHARE = 0.5
-
-
-def available_memory() -> int | None:
-    """Memory the system can give without swapping [bytes] (``MemAvailable``), or None."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        return None
-    return None
 
 
 def free_disk(folder: str | Path) -> int | None:
@@ -59,12 +44,12 @@ def check_storage(
     steps: int,
     row_bytes: int,
     record_every: int,
-    folder: str | Path | None = None,
+    folder: str | Path,
     *,
-    memory: int | None = None,
+    copies: int = 1,
     disk: int | None = None,
 ) -> None:
-    """Raise :class:`StorageError` when the recording of a run does not fit.
+    """Raise :class:`StorageError` when the recording of a run does not fit on disk.
 
     Parameters
     ----------
@@ -73,39 +58,32 @@ def check_storage(
     record_every:
         The run's recording interval [steps]; the error names the smallest one that fits.
     folder:
-        Output folder whose disk must hold ``trajectory.npz`` (at most the raw size).
-    memory, disk:
-        Available memory and free disk [bytes]; read from the system when None.
+        Folder whose file system holds the recording.
+    copies:
+        Raw copies of the rows that folder must hold at once: 1 for the recorder's spool,
+        2 for a spool beside the ``trajectory.npz`` packed from it (compressed, at most the
+        raw size).
+    disk:
+        Free disk [bytes]; read from the system when None.
     """
     rows = rows_recorded(steps, record_every)
-    need = rows * row_bytes
-    memory = available_memory() if memory is None else memory
-    if folder is not None and disk is None:
-        disk = free_disk(folder)
-    limits = []
-    if memory is not None:
-        limits.append(
-            (
-                MEMORY_SHARE * memory,
-                f"{_size(memory)} of available memory (a run "
-                f"holds its recording in memory; at most {MEMORY_SHARE:.0%} is used)",
-            )
-        )
-    if folder is not None and disk is not None:
-        limits.append((float(disk), f"{_size(disk)} of free disk in {folder}"))
-    for budget, what in limits:
-        if need <= budget:
-            continue
-        text = (
-            f"the run would record {rows:,} rows of {row_bytes:,} bytes = {_size(need)}, "
-            f"more than the {what}"
-        )
-        fit = _fitting_interval(steps, row_bytes, budget)
-        if fit is None:
-            raise StorageError(f"{text}; shorten the run or enlarge dt")
-        raise StorageError(
-            f"{text}; use --record-every {fit} (or more), a shorter duration or a larger dt"
-        )
+    need = copies * rows * row_bytes
+    disk = free_disk(folder) if disk is None else disk
+    if disk is None or need <= disk:
+        return
+    what = (
+        "recording" if copies == 1 else f"recording ({copies} copies: the rows and trajectory.npz)"
+    )
+    text = (
+        f"the run would record {rows:,} rows of {row_bytes:,} bytes; its {what} needs "
+        f"{_size(need)}, more than the {_size(disk)} of free disk in {folder}"
+    )
+    fit = _fitting_interval(steps, copies * row_bytes, float(disk))
+    if fit is None:
+        raise StorageError(f"{text}; shorten the run or enlarge dt")
+    raise StorageError(
+        f"{text}; use --record-every {fit} (or more), a shorter duration or a larger dt"
+    )
 
 
 def _fitting_interval(steps: int, row_bytes: int, budget: float) -> int | None:

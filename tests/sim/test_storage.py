@@ -12,7 +12,7 @@ import pytest
 from ffsm_pin.errors import StorageError
 from ffsm_pin.sim.run import prepare, recording_size, simulate
 from ffsm_pin.sim.scenario_file import builtin_scenario
-from ffsm_pin.sim.storage import MEMORY_SHARE, check_storage, rows_recorded
+from ffsm_pin.sim.storage import check_storage, rows_recorded
 
 
 @pytest.fixture(scope="module")
@@ -31,24 +31,28 @@ def test_row_size_is_what_a_run_records(setup):
     assert n <= rows <= n + 2
 
 
-def test_refusal_names_a_record_every_that_fits(setup):
+@pytest.mark.parametrize("copies", [1, 2])
+def test_refusal_names_a_record_every_that_fits(setup, tmp_path, copies):
     steps, row_bytes = recording_size(setup)
-    need = rows_recorded(steps, 1) * row_bytes
-    memory = int(need / MEMORY_SHARE / 10)  # a tenth of what it needs
+    need = copies * rows_recorded(steps, 1) * row_bytes
+    disk = need // 10  # a tenth of what it needs
     with pytest.raises(StorageError, match=r"--record-every (\d+)") as exc:
-        check_storage(steps, row_bytes, 1, memory=memory)
+        check_storage(steps, row_bytes, 1, tmp_path, copies=copies, disk=disk)
+    assert "free disk" in str(exc.value) and str(tmp_path) in str(exc.value)
     k = int(exc.value.args[0].split("--record-every ")[1].split()[0])
-    check_storage(steps, row_bytes, k, memory=memory)  # the suggestion fits
+    check_storage(steps, row_bytes, k, tmp_path, copies=copies, disk=disk)  # the suggestion fits
     with pytest.raises(StorageError):  # and is the smallest that does
-        check_storage(steps, row_bytes, k - 1, memory=memory)
-    check_storage(steps, row_bytes, 1, memory=11 * memory)  # enough memory: no error
+        check_storage(steps, row_bytes, k - 1, tmp_path, copies=copies, disk=disk)
+    check_storage(steps, row_bytes, 1, tmp_path, copies=copies, disk=need)  # enough: no error
 
 
-def test_disk_is_checked_for_the_output_folder(setup, tmp_path):
-    steps, row_bytes = recording_size(setup)
-    need = rows_recorded(steps, 1) * row_bytes
+def test_simulate_checks_the_spool_folder(setup, tmp_path, monkeypatch):
+    """simulate() refuses before stepping when its spool folder's disk cannot hold the rows."""
+    from ffsm_pin.sim import storage
+
+    monkeypatch.setattr(storage, "free_disk", lambda folder: 1000)
     with pytest.raises(StorageError, match="free disk"):
-        check_storage(steps, row_bytes, 1, tmp_path, memory=1 << 40, disk=need // 2)
+        simulate(setup, spool_dir=tmp_path)
 
 
 @pytest.mark.parametrize("extra", [["--case", "1", "--dt", "1e-7"], ["--duration", "1e9"]])

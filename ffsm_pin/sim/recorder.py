@@ -1,0 +1,283 @@
+"""The run's recorder: rows held in one bounded chunk in memory, spilled to disk when it fills.
+
+A run records one row of every per-step signal (``ffsm_pin.sim.run.recorder_shapes``) at every
+recorded step. The rows are written into a chunk of :data:`CHUNK_BYTES`; when it is full, each
+signal's rows are appended to a raw file ``<key>.bin`` in a spool folder, so the memory a run
+holds does not grow with its duration. A run whose rows fit in one chunk never touches the
+disk and its signals are plain arrays; a longer run's signals are read-only memory maps of
+the spool files (:class:`Signals`), read back in blocks by the summary, the figures and the
+``trajectory.npz`` writer (:func:`write_npz`), never all at once. The bytes are copied, never
+recomputed, so a spilled recording equals an in-memory one bit for bit (tests/sim/test_recorder.py).
+
+See docs/cli.md, "Long runs".
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import weakref
+import zipfile
+from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
+
+import numpy as np
+
+# rows held in memory: as many as fit in this many bytes (at least one)
+CHUNK_BYTES = 32 * 2**20
+# rows read at a time when a spilled recording is summarised, decimated or packed
+BLOCK_BYTES = 16 * 2**20
+
+
+class Signals(Mapping):
+    """Recorded signals by key: in-memory arrays, or memory maps of a spool folder.
+
+    Behaves as a read-only ``dict`` of arrays (time along axis 0). :meth:`blocks` and
+    :meth:`every` read spilled signals through the file, a block at a time, so that code
+    which must see every row does not map a whole long recording into memory.
+    """
+
+    def __init__(
+        self,
+        arrays: dict[str, np.ndarray],
+        spool: Path | None = None,
+        shapes: dict[str, tuple[int, ...]] | None = None,
+        rows: int = 0,
+    ):
+        self._arrays = dict(arrays)
+        self._spool = spool
+        self._shapes = dict(shapes or {})  # spilled keys -> row shape
+        self._rows = rows
+        self._maps: dict[str, np.ndarray] = {}
+        self._finalizer = None
+        if spool is not None:  # the folder lives as long as the signals
+            self._finalizer = weakref.finalize(self, shutil.rmtree, spool, True)
+
+    # ------------------------------------------------------------------ Mapping
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key in self._arrays:
+            return self._arrays[key]
+        if key not in self._shapes:
+            raise KeyError(key)
+        if key not in self._maps:
+            shape = (self._rows, *self._shapes[key])
+            if self._rows == 0:
+                self._maps[key] = np.zeros(shape)
+            else:
+                self._maps[key] = np.memmap(self._file(key), np.float64, "r", shape=shape)
+        return self._maps[key]
+
+    def __iter__(self) -> Iterator[str]:
+        yield from self._shapes
+        yield from (k for k in self._arrays if k not in self._shapes)
+
+    def __len__(self) -> int:
+        return len(self._shapes) + sum(k not in self._shapes for k in self._arrays)
+
+    # ------------------------------------------------------------------ blocks
+    @property
+    def spilled(self) -> bool:
+        """True when the rows live on disk (memory maps), False when in memory."""
+        return bool(self._shapes)
+
+    def row_bytes(self, keys) -> int:
+        """Bytes of one row of the per-row signals among ``keys``."""
+        return sum(8 * int(np.prod(self[k].shape[1:])) for k in keys)
+
+    def blocks(self, keys, rows: int | None = None) -> Iterator[dict[str, np.ndarray]]:
+        """Consecutive row blocks ``{key: rows x shape}`` of the per-row signals ``keys``.
+
+        In-memory signals are sliced; spilled ones are read from their files.
+        """
+        keys = list(keys)
+        n = len(self["t"])
+        if rows is None:
+            rows = max(1, BLOCK_BYTES // max(1, self.row_bytes(keys)))
+        for start in range(0, n, rows):
+            stop = min(n, start + rows)
+            yield {k: self._read(k, start, stop) for k in keys}
+
+    def every(self, key: str, step: int) -> np.ndarray:
+        """Rows ``0, step, 2 step, ...`` of ``key`` and its last row, in memory."""
+        n = len(self["t"])
+        if step <= 1 or n == 0:
+            return np.asarray(self._read(key, 0, n))
+        parts = []
+        rows = max(step, (BLOCK_BYTES // max(1, self.row_bytes([key]))) // step * step)
+        for start in range(0, n, rows):
+            parts.append(self._read(key, start, min(n, start + rows))[::step])
+        if (n - 1) % step:
+            parts.append(self._read(key, n - 1, n))
+        return np.concatenate(parts)
+
+    def _file(self, key: str) -> Path:
+        assert self._spool is not None
+        return self._spool / f"{key}.bin"
+
+    def _read(self, key: str, start: int, stop: int) -> np.ndarray:
+        if key not in self._shapes:
+            return self[key][start:stop]
+        shape = self._shapes[key]
+        width = int(np.prod(shape))
+        count = (stop - start) * width
+        if count == 0:
+            return np.zeros((0, *shape))
+        data = np.fromfile(self._file(key), np.float64, count=count, offset=8 * start * width)
+        return data.reshape(stop - start, *shape)
+
+
+class Thinned(Mapping):
+    """Every ``step``-th row (and the last) of the per-row signals of ``signals``, read on
+    first use and kept in memory; the ``constants`` (no time axis) are passed through."""
+
+    def __init__(self, signals: Mapping[str, np.ndarray], step: int, constants=()):
+        self._signals, self._step = signals, int(step)
+        self._constants = set(constants)
+        self._rows = len(signals["t"])
+        self._cache: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key not in self._cache:
+            arr = self._signals[key]
+            if key in self._constants or np.ndim(arr) == 0:
+                self._cache[key] = arr
+            elif isinstance(self._signals, Signals):
+                self._cache[key] = self._signals.every(key, self._step)
+            else:
+                idx = np.arange(0, self._rows, self._step)
+                if idx[-1] != self._rows - 1:
+                    idx = np.append(idx, self._rows - 1)
+                self._cache[key] = np.asarray(arr)[idx]
+        return self._cache[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._signals)
+
+    def __len__(self) -> int:
+        return len(self._signals)
+
+
+class Recorder:
+    """Rows of the per-step signals ``shapes`` (key -> row shape), held a chunk at a time.
+
+    The run loop writes row :attr:`i` of :attr:`arrays` (each ``chunk_rows x shape``, NaN until
+    written) and calls :meth:`commit` when the row is complete; a row not committed (a step
+    that raised, Ctrl-C) is not recorded. :meth:`finish` returns the :class:`Signals`.
+
+    Parameters
+    ----------
+    shapes:
+        Row shape of every per-step signal.
+    capacity:
+        Upper bound of the rows the run records (``ffsm_pin.sim.storage.rows_recorded``).
+    spool_dir:
+        Folder in which the spool folder of a recording longer than one chunk is made (the
+        system's temporary folder when None). Removed when the signals are no longer used.
+    chunk_bytes:
+        Memory for the rows held at once [bytes]; :data:`CHUNK_BYTES` when None.
+    """
+
+    def __init__(
+        self,
+        shapes: dict[str, tuple[int, ...]],
+        capacity: int,
+        spool_dir: str | Path | None = None,
+        chunk_bytes: int | None = None,
+    ):
+        chunk_bytes = CHUNK_BYTES if chunk_bytes is None else chunk_bytes
+        self.shapes = dict(shapes)
+        row = sum(8 * int(np.prod(s)) for s in self.shapes.values())
+        self.chunk_rows = int(max(1, min(capacity, chunk_bytes // max(1, row))))
+        self.arrays = {k: np.full((self.chunk_rows, *s), np.nan) for k, s in self.shapes.items()}
+        self.i = 0  # row of the chunk being written
+        self.on_disk = 0  # rows already spilled
+        self._spool_dir = spool_dir
+        self._spool: Path | None = None
+
+    @property
+    def rows(self) -> int:
+        """Rows committed so far."""
+        return self.on_disk + self.i
+
+    def commit(self) -> None:
+        """The row :attr:`i` is complete: keep it; spill the chunk when it is full."""
+        self.i += 1
+        if self.i == self.chunk_rows:
+            self._spill()
+
+    def _spill(self) -> None:
+        if self.i == 0:
+            return
+        if self._spool is None:
+            if self._spool_dir is not None:
+                Path(self._spool_dir).mkdir(parents=True, exist_ok=True)
+            self._spool = Path(tempfile.mkdtemp(prefix="ffsm-pin-rec-", dir=self._spool_dir))
+        for key, chunk in self.arrays.items():
+            width = chunk[0].size
+            with open(self._spool / f"{key}.bin", "r+b" if self.on_disk else "wb") as f:
+                f.seek(8 * self.on_disk * width)  # a spill cut short is simply redone
+                f.write(np.ascontiguousarray(chunk[: self.i]).tobytes())
+        self.on_disk += self.i
+        self.i = 0
+
+    def finish(self) -> Signals:
+        """The recorded rows: in-memory arrays if they never left the chunk, else memory maps."""
+        if self._spool is None:
+            return Signals({k: a[: self.i] for k, a in self.arrays.items()})
+        self._spill()
+        self.arrays = {}  # the chunk's memory is no longer needed
+        return Signals({}, self._spool, self.shapes, self.on_disk)
+
+
+def extend(
+    signals: Signals,
+    per_row: Callable[[np.ndarray], dict[str, np.ndarray]],
+    constants: dict[str, np.ndarray],
+) -> Signals:
+    """``signals`` plus the per-row signals ``per_row(t)`` computes from the time column and
+    the ``constants`` (arrays without a time axis); computed a block at a time when spilled."""
+    if not signals.spilled:
+        arrays = dict(signals._arrays)
+        arrays.update(per_row(arrays["t"]))
+        arrays.update(constants)
+        return Signals(arrays)
+    spool = signals._spool
+    assert spool is not None
+    shapes = dict(signals._shapes)
+    files: dict[str, object] = {}
+    try:
+        for block in signals.blocks(["t"]):
+            for key, value in per_row(block["t"]).items():
+                if key not in files:
+                    shapes[key] = value.shape[1:]
+                    files[key] = open(spool / f"{key}.bin", "wb")  # noqa: SIM115
+                files[key].write(np.ascontiguousarray(value, np.float64).tobytes())  # type: ignore[attr-defined]
+    finally:
+        for f in files.values():
+            f.close()  # type: ignore[attr-defined]
+    if signals._rows == 0:  # no block: shapes from an empty call
+        for key, value in per_row(np.zeros(0)).items():
+            shapes[key] = value.shape[1:]
+    assert signals._finalizer is not None
+    signals._finalizer.detach()  # handed over: the new object owns the folder
+    return Signals(constants, spool, shapes, signals._rows)
+
+
+def write_npz(path: str | Path, signals: Mapping[str, np.ndarray], compress: bool = True) -> None:
+    """Write ``signals`` as ``path`` (``numpy.savez_compressed`` format, readable by
+    ``numpy.load``), streaming spilled signals from their files a block at a time."""
+    if not isinstance(signals, Signals) or not signals.spilled:
+        (np.savez_compressed if compress else np.savez)(path, **dict(signals))
+        return
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    with zipfile.ZipFile(path, "w", compression=method, allowZip64=True) as zf:
+        for key in signals:
+            arr = signals[key]
+            with zf.open(f"{key}.npy", "w", force_zip64=True) as f:
+                if key not in signals._shapes:
+                    np.lib.format.write_array(f, np.asanyarray(arr), allow_pickle=False)
+                    continue
+                header = {"descr": "<f8", "fortran_order": False, "shape": arr.shape}
+                np.lib.format.write_array_header_2_0(f, header)  # type: ignore[attr-defined]
+                for block in signals.blocks([key]):
+                    f.write(np.ascontiguousarray(block[key]).tobytes())

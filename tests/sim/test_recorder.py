@@ -1,0 +1,155 @@
+"""The streaming recorder: a spilled recording equals an in-memory one bit for bit (issue 20)."""
+
+from __future__ import annotations
+
+import dataclasses
+import gc
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ffsm_pin.sim import recorder
+from ffsm_pin.sim.recorder import Recorder, Signals, write_npz
+from ffsm_pin.sim.run import prepare, recording_size, simulate
+from ffsm_pin.sim.scenario_file import builtin_scenario
+
+WALL_CLOCK = {"wall_time_s", "steps_per_s"}
+
+
+def _run(case: str, duration: float, chunk_bytes: int | None, monkeypatch, **kw):
+    if chunk_bytes is not None:
+        monkeypatch.setattr(recorder, "CHUNK_BYTES", chunk_bytes)
+    sc = dataclasses.replace(builtin_scenario(case), duration=duration)
+    return simulate(prepare(sc), **kw)  # a fresh controller: runs are not reentrant
+
+
+@pytest.mark.parametrize("case, duration", [("case1", 0.6), ("spatial", 0.15)])
+def test_spilled_recording_equals_in_memory(case, duration, monkeypatch, tmp_path):
+    """Planar and spatial: every signal, the summary and trajectory.npz, chunk of 7 rows."""
+    whole = _run(case, duration, None, monkeypatch)
+    assert not whole.signals.spilled
+    _, row_bytes = recording_size(prepare(builtin_scenario(case)))
+    spilled = _run(case, duration, 7 * row_bytes, monkeypatch, spool_dir=tmp_path / "spool")
+    assert spilled.signals.spilled
+    assert list(spilled.signals) == list(whole.signals)
+    for key in whole.signals:
+        a, b = np.asarray(whole[key]), np.asarray(spilled[key])
+        assert a.shape == b.shape and a.dtype == b.dtype, key
+        assert np.array_equal(a, b, equal_nan=True), key
+    s1, s2 = whole.summary(), spilled.summary()
+    assert {k: v for k, v in s1.items() if k not in WALL_CLOCK} == {
+        k: v for k, v in s2.items() if k not in WALL_CLOCK
+    }
+    whole.save(tmp_path / "a")
+    spilled.save(tmp_path / "b")
+    with np.load(tmp_path / "a/trajectory.npz") as A, np.load(tmp_path / "b/trajectory.npz") as B:
+        assert A.files == B.files
+        for key in A.files:
+            assert A[key].shape == B[key].shape and np.array_equal(A[key], B[key], equal_nan=True)
+    # the spool folder goes with the result
+    spools = list((tmp_path / "spool").iterdir())
+    assert len(spools) == 1
+    del spilled
+    gc.collect()
+    assert not spools[0].exists()
+
+
+def _recorder(chunk_rows: int, capacity: int = 100, **kw) -> Recorder:
+    shapes = {"t": (), "x": (2, 3)}
+    return Recorder(shapes, capacity, chunk_bytes=chunk_rows * 8 * 7, **kw)
+
+
+def test_uncommitted_rows_are_dropped_and_a_cut_spill_is_redone(tmp_path):
+    rec = _recorder(4, spool_dir=tmp_path)
+    rows = []
+    for k in range(11):
+        rec.arrays["t"][rec.i] = k
+        rec.arrays["x"][rec.i] = k * np.arange(6).reshape(2, 3)
+        if k != 5:  # row 5 is written but never completed (a step that raised)
+            rec.commit()
+            rows.append(k)
+    spool = next(tmp_path.iterdir())
+    with open(spool / "x.bin", "ab") as f:  # a spill cut short by Ctrl-C left stray bytes
+        f.write(b"\x00" * 20)
+    sig = rec.finish()
+    assert sig.spilled and len(sig["t"]) == len(rows) == 10
+    assert np.array_equal(sig["t"], rows)
+    assert np.array_equal(sig["x"], np.array(rows)[:, None, None] * np.arange(6).reshape(2, 3))
+
+
+def test_blocks_every_and_npz_of_a_spilled_recording(tmp_path):
+    rec = _recorder(3)
+    for k in range(17):
+        rec.arrays["t"][rec.i] = 0.1 * k
+        rec.arrays["x"][rec.i] = np.sin(k + np.arange(6)).reshape(2, 3)
+        rec.commit()
+    sig = rec.finish()
+    t, x = np.array(sig["t"]), np.array(sig["x"])
+    joined = np.concatenate([b["x"] for b in sig.blocks(["x"], rows=5)])
+    assert np.array_equal(joined, x)
+    for step in (1, 2, 4, 16, 40):
+        idx = sorted(set(range(0, 17, step)) | {16})
+        assert np.array_equal(sig.every("x", step), x[idx])
+    consts = Signals({"t": t, "x": x, "c": np.arange(3.0)})
+    write_npz(tmp_path / "a.npz", consts)
+    spilled = recorder.extend(sig, lambda tt: {"y": 2 * tt[:, None]}, {"c": np.arange(3.0)})
+    write_npz(tmp_path / "b.npz", spilled)
+    with np.load(tmp_path / "a.npz") as A, np.load(tmp_path / "b.npz") as B:
+        assert set(B.files) == {"t", "x", "y", "c"}
+        for key in A.files:
+            assert np.array_equal(A[key], B[key])
+        assert np.array_equal(B["y"], 2 * t[:, None])
+
+
+def test_thinned_result_keeps_first_last_and_evenly_spaced_rows(monkeypatch):
+    res = _run("case1", 0.5, 3000, monkeypatch)  # 501 rows, spilled
+    thin = res.thinned(50)
+    n = len(res["t"])
+    step = -(-(n - 1) // 49)
+    idx = sorted(set(range(0, n, step)) | {n - 1})
+    assert len(thin["t"]) <= 51
+    for key in ("t", "q", "err_z", "rho_z", "z_e_d"):
+        assert np.array_equal(thin[key], np.asarray(res[key])[idx]), key
+    assert thin["theta_d"] is res["theta_d"]  # constants pass through
+    assert res.thinned(10_000) is res
+
+
+@pytest.mark.slow
+def test_ctrl_c_writes_what_was_recorded(tmp_path):
+    """SIGINT mid-run: exit 130, a readable trajectory.npz and a summary that says why."""
+    out = tmp_path / "run"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--duration", "30", "--no-plots", "--no-html"]
+    proc = subprocess.Popen(
+        [*cmd, "--out", str(out)], stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env
+    )
+    assert proc.stderr is not None
+    seen = b""
+    deadline = time.monotonic() + 240
+    simulated = 0.0  # the progress bar's simulated time: the loop is running (compiled)
+    while simulated < 1.0:
+        chunk = os.read(proc.stderr.fileno(), 4096)
+        assert chunk and time.monotonic() < deadline, seen
+        seen += chunk
+        bars = re.findall(rb"\]\s+([0-9.]+)/30 s", seen)
+        simulated = float(bars[-1]) if bars else 0.0
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err.decode()[-3000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["completed"] is False and summary["stop_cause"] == "interrupted"
+    with np.load(out / "trajectory.npz") as z:
+        t = z["t"]
+        assert 0 < len(t) < 30001 and np.all(np.isfinite(z["q"]))
+        assert summary["simulated_time"] == float(t[-1])
+    assert "interrupted (Ctrl-C)" in err.decode()
+    assert not any(p.name.startswith("ffsm-pin-rec-") for p in out.iterdir())
+    assert Path(out / "scenario.toml").is_file()
