@@ -10,6 +10,7 @@ Usage::
     python tools/compare_runs.py record /tmp/after --cases case1 spatial --record-every 7
     python tools/compare_runs.py compare /tmp/before /tmp/after   # bitwise; exit 1 on a difference
     python tools/compare_runs.py compare /tmp/before /tmp/after --rtol 1e-12
+    python tools/compare_runs.py compare /tmp/before /tmp/after --allow-added  # new outputs
 
 ``compare`` checks every key of every ``trajectory.npz`` (same keys, shapes, dtypes; values equal,
 NaN equal to NaN) and every ``summary.json`` value except the wall-clock ones.
@@ -68,8 +69,12 @@ def _max_rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.nanmax(diff / scale)) if diff.size else 0.0
 
 
-def compare(a: Path, b: Path, rtol: float) -> int:
-    """Print one line per case; return 1 when anything differs beyond ``rtol``."""
+def compare(a: Path, b: Path, rtol: float, allow_added: bool = False) -> int:
+    """Print one line per case; return 1 when anything differs beyond ``rtol``.
+
+    With ``allow_added``, keys (trajectory or summary) only in ``b`` are listed, not failures:
+    a change that adds outputs keeps every existing one.
+    """
     bad = 0
     cases = sorted(p.name for p in a.iterdir() if (p / "trajectory.npz").exists())
     for case in cases:
@@ -78,8 +83,10 @@ def compare(a: Path, b: Path, rtol: float) -> int:
             bad = 1
             continue
         ta, tb = np.load(a / case / "trajectory.npz"), np.load(b / case / "trajectory.npz")
-        problems, worst = [], 0.0
-        if set(ta.files) != set(tb.files):
+        problems, worst, added = [], 0.0, []
+        if allow_added:
+            added = sorted(set(tb.files) - set(ta.files))
+        if set(ta.files) | set(added) != set(tb.files):
             problems.append(f"keys differ: {sorted(set(ta.files) ^ set(tb.files))}")
         for key in sorted(set(ta.files) & set(tb.files)):
             x, y = ta[key], tb[key]
@@ -93,11 +100,14 @@ def compare(a: Path, b: Path, rtol: float) -> int:
         sa = json.loads((a / case / "summary.json").read_text())
         sb = json.loads((b / case / "summary.json").read_text())
         for key in sorted((set(sa) | set(sb)) - WALL_CLOCK):
-            if key not in sa or key not in sb:
+            if allow_added and key not in sa:
+                added.append(f"summary.{key}")
+            elif key not in sa or key not in sb:
                 problems.append(f"summary.{key} only in one")
             elif sa[key] != sb[key] and not _close(sa[key], sb[key], rtol):
                 problems.append(f"summary.{key}: {sa[key]!r} vs {sb[key]!r}")
         verdict = "bitwise equal" if not problems and worst == 0 else f"max rel {worst:.3g}"
+        verdict += f" (added: {', '.join(added)})" if added else ""
         print(f"{case:22s} {'DIFFERS: ' + '; '.join(problems) if problems else verdict}")
         bad |= bool(problems)
     return int(bad)
@@ -122,10 +132,11 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
     c.add_argument("--rtol", type=float, default=0.0, help="0 = bitwise (default)")
+    c.add_argument("--allow-added", action="store_true", help="keys only in b are no failure")
     args = p.parse_args(argv)
     if args.cmd == "record":
         return record(args.out, args.cases, args.record_every, args.duration)
-    return compare(args.a, args.b, args.rtol)
+    return compare(args.a, args.b, args.rtol, args.allow_added)
 
 
 if __name__ == "__main__":

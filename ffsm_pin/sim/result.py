@@ -41,6 +41,7 @@ class _Scan:
     drift_P: float = 0.0
     drift_L: float = 0.0
     max_u: float = 0.0
+    max_u_cmd: float = 0.0
     min_sigma: float | None = None
     damped: int = 0  # rows with damping > 0
     max_F_r: float = 0.0
@@ -80,6 +81,8 @@ class RunResult:
     rhoinf_z: tuple[float, ...] | None = None
     damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
     description: str = ""
+    controller: str = "lu-jia"  # the controller type ([controller] type)
+    saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -151,6 +154,7 @@ class RunResult:
             return self._scanned
         keys = ["err_b", "err_z", "bound_b_lower", "bound_b_upper", "bound_z_lower"]
         keys += ["bound_z_upper", "u_m", "P", "L", "sigma_min", "damping", "F_r"]
+        keys += ["u_cmd"] if "u_cmd" in self.signals else []  # absent in older recordings
         scan = _Scan(outside={"b": None, "z": None})
         P0 = L0 = None
         n = 0
@@ -168,6 +172,8 @@ class RunResult:
             scan.drift_P = _max(scan.drift_P, np.linalg.norm(b["P"] - P0, axis=1))
             scan.drift_L = _max(scan.drift_L, np.abs(b["L"] - L0))
             scan.max_u = _max(scan.max_u, np.linalg.norm(b["u_m"], axis=1))
+            if "u_cmd" in b:
+                scan.max_u_cmd = _max(scan.max_u_cmd, np.linalg.norm(b["u_cmd"], axis=1))
             low = float(np.min(b["sigma_min"]))
             scan.min_sigma = low if scan.min_sigma is None else float(np.min((scan.min_sigma, low)))
             scan.damped += int(np.count_nonzero(b["damping"] > 0))
@@ -202,6 +208,9 @@ class RunResult:
             "final_err_b": s["err_b"][-1].tolist() if n else [],
             "final_err_z": s["err_z"][-1].tolist() if n else [],
             "max_abs_u": scan.max_u,
+            "max_abs_u_cmd": scan.max_u_cmd,
+            "saturation_fraction": self.saturation_fraction,
+            "controller": self.controller,
             "drift_P": drift_P,
             "drift_L": drift_L,
             "settle_time_b": self._settle("b", self.rhoinf_b),

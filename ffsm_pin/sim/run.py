@@ -29,10 +29,12 @@ from ..model import ReducedModel, State, make_model
 from ..model._state_planar import base_twist_to_local
 from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..robot import Robot, load_robot
+from .actuators import Actuators
 from .plant import Plant
 from .recorder import Recorder, extend
 from .result import RunResult
 from .scenario import InitialCondition, Scenario
+from .sensors import Sensors
 from .storage import check_storage, rows_recorded
 
 
@@ -55,6 +57,8 @@ class Setup:
     controller: CoordinatedController
     reach_horizon: float | None  # time the reference leaves the reach [s], None if never
     events: list[str]
+    actuators: Actuators | None = None  # between the controller and the plant (ideal: None)
+    sensors: Sensors | None = None  # between the plant and the controller (exact: None)
 
 
 # ---------------------------------------------------------------------- initial state
@@ -407,7 +411,14 @@ def prepare(scenario: Scenario) -> Setup:
         )
         events.append(msg)
         warnings.warn(msg, ReachWarning, stacklevel=2)
-    return Setup(scenario, robot, model, q0, v0, *truth, controller, horizon, events)
+    n = robot.n_joints
+    effort = np.asarray(robot.model.effortLimit)[-n:]  # the arm joints' URDF <limit effort>
+    actuators = Actuators(scenario.actuators, n, scenario.dt, effort, robot.joint_names)
+    sensors = Sensors(scenario.sensors, n, m3, model.m2 + m3)
+    return Setup(
+        scenario, robot, model, q0, v0, *truth, controller, horizon, events,
+        None if actuators.ideal else actuators, None if sensors.ideal else sensors,
+    )  # fmt: skip
 
 
 # ---------------------------------------------------------------------- simulate
@@ -426,7 +437,11 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
         "L": () if planar else (3,), "F_r": () if planar else (3,),
         "w_tilde": (nw,), "e": (nw,), "theta_z_hat": (m.n_z,),
         "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (nt,), "w_mc": (n,),
-        "w_hat": (nw,), "sigma_min": (), "damping": (),
+        "w_hat": (nw,), "sigma_min": (), "damping": (), "u_cmd": (n,),
+        **({} if setup.sensors is None else {  # what the controller saw
+            "meas_q_b": (m3,), "meas_q_m": (n,), "meas_w": (nw,), "meas_z_e": (nt,),
+            "meas_z_e_dot": (nt,),
+        }),
     }  # fmt: skip
 
 
@@ -557,6 +572,9 @@ def simulate(
     diagnostics(meas0.q_b, meas0.q_m, zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
     n_lin = 3 if spatial else 2  # base linear velocity entries of v
+    actuators, sensors = setup.actuators, setup.sensors
+    saturated = 0  # control periods with some joint at its torque limit
+    ref, base_ref = sc.reference, sc.reference.base_attitude
     wall0 = time.perf_counter()
     k = 0
     adaptive = ctrl.adaptive
@@ -580,22 +598,37 @@ def simulate(
                 A["theta_d_hat"][i] = ctrl.theta_d
                 A["theta_b_hat"][i] = ctrl.theta_b
                 A["w_hat"][i] = ctrl.w_hat
+            seen = meas if sensors is None else sensors.observe(meas)  # noise, delay
             try:
-                out = ctrl.step(meas, dt)
+                out = ctrl.step(seen, dt)
             except SimulationError as exc:
                 completed, stop_reason, stop_time = False, str(exc), exc.time
                 stop_cause, stop_funnel = exc.cause, exc.funnel
                 break
             final = k == n_steps
+            u_m = out.u_m
+            if actuators is not None:
+                u_m = actuators.apply(u_m)
+                saturated += actuators.saturated(u_m)
             if not final:
-                q_new, v_new, a = plant.advance(q, v, out.u_m, dt, sc.substeps)
+                q_new, v_new, a = plant.advance(q, v, u_m, dt, sc.substeps)
             else:
-                a = plant.acceleration(q, v, out.u_m)
+                a = plant.acceleration(q, v, u_m)
             if record:
                 A["t"][i] = t
-                A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, out.u_m
+                A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, u_m
+                A["u_cmd"][i] = out.u_m
                 A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
-                A["err_z"][i], A["err_b"][i], A["q_b"][i] = out.err_z, out.err_b, meas.q_b
+                A["q_b"][i] = meas.q_b
+                if sensors is None:  # the controller's errors are the true ones
+                    A["err_z"][i], A["err_b"][i] = out.err_z, out.err_b
+                else:  # the funnels are judged on the true errors; the controller saw others
+                    A["err_b"][i], A["err_z"][i] = task_errors(
+                        ref, base_ref, t, meas.q_b, meas.z_e, m3
+                    )
+                    A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
+                    A["meas_z_e"][i] = seen.z_e[:nt]
+                    A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
                 mom = plant.momentum(q, v)
                 if spatial:
                     A["P"][i], A["L"][i] = mom[:3], mom[3:]
@@ -649,4 +682,5 @@ def simulate(
         rhoinf_z=sc.controller.funnel_z.rhoinf,
         damping_threshold=sc.controller.singularity.threshold,
         description=sc.description,
+        saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
     )

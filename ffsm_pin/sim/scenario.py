@@ -19,7 +19,9 @@ from ..control.gains import Gains, SingularityPolicy
 from ..control.kinematic import TASKS
 from ..control.null_space import NullSpace
 from ..errors import ParameterError, choices_text
+from .actuators import ActuatorSpec
 from .plant import INTEGRATORS
+from .sensors import SensorSpec
 
 ESTIMATE_KINDS = ("paper", "true", "perturbed", "explicit")
 
@@ -227,6 +229,8 @@ class Scenario:
     description: str = ""
     integrator: str = "semi-implicit"  # plant integrator, one of plant.INTEGRATORS
     substeps: int = 1  # plant steps per control step dt, joint torque held over dt
+    actuators: ActuatorSpec = field(default_factory=ActuatorSpec)  # ideal by default
+    sensors: SensorSpec = field(default_factory=SensorSpec)  # exact by default
 
     def __post_init__(self) -> None:
         if self.integrator not in INTEGRATORS:

@@ -50,6 +50,7 @@ from ..control.gains import Gains, SingularityPolicy
 from ..control.null_space import NullSpace
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
 from . import scenario_schema as schema
+from .actuators import ActuatorSpec
 from .scenario import (
     ComponentReference,
     ControllerSpec,
@@ -60,6 +61,7 @@ from .scenario import (
     RobotSpec,
     Scenario,
 )
+from .sensors import NOISE_KEYS, SensorSpec
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -230,6 +232,20 @@ def scenario_to_toml(scenario: Scenario) -> str:
         f"substeps = {scenario.substeps}",
         "",
     ]
+    act, sen = scenario.actuators, scenario.sensors
+    if act != ActuatorSpec():
+        lines += ["[actuators]"]
+        lines += [
+            f"{k} = {_toml(getattr(act, k))}"
+            for k in ("torque_limit", "rate_limit", "time_constant", "torque_noise")
+        ]
+        lines += [f"seed = {act.seed}", ""]
+    if sen != SensorSpec():
+        lines += ["[sensors]", f"seed = {sen.seed}", f"delay = {sen.delay}", ""]
+        if sen.noise:
+            lines += ["[sensors.noise]"]
+            lines += [f"{k} = {_toml(v)}" for k, v in sen.noise]
+            lines += [""]
     return "\n".join(lines)
 
 
@@ -249,7 +265,35 @@ def _build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
         description=m.description,
         integrator=m.sim.integrator,
         substeps=m.sim.substeps,
+        actuators=_actuators(m.actuators),
+        sensors=_sensors(m.sensors),
     )
+
+
+def _per_joint(x: Any) -> Any:
+    """A TOML number or list as the dataclasses hold it (float or tuple of floats)."""
+    return (
+        tuple(float(v) for v in x) if isinstance(x, list) else x if isinstance(x, str) else float(x)
+    )
+
+
+def _actuators(a: schema.ActuatorsModel) -> ActuatorSpec:
+    return ActuatorSpec(
+        torque_limit=_per_joint(a.torque_limit),
+        rate_limit=_per_joint(a.rate_limit),
+        time_constant=float(a.time_constant),
+        torque_noise=_per_joint(a.torque_noise),
+        seed=a.seed,
+    )
+
+
+def _sensors(s: schema.SensorsModel) -> SensorSpec:
+    noise = tuple(
+        (key, _per_joint(getattr(s.noise, key)))
+        for key in NOISE_KEYS
+        if np.any(getattr(s.noise, key))  # only the quantities that have noise
+    )
+    return SensorSpec(seed=s.seed, delay=s.delay, noise=noise)
 
 
 def _vec(x: list[float] | None) -> tuple[float, ...] | None:

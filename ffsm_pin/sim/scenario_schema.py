@@ -35,6 +35,7 @@ from ..control.gains import Gains, SingularityPolicy
 from ..control.kinematic import TASKS
 from ..control.null_space import OBJECTIVES, NullSpace
 from ..errors import ScenarioError, choices_text, did_you_mean
+from .actuators import LIMIT_WORDS
 from .plant import INTEGRATORS
 from .scenario import ESTIMATE_KINDS, ControllerSpec
 
@@ -132,6 +133,26 @@ def interval(text: str, inside) -> AfterValidator:
 
 
 NumOrVec = or_list(Num)
+NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+NonNegOrVec = or_list(NonNeg)
+
+
+def _torque_limit(value: Any) -> Any:
+    if isinstance(value, str):
+        if value not in LIMIT_WORDS:
+            fail(
+                (),
+                f" = {value!r} unknown{did_you_mean(value, LIMIT_WORDS)}; valid choices: "
+                "'none', 'urdf', a number or one number per joint [N m]",
+            )
+        return value
+    _number_or_numbers(value)
+    for x in value if isinstance(value, list) else [value]:
+        if not (x > 0 and math.isfinite(x)):
+            fail((), f" = {value}: every limit must be a finite number > 0 [N m]")
+    return value
+
+
 Fraction = Annotated[Num, interval("[0, 1)", lambda x: 0 <= x < 1)]
 Sigma = Annotated[Num, interval("(0, 1]", lambda x: 0 < x <= 1)]
 
@@ -304,6 +325,35 @@ class SimModel(_Table):
         return self
 
 
+class ActuatorsModel(_Table):
+    """``[actuators]``, :class:`~ffsm_pin.sim.actuators.ActuatorSpec` (docs/controllers.md)."""
+
+    torque_limit: Annotated[Any, BeforeValidator(_torque_limit)] = "none"
+    rate_limit: NonNegOrVec = 0.0  # [N m/s]
+    time_constant: NonNeg = 0.0  # [s]
+    torque_noise: NonNegOrVec = 0.0  # [N m]
+    seed: Annotated[int, Field(ge=0)] = 0
+
+
+class NoiseModel(_Table):
+    """``[sensors.noise]``: standard deviations, a number or one per component."""
+
+    joints: NonNegOrVec = 0.0  # [rad]
+    joint_rates: NonNegOrVec = 0.0  # [rad/s]
+    base_attitude: NonNegOrVec = 0.0  # [rad] or [MRP]
+    base_rate: NonNegOrVec = 0.0  # [rad/s]
+    ee_pose: NonNegOrVec = 0.0  # [m, rad or MRP]
+    ee_velocity: NonNegOrVec = 0.0  # [m/s, rad/s or 1/s]
+
+
+class SensorsModel(_Table):
+    """``[sensors]``, :class:`~ffsm_pin.sim.sensors.SensorSpec` (docs/controllers.md)."""
+
+    seed: Annotated[int, Field(ge=0)] = 0
+    delay: Annotated[int, Field(ge=0)] = 0  # [control periods]
+    noise: NoiseModel = NoiseModel()
+
+
 class ScenarioModel(_Table):
     """A whole scenario file; the validator checks what depends on the robot and the task."""
 
@@ -314,6 +364,8 @@ class ScenarioModel(_Table):
     reference: ReferenceModel = Field(default_factory=dict, validate_default=True)
     controller: ControllerModel = ControllerModel()
     sim: SimModel = SimModel()
+    actuators: ActuatorsModel = ActuatorsModel()
+    sensors: SensorsModel = SensorsModel()
 
     @property
     def sizes(self) -> tuple[int, int, int]:

@@ -207,3 +207,21 @@ def test_every_builtin_campaign_is_listed():
     assert {"robustness-case1", "nullspace-planar5"} <= set(BUILTIN_CAMPAIGNS)
     with pytest.raises(CampaignError, match="invalid TOML"):
         campaign_from_toml("[campaign", load_campaign("robustness-case1").scenario_path)
+
+
+def test_actuator_and_sensor_keys_can_be_varied(campaign_file):
+    """docs/controllers.md: every [actuators] and [sensors] key is a campaign axis."""
+    text = SMALL + (
+        '[[vary]]\nkey = "actuators.torque_limit"\nvalues = [20.0, 50.0]\n'
+        '[[vary]]\nkey = "sensors.noise.joints"\nvalues = [0.001]\n'
+        '[[vary]]\nkey = "sensors.delay"\nvalues = [2]\n'
+    )
+    cases = expand(load_campaign(campaign_file(text, "world.toml")))
+    assert len(cases) == 1 + 2 * 2 * 2
+    limits = set()
+    for c in cases[1:]:
+        sc = scenario_from_toml(c.scenario_toml)
+        assert sc.actuators.torque_limit == c.values["actuators.torque_limit"]
+        limits.add(sc.actuators.torque_limit)
+        assert dict(sc.sensors.noise)["joints"] == 0.001 and sc.sensors.delay == 2
+    assert limits == {20.0, 50.0}

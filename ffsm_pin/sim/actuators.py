@@ -1,0 +1,144 @@
+"""Joint actuators between the controller and the plant: limits, lag and noise.
+
+The controller commands ``u_cmd``; the actuators apply ``u_m`` to the plant, once per control
+period dt (held over the plant's substeps). With every option off (the default) ``u_m`` is
+``u_cmd`` itself. Otherwise, with L the torque limit, r the rate limit, tau the time
+constant and x the actuator's torque state (x = 0 at t = 0)::
+
+    y   = clip(u_cmd, -L, L)                      # saturation
+    y   = x + (1 - exp(-dt / tau)) (y - x)        # lag tau dx/dt = y - x, exact for held y
+    x  <- x + clip(y - x, -r dt, r dt)             # rate limit
+    u_m = clip(x + n, -L, L),  n ~ N(0, sigma^2)   # torque noise, seeded; never beyond L
+
+See docs/controllers.md, "Actuators".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError
+
+LIMIT_WORDS = ("none", "urdf")
+
+
+@dataclass(frozen=True)
+class ActuatorSpec:
+    """The ``[actuators]`` table (all off by default).
+
+    Attributes
+    ----------
+    torque_limit:
+        ``"none"``, ``"urdf"`` (each joint's ``<limit effort>``), a number or one per joint [N m].
+    rate_limit:
+        Largest change of the applied torque, a number or one per joint [N m/s]; 0 = none.
+    time_constant:
+        First-order lag of the applied torque [s]; 0 = none.
+    torque_noise:
+        Standard deviation of additive Gaussian torque noise, a number or one per joint [N m].
+    seed:
+        Seed of the torque noise.
+    """
+
+    torque_limit: str | float | tuple[float, ...] = "none"
+    rate_limit: float | tuple[float, ...] = 0.0
+    time_constant: float = 0.0
+    torque_noise: float | tuple[float, ...] = 0.0
+    seed: int = 0
+
+    @property
+    def ideal(self) -> bool:
+        """True when the actuators apply the command unchanged."""
+        return (
+            self.torque_limit == "none"
+            and not np.any(self.rate_limit)
+            and self.time_constant == 0
+            and not np.any(self.torque_noise)
+        )
+
+
+def per_joint(value, n: int, key: str, joints: tuple[str, ...] = ()) -> np.ndarray:
+    """A number or one value per joint, as an (n,) array; ParameterError naming ``key``."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        names = f" ({', '.join(joints)})" if joints else ""
+        raise ParameterError(f"{key}: {arr.size} values, expected 1 or {n}, one per joint{names}")
+    if np.any(arr < 0) or not np.all(np.isfinite(arr) | (arr == np.inf)):
+        raise ParameterError(f"{key} = {arr.tolist()}: must be >= 0")
+    return arr
+
+
+class Actuators:
+    """The actuator model of :class:`ActuatorSpec` for ``n`` joints and control period ``dt``.
+
+    Parameters
+    ----------
+    spec:
+        The ``[actuators]`` table.
+    n:
+        Number of joints.
+    dt:
+        Control period [s].
+    effort:
+        Each joint's URDF effort limit [N m] (needed for ``torque_limit = "urdf"``).
+    joints:
+        Joint names, for messages.
+    """
+
+    def __init__(
+        self,
+        spec: ActuatorSpec,
+        n: int,
+        dt: float,
+        effort: np.ndarray | None = None,
+        joints: tuple[str, ...] = (),
+    ):
+        self.spec, self.n = spec, n
+        self.ideal = spec.ideal
+        if spec.torque_limit == "none":
+            self.limit = np.full(n, np.inf)
+        elif spec.torque_limit == "urdf":
+            eff = np.full(n, np.nan) if effort is None else np.asarray(effort, float)
+            bad = [j for j, e in zip(joints or range(n), eff, strict=False) if not e > 0]
+            if bad:
+                raise ParameterError(
+                    f"actuators.torque_limit = 'urdf': joints {bad} have no positive "
+                    "<limit effort> in the URDF; give the limits as numbers"
+                )
+            self.limit = eff.copy()
+        elif isinstance(spec.torque_limit, str):
+            raise ParameterError(
+                f"actuators.torque_limit = {spec.torque_limit!r} unknown; valid choices: "
+                "'none', 'urdf', a number or one number per joint [N m]"
+            )
+        else:
+            self.limit = per_joint(spec.torque_limit, n, "actuators.torque_limit", joints)
+            if np.any(self.limit == 0):
+                raise ParameterError("actuators.torque_limit: must be > 0 (use 'none' for none)")
+        rate = per_joint(spec.rate_limit, n, "actuators.rate_limit", joints)
+        self.max_change = np.where(rate > 0, rate * dt, np.inf)  # [N m] per control period
+        if spec.time_constant < 0 or not np.isfinite(spec.time_constant):
+            raise ParameterError(f"actuators.time_constant = {spec.time_constant}: must be >= 0")
+        self.alpha = 1.0 - np.exp(-dt / spec.time_constant) if spec.time_constant > 0 else 1.0
+        self.sigma = per_joint(spec.torque_noise, n, "actuators.torque_noise", joints)
+        self.noisy = bool(np.any(self.sigma > 0))
+        self.rng = np.random.default_rng(spec.seed)
+        self.x = np.zeros(n)  # the actuators' torque state [N m]
+
+    def apply(self, u_cmd: np.ndarray) -> np.ndarray:
+        """The torque applied this control period for the command ``u_cmd`` [N m]."""
+        if self.ideal:
+            return u_cmd
+        y = np.clip(u_cmd, -self.limit, self.limit)
+        y = self.x + self.alpha * (y - self.x)
+        self.x = self.x + np.clip(y - self.x, -self.max_change, self.max_change)
+        u = self.x + self.rng.normal(0.0, 1.0, self.n) * self.sigma if self.noisy else self.x
+        return np.clip(u, -self.limit, self.limit)
+
+    def saturated(self, u_m: np.ndarray) -> bool:
+        """Some joint's applied torque is at its limit."""
+        return bool(np.any(np.abs(u_m) >= self.limit))

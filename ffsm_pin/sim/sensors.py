@@ -1,0 +1,107 @@
+"""What the controller sees: the exact measurement with seeded Gaussian noise and a delay.
+
+The run measures the plant exactly (``ffsm_pin.sim.run.Sensor``); :class:`Sensors` turns that
+into what the controller is given. Noise and delay act on this copy only: the plant, its
+momentum and the recorded true signals stay exact. With the defaults (no noise, no delay)
+the controller gets the exact measurement itself.
+
+At control period k, with delay d, the controller gets the measurement of period
+max(k - d, 0) plus its noise, stamped with the current time t_k (the controller's clock is
+exact; its data are old). Noise is drawn once per measurement, in the order joints, joint
+rates, base attitude, base rate, end-effector pose, end-effector velocity, from one
+``numpy.random.default_rng(seed)`` stream. The model quantities of the known-model scheme
+(M, C w) are passed on from the delayed measurement without noise.
+
+See docs/controllers.md, "Sensors".
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..control.controller import Measurement
+from ..errors import ParameterError
+
+# [sensors.noise] keys, in the order the noise is drawn
+NOISE_KEYS = ("joints", "joint_rates", "base_attitude", "base_rate", "ee_pose", "ee_velocity")
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """The ``[sensors]`` table (exact and undelayed by default).
+
+    Attributes
+    ----------
+    seed:
+        Seed of the noise streams.
+    delay:
+        Control periods between a measurement and its use (>= 0).
+    noise:
+        ``(key, standard deviation)`` pairs, key in :data:`NOISE_KEYS`; a number or one value
+        per component [rad, rad/s, rad or MRP, rad/s, m and rad or MRP, m/s and rad/s or 1/s].
+    """
+
+    seed: int = 0
+    delay: int = 0
+    noise: tuple[tuple[str, float | tuple[float, ...]], ...] = ()
+
+    @property
+    def ideal(self) -> bool:
+        """True when the controller sees the exact measurement."""
+        return self.delay == 0 and not any(np.any(v) for _, v in self.noise)
+
+
+class Sensors:
+    """The sensor model of :class:`SensorSpec` for ``n`` joints, m3 attitude components and an
+    end-effector pose of ``n_pose`` components."""
+
+    def __init__(self, spec: SensorSpec, n: int, m3: int, n_pose: int):
+        if spec.delay < 0:
+            raise ParameterError(f"sensors.delay = {spec.delay}: must be >= 0 control periods")
+        self.spec = spec
+        self.ideal = spec.ideal
+        sizes = {"joints": n, "joint_rates": n, "base_attitude": m3, "base_rate": m3}
+        sizes |= {"ee_pose": n_pose, "ee_velocity": n_pose}
+        given = dict(spec.noise)
+        unknown = sorted(set(given) - set(NOISE_KEYS))
+        if unknown:
+            raise ParameterError(
+                f"sensors.noise.{unknown[0]}: unknown; valid keys: {', '.join(NOISE_KEYS)}"
+            )
+        self.sigma: dict[str, np.ndarray] = {}
+        for key in NOISE_KEYS:
+            arr = np.asarray(given.get(key, 0.0), dtype=float)
+            size = sizes[key]
+            arr = np.full(size, float(arr)) if arr.ndim == 0 else arr
+            if arr.shape != (size,):
+                raise ParameterError(
+                    f"sensors.noise.{key}: {arr.size} values, expected 1 or {size}"
+                )
+            if np.any(arr < 0) or not np.all(np.isfinite(arr)):
+                raise ParameterError(f"sensors.noise.{key} = {arr.tolist()}: must be >= 0")
+            self.sigma[key] = arr
+        self.rng = np.random.default_rng(spec.seed)
+        self.buffer: deque[Measurement] = deque(maxlen=spec.delay + 1)
+
+    def _draw(self, key: str) -> np.ndarray:
+        sigma = self.sigma[key]
+        return self.rng.normal(0.0, 1.0, sigma.size) * sigma
+
+    def observe(self, meas: Measurement) -> Measurement:
+        """What the controller is given at ``meas.t`` for the exact measurement ``meas``."""
+        if self.ideal:
+            return meas
+        d = {key: self._draw(key) for key in NOISE_KEYS}  # one stream, in NOISE_KEYS order
+        q_b = meas.q_b + (d["base_attitude"] if np.ndim(meas.q_b) else d["base_attitude"][0])
+        noisy = meas._replace(
+            q_b=q_b,
+            q_m=meas.q_m + d["joints"],
+            w=meas.w + np.concatenate((d["base_rate"], d["joint_rates"])),
+            z_e=meas.z_e + d["ee_pose"],
+            z_e_dot=meas.z_e_dot + d["ee_velocity"],
+        )
+        self.buffer.append(noisy)
+        return self.buffer[0]._replace(t=meas.t)  # the oldest kept: k - d (or 0 early on)
