@@ -20,6 +20,7 @@ import weakref
 import zipfile
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -267,7 +268,8 @@ def write_npz(path: str | Path, signals: Mapping[str, np.ndarray], compress: boo
     """Write ``signals`` as ``path`` (``numpy.savez_compressed`` format, readable by
     ``numpy.load``), streaming spilled signals from their files a block at a time."""
     if not isinstance(signals, Signals) or not signals.spilled:
-        (np.savez_compressed if compress else np.savez)(path, **dict(signals))
+        arrays: dict[str, Any] = dict(signals)
+        (np.savez_compressed if compress else np.savez)(path, **arrays)
         return
     method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     with zipfile.ZipFile(path, "w", compression=method, allowZip64=True) as zf:

@@ -16,6 +16,7 @@ import pytest
 from numba import typeof
 
 from ffsm_pin.control import fast_spatial
+from ffsm_pin.sim.compile_note import MESSAGE
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -44,23 +45,31 @@ def test_a_warm_cache_starts_no_second_process(monkeypatch):
 
 @pytest.mark.slow
 def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(tmp_path):
-    """About 40 s: everything compiled anew, the complex kinematic law here and the real
-    kernels in the second process."""
+    """About 40-70 s: everything compiled anew, the complex kinematic law here and the real
+    kernels in the second process. Also the per-user cache (``ffsm_pin/_numba_cache.py``) and
+    the compile line (``ffsm_pin/sim/compile_note.py``): the line appears on the cold run
+    only, and a run from another folder finds the same cache (one cache per installation)."""
+    xdg = tmp_path / "xdg"
 
-    def run(cache: Path, out: str) -> dict:
-        env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(REPO)}
+    def run(out: str) -> tuple[dict, str]:
+        env = {**os.environ, "XDG_CACHE_HOME": str(xdg), "PYTHONPATH": str(REPO)}
+        env.pop("NUMBA_CACHE_DIR", None)  # the package picks $XDG_CACHE_HOME/ffsm-pin/numba
+        (tmp_path / out).mkdir()
         proc = subprocess.run(
             [sys.executable, "-m", "ffsm_pin.sim", "--case", "spatial", "--duration", "0.2",
-             "--no-plots", "--no-html", "--quiet", "--out", out],
-            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600,
+             "--no-plots", "--no-html", "--out", "run"],
+            cwd=tmp_path / out, env=env, capture_output=True, text=True, timeout=600,
         )  # fmt: skip
         assert proc.returncode == 0, proc.stderr
-        return dict(np.load(tmp_path / out / "trajectory.npz"))
+        return dict(np.load(tmp_path / out / "run" / "trajectory.npz")), proc.stderr
 
-    cache = tmp_path / "numba-cache"
-    first = run(cache, "cold")
+    cache = xdg / "ffsm-pin" / "numba"
+    first, cold_err = run("cold")
+    assert MESSAGE in cold_err  # a fresh cache: compilation really happens, and is announced
     assert any(cache.rglob("*velocity_terms*.nbi"))  # the second process's kernels are cached
-    second = run(cache, "warm")
+    assert any(cache.glob("control_*/*.nbi"))
+    second, warm_err = run("warm")  # another folder, the same cache
+    assert MESSAGE not in warm_err
     assert first.keys() == second.keys()
     for key in first:
         np.testing.assert_array_equal(first[key], second[key], err_msg=key)

@@ -129,7 +129,12 @@ def test_ctrl_c_writes_what_was_recorded(tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     cmd = [sys.executable, "-m", "ffsm_pin.sim", "--duration", "30", "--no-plots", "--no-html"]
     proc = subprocess.Popen(
-        [*cmd, "--out", str(out)], stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env
+        [*cmd, "--out", str(out)],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        env=env,
+        # a shell that started pytest in the background ignores SIGINT, and so would the child
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     assert proc.stderr is not None
     seen = b""
