@@ -100,8 +100,8 @@ def check(scenario: Scenario) -> CheckReport:
         st = State(setup.robot).update(setup.q0, setup.v0)
         gain = np.linalg.svd(np.linalg.solve(st.H_bb, st.H_bm), compute_uv=False)
         authority = float(gain[0] * np.linalg.norm(_joint_travel(setup.robot)))
-        q_bd = np.array(scenario.reference.base_attitude, dtype=float)
-        err_b, _ = task_errors(scenario.reference, q_bd, 0.0, meas.q_b, meas.z_e, m3)
+        q_bd = np.array(setup.scenario.reference.base_attitude, dtype=float)  # resolved
+        err_b, _ = task_errors(setup.scenario.reference, q_bd, 0.0, meas.q_b, meas.z_e, m3)
         att = float(4 * np.arctan(np.linalg.norm(err_b)))  # MRP -> rotation angle
         if att > authority:
             problems.append(

@@ -9,6 +9,7 @@ reason, and everything recorded so far.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tempfile
 import time
@@ -363,6 +364,9 @@ def prepare(scenario: Scenario) -> Setup:
 
     sensor = Sensor(robot, model, full_model=False)
     meas0 = sensor.measure(0.0, q0, v0)
+    if ref.origin != "absolute":  # relative to the initial pose: resolved, and saved resolved
+        ref = ref.resolved(meas0.z_e, meas0.q_b, model.m2)
+        scenario = dataclasses.replace(scenario, reference=ref)
     q_bd = np.array(ref.base_attitude, dtype=float)
     err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
     for label, key, fp, err in (

@@ -7,12 +7,14 @@ paper's cases are scenario files shipped in ``ffsm_pin/sim/scenarios/``.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..attitude import mrp
 from ..control.controller import SCHEMES
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
@@ -56,6 +58,17 @@ class ComponentReference:
         return out
 
 
+ORIGINS = ("absolute", "initial")  # [reference] origin
+
+
+def _after(initial: np.ndarray, relative: np.ndarray) -> np.ndarray:
+    """An attitude ``relative`` to ``initial``: planar angles add; MRPs compose,
+    R(initial) R(relative), returned on the |s| <= 1 branch."""
+    if initial.size == 1:
+        return initial + relative
+    return mrp.from_rotation(mrp.to_rotation(initial) @ mrp.to_rotation(relative))
+
+
 @dataclass(frozen=True)
 class Reference:
     """Desired end-effector task z_e,d(t) (Eq. 80 form) and base attitude q_b,d.
@@ -63,16 +76,23 @@ class Reference:
     ``task = "pose"``: one entry of ``ee`` per pose component (planar x, y, attitude [rad];
     spatial x, y, z [m] then an MRP s1, s2, s3); ``"position"``: the position components only.
     ``base_attitude``: planar (angle,) [rad], spatial an MRP (3).
+    ``origin``: ``"absolute"``, or ``"initial"``: the constant terms ``c`` of ``ee`` and
+    ``base_attitude`` are relative to the initial pose, resolved by :meth:`resolved`.
     """
 
     ee: tuple[ComponentReference, ...]
     base_attitude: tuple[float, ...] = (0.0,)
     task: str = "pose"
+    origin: str = "absolute"
 
     def __post_init__(self) -> None:
         if self.task not in TASKS:
             raise ParameterError(
                 f"reference.task {self.task!r} unknown; valid choices: {choices_text(TASKS)}"
+            )
+        if self.origin not in ORIGINS:
+            raise ParameterError(
+                f"reference.origin {self.origin!r} unknown; valid choices: {choices_text(ORIGINS)}"
             )
         # all harmonic terms flattened: value = c + A @ (amp * cos(freq t + phase))
         terms = [
@@ -89,6 +109,32 @@ class Reference:
         object.__setattr__(self, "_amp", np.array([x[1] for x in terms], dtype=float))
         object.__setattr__(self, "_freq", np.array([x[2] for x in terms], dtype=float))
         object.__setattr__(self, "_phase", np.array([x[3] for x in terms], dtype=float))
+
+    def resolved(self, z_e0, q_b0, m2: int) -> Reference:
+        """The absolute reference of an ``origin = "initial"`` one, for the initial
+        end-effector pose ``z_e0`` and base attitude ``q_b0`` (``self`` when absolute).
+
+        Positions and planar angles: c + z_e(0), q_b,d + q_b(0). Spatial attitudes (MRPs):
+        the given rotation after the initial one, R(c) -> R(q_e(0)) R(c) and
+        R(q_b,d) -> R(q_b(0)) R(q_b,d) (docs/cli.md, ``[reference]``). Only the constant terms
+        move; the harmonic terms are unchanged.
+        """
+        if self.origin == "absolute":
+            return self
+        z0 = np.atleast_1d(np.asarray(z_e0, dtype=float))
+        c = np.array([comp.c for comp in self.ee], dtype=float)
+        n_att = len(self.base_attitude)
+        new_c = c.copy()
+        new_c[:m2] = c[:m2] + z0[:m2]
+        if len(c) > m2:  # the task has the end-effector attitude
+            new_c[m2:] = _after(z0[m2 : m2 + n_att], c[m2:])
+        base = _after(np.atleast_1d(np.asarray(q_b0, dtype=float)), np.array(self.base_attitude))
+        ee = tuple(
+            dataclasses.replace(comp, c=float(v)) for comp, v in zip(self.ee, new_c, strict=True)
+        )
+        return dataclasses.replace(
+            self, ee=ee, base_attitude=tuple(float(x) for x in base), origin="absolute"
+        )
 
     def ee_pose(self, t):
         """z_e,d(t) [m, m, rad] (t may be complex)."""

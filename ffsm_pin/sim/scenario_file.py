@@ -189,6 +189,8 @@ def scenario_to_toml(scenario: Scenario) -> str:
         if getattr(ini, key) is not None:
             lines.append(f"{key} = {_toml(getattr(ini, key))}")
     lines += ["", "[reference]", f"task = {_toml(ref.task)}"]
+    if ref.origin != "absolute":  # a run saves the resolved (absolute) reference
+        lines += [f"origin = {_toml(ref.origin)}"]
     lines += [f"base_attitude = {_toml(ref.base_attitude)}", "ee = ["]
     for comp in ref.ee:
         parts = [f"c = {_toml(comp.c)}"]
@@ -357,7 +359,7 @@ def _reference(ref: schema.ReferenceModel, n_b: int) -> Reference:
         for e in ref.ee
     )
     base = _vec(ref.base_attitude) or (0.0,) * n_b
-    return Reference(ee=comps, base_attitude=base, task=ref.task)
+    return Reference(ee=comps, base_attitude=base, task=ref.task, origin=ref.origin)
 
 
 def _controller(c: schema.ControllerModel, n_ee: int, n_b: int) -> ControllerSpec:

@@ -37,7 +37,7 @@ from ..control.null_space import OBJECTIVES, NullSpace
 from ..errors import ScenarioError, choices_text, did_you_mean
 from .actuators import LIMIT_WORDS
 from .plant import INTEGRATORS
-from .scenario import ESTIMATE_KINDS, ControllerSpec
+from .scenario import ESTIMATE_KINDS, ORIGINS, ControllerSpec
 
 #: For each supported base: (m2 end-effector position components, m3 attitude components).
 TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
@@ -230,6 +230,7 @@ class HarmonicsModel(_Table):
 
 class ReferenceModel(_Table):
     task: Literal[TASKS] = "pose"
+    origin: Literal[ORIGINS] = "absolute"  # "initial": c and base_attitude from the start pose
     base_attitude: Vec | None = None  # planar angle [rad], spatial MRP; default zeros
     ee: Annotated[list[HarmonicsModel], BeforeValidator(_tables)]
 
