@@ -82,3 +82,7 @@ def did_you_mean(name: str, choices: Iterable[str]) -> str:
 def choices_text(choices: Iterable[str]) -> str:
     """Format valid choices for an error message."""
     return ", ".join(repr(c) for c in choices)
+
+
+class ControllerLoadError(ScenarioError):
+    """A controller type that cannot be found, imported or built (bad input, exit 2)."""

@@ -38,6 +38,7 @@ from .adaptation import (
 )
 from .funnel import Funnel, FunnelEval, FunnelExit, FunnelParams, IdentityFunnel
 from .gains import Gains, SingularityPolicy
+from .interface import Measurement
 from .kinematic import KinematicInputs, KinematicLaw, attitude_matrix, task_errors, task_size
 from .manifold import manifold_input
 from .null_space import NullSpace
@@ -56,19 +57,6 @@ def component_names(m2: int, m3: int) -> tuple[str, ...]:
 
 class SingularityWarning(UserWarning):
     """The damped pseudo-inverse of the kinematic law became active."""
-
-
-class Measurement(NamedTuple):
-    """What the controller measures at time t."""
-
-    t: float  # [s]
-    q_b: float | np.ndarray  # base attitude: planar angle, continuous [rad]; spatial MRP (3)
-    q_m: np.ndarray  # joint angles [rad]
-    w: np.ndarray  # (w_b, w_m), w_b inertial (m3) [rad/s]
-    z_e: np.ndarray  # end-effector pose (p_e, q_e) [m, rad (continuous) or MRP]
-    z_e_dot: np.ndarray  # its rate (dp_e/dt, dq_e/dt) [m/s, rad/s or 1/s]
-    M: np.ndarray | None = None  # true reduced inertia (known-model scheme only)
-    h: np.ndarray | None = None  # true C(q, w) w (known-model scheme only)
 
 
 class ControlOutput(NamedTuple):

@@ -65,7 +65,7 @@ def _joint_travel(robot) -> np.ndarray:
 
 def check(scenario: Scenario) -> CheckReport:
     """Build the scenario (``prepare``) and evaluate the t = 0 conditions; never simulates."""
-    from ..control.kinematic import KinematicInputs, task_errors  # heavy imports here
+    from ..control.kinematic import task_errors  # heavy imports here
     from ..model import State
     from .run import ReachWarning, Sensor, prepare
 
@@ -76,14 +76,13 @@ def check(scenario: Scenario) -> CheckReport:
     except FfsmError as exc:
         return CheckReport(scenario.name, problems=[str(exc)])
     problems: list[str] = []
-    ctrl = setup.controller
     m3 = setup.model.m3
     meas = Sensor(setup.robot, setup.model, full_model=False).measure(0.0, setup.q0, setup.v0)
-    w_b = meas.w[0] if m3 == 1 else meas.w[:3]
-    x = KinematicInputs(0.0, meas.q_b, meas.q_m, meas.z_e, ctrl.theta_b, ctrl.theta_z, w_b)
-    sigma = float(ctrl.kinematic.evaluate(x)[3])
+    # distance to singularity, for controllers that invert a task Jacobian
+    singular_value = getattr(setup.controller, "singular_value", None)
+    sigma = None if singular_value is None else float(singular_value(meas))
     thr = float(scenario.controller.singularity.threshold)
-    if not sigma > thr:
+    if sigma is not None and not sigma > thr:
         problems.append(
             f"singular start: sigma_min of the task Jacobian at t = 0 is {sigma:.4g} <= "
             f"controller.singularity.threshold = {thr:g}; bend the arm (initial.joints away "

@@ -156,10 +156,16 @@ def _estimation(runs, labels, thresholds) -> Figure:
     for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
         t, color = run["t"], f"C{k}"
         for ax, name in zip(axes[:3], ("theta_b", "theta_z", "theta_d"), strict=True):
-            err = np.linalg.norm(run[f"{name}_hat"] - run[name][None, :], axis=1)
-            _plot(ax, t, err, color=color, label=label)
-        _plot(axes[3], t, np.linalg.norm(run["w_tilde"], axis=1), color=color, label=label)
+            if f"{name}_hat" in run:  # only controllers with estimates report them
+                err = np.linalg.norm(run[f"{name}_hat"] - run[name][None, :], axis=1)
+                _plot(ax, t, err, color=color, label=label)
+        if "w_tilde" in run:
+            _plot(axes[3], t, np.linalg.norm(run["w_tilde"], axis=1), color=color, label=label)
         _plot(axes[4], t, np.linalg.norm(run["u_m"], axis=1), color=color, label=label)
+    for ax, key in zip(
+        axes, ("theta_b_hat", "theta_z_hat", "theta_d_hat", "w_tilde"), strict=False
+    ):
+        _note_absent(ax, key, runs)
     axes[0].set_ylabel(r"$|\hat\theta_b - \theta_b|$")
     axes[0].text(
         0.99,
@@ -191,6 +197,8 @@ def _torque(runs, labels, thresholds) -> Figure:
         for i in range(F_r.shape[1]):  # planar: one value; spatial: x, y, z components
             _plot(axes[0], t, F_r[:, i], color=color, label=label if i == 0 else None,
                   linestyle=_RUN_STYLES[i % len(_RUN_STYLES)])  # fmt: skip
+        if "sigma_min" not in run:  # a controller that inverts no task Jacobian
+            continue
         _plot(axes[1], t, run["sigma_min"], color=color)
         if k == 0 or thr != thresholds[0]:
             axes[1].axhline(
@@ -210,6 +218,7 @@ def _torque(runs, labels, thresholds) -> Figure:
                 label="damped (shaded)" if not any_damped else None,
             )
             any_damped = True
+    _note_absent(axes[1], "sigma_min", runs)
     axes[0].set_ylabel(r"$F_r$ [N m]")
     axes[1].set_ylabel(r"$\sigma_{min}(\hat J_m \hat U)$ [m]")
     axes[1].set_ylim(bottom=0)
@@ -263,7 +272,7 @@ def _error_rows(run) -> list[tuple[str, int, str, str]]:
 def _grid(rows: int, title: str, runs) -> tuple[Figure, list[Axes]]:
     fig = Figure(figsize=(8.0, 1.75 * rows + 0.8), layout="constrained")
     axes = list(fig.subplots(rows, 1, sharex=True))
-    names = ", ".join(f"{r.scenario_name} ({r.scheme})" for r in runs)
+    names = ", ".join(f"{r.scenario_name} ({r.scheme or r.controller})" for r in runs)
     fig.suptitle(f"{title}\n{names}", fontsize=10)
     for ax in axes:
         ax.grid(True, linewidth=0.3, alpha=0.6)
@@ -273,6 +282,16 @@ def _grid(rows: int, title: str, runs) -> tuple[Figure, list[Axes]]:
     axes[-1].set_xlim(0.0, max(t_end, max(r.duration for r in runs)))
     axes[-1].set_xlabel("t [s]")
     return fig, axes
+
+
+def _note_absent(ax: Axes, key: str, runs) -> None:
+    """Say on the panel which runs' controllers do not report ``key``."""
+    missing = [run.scenario_name for run in runs if key not in run]
+    if missing:
+        ax.text(
+            0.5, 0.5, f"{key}: not reported by the controller of " + ", ".join(missing),
+            transform=ax.transAxes, ha="center", va="center", fontsize=8, color="0.35",
+        )  # fmt: skip
 
 
 def _mark_stops(ax: Axes, runs) -> None:

@@ -61,7 +61,7 @@ class RunResult:
     :data:`EXTRA_KEYS` to an array (time along axis 0 for the per-sample keys).
     """
 
-    scheme: str
+    scheme: str | None  # the paper's controller's variant; None for other controllers
     robot: str
     dt: float
     duration: float  # requested horizon [s]
@@ -87,6 +87,9 @@ class RunResult:
 
     def __getitem__(self, key: str) -> np.ndarray:
         return self.signals[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.signals
 
     # ---------------------------------------------------------------- checks
     @property
@@ -153,8 +156,10 @@ class RunResult:
         if self._scanned is not None:
             return self._scanned
         keys = ["err_b", "err_z", "bound_b_lower", "bound_b_upper", "bound_z_lower"]
-        keys += ["bound_z_upper", "u_m", "P", "L", "sigma_min", "damping", "F_r"]
-        keys += ["u_cmd"] if "u_cmd" in self.signals else []  # absent in older recordings
+        keys += ["bound_z_upper", "u_m", "P", "L", "F_r"]
+        # u_cmd is absent in older recordings, sigma_min and damping for controllers that
+        # do not report them (docs/controllers.md)
+        keys += [k for k in ("u_cmd", "sigma_min", "damping") if k in self.signals]
         scan = _Scan(outside={"b": None, "z": None})
         P0 = L0 = None
         n = 0
@@ -174,9 +179,13 @@ class RunResult:
             scan.max_u = _max(scan.max_u, np.linalg.norm(b["u_m"], axis=1))
             if "u_cmd" in b:
                 scan.max_u_cmd = _max(scan.max_u_cmd, np.linalg.norm(b["u_cmd"], axis=1))
-            low = float(np.min(b["sigma_min"]))
-            scan.min_sigma = low if scan.min_sigma is None else float(np.min((scan.min_sigma, low)))
-            scan.damped += int(np.count_nonzero(b["damping"] > 0))
+            if "sigma_min" in b:
+                low = float(np.min(b["sigma_min"]))
+                scan.min_sigma = (
+                    low if scan.min_sigma is None else float(np.min((scan.min_sigma, low)))
+                )
+            if "damping" in b:
+                scan.damped += int(np.count_nonzero(b["damping"] > 0))
             scan.max_F_r = _max(scan.max_F_r, np.abs(b["F_r"]))
             n += rows
         scan.rows = n
@@ -224,8 +233,8 @@ class RunResult:
             "damping_threshold": self.damping_threshold,
             "damped_fraction": scan.damped / n if n else 0.0,
             "max_abs_F_r": scan.max_F_r,
-            "final_theta_z_error": _final_norm(s["theta_z_hat"], s["theta_z"]),
-            "final_theta_d_error": _final_norm(s["theta_d_hat"], s["theta_d"]),
+            "final_theta_z_error": _final_norm(s, "theta_z"),
+            "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),
         }
         return out
@@ -255,7 +264,8 @@ def _max(so_far: float, values: np.ndarray) -> float:
     return float(np.max((so_far, np.max(values))))
 
 
-def _final_norm(hat: np.ndarray, truth: np.ndarray) -> float | None:
-    if len(hat) == 0:
+def _final_norm(s: Mapping[str, np.ndarray], name: str) -> float | None:
+    """|estimate - truth| at the last row; None when the controller reports no estimate."""
+    if f"{name}_hat" not in s or len(s[f"{name}_hat"]) == 0:
         return None
-    return float(np.linalg.norm(hat[-1] - truth))
+    return float(np.linalg.norm(s[f"{name}_hat"][-1] - s[name]))

@@ -22,10 +22,19 @@ import pinocchio as pin
 
 from .. import paper
 from ..attitude import mrp
-from ..control.controller import CoordinatedController, Measurement, check_feasibility
+from ..control.diagnostics import base_inertia_terms, numba_available
 from ..control.funnel import Funnel
+from ..control.interface import (
+    Controller,
+    ControllerContext,
+    Measurement,
+    ReferenceSample,
+    recorded_name,
+    split_reply,
+)
 from ..control.kinematic import task_errors, task_size
-from ..errors import ScenarioError, SimulationError
+from ..control.registry import controller_class
+from ..errors import ControllerLoadError, FfsmError, ScenarioError, SimulationError
 from ..model import ReducedModel, State, make_model
 from ..model._state_planar import base_twist_to_local
 from ..model._state_spatial import reaction_torque as spatial_reaction_torque
@@ -55,11 +64,18 @@ class Setup:
     theta_z: np.ndarray  # true parameters
     theta_d: np.ndarray
     theta_b: np.ndarray
-    controller: CoordinatedController
+    controller: Controller  # any implementation of control.interface.Controller
     reach_horizon: float | None  # time the reference leaves the reach [s], None if never
     events: list[str]
     actuators: Actuators | None = None  # between the controller and the plant (ideal: None)
     sensors: Sensors | None = None  # between the plant and the controller (exact: None)
+    funnel_b: Funnel | None = None  # the performance specification, sides fixed at t = 0
+    funnel_z: Funnel | None = None
+
+    @property
+    def n_task(self) -> int:
+        """Components of the end-effector task."""
+        return task_size(self.model.m2, self.model.m3, self.scenario.reference.task)
 
 
 # ---------------------------------------------------------------------- initial state
@@ -334,10 +350,13 @@ def prepare(scenario: Scenario) -> Setup:
         spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
     )
     ctrl, ref = scenario.controller, scenario.reference
+    cls = controller_class(ctrl.type, scenario.source.parent if scenario.source else None)
     model = make_model(robot)
     m3 = model.m3
     n_task = task_size(model.m2, m3, ref.task)
-    check_feasibility(robot.n_joints, ctrl.scheme, n_task=n_task, m3=m3)
+    check_task = getattr(cls, "check_task", None)  # a controller's early refusal, if any
+    if check_task is not None:
+        check_task(scenario, robot.n_joints, n_task, m3)
     for name, fp, size in (("b", ctrl.funnel_b, m3), ("z", ctrl.funnel_z, n_task)):
         if fp.size != size:
             raise ScenarioError(
@@ -369,12 +388,12 @@ def prepare(scenario: Scenario) -> Setup:
         scenario = dataclasses.replace(scenario, reference=ref)
     q_bd = np.array(ref.base_attitude, dtype=float)
     err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
-    for label, key, fp, err in (
-        ("base attitude", "rho_b0", ctrl.funnel_b, err_b),
-        ("end-effector", "rho_z0", ctrl.funnel_z, err_z),
+    funnels = {"b": Funnel(ctrl.funnel_b, err_b), "z": Funnel(ctrl.funnel_z, err_z)}
+    for label, key, funnel, err in (
+        ("base attitude", "rho_b0", funnels["b"], err_b),
+        ("end-effector", "rho_z0", funnels["z"], err_z),
     ):
-        funnel = Funnel(fp, err)
-        if not funnel.inside(0.0, err):
+        if getattr(cls, "needs_funnels", False) and not funnel.inside(0.0, err):
             z0 = np.round(np.atleast_1d(meas0.z_e), 4).tolist()
             qb0 = np.round(np.atleast_1d(meas0.q_b), 4).tolist()
             hint = (
@@ -388,22 +407,24 @@ def prepare(scenario: Scenario) -> Setup:
                 f"funnel at t = 0 (bounds {np.round(lo, 4).tolist()} .. "
                 f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key} or {hint}"
             )
-    controller = CoordinatedController(
-        model,
-        scheme=ctrl.scheme,
-        gains=ctrl.gains,
-        funnel_b=ctrl.funnel_b,
-        funnel_z=ctrl.funnel_z,
-        reference=ref,
-        base_attitude_ref=q_bd,
-        singularity=ctrl.singularity,
-        theta_z0=estimates[0],
-        theta_d0=estimates[1],
-        theta_b0=estimates[2],
-        initial=meas0,
-        null_space=ctrl.null_space,
+    ctx = ControllerContext(
+        n_joints=robot.n_joints,
+        m2=model.m2,
+        m3=m3,
         task=ref.task,
+        n_task=n_task,
+        dt=scenario.dt,
+        params=dict(ctrl.params),
+        reference=_reference_function(ref),
+        base_attitude_reference=q_bd,
+        robot=robot,
+        model=model,
+        initial=meas0,
+        scenario=scenario,
+        estimates=estimates,
+        truth=truth,
     )
+    controller = _build_controller(cls, ctx, ctrl.type)
     events = []
     horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)
     if horizon is not None:
@@ -422,50 +443,74 @@ def prepare(scenario: Scenario) -> Setup:
     return Setup(
         scenario, robot, model, q0, v0, *truth, controller, horizon, events,
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
+        funnels["b"], funnels["z"],
     )  # fmt: skip
+
+
+def _reference_function(ref):
+    """ctx.reference: t -> (z_d, dz_d, ddz_d), task-size arrays."""
+
+    def reference(t: float) -> ReferenceSample:
+        return ReferenceSample(ref.ee_pose(t), ref.ee_rate(t), ref.ee_accel(t))
+
+    return reference
+
+
+def _build_controller(cls: type, ctx: ControllerContext, kind: str) -> Controller:
+    """``cls(ctx)``; a user's constructor that fails is bad input (exit 2)."""
+    try:
+        return cls(ctx)
+    except FfsmError:
+        raise
+    except Exception as exc:
+        raise ControllerLoadError(
+            f"controller.type {kind!r}: building {cls.__name__}(ctx) failed "
+            f"({type(exc).__name__}: {exc})"
+        ) from exc
 
 
 # ---------------------------------------------------------------------- simulate
 def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
-    """Shape of one recorded row of every per-step signal (the recorder's arrays)."""
+    """Shape of one recorded row of every per-step signal the loop itself records, and of
+    the controller's signals it declares (``signal_shapes``, under their recorded names)."""
     m = setup.model
     nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
-    m3, nt = m.m3, setup.controller.n_task
+    m3, nt = m.m3, setup.n_task
     planar = m3 == 1
     nw = n + m3
     # per-step signals; rho, the funnel bounds and the reference depend on t only and
     # are added by finish()
+    declared = getattr(setup.controller, "signal_shapes", None) or {}
     return {
         "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
         "err_z": (nt,), "q_b": (m3,), "err_b": (m3,), "P": (m.m2,),
-        "L": () if planar else (3,), "F_r": () if planar else (3,),
-        "w_tilde": (nw,), "e": (nw,), "theta_z_hat": (m.n_z,),
-        "theta_d_hat": (m.n_d,), "theta_b_hat": (m.n_b,), "z_e_dot": (nt,), "w_mc": (n,),
-        "w_hat": (nw,), "sigma_min": (), "damping": (), "u_cmd": (n,),
+        "L": () if planar else (3,), "F_r": () if planar else (3,), "z_e_dot": (nt,),
+        "u_cmd": (n,),
         **({} if setup.sensors is None else {  # what the controller saw
             "meas_q_b": (m3,), "meas_q_m": (n,), "meas_w": (nw,), "meas_z_e": (nt,),
             "meas_z_e_dot": (nt,),
         }),
+        **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
     }  # fmt: skip
 
 
 def recording_size(setup: Setup) -> tuple[int, int]:
     """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
-    :meth:`_Recorder.finish` adds (funnels, their bounds, the reference)."""
+    :func:`_time_signals` adds (funnels, their bounds, the reference)."""
     sc = setup.scenario
     steps = int(round(sc.duration / sc.dt))
     per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
-    m3, nt = setup.model.m3, setup.controller.n_task
+    m3, nt = setup.model.m3, setup.n_task
     return steps, 8 * (per_step + 3 * m3 + 5 * nt)
 
 
 def _time_signals(setup: Setup):
     """The recorded signals that depend on t only: funnels, their bounds, the reference."""
-    ctrl, ref = setup.controller, setup.scenario.reference
+    ref = setup.scenario.reference
 
     def per_row(t: np.ndarray) -> dict[str, np.ndarray]:
         out = {}
-        for name, funnel in (("b", ctrl.funnel_b), ("z", ctrl.funnel_z)):
+        for name, funnel in (("b", setup.funnel_b), ("z", setup.funnel_z)):
             rho = funnel.rho(t[:, None])  # (samples, components)
             out[f"rho_{name}"] = rho
             out[f"bound_{name}_lower"] = funnel.lower * rho
@@ -477,53 +522,22 @@ def _time_signals(setup: Setup):
     return per_row, truth
 
 
-def _diagnostics(model: ReducedModel, theta_d: np.ndarray, compiled: bool):
-    """f(q_b, q_m, w, w~, Y_df, theta_d-hat) -> (e of Eq. 54, M_bb, dM_bb/dt), true model.
+class _ControllerFault(Exception):
+    """A controller broke the interface (a bad torque or signal); the run stops."""
 
-    The recorder forms the reaction torque (Eq. 7) from these once the plant's acceleration is
-    known: ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` (planar), plus the gyroscopic
-    ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
-    against Pinocchio).
-    """
-    if compiled and model.m3 == 3:
-        from ..control import fast_spatial
 
-        geo = model.kernel_constants()[:2]  # joint rotations, axes
-
-        def compiled_spatial(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
-            return fast_spatial.diagnostics(*geo, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
-
-        return compiled_spatial
-    if compiled:
-        from ..control import fast
-
-        k = model.kernel_constants()
-        args = (k.S, k.phi_offset, k.K, k.L, k.collinear)
-
-        def compiled_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
-            return fast.diagnostics(*args, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d)
-
-        return compiled_diag
-    m3 = model.m3
-    if m3 > 1:
-        basis = np.eye(model.n_joints + m3)[:m3]
-
-        def spatial_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
-            M = model.mass_matrix(theta_d, q_b, q_m)
-            # columns of the symmetric dM/dt: compiled regressors, as Eq. (7) needs
-            Mbb_dot = np.column_stack([model.Y_Mdot(q_b, q_m, w, e)[:m3] @ theta_d for e in basis])
-            return M @ w_tilde + Y_df @ (theta_d - theta_d_hat), M[:m3, :m3], Mbb_dot
-
-        return spatial_diag
-    e0 = np.zeros(model.n_joints + 1)
-    e0[0] = 1.0
-
-    def numpy_diag(q_b, q_m, w, w_tilde, Y_df, theta_d_hat):
-        M = model.mass_matrix(theta_d, q_b, q_m)
-        Mbb_dot = (model.Y_Mdot(q_b, q_m, w, e0) @ theta_d)[0]
-        return M @ w_tilde + Y_df @ (theta_d - theta_d_hat), M[0, 0], Mbb_dot
-
-    return numpy_diag
+def _checked_torque(u, n: int) -> np.ndarray:
+    u = np.asarray(u, dtype=float)
+    if u.shape != (n,):
+        raise _ControllerFault(
+            f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
+            "joint [N m]"
+        )
+    if not np.all(np.isfinite(u)):
+        raise _ControllerFault(
+            f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
+        )
+    return u
 
 
 def simulate(
@@ -547,7 +561,8 @@ def simulate(
         (``ffsm_pin.sim.recorder``); the system's temporary folder when None.
 
     A Ctrl-C (``KeyboardInterrupt``) ends the run like a stop: the result holds every row
-    recorded so far, ``stop_cause = "interrupted"``.
+    recorded so far, ``stop_cause = "interrupted"``. A controller that raises, or returns a
+    torque of the wrong shape or not finite, stops the run with ``stop_cause = "controller"``.
     """
     sc = setup.scenario
     dt, duration = sc.dt, sc.duration
@@ -555,33 +570,35 @@ def simulate(
     record_every = max(1, int(record_every))
     # the rows a run records go to disk past the first chunk (ffsm_pin.sim.recorder)
     check_storage(*recording_size(setup), record_every, spool_dir or tempfile.gettempdir())
-    ctrl = setup.controller
+    controller = setup.controller
     model = setup.model
     plant = Plant(setup.robot, integrator=sc.integrator)
-    sensor = Sensor(setup.robot, model, full_model=not ctrl.adaptive)  # Pinocchio M, C w
-    rec = Recorder(recorder_shapes(setup), rows_recorded(n_steps, record_every), spool_dir)
+    needs_dynamics = bool(getattr(controller, "needs_dynamics", False))
+    sensor = Sensor(setup.robot, model, full_model=needs_dynamics)  # Pinocchio M, C w
+    shapes = recorder_shapes(setup)
+    n_rows = rows_recorded(n_steps, record_every)
+    rec = Recorder(shapes, n_rows, spool_dir)
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
-    diagnostics = _diagnostics(model, setup.theta_d, ctrl.backend == "numba")
+    # M_bb and dM_bb/dt of the true model, for the reaction torque (Eq. 7)
+    base_terms = base_inertia_terms(model, setup.theta_d, numba_available())
     completed, stop_reason, stop_time = True, None, None
     stop_cause = stop_funnel = None
     next_progress = 0.0
-    m3, nt = model.m3, ctrl.n_task
+    m3, nt, n = model.m3, setup.n_task, model.n_joints
     spatial = m3 > 1
-    nb = model.n_joints + m3  # compile / load the recording kernel before the clock starts
-    zero = np.zeros(nb)
-    meas0 = sensor.measure(0.0, q, v)
+    meas0 = sensor.measure(0.0, q, v)  # compile / load the kernels before the clock starts
     sensor._q_b_prev = None  # the run measures t = 0 again
-    diagnostics(meas0.q_b, meas0.q_m, zero, zero, np.zeros((nb, model.n_d)), setup.theta_d)
+    base_terms(meas0.q_b, meas0.q_m, np.zeros(n + m3))
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
     n_lin = 3 if spatial else 2  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
     ref, base_ref = sc.reference, sc.reference.base_attitude
+    names: dict[str, str] = {}  # controller signal -> recorded name
     wall0 = time.perf_counter()
     k = 0
-    adaptive = ctrl.adaptive
     try:
         for k in range(n_steps + 1):
             t = k * dt
@@ -590,27 +607,34 @@ def simulate(
                 next_progress += 0.1
             meas = sensor.measure(t, q, v)
             record = k % record_every == 0 or k == n_steps
-            if record:  # states at t, before the controller advances them
-                i = rec.i
-                w_tilde = meas.w - ctrl.w_hat if adaptive else zero
-                e, Mbb, Mbb_dot = diagnostics(
-                    meas.q_b, meas.q_m, meas.w, w_tilde, ctrl.Y_df, ctrl.theta_d
-                )
-                A["e"][i] = e  # Eq. (54) with the true M and theta_d
-                A["w_tilde"][i] = w_tilde
-                A["theta_z_hat"][i] = ctrl.theta_z
-                A["theta_d_hat"][i] = ctrl.theta_d
-                A["theta_b_hat"][i] = ctrl.theta_b
-                A["w_hat"][i] = ctrl.w_hat
             seen = meas if sensors is None else sensors.observe(meas)  # noise, delay
             try:
-                out = ctrl.step(seen, dt)
+                u_cmd, signals = split_reply(controller.step(seen))
+                u_cmd = _checked_torque(u_cmd, n)
+                if k == 0:  # the controller's signals: names and shapes from the first period
+                    names = {key: recorded_name(key) for key in signals}
+                    new = {names[key]: np.shape(val) for key, val in signals.items()}
+                    if any(shapes.get(key, shape) != shape for key, shape in new.items()):
+                        raise _ControllerFault(
+                            f"the controller's signals {new} differ from its signal_shapes"
+                        )
+                    if set(new) - set(shapes):
+                        shapes = {**shapes, **new}
+                        rec = Recorder(shapes, n_rows, spool_dir)
+                        A = rec.arrays
             except SimulationError as exc:
                 completed, stop_reason, stop_time = False, str(exc), exc.time
                 stop_cause, stop_funnel = exc.cause, exc.funnel
                 break
+            except Exception as exc:  # a controller's own failure is a stop, not a crash
+                what = str(exc) if isinstance(exc, _ControllerFault) else (
+                    f"the controller raised {type(exc).__name__}: {exc}"
+                )  # fmt: skip
+                completed, stop_time, stop_cause = False, t, "controller"
+                stop_reason = f"t = {t:.4f} s: {what}"
+                break
             final = k == n_steps
-            u_m = out.u_m
+            u_m = u_cmd
             if actuators is not None:
                 u_m = actuators.apply(u_m)
                 saturated += actuators.saturated(u_m)
@@ -619,21 +643,31 @@ def simulate(
             else:
                 a = plant.acceleration(q, v, u_m)
             if record:
+                i = rec.i
+                try:
+                    for key, val in signals.items():
+                        A[names[key]][i] = val
+                except (KeyError, ValueError) as exc:
+                    completed, stop_time, stop_cause = False, t, "controller"
+                    stop_reason = (
+                        f"t = {t:.4f} s: the controller's signals changed after the first "
+                        f"period ({type(exc).__name__}: {exc}); each signal needs the same "
+                        "name and shape every period"
+                    )
+                    break
                 A["t"][i] = t
                 A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, u_m
-                A["u_cmd"][i] = out.u_m
+                A["u_cmd"][i] = u_cmd
                 A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
                 A["q_b"][i] = meas.q_b
-                if sensors is None:  # the controller's errors are the true ones
-                    A["err_z"][i], A["err_b"][i] = out.err_z, out.err_b
-                else:  # the funnels are judged on the true errors; the controller saw others
-                    A["err_b"][i], A["err_z"][i] = task_errors(
-                        ref, base_ref, t, meas.q_b, meas.z_e, m3
-                    )
+                # the specification's funnels are judged on the true errors
+                A["err_b"][i], A["err_z"][i] = task_errors(ref, base_ref, t, meas.q_b, meas.z_e, m3)
+                if sensors is not None:  # what the controller saw
                     A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
                     A["meas_z_e"][i] = seen.z_e[:nt]
                     A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
                 mom = plant.momentum(q, v)
+                Mbb, Mbb_dot = base_terms(meas.q_b, meas.q_m, meas.w)
                 if spatial:
                     A["P"][i], A["L"][i] = mom[:3], mom[3:]
                     w_b_dot = sensor.R0 @ a[3:6]  # R_0(q_b) of this measurement, docs/spatial.md 1
@@ -642,8 +676,6 @@ def simulate(
                     A["P"][i], A["L"][i] = mom[:2], mom[2]
                     # Eqs. (6)-(7), Christoffel C
                     A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]
-                A["w_mc"][i] = out.w_mc
-                A["sigma_min"][i], A["damping"][i] = out.sigma_min, out.damping
                 rec.commit()
             if final:
                 break
@@ -665,8 +697,9 @@ def simulate(
     wall = time.perf_counter() - wall0
     if progress is not None:
         progress(min(k * dt, duration))
+    kind = sc.controller.type
     return RunResult(
-        scheme=ctrl.scheme,
+        scheme=sc.controller.scheme if kind == "lu-jia" else None,
         robot=setup.robot.name,
         dt=dt,
         duration=duration,
@@ -681,10 +714,11 @@ def simulate(
         stop_funnel=stop_funnel,
         integrator=sc.integrator,
         substeps=sc.substeps,
-        events=setup.events + ctrl.events,
+        events=setup.events + list(getattr(controller, "events", [])),
         rhoinf_b=sc.controller.funnel_b.rhoinf,
         rhoinf_z=sc.controller.funnel_z.rhoinf,
         damping_threshold=sc.controller.singularity.threshold,
         description=sc.description,
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
+        controller=kind,
     )

@@ -8,6 +8,7 @@ paper's cases are scenario files shipped in ``ffsm_pin/sim/scenarios/``.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -144,6 +145,10 @@ class Reference:
         """dz_e,d/dt [m/s, m/s, rad/s] (t may be complex)."""
         return self._A @ (-self._amp * self._freq * np.sin(self._freq * t + self._phase))
 
+    def ee_accel(self, t):
+        """d^2 z_e,d/dt^2 [m/s^2, m/s^2, rad/s^2] (t may be complex)."""
+        return self._A @ (-self._amp * self._freq**2 * np.cos(self._freq * t + self._phase))
+
     def sample(self, ts) -> tuple[np.ndarray, np.ndarray]:
         """(z_e,d, dz_e,d/dt) at the times ``ts`` [s], each of shape (len(ts), len(ee))."""
         arg = np.multiply.outer(np.asarray(ts, dtype=float), self._freq) + self._phase
@@ -239,6 +244,10 @@ class Estimates:
 
 @dataclass(frozen=True)
 class ControllerSpec:
+    """``[controller]``: which controller (``type``), its free ``params`` table, and the
+    paper's controller's keys; the funnels are the performance specification of every run
+    (docs/controllers.md)."""
+
     scheme: str = "ppc"
     gains: Gains = field(default_factory=Gains)
     funnel_b: FunnelParams = field(
@@ -252,8 +261,12 @@ class ControllerSpec:
     estimates: Estimates = field(default_factory=Estimates)
     singularity: SingularityPolicy = field(default_factory=SingularityPolicy)
     null_space: NullSpace = field(default_factory=NullSpace)  # beyond the paper, Eq. (36)
+    type: str = "lu-jia"  # a built-in, installed or user controller (control.registry)
+    params: Mapping[str, Any] = field(default_factory=dict)  # [controller.params]
 
     def __post_init__(self) -> None:
+        if not isinstance(self.type, str) or not self.type:
+            raise ParameterError(f"controller.type must be a non-empty string, got {self.type!r}")
         if self.scheme not in SCHEMES:
             raise ParameterError(
                 f"controller.scheme {self.scheme!r} unknown; valid choices: {choices_text(SCHEMES)}"

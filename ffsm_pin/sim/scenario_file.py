@@ -48,6 +48,7 @@ import numpy as np
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
 from ..control.null_space import NullSpace
+from ..control.registry import resolved_type
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
 from . import scenario_schema as schema
 from .actuators import ActuatorSpec
@@ -199,7 +200,8 @@ def scenario_to_toml(scenario: Scenario) -> str:
             if terms:
                 parts.append(f"{kind} = {_toml([[h.amplitude, h.frequency] for h in terms])}")
         lines.append("  { " + ", ".join(parts) + " },")
-    lines += ["]", "", "[controller]", f"scheme = {_toml(c.scheme)}"]
+    kind = resolved_type(c.type, scenario.source.parent if scenario.source else None)
+    lines += ["]", "", "[controller]", f"type = {_toml(kind)}", f"scheme = {_toml(c.scheme)}"]
     lines += [f"{k} = {_toml(getattr(c.gains, k))}" for k in schema.GAIN_KEYS]
     lines += ["", "[controller.funnel]"]
     for fun, tag in ((c.funnel_b, "b"), (c.funnel_z, "z")):
@@ -226,6 +228,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         f"threshold = {_toml(c.singularity.threshold)}",
         f"max_damped_time = {_toml(c.singularity.max_damped_time)}",
         *_null_space_lines(c.null_space),
+        *_params_lines(c.params),
         "",
         "[sim]",
         f"duration = {_toml(scenario.duration)}",
@@ -385,6 +388,8 @@ def _controller(c: schema.ControllerModel, n_ee: int, n_b: int) -> ControllerSpe
             threshold=c.singularity.threshold, max_damped_time=c.singularity.max_damped_time
         ),
         null_space=NullSpace(objective=ns.objective, gain=ns.gain, center=_vec(ns.center)),
+        type=c.type,
+        params=dict(c.params),
     )
 
 
@@ -399,6 +404,18 @@ def _null_space_lines(ns: NullSpace) -> list[str]:
     return lines
 
 
+def _params_lines(params: Mapping[str, Any]) -> list[str]:
+    """The [controller.params] table (nothing when empty)."""
+    if not params:
+        return []
+    items = (f"{_key(k)} = {_param_toml(v)}" for k, v in params.items())
+    return ["", "[controller.params]", *items]
+
+
+def _key(key: str) -> str:
+    return key if key.replace("_", "").replace("-", "").isalnum() else _toml(key)
+
+
 def _toml(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -407,6 +424,17 @@ def _toml(value: Any) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml(v) for v in value) + "]"
     return repr(float(value))
+
+
+def _param_toml(value: Any) -> str:
+    """A free [controller.params] value: integers stay integers, tables are inline."""
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{_key(k)} = {_param_toml(v)}" for k, v in value.items()) + " }"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_param_toml(v) for v in value) + "]"
+    if isinstance(value, int) and not isinstance(value, bool):
+        return str(value)
+    return _toml(value)
 
 
 def load_any(spec: str | Path) -> Scenario:

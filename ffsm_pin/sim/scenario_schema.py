@@ -299,6 +299,8 @@ _G = Gains()
 
 
 class ControllerModel(_Table):
+    type: Annotated[str, Field(min_length=1)] = "lu-jia"  # control.registry
+    params: dict[str, Any] = {}  # free table for the controller (docs/controllers.md)
     scheme: Literal[SCHEMES] = "ppc"
     k_b: Pos = _G.k_b
     k_z: Pos = _G.k_z

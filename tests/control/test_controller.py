@@ -19,6 +19,7 @@ from ffsm_pin.control.controller import (
 )
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.gains import Gains, SingularityPolicy
+from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.errors import FfsmError, InfeasibleTaskError, ScenarioError
 from ffsm_pin.model.planar import BarycentricModel
 from ffsm_pin.sim.run import Sensor, prepare, simulate
@@ -52,25 +53,9 @@ def with_backend(setup, backend: str):
     'numba' compiled period): the same estimates, funnels, gains and initial measurement."""
     if backend == "numba":
         pytest.importorskip("numba")
-    c, sc = setup.controller, setup.scenario
-    spec = sc.controller
-    meas0 = Sensor(setup.robot, setup.model, full_model=False).measure(0.0, setup.q0, setup.v0)
-    setup.controller = CoordinatedController(
-        setup.model,
-        scheme=spec.scheme,
-        gains=spec.gains,
-        funnel_b=spec.funnel_b,
-        funnel_z=spec.funnel_z,
-        reference=sc.reference,
-        base_attitude_ref=sc.reference.base_attitude[0],
-        singularity=spec.singularity,
-        theta_z0=c.theta_z.copy(),
-        theta_d0=c.theta_d.copy(),
-        theta_b0=c.theta_b.copy(),
-        initial=meas0,
-        backend=backend,
-    )
-    assert setup.controller.backend == backend
+    # the same controller (estimates, funnels, gains, initial measurement) on `backend`
+    setup.controller = LuJiaController(setup.controller.context, backend=backend)
+    assert setup.controller.law.backend == backend
     return setup
 
 

@@ -77,7 +77,7 @@ def _offaxis(scheme: str, null_space: NullSpace | None = None) -> Scenario:
 
 def _trajectory(scenario: Scenario, backend: str):
     setup = prepare(scenario)
-    ctrl = setup.controller
+    ctrl = setup.controller.law
     if backend == "numpy":
         ctrl.backend = "numpy"
     assert ctrl.backend == backend
@@ -145,7 +145,7 @@ def test_funnel_exit_stops_with_the_same_reason(backend):
     """Both backends refuse a measurement outside the funnel, with the same message, and
     leave the estimator states untouched."""
     setup = prepare(_paper("ppc"))
-    ctrl = setup.controller
+    ctrl = setup.controller.law
     if backend == "numpy":
         ctrl.backend = "numpy"
     sensor = Sensor(setup.robot, setup.model, full_model=False)

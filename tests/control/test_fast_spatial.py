@@ -247,8 +247,8 @@ def test_closed_loop_equals_numpy(case):
     for backend in ("numba", "numpy"):
         scenario = dataclasses.replace(builtin_scenario(case), duration=2.0)
         setup = prepare(scenario)
-        assert setup.controller.backend == "numba"  # the default for spatial robots
-        setup.controller.backend = backend
+        assert setup.controller.law.backend == "numba"  # the default for spatial robots
+        setup.controller.law.backend = backend
         results.append(simulate(setup))
     a, b = results
     assert a.completed and b.completed and a.steps == b.steps

@@ -16,9 +16,9 @@ import warnings
 import numpy as np
 import pytest
 
-from ffsm_pin.control.controller import CoordinatedController
 from ffsm_pin.control.kinematic import KinematicInputs
-from ffsm_pin.sim.run import Sensor, prepare, simulate
+from ffsm_pin.control.lu_jia import LuJiaController
+from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sim.scenario import (
     ControllerSpec,
     RobotSpec,
@@ -47,23 +47,9 @@ def _run(scheme: str, backend: str):
     setup = prepare(sc)
     if backend == "numba":
         pytest.importorskip("numba")
-    c = setup.controller
-    setup.controller = CoordinatedController(
-        setup.model,
-        scheme=scheme,
-        gains=sc.controller.gains,
-        funnel_b=sc.controller.funnel_b,
-        funnel_z=sc.controller.funnel_z,
-        reference=sc.reference,
-        base_attitude_ref=0.0,
-        singularity=sc.controller.singularity,
-        theta_z0=c.theta_z.copy(),
-        theta_d0=c.theta_d.copy(),
-        theta_b0=c.theta_b.copy(),
-        initial=Sensor(setup.robot, setup.model, False).measure(0.0, setup.q0, setup.v0),
-        backend=backend,
-    )  # the same controller on the requested backend (w_mc computed by numpy or numba)
-    assert setup.controller.backend == backend
+    # the same controller (estimates, funnels, gains, initial measurement) on `backend`
+    setup.controller = LuJiaController(setup.controller.context, backend=backend)
+    assert setup.controller.law.backend == backend
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = simulate(setup)
@@ -210,7 +196,7 @@ def test_complex_step_derivative_matches_central_difference_case3(case3_run):
 def check_derivative(setup, result, eq81: bool):
     """dw_mc/dt from KinematicLaw.command (one complex-step evaluation) against
     (w_mc(x + h r) - w_mc(x - h r)) / 2h along the recorded rates r."""
-    law = setup.controller.kinematic  # stateless: funnels fixed at t = 0
+    law = setup.controller.law.kinematic  # stateless: funnels fixed at t = 0
     h = 1e-6  # truncation ~ h^2 |w_mc'''| ~ 1e-10; rounding ~ 1e-16 |w_mc| / h ~ 1e-9
     for k in sample_indices(result):
         if result["damping"][k] != 0:
@@ -240,7 +226,7 @@ def test_derivative_along_each_input_separately(ppc_run):
     (t, q_b, q_m, z_e, theta_b, theta_z) equals the full one, and each part matches its own
     central difference (catches an input that the complex step does not reach)."""
     setup, result = ppc_run
-    law = setup.controller.kinematic
+    law = setup.controller.law.kinematic
     k = sample_indices(result)[4]
     x, rates = inputs_at(result, k)
     zero = KinematicInputs(*(0.0 * np.asarray(r) for r in rates))

@@ -85,7 +85,7 @@ def _controller(ns: NullSpace, backend: str):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         setup = prepare(_scenario(ns))
-    ctrl = setup.controller
+    ctrl = setup.controller.law
     if backend == "numpy":
         ctrl.backend = "numpy"
     elif ctrl.backend != "numba":

@@ -99,7 +99,7 @@ def run(request):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         setup = prepare(sc)
-        estimates = (setup.controller.theta_z.copy(), setup.controller.theta_d.copy())
+        estimates = (setup.controller.law.theta_z.copy(), setup.controller.law.theta_d.copy())
         result = simulate(setup)
     return name, setup, estimates, result, caught
 

@@ -75,7 +75,7 @@ def test_pose_case_keeps_funnels():
     Peak torque bound: 10 N m, far inside what an arm of 27 kg with 0.4 m links gives (the
     Panda's wrist joints give 12 N m)."""
     setup, res = _run("spatial-pose")
-    assert setup.scenario.duration >= 30.0 and setup.controller.n_task == 6
+    assert setup.scenario.duration >= 30.0 and setup.n_task == 6
     assert res.completed, res.stop_reason
     assert res.funnel_kept("b") and res.funnel_kept("z")
     assert np.abs(res["u_m"]).max() < 10.0

@@ -173,7 +173,7 @@ def test_position_task_is_valid_for_planar_robots():
     sc = scenario_from_toml(text)
     assert sc.reference.task == "position" and len(sc.reference.ee) == 2
     setup = prepare(sc)
-    assert setup.controller.n_task == 2 and setup.controller.backend == "numpy"
+    assert setup.n_task == 2 and setup.controller.law.backend == "numpy"
     with pytest.raises(FfsmError, match="3 values, expected 2"):
         scenario_from_toml(_edit(text, "rho_z0", "[1.0, 1.0, 0.2]"))
 
@@ -199,7 +199,7 @@ def test_every_spatial_builtin_prepares(name):
     setup = prepare(builtin_scenario(name))
     n = 9 if name == "spatial-pose" else 7  # the pose task needs 6 + 3 joints
     assert setup.robot.n_joints == len(setup.scenario.initial.joints) == n
-    assert setup.controller.n_task == (6 if name == "spatial-pose" else 3)
+    assert setup.n_task == (6 if name == "spatial-pose" else 3)
     assert setup.scenario.duration >= 30.0
 
 

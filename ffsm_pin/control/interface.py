@@ -1,0 +1,159 @@
+"""The one interface every controller implements: the paper's, a baseline, a user's.
+
+The run loop (:mod:`ffsm_pin.sim.run`) knows nothing of a controller's insides. It builds the
+controller once from a :class:`ControllerContext`, then calls :meth:`Controller.step` once per
+control period with what the sensors report (:class:`Measurement`) and gets joint torques back,
+optionally with named signals to record. docs/controllers.md is the user's description.
+
+A controller is any class with
+
+* ``__init__(self, ctx: ControllerContext)``;
+* ``step(self, meas: Measurement)`` returning the joint torques ``u_m`` (n_joints,) [N m], or
+  ``(u_m, {"name": value, ...})`` to record signals with it.
+
+and optionally the attributes
+
+* ``needs_funnels`` (bool, default False): the controller uses the scenario's funnels itself
+  (the paper's transformation); a run whose initial errors are not strictly inside them is
+  refused before it starts.
+* ``needs_dynamics`` (bool, default False): ``meas.M`` and ``meas.h`` carry the true reduced
+  inertia M(q) and C(q, w) w (a known-model baseline); otherwise they are None.
+* ``events`` (list of str): notes for the run's summary (for example a singularity warning).
+* ``check_task(scenario, n_joints, n_task, m3)`` (static): raise
+  :class:`~ffsm_pin.errors.FfsmError` to refuse a scenario before anything is built (too few
+  joints for the task, say);
+* ``singular_value(meas)``: the distance to a kinematic singularity [m], for ``--check``;
+* ``signal_shapes`` (dict name -> shape): the shapes of the signals ``step`` returns, used to
+  size the recording before the run; signals not listed are found at the first step.
+
+Signals named in :data:`STANDARD_SIGNALS` keep their names in ``trajectory.npz`` (the figures
+and the summary know them); any other name is saved as ``ctrl_<name>``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
+
+# Signals a controller may report under their own names (units in docs/cli.md):
+STANDARD_SIGNALS = {
+    "w_mc": "kinematic-level command, Eqs. (25)+(36) or (81) [rad/s]",
+    "w_hat": "filter state w-hat, Eq. (46) [rad/s]",
+    "w_tilde": "w - w-hat [rad/s]",
+    "e": "M w~ + Y_df (theta_d - theta_d-hat), Eq. (54), with the true M and theta_d",
+    "theta_z_hat": "estimate of theta_z, Eq. (42)",
+    "theta_d_hat": "estimate of theta_d, Eq. (51)",
+    "theta_b_hat": "estimate of theta_b, Eq. (28)",
+    "sigma_min": "smallest singular value of the inverted task Jacobian [m]",
+    "damping": "lambda^2 of a damped pseudo-inverse (0 = undamped)",
+}
+USER_SIGNAL_PREFIX = "ctrl_"
+
+
+class Measurement(NamedTuple):
+    """What a controller is given at time t (noise and delay included when configured)."""
+
+    t: float  # [s]
+    q_b: float | np.ndarray  # base attitude: planar angle, continuous [rad]; spatial MRP (3)
+    q_m: np.ndarray  # joint angles [rad]
+    w: np.ndarray  # (w_b, w_m), w_b inertial (m3) [rad/s]
+    z_e: np.ndarray  # end-effector pose (p_e, q_e) [m, rad (continuous) or MRP]
+    z_e_dot: np.ndarray  # its rate (dp_e/dt, dq_e/dt) [m/s, rad/s or 1/s]
+    M: np.ndarray | None = None  # true reduced inertia (controllers with needs_dynamics)
+    h: np.ndarray | None = None  # true C(q, w) w (controllers with needs_dynamics)
+
+
+class ReferenceSample(NamedTuple):
+    """The end-effector reference at one time, task-size arrays."""
+
+    z_d: np.ndarray  # z_e,d(t) [m, rad or MRP]
+    dz_d: np.ndarray  # its first time derivative
+    ddz_d: np.ndarray  # its second time derivative
+
+
+@dataclass(frozen=True)
+class ControllerContext:
+    """Everything a controller may use, handed to its constructor once before the run.
+
+    Attributes
+    ----------
+    n_joints, m2, m3:
+        Manipulator joints; position and attitude sizes (planar 2, 1; spatial 3, 3).
+    task:
+        ``"pose"`` (m2 + m3 components) or ``"position"`` (m2).
+    n_task:
+        Components of the end-effector task.
+    dt:
+        Control period [s] (the plant may take several steps per period).
+    params:
+        The scenario's ``[controller.params]`` table.
+    reference:
+        ``reference(t)`` -> :class:`ReferenceSample` (z_d, dz_d, ddz_d) at time t [s].
+    base_attitude_reference:
+        Desired base attitude q_b,d (m3,) [rad or MRP].
+    robot:
+        The loaded robot (``robot.model`` is Pinocchio's model, ``robot.joint_names``).
+    model:
+        The reduced model (the paper's M, C w, H_bb, H_bm, J_b, J_m, barycentric regressors).
+    initial:
+        The exact measurement at t = 0.
+    scenario:
+        The whole scenario (built-in controllers read their own keys from it).
+    estimates:
+        Initial parameter estimates (theta_z, theta_d, theta_b) from ``[controller.estimates]``.
+    truth:
+        The true parameters (theta_z, theta_d, theta_b): for diagnostics and known-model
+        baselines only; an adaptive controller must not use them in its law.
+    """
+
+    n_joints: int
+    m2: int
+    m3: int
+    task: str
+    n_task: int
+    dt: float
+    params: Mapping[str, Any]
+    reference: Callable[[float], ReferenceSample]
+    base_attitude_reference: np.ndarray
+    robot: Any
+    model: Any
+    initial: Measurement
+    scenario: Any = None
+    estimates: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """A controller: built from a :class:`ControllerContext`, stepped once per period."""
+
+    def step(self, meas: Measurement) -> Any:
+        """Joint torques u_m (n_joints,) [N m] for the period starting at ``meas.t``, or
+        ``(u_m, signals)`` with ``signals`` a mapping of names to numbers or arrays."""
+        ...
+
+
+class Reply(NamedTuple):
+    """A controller's answer for one period, normalised by :func:`split_reply`."""
+
+    u_m: Any
+    signals: Mapping[str, Any]
+
+
+_NO_SIGNALS: Mapping[str, Any] = {}
+
+
+def split_reply(reply: Any) -> Reply:
+    """``u_m`` or ``(u_m, signals)`` -> :class:`Reply` (no checks on u_m)."""
+    if isinstance(reply, tuple) and len(reply) == 2 and isinstance(reply[1], Mapping):
+        return Reply(reply[0], reply[1])
+    return Reply(reply, _NO_SIGNALS)
+
+
+def recorded_name(name: str) -> str:
+    """The ``trajectory.npz`` key of a controller signal: standard names stay, others get
+    the ``ctrl_`` prefix."""
+    return name if name in STANDARD_SIGNALS else USER_SIGNAL_PREFIX + name

@@ -1,0 +1,113 @@
+"""The paper's controller (Lu & Jia 2019) behind the :mod:`.interface` (``type = "lu-jia"``).
+
+:class:`LuJiaController` adapts :class:`~.controller.CoordinatedController` (the law itself,
+Sections 3.1-3.3) to the one controller interface: it reads its keys (``scheme``, gains,
+funnels, estimates, singularity policy, null space) from the scenario, and reports what it has
+as standard signals (estimates, w-hat, w~, Eq. (54)'s e, w_mc, sigma_min, damping), recorded at
+the start of each period, before the period advances the estimates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .controller import CoordinatedController, check_feasibility
+from .diagnostics import true_model_terms
+from .interface import ControllerContext, Measurement
+from .kinematic import KinematicInputs
+
+
+class LuJiaController:
+    """Adaptive prescribed-performance coordinated controller, one implementation of
+    :class:`~.interface.Controller` (docs/controllers.md).
+
+    Parameters
+    ----------
+    ctx:
+        The run's context; the law's keys are read from ``ctx.scenario.controller``.
+    backend:
+        ``"auto"`` (the compiled period where there is one), ``"numba"`` or ``"numpy"`` (the
+        readable reference); see :class:`~.controller.CoordinatedController`.
+
+    Attributes
+    ----------
+    law:
+        The :class:`~.controller.CoordinatedController` itself (estimates, funnels, kinematic law).
+    context:
+        The context it was built from (to rebuild it, e.g. on another backend).
+    """
+
+    needs_funnels = True  # the transformation (21) is undefined outside a funnel
+
+    @staticmethod
+    def check_task(scenario, n_joints: int, n_task: int, m3: int) -> None:
+        """Refuse, before anything is built, a robot with too few joints for the scheme
+        (:func:`~.controller.check_feasibility`)."""
+        check_feasibility(n_joints, scenario.controller.scheme, n_task=n_task, m3=m3)
+
+    def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
+        self.context = ctx
+        sc = ctx.scenario
+        c = sc.controller
+        if ctx.estimates is None or ctx.truth is None:
+            raise ValueError("the lu-jia controller needs the context's estimates and truth")
+        self.law = CoordinatedController(
+            ctx.model,
+            scheme=c.scheme,
+            gains=c.gains,
+            funnel_b=c.funnel_b,
+            funnel_z=c.funnel_z,
+            reference=sc.reference,
+            base_attitude_ref=ctx.base_attitude_reference,
+            singularity=c.singularity,
+            theta_z0=ctx.estimates[0],
+            theta_d0=ctx.estimates[1],
+            theta_b0=ctx.estimates[2],
+            initial=ctx.initial,
+            null_space=c.null_space,
+            task=ctx.task,
+            backend=backend,
+        )
+        law = self.law
+        self.scheme = c.scheme
+        self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
+        self.events = law.events
+        self._dt = ctx.dt
+        self._diagnostics = true_model_terms(ctx.model, ctx.truth[1], law.backend == "numba")
+        m = ctx.model
+        nb = m.n_joints + m.m3
+        self._zero = np.zeros(nb)
+        self.signal_shapes = {
+            "w_tilde": (nb,), "e": (nb,), "theta_z_hat": (m.n_z,), "theta_d_hat": (m.n_d,),
+            "theta_b_hat": (m.n_b,), "w_hat": (nb,), "w_mc": (m.n_joints,), "sigma_min": (),
+            "damping": (),
+        }  # fmt: skip
+
+    def singular_value(self, meas: Measurement) -> float:
+        """sigma_min of the inverted task Jacobian (J_m-hat U-hat, or J_m-hat for Eq. 81) at
+        ``meas`` with the current estimates [m]; the distance to a kinematic singularity."""
+        law = self.law
+        w_b = meas.w[0] if law.m3 == 1 else meas.w[: law.m3]
+        x = KinematicInputs(meas.t, meas.q_b, meas.q_m, meas.z_e, law.theta_b, law.theta_z, w_b)
+        return float(law.kinematic.evaluate(x)[3])
+
+    def step(self, meas: Measurement):
+        """u_m for the period [t, t + dt) and the signals at t (before the update)."""
+        law = self.law
+        w_tilde = meas.w - law.w_hat if law.adaptive else self._zero
+        e = self._diagnostics(meas.q_b, meas.q_m, meas.w, w_tilde, law.Y_df, law.theta_d)[0]
+        before = {  # the period updates these in place: copies at t
+            "theta_z_hat": law.theta_z.copy(),
+            "theta_d_hat": law.theta_d.copy(),
+            "theta_b_hat": law.theta_b.copy(),
+            "w_hat": law.w_hat.copy(),
+        }
+        out = law.step(meas, self._dt)
+        return out.u_m, {
+            "e": e,  # Eq. (54) with the true M and theta_d
+            "w_tilde": w_tilde,
+            **before,
+            "w_mc": out.w_mc,
+            "sigma_min": out.sigma_min,
+            "damping": out.damping,
+        }
