@@ -393,13 +393,21 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
 
 
 @njit(cache=True)
-def diagnostics(S, off, K, L, collinear, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
-    """(e of Eq. 54 with the true M and theta_d, M_bb, dM_bb/dt) for recording."""
+def residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d):
+    """e = M w~ + Y_df (theta_d - theta_d-hat) of Eq. (54), with the true M and theta_d."""
     nb = S.shape[0]
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
     M = S.T @ _mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    e = M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+    return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+
+
+@njit(cache=True)
+def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
+    """(M_bb, dM_bb/dt) of the true model, for the reaction torque of Eq. (7)."""
+    nb = S.shape[0]
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    M = S.T @ _mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
     e0 = np.zeros(nb)
     e0[0] = 1.0
     Ymd, _ = _velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
-    return e, M[0, 0], (Ymd @ theta_d)[0]
+    return M[0, 0], (Ymd @ theta_d)[0]

@@ -409,19 +409,29 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
 
 
 @njit(cache=True)
-def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
-    """(e of Eq. 54 with the true M and theta_d, M_bb, dM_bb/dt) for recording (the spatial
-    counterpart of :func:`ffsm_pin.control.fast.diagnostics`); dM_bb/dt along the motion
-    (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step of the base columns of M."""
+def residual_54(jr, ax, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d):
+    """e = M w~ + Y_df (theta_d - theta_d-hat) of Eq. (54), with the true M and theta_d."""
+    n = q_m.size
+    R = np.empty((n + 1, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    M = np.empty((n + 3, n + 3))
+    mass_matrix(R, z, theta_d, M)
+    return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+
+
+@njit(cache=True)
+def base_inertia(jr, ax, q_b, q_m, w, theta_d):
+    """(M_bb, dM_bb/dt) of the true model, from the base columns of M alone; dM_bb/dt along the
+    motion (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step."""
     n = q_m.size
     nb = n + 1
     N = n + 3
     R = np.empty((nb, 3, 3))
     z = np.empty((n, 3))
     kinematics(q_b, q_m, jr, ax, R, z)
-    M = np.empty((N, N))
+    M = np.empty((N, 3))
     mass_matrix(R, z, theta_d, M)
-    e = M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
     hj = 1j * _H
     q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     Rc = np.empty((nb, 3, 3), dtype=np.complex128)
@@ -429,7 +439,7 @@ def diagnostics(jr, ax, q_b, q_m, w, w_tilde, Y_df, theta_d_hat, theta_d):
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
     Mc = np.empty((N, 3), dtype=np.complex128)
     mass_matrix(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
-    return e, M[:3, :3].copy(), Mc[:3, :3].imag / _H
+    return M[:3, :3].copy(), Mc[:3, :3].imag / _H
 
 
 # ---------------------------------------------------------------------- first compilation
@@ -452,7 +462,7 @@ def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
 
 def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     """Compile the real kernels :func:`period` calls, with the argument types it passes, and
-    the recorder's :func:`diagnostics` with those of ``ffsm_pin.sim.run``."""
+    the recorded :func:`residual_54` and :func:`base_inertia` with those the run passes."""
     jr, ax = consts[0], consts[1]
     n = q_m.size
     N, nd = n + 3, theta_d.size
@@ -467,7 +477,8 @@ def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     # period passes the constant False, which numba types as a literal
     ym.compile(tuple(typeof(x) for x in (R, z, w - w, YM)) + (types.literal(False),))
     _l_matrix(q_b, R[0])
-    diagnostics(jr, ax, q_b, q_m, np.zeros(N), np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
+    residual_54(jr, ax, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
+    base_inertia(jr, ax, q_b, q_m, np.zeros(N), theta_d)
 
 
 def _with_flags(x):
@@ -498,12 +509,13 @@ def _compile_real_kernels_from_stdin() -> None:
 
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """On a first run (nothing in numba's cache yet), compile the real kernels of
-    :func:`period` and :func:`diagnostics` in a second process while this one compiles the
-    complex kinematic law; :func:`period` then loads the former from the cache. On two cores
-    this takes about a quarter off the first spatial run (benchmarks/README.md, "Spatial
-    closed loop"). Nothing changes in what is computed: both processes compile the same
-    source. When the cache is warm, or a second process cannot be started, it does nothing
-    and :func:`period` compiles (or loads) everything itself as before."""
+    :func:`period`, :func:`residual_54` and :func:`base_inertia` in a second process while
+    this one compiles the complex kinematic law; :func:`period` then loads the former from the
+    cache. On two cores this takes about a quarter off the first spatial run
+    (benchmarks/README.md, "Spatial closed loop"). Nothing changes in what is computed: both
+    processes compile the same source. When the cache is warm, or a second process cannot be
+    started, it does nothing and :func:`period` compiles (or loads) everything itself as
+    before."""
     if not (_cold(period) and _cold(_kinematic)):
         return
     root = str(Path(__file__).resolve().parents[2])  # the folder that holds ffsm_pin/

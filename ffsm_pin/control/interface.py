@@ -103,7 +103,9 @@ class ControllerContext:
     scenario:
         The whole scenario (built-in controllers read their own keys from it).
     estimates:
-        Initial parameter estimates (theta_z, theta_d, theta_b) from ``[controller.estimates]``.
+        Initial parameter estimates (theta_z, theta_d, theta_b) from ``[controller.estimates]``,
+        drawn when first read (a scenario's estimates matter only to a controller that reads
+        them; an unusable ``[controller.estimates]`` raises here).
     truth:
         The true parameters (theta_z, theta_d, theta_b): for diagnostics and known-model
         baselines only; an adaptive controller must not use them in its law.
@@ -122,8 +124,18 @@ class ControllerContext:
     model: Any
     initial: Measurement
     scenario: Any = None
-    estimates: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    estimates_source: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
     truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    @property
+    def estimates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(theta_z, theta_d, theta_b)-hat at t = 0, or None when the run has none."""
+        if self.estimates_source is None:
+            return None
+        cache = self.__dict__.setdefault("_estimates_cache", [])
+        if not cache:
+            cache.append(self.estimates_source())
+        return cache[0]
 
 
 @runtime_checkable

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .controller import CoordinatedController, check_feasibility
-from .diagnostics import true_model_terms
+from .diagnostics import residual_54
 from .interface import ControllerContext, Measurement
 from .kinematic import KinematicInputs
 
@@ -73,7 +73,7 @@ class LuJiaController:
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
-        self._diagnostics = true_model_terms(ctx.model, ctx.truth[1], law.backend == "numba")
+        self._residual = residual_54(ctx.model, ctx.truth[1], law.backend == "numba")
         m = ctx.model
         nb = m.n_joints + m.m3
         self._zero = np.zeros(nb)
@@ -95,7 +95,7 @@ class LuJiaController:
         """u_m for the period [t, t + dt) and the signals at t (before the update)."""
         law = self.law
         w_tilde = meas.w - law.w_hat if law.adaptive else self._zero
-        e = self._diagnostics(meas.q_b, meas.q_m, meas.w, w_tilde, law.Y_df, law.theta_d)[0]
+        e = self._residual(meas.q_b, meas.q_m, w_tilde, law.Y_df, law.theta_d)  # Eq. (54)
         before = {  # the period updates these in place: copies at t
             "theta_z_hat": law.theta_z.copy(),
             "theta_d_hat": law.theta_d.copy(),

@@ -72,6 +72,9 @@ def per_joint(value, n: int, key: str, joints: tuple[str, ...] = ()) -> np.ndarr
     return arr
 
 
+BLOCK = 1024  # control periods whose torque noise is drawn in one call
+
+
 class Actuators:
     """The actuator model of :class:`ActuatorSpec` for ``n`` joints and control period ``dt``.
 
@@ -128,17 +131,33 @@ class Actuators:
         self.noisy = bool(np.any(self.sigma > 0))
         self.rng = np.random.default_rng(spec.seed)
         self.x = np.zeros(n)  # the actuators' torque state [N m]
+        # which steps act (a step that cannot change anything is skipped: same numbers, faster)
+        self.limited = bool(np.any(np.isfinite(self.limit)))
+        self.lagged = self.alpha != 1.0
+        self.rate_limited = bool(np.any(np.isfinite(self.max_change)))
+        self._low, self._low_change = -self.limit, -self.max_change
+        self._row = BLOCK  # next row of the current block of torque noise (none drawn yet)
 
     def apply(self, u_cmd: np.ndarray) -> np.ndarray:
         """The torque applied this control period for the command ``u_cmd`` [N m]."""
         if self.ideal:
             return u_cmd
-        y = np.clip(u_cmd, -self.limit, self.limit)
-        y = self.x + self.alpha * (y - self.x)
-        self.x = self.x + np.clip(y - self.x, -self.max_change, self.max_change)
-        u = self.x + self.rng.normal(0.0, 1.0, self.n) * self.sigma if self.noisy else self.x
-        return np.clip(u, -self.limit, self.limit)
+        # min(max(.)) is np.clip, without its overhead on short vectors
+        y = np.minimum(np.maximum(u_cmd, self._low), self.limit) if self.limited else u_cmd
+        if self.lagged:
+            y = self.x + self.alpha * (y - self.x)
+        if self.rate_limited:
+            y = self.x + np.minimum(np.maximum(y - self.x, self._low_change), self.max_change)
+        self.x = y
+        if not self.noisy:
+            return y
+        if self._row == BLOCK:  # the noise of BLOCK periods at once: the same stream
+            self._noise = self.rng.standard_normal((BLOCK, self.n)) * self.sigma
+            self._row = 0
+        u = y + self._noise[self._row]
+        self._row += 1
+        return np.minimum(np.maximum(u, self._low), self.limit) if self.limited else u
 
     def saturated(self, u_m: np.ndarray) -> bool:
         """Some joint's applied torque is at its limit."""
-        return bool(np.any(np.abs(u_m) >= self.limit))
+        return self.limited and bool((np.abs(u_m) >= self.limit).any())

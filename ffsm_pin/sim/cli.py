@@ -319,14 +319,14 @@ def result_table(results: Sequence[RunResult], folders: Sequence[Path]) -> str:
 
 def _column(r: RunResult, folder: Path) -> dict[str, str]:
     s = r.summary()
-    spatial = np.asarray(r["err_b"]).reshape(len(r["t"]), -1).shape[1] == 3
+    spatial = np.asarray(r["err_b"]).shape[-1] == 3  # (rows, m3), rows may be 0
     n_z = np.asarray(r["err_z"]).shape[-1]
     b_unit = "MRP" if spatial else "rad"
     z_unit = ("m" if n_z == 3 else "m,MRP") if spatial else ("m" if n_z == 2 else "m,m,rad")
     settle = f"{_num(s['settle_time_b'], '{:.2f}')} / {_num(s['settle_time_z'], '{:.2f}')}"
     return {
         "scenario": r.scenario_name,
-        "scheme": r.scheme,
+        "controller": r.controller + (f" ({r.scheme})" if r.scheme else ""),
         "completed": _completed(r),
         "funnel b / z": f"{_kept(s['funnel_ok_b'])} / {_kept(s['funnel_ok_z'])}",
         "first violation [s]": _num(s["first_violation_t"], "{:.3f}"),

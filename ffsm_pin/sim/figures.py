@@ -105,7 +105,7 @@ def _errors(runs, labels, thresholds) -> Figure:
         ax.axhline(0.0, color="0.8", linewidth=0.6, zorder=0)
         ax.set_ylabel(ylabel)
         _mark_stops(ax, runs)
-    axes[0].legend(loc="upper right", fontsize=8)
+    _legend(axes[0], loc="upper right", fontsize=8)
     return fig
 
 
@@ -136,7 +136,7 @@ def _velocities(runs, labels, thresholds) -> Figure:
     axes[3].set_ylabel(r"$w_m$ [rad/s]")
     for ax in axes:
         _mark_stops(ax, runs)
-    axes[0].legend(loc="upper right", fontsize=8)
+    _legend(axes[0], loc="upper right", fontsize=8)
     n_m = max(r["w"].shape[1] - _sizes(r)[0] for r in runs)
     handles = [
         Line2D([], [], color=_JOINT_COLORS[j % len(_JOINT_COLORS)], label=f"$w_{{m{j + 1}}}$")
@@ -184,7 +184,7 @@ def _estimation(runs, labels, thresholds) -> Figure:
     axes[4].set_ylabel(r"$|u_m|$ [N m]")
     for ax in axes:
         _mark_stops(ax, runs)
-    axes[1].legend(loc="upper right", fontsize=8)
+    _legend(axes[1], loc="upper right", fontsize=8)
     return fig
 
 
@@ -193,7 +193,8 @@ def _torque(runs, labels, thresholds) -> Figure:
     any_damped = False
     for k, (run, label, thr) in enumerate(zip(runs, labels, thresholds, strict=True)):
         t, color = run["t"], f"C{k}"
-        F_r = np.asarray(run["F_r"]).reshape(len(t), -1)
+        F_r = np.asarray(run["F_r"])
+        F_r = F_r[:, None] if F_r.ndim == 1 else F_r  # planar: one value per row
         for i in range(F_r.shape[1]):  # planar: one value; spatial: x, y, z components
             _plot(axes[0], t, F_r[:, i], color=color, label=label if i == 0 else None,
                   linestyle=_RUN_STYLES[i % len(_RUN_STYLES)])  # fmt: skip
@@ -224,8 +225,8 @@ def _torque(runs, labels, thresholds) -> Figure:
     axes[1].set_ylim(bottom=0)
     for ax in axes:
         _mark_stops(ax, runs)
-    axes[0].legend(loc="upper right", fontsize=8)
-    axes[1].legend(loc="upper right", fontsize=8)
+    _legend(axes[0], loc="upper right", fontsize=8)
+    _legend(axes[1], loc="upper right", fontsize=8)
     return fig
 
 
@@ -250,7 +251,7 @@ def _path(runs, labels, thresholds) -> Figure:
 # ------------------------------------------------------------------------------ helpers
 def _sizes(run) -> tuple[int, int]:
     """(m3, m2) of a run: attitude components (1 planar, 3 spatial) and position components."""
-    m3 = np.asarray(run["err_b"]).reshape(len(run["t"]), -1).shape[1]
+    m3 = np.asarray(run["err_b"]).shape[-1]  # (rows, m3), rows may be 0
     return m3, (2 if m3 == 1 else 3)
 
 
@@ -282,6 +283,12 @@ def _grid(rows: int, title: str, runs) -> tuple[Figure, list[Axes]]:
     axes[-1].set_xlim(0.0, max(t_end, max(r.duration for r in runs)))
     axes[-1].set_xlabel("t [s]")
     return fig, axes
+
+
+def _legend(ax: Axes, **style) -> None:
+    """A legend, when the panel has labelled lines (a panel may be empty: _note_absent)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(**style)
 
 
 def _note_absent(ax: Axes, key: str, runs) -> None:

@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from .. import paper
 from ..attitude import mrp
-from ..control.diagnostics import base_inertia_terms, numba_available
+from ..control.diagnostics import base_inertia, numba_available
 from ..control.funnel import Funnel
 from ..control.interface import (
     Controller,
@@ -379,7 +379,6 @@ def prepare(scenario: Scenario) -> Setup:
         np.array(model.theta_d),
         np.array(model.true_theta_b(st.angular_momentum)),
     )
-    estimates = _initial_estimates(scenario, model, truth)
 
     sensor = Sensor(robot, model, full_model=False)
     meas0 = sensor.measure(0.0, q0, v0)
@@ -421,7 +420,7 @@ def prepare(scenario: Scenario) -> Setup:
         model=model,
         initial=meas0,
         scenario=scenario,
-        estimates=estimates,
+        estimates_source=lambda: _initial_estimates(scenario, model, truth),
         truth=truth,
     )
     controller = _build_controller(cls, ctx, ctrl.type)
@@ -582,7 +581,7 @@ def simulate(
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
     # M_bb and dM_bb/dt of the true model, for the reaction torque (Eq. 7)
-    base_terms = base_inertia_terms(model, setup.theta_d, numba_available())
+    base_terms = base_inertia(model, setup.theta_d, numba_available())
     completed, stop_reason, stop_time = True, None, None
     stop_cause = stop_funnel = None
     next_progress = 0.0

@@ -158,33 +158,3 @@ def test_funnel_exit_stops_with_the_same_reason(backend):
     assert "end-effector error component 1 (y)" in str(info.value)
     np.testing.assert_array_equal(ctrl.theta_d, before[0])
     np.testing.assert_array_equal(ctrl.w_hat, before[1])
-
-
-@pytest.mark.parametrize("urdf", ["ffsm_planar4.urdf", str(DATA / "planar5_offaxis.urdf")])
-def test_compiled_diagnostics_match_the_model(urdf):
-    """fast.diagnostics (used to record e of Eq. 54 and the reaction torque) equals the
-    numpy model: e = M w~ + Y_df (theta_d - theta_d-hat), M_bb, and the reaction torque of
-    BarycentricModel.reaction_torque (checked against Pinocchio in tests/model)."""
-    from ffsm_pin.control import fast
-    from ffsm_pin.model.planar import BarycentricModel
-    from ffsm_pin.robot import load_robot
-
-    model = BarycentricModel(load_robot(urdf).geometry)
-    nb = model.n_joints + 1
-    rng = np.random.default_rng(3)
-    for _ in range(5):
-        q_b, q_m = rng.uniform(-3, 3), rng.uniform(-3, 3, nb - 1)
-        w, w_tilde, w_dot = rng.normal(size=(3, nb))
-        Y_df = rng.normal(size=(nb, model.n_d))
-        theta_hat = model.theta_d * (1 + 0.2 * rng.uniform(-1, 1, model.n_d))
-        e, M_bb, M_bb_dot = fast.diagnostics(
-            model.S, model._phi_offset, model._K, model._L, model.layout.collinear,
-            q_b, q_m, w, w_tilde, Y_df, theta_hat, np.array(model.theta_d),
-        )  # fmt: skip
-        M = model.mass_matrix(model.theta_d, q_b, q_m)
-        np.testing.assert_allclose(
-            e, M @ w_tilde + Y_df @ (model.theta_d - theta_hat), rtol=1e-12, atol=1e-12
-        )
-        assert M_bb == pytest.approx(M[0, 0], rel=1e-13)
-        F_r = model.reaction_torque(model.theta_d, q_b, q_m, w, w_dot)
-        assert M_bb * w_dot[0] + 0.5 * M_bb_dot * w[0] == pytest.approx(F_r, rel=1e-12, abs=1e-12)
