@@ -16,6 +16,8 @@ and optionally the attributes
 * ``needs_funnels`` (bool, default False): the controller uses the scenario's funnels itself
   (the paper's transformation); a run whose initial errors are not strictly inside them is
   refused before it starts.
+* ``needs_estimates`` (bool, default False): ``[controller.estimates]`` are drawn and checked
+  while the run is prepared (else when ``ctx.estimates`` is first read);
 * ``needs_dynamics`` (bool, default False): ``meas.M`` and ``meas.h`` carry the true reduced
   inertia M(q) and C(q, w) w (a known-model baseline); otherwise they are None.
 * ``events`` (list of str): notes for the run's summary (for example a singularity warning).

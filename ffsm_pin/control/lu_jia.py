@@ -38,6 +38,7 @@ class LuJiaController:
     """
 
     needs_funnels = True  # the transformation (21) is undefined outside a funnel
+    needs_estimates = True  # [controller.estimates] checked early, before the funnels
 
     @staticmethod
     def check_task(scenario, n_joints: int, n_task: int, m3: int) -> None:

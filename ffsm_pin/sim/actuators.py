@@ -24,6 +24,15 @@ from ..errors import ParameterError
 LIMIT_WORDS = ("none", "urdf")
 
 
+def _compiled_kernel():
+    """The numba actuator step, or None without numba (then the numpy reference runs)."""
+    try:
+        from ._actuator_kernel import actuate
+    except ImportError:
+        return None
+    return actuate
+
+
 @dataclass(frozen=True)
 class ActuatorSpec:
     """The ``[actuators]`` table (all off by default).
@@ -137,11 +146,41 @@ class Actuators:
         self.rate_limited = bool(np.any(np.isfinite(self.max_change)))
         self._low, self._low_change = -self.limit, -self.max_change
         self._row = BLOCK  # next row of the current block of torque noise (none drawn yet)
+        self._zeros = np.zeros(n)
+        self.last_saturated = False  # some joint at its limit in the last applied period
+        self._kernel = _compiled_kernel()
 
     def apply(self, u_cmd: np.ndarray) -> np.ndarray:
-        """The torque applied this control period for the command ``u_cmd`` [N m]."""
+        """The torque applied this control period for the command ``u_cmd`` [N m]; sets
+        :attr:`last_saturated`. The compiled step when numba is installed, else
+        :meth:`apply_reference` (the two are tested equal bit for bit)."""
         if self.ideal:
+            self.last_saturated = False
             return u_cmd
+        if self._kernel is None:
+            u = self.apply_reference(u_cmd)
+            self.last_saturated = self.saturated(u)
+            return u
+        out = np.empty(self.n)
+        self.last_saturated = self._kernel(
+            np.asarray(u_cmd, dtype=float), self.x, self.limit, self.alpha, self.lagged,
+            self.max_change, self.rate_limited, self._next_noise(), out,
+        )  # fmt: skip
+        return out
+
+    def _next_noise(self) -> np.ndarray:
+        """This period's torque noise [N m] (zeros without noise); BLOCK periods are drawn at
+        once, the same numbers as one draw per period from the same stream."""
+        if not self.noisy:
+            return self._zeros
+        if self._row == BLOCK:
+            self._noise = self.rng.standard_normal((BLOCK, self.n)) * self.sigma
+            self._row = 0
+        self._row += 1
+        return self._noise[self._row - 1]
+
+    def apply_reference(self, u_cmd: np.ndarray) -> np.ndarray:
+        """The readable numpy version of :meth:`apply` (updates the torque state ``x``)."""
         # min(max(.)) is np.clip, without its overhead on short vectors
         y = np.minimum(np.maximum(u_cmd, self._low), self.limit) if self.limited else u_cmd
         if self.lagged:
@@ -151,11 +190,7 @@ class Actuators:
         self.x = y
         if not self.noisy:
             return y
-        if self._row == BLOCK:  # the noise of BLOCK periods at once: the same stream
-            self._noise = self.rng.standard_normal((BLOCK, self.n)) * self.sigma
-            self._row = 0
-        u = y + self._noise[self._row]
-        self._row += 1
+        u = y + self._next_noise()
         return np.minimum(np.maximum(u, self._low), self.limit) if self.limited else u
 
     def saturated(self, u_m: np.ndarray) -> bool:

@@ -380,6 +380,11 @@ def prepare(scenario: Scenario) -> Setup:
         np.array(model.true_theta_b(st.angular_momentum)),
     )
 
+    def estimates():  # drawn when the controller first reads ctx.estimates
+        return _initial_estimates(scenario, model, truth)
+
+    if getattr(cls, "needs_estimates", False):  # checked before the funnels, as they are read
+        estimates = _constant(estimates())
     sensor = Sensor(robot, model, full_model=False)
     meas0 = sensor.measure(0.0, q0, v0)
     if ref.origin != "absolute":  # relative to the initial pose: resolved, and saved resolved
@@ -420,7 +425,7 @@ def prepare(scenario: Scenario) -> Setup:
         model=model,
         initial=meas0,
         scenario=scenario,
-        estimates_source=lambda: _initial_estimates(scenario, model, truth),
+        estimates_source=estimates,
         truth=truth,
     )
     controller = _build_controller(cls, ctx, ctrl.type)
@@ -444,6 +449,11 @@ def prepare(scenario: Scenario) -> Setup:
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
         funnels["b"], funnels["z"],
     )  # fmt: skip
+
+
+def _constant(value):
+    """A function returning ``value``."""
+    return lambda: value
 
 
 def _reference_function(ref):
@@ -636,7 +646,7 @@ def simulate(
             u_m = u_cmd
             if actuators is not None:
                 u_m = actuators.apply(u_m)
-                saturated += actuators.saturated(u_m)
+                saturated += actuators.last_saturated
             if not final:
                 q_new, v_new, a = plant.advance(q, v, u_m, dt, sc.substeps)
             else:

@@ -87,7 +87,8 @@ class Sensors:
                 raise ParameterError(f"sensors.noise.{key} = {arr.tolist()}: must be >= 0")
             self.sigma[key] = arr
         self.rng = np.random.default_rng(spec.seed)
-        self.buffer: deque[Measurement] = deque(maxlen=spec.delay + 1)
+        self.buffer: deque[tuple] = deque(maxlen=spec.delay + 1)  # measurements without t
+        self._scalar_base = m3 == 1  # planar: q_b is a number
         # the noise of BLOCK measurements drawn at once, split by key in NOISE_KEYS order: the
         # same numbers as one draw per key and measurement from the same stream, at a fraction
         # of the cost of a call per measurement
@@ -116,12 +117,13 @@ class Sensors:
                 self._draw_block()
             i = self._row
             self._row = i + 1
-            q_b = meas.q_b + (self._q_b[i] if np.ndim(meas.q_b) else self._q_b[i, 0])
-            noisy = Measurement(
-                meas.t, q_b, meas.q_m + self._q_m[i], meas.w + self._w[i],
-                meas.z_e + self._z_e[i], meas.z_e_dot + self._z_e_dot[i], meas.M, meas.h,
+            q_b = meas.q_b + (self._q_b[i, 0] if self._scalar_base else self._q_b[i])
+            fields = (
+                q_b, meas.q_m + self._q_m[i], meas.w + self._w[i], meas.z_e + self._z_e[i],
+                meas.z_e_dot + self._z_e_dot[i], meas.M, meas.h,
             )  # fmt: skip
         else:  # delay only
-            noisy = meas
-        self.buffer.append(noisy)
-        return self.buffer[0]._replace(t=meas.t)  # the oldest kept: k - d (or 0 early on)
+            fields = meas[1:]
+        self.buffer.append(fields)
+        # the oldest kept: k - d (or 0 early on), stamped with the current time
+        return Measurement(meas.t, *self.buffer[0])

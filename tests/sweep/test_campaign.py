@@ -3,6 +3,7 @@ expansion, values read back from the resolved scenario, built-in campaigns."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from sweep_cases import SMALL
 
@@ -225,3 +226,31 @@ def test_actuator_and_sensor_keys_can_be_varied(campaign_file):
         limits.add(sc.actuators.torque_limit)
         assert dict(sc.sensors.noise)["joints"] == 0.001 and sc.sensors.delay == 2
     assert limits == {20.0, 50.0}
+
+
+def test_controller_type_and_params_can_be_varied(campaign_file):
+    """docs/controllers.md: controller.type (a user's class next to the scenario file) and
+    [controller.params] keys are campaign axes; the worker's scenario runs from anywhere."""
+    from pathlib import Path
+
+    from ffsm_pin.sim.run import prepare, simulate
+
+    examples = Path(__file__).resolve().parents[2] / "examples"
+    text = (
+        '[campaign]\nname = "controllers"\n'
+        f'scenario = "{(examples / "joint_pd_planar.toml").as_posix()}"\n'
+        "seed = 1\nrepeat = 1\nduration = 0.05\n\n"
+        '[[vary]]\nkey = "controller.type"\nvalues = ["lu-jia", "joint_pd.py:JointPD"]\n'
+        '[[vary]]\nkey = "controller.params.kp"\nvalues = [1.0, 9.0]\n'
+    )
+    cases = expand(load_campaign(campaign_file(text, "controllers.toml")))
+    assert len(cases) == 1 + 2 * 2
+    kinds = {}
+    for c in cases[1:]:
+        sc = scenario_from_toml(c.scenario_toml)  # what a worker runs, without the file's folder
+        assert sc.controller.params["kp"] == c.values["controller.params.kp"]
+        res = simulate(prepare(sc))
+        kinds[(res.controller, sc.controller.params["kp"])] = res
+    assert {k for k, _ in kinds} == {"lu-jia", f"{examples / 'joint_pd.py'}:JointPD"}
+    user = [r for (k, _), r in sorted(kinds.items()) if k != "lu-jia"]
+    assert not np.array_equal(user[0]["u_cmd"], user[1]["u_cmd"])  # kp reached the class
