@@ -22,11 +22,12 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 from ..errors import ControllerLoadError, choices_text, did_you_mean
+from .gjm_ct import GjmComputedTorque
 from .lu_jia import LuJiaController
 
 ENTRY_POINT_GROUP = "ffsm_pin.controllers"
 DEFAULT_TYPE = "lu-jia"
-BUILTIN: dict[str, type] = {"lu-jia": LuJiaController}
+BUILTIN: dict[str, type] = {"lu-jia": LuJiaController, "gjm-ct": GjmComputedTorque}
 
 
 def installed_types() -> dict[str, object]:

@@ -1,0 +1,151 @@
+"""Baseline ``type = "gjm-ct"``: resolved motion through the generalized Jacobian with a
+computed-torque joint loop (docs/baselines.md).
+
+Kinematic level (Umetani & Yoshida 1989): with the momentum conserved, the base rate is
+``w_b = H_bb^-1 (A_0 - H_bm w_m)`` (Eq. 13 of the paper) and the end-effector rate of Eq. (3)
+becomes
+
+    dz_e/dt = J* w_m + d,   J* = J_m - J_b H_bb^-1 H_bm,   d = J_b H_bb^-1 A_0 + (v_0, 0),
+
+J* the generalized Jacobian. The commanded joint rate makes the task error decay at the rate
+``k_z``:  ``w_md = J*^+ (dz_d/dt - d - k_z e_z)``, with J*^+ the damped right pseudo-inverse of
+the scenario's singularity policy.
+
+Joint level: ``a_m = dw_md/dt + k_v (w_md - w_m)`` (dw_md/dt exact by a complex step along the
+measured rates), and the computed torque on the reduced dynamics of Eq. (9a) with the base rows
+unactuated: ``a_b = -M_bb^-1 (M_bm a_m + h_b)``, ``u_m = M_mb a_b + M_mm a_m + h_m``.
+
+Every model quantity comes from the scenario's estimates (``[controller.estimates]``), never
+adapted; ``initial = "true"`` makes it the known-model baseline. The base attitude is free.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError
+from .interface import ControllerContext, Measurement
+from .kinematic import ComplexStepMomentum, attitude_matrix, wrap_angle
+from .linalg import damped_row_pinv
+
+_H = 1e-30  # complex step
+
+
+@dataclass(frozen=True)
+class GjmGains:
+    """Gains of the gjm-ct baseline.
+
+    Attributes
+    ----------
+    k_z:
+        Decay rate of the end-effector error, one per task component [1/s].
+    k_v:
+        Decay rate of the joint-rate error w_m - w_md [1/s].
+    """
+
+    k_z: tuple[float, ...]
+    k_v: float
+
+    @classmethod
+    def derived(cls, funnel_beta, dt: float, n_task: int) -> GjmGains:
+        """Defaults from the scenario: the error decays twice as fast as its funnel
+        (k_z = 2 beta_z per component, so an error that starts inside stays inside when
+        tracked exactly), the joint loop ten times faster than the slowest task component
+        but at most 0.1 / dt (a tenth of the sampling rate)."""
+        beta = np.broadcast_to(np.asarray(funnel_beta, dtype=float), (n_task,))
+        k_z = 2.0 * beta
+        return cls(tuple(float(k) for k in k_z), float(min(10.0 * k_z.max(), 0.1 / dt)))
+
+
+def gains_from(ctx: ControllerContext, derived) -> dict:
+    """The ``[controller.params]`` of a baseline, checked: numbers > 0 (or one per component
+    where a tuple default says so); unknown keys are an error naming the valid ones."""
+    out = {}
+    unknown = sorted(set(ctx.params) - set(vars(derived)))
+    if unknown:
+        raise ParameterError(
+            f"controller.params.{unknown[0]}: unknown for controller.type "
+            f"{ctx.scenario.controller.type!r}; valid keys: {', '.join(vars(derived))}"
+        )
+    for key, default in vars(derived).items():
+        value = ctx.params.get(key, default)
+        arr = np.asarray(value, dtype=float)
+        if isinstance(default, tuple):
+            arr = np.broadcast_to(arr, (len(default),)) if arr.ndim == 0 else arr
+            if arr.shape != (len(default),):
+                raise ParameterError(
+                    f"controller.params.{key}: {arr.size} values, expected 1 or {len(default)}"
+                )
+        if not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
+            raise ParameterError(f"controller.params.{key} = {value!r}: must be > 0")
+        out[key] = tuple(float(x) for x in arr) if isinstance(default, tuple) else float(arr)
+    return out
+
+
+class GjmComputedTorque:
+    """Generalized-Jacobian resolved motion with a computed-torque joint loop (no adaptation).
+
+    Parameters
+    ----------
+    ctx:
+        The run's context: model, estimates, reference, funnels (for the default gains),
+        ``[controller.params]`` (``k_z``, ``k_v`` override the derived gains).
+    """
+
+    needs_estimates = True
+
+    def __init__(self, ctx: ControllerContext):
+        sc = ctx.scenario
+        self.model = ctx.model
+        self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
+        derived = GjmGains.derived(sc.controller.funnel_z.beta, ctx.dt, self.nt)
+        self.gains = GjmGains(**gains_from(ctx, derived))
+        self._k_z = np.array(self.gains.k_z)
+        self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.estimates)
+        self.reference = sc.reference
+        self.q_bd = np.asarray(ctx.base_attitude_reference, dtype=float)
+        self.threshold = sc.controller.singularity.threshold
+        # spatial: H_bb, H_bm of complex-step arguments through the real model
+        self._momentum = ComplexStepMomentum(ctx.model) if ctx.m3 > 1 else ctx.model
+        self.events: list[str] = []
+
+    def joint_rate_command(self, t, q_b, q_m, z_e):
+        """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring)."""
+        m, nt, m2 = self.model, self.nt, self.m2
+        J_b, J_m = m.jacobians(self.theta_z, q_b, q_m)
+        J_b, J_m = J_b[:nt], J_m[:nt]
+        H_bb, H_bm, A0 = self._momentum.momentum_matrices(self.theta_b, q_b, q_m)
+        G = np.linalg.solve(H_bb, np.column_stack((H_bm, np.atleast_1d(A0))))
+        J_star = J_m - J_b @ G[:, :-1]  # the generalized Jacobian
+        drift = J_b @ G[:, -1]
+        drift[:m2] = drift[:m2] + self.theta_z[:m2]  # + (v_0, 0)
+        err = np.array(z_e)[:nt] - self.reference.ee_pose(t)
+        if self.m3 == 1 and nt > m2:
+            err[m2] = wrap_angle(err[m2])
+        inv = damped_row_pinv(J_star, self.threshold)
+        w_md = inv.pinv @ (self.reference.ee_rate(t) - drift - self._k_z * err)
+        return w_md, inv.sigma_min, inv.damping
+
+    def step(self, meas: Measurement):
+        """u_m for the period starting at ``meas.t``, and w_md (as ``w_mc``), sigma_min and
+        damping as signals."""
+        m3 = self.m3
+        w_b, w_m = meas.w[:m3], meas.w[m3:]
+        q_b_rate = attitude_matrix(meas.q_b, m3) @ w_b  # Eq. (1)
+        hj = 1j * _H
+        q_b = meas.q_b + hj * (q_b_rate[0] if m3 == 1 else q_b_rate)
+        w_md_c, sigma, damping = self.joint_rate_command(
+            meas.t + hj, q_b, meas.q_m + hj * w_m, np.asarray(meas.z_e) + hj * meas.z_e_dot
+        )
+        w_md, w_md_dot = w_md_c.real.copy(), w_md_c.imag / _H
+        a_m = w_md_dot + self.gains.k_v * (w_md - w_m)
+        M = self.model.mass_matrix(self.theta_d, meas.q_b, meas.q_m)
+        h = self.model.velocity_product(self.theta_d, meas.q_b, meas.q_m, meas.w)
+        a_b = -np.linalg.solve(M[:m3, :m3], M[:m3, m3:] @ a_m + h[:m3])
+        u = M[m3:, :m3] @ a_b + M[m3:, m3:] @ a_m + h[m3:]
+        return u, {"w_mc": w_md, "sigma_min": sigma, "damping": damping}
+
+
+__all__ = ["GjmComputedTorque", "GjmGains", "gains_from"]
