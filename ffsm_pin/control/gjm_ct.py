@@ -49,13 +49,29 @@ class GjmGains:
     k_v: float
 
     @classmethod
-    def derived(cls, funnel_beta, dt: float, n_task: int) -> GjmGains:
-        """Defaults from the scenario: the error decays twice as fast as its funnel
-        (k_z = 2 beta_z per component, so an error that starts inside stays inside when
-        tracked exactly), the joint loop ten times faster than the slowest task component
-        but at most 0.1 / dt (a tenth of the sampling rate)."""
-        beta = np.broadcast_to(np.asarray(funnel_beta, dtype=float), (n_task,))
+    def derived(cls, funnel, dt: float, m2: int, n_task: int, drift: float = 0.0) -> GjmGains:
+        """Defaults from the scenario's end-effector funnel ``funnel`` (a FunnelParams), the
+        control period ``dt`` [s] and a drift speed ``drift`` [m/s] the model may miss (the
+        controller passes the larger of |v_0-hat| and the end-effector speed measured at t = 0).
+
+        Per task component, the larger of
+
+        * ``2 beta_z``: the error decays twice as fast as its funnel, so an error that starts
+          inside stays inside when the model is exact;
+        * ``drift / (sigma_z rho_z,inf)``: a drift wrong by as much as its estimate leaves a
+          steady error drift / k_z (the resolved-rate loop has no integral action), which then
+          stays inside the narrower side of the final funnel (position components only).
+
+        The joint loop is ten times faster than the fastest task component, but at most
+        0.1 / dt (a tenth of the sampling rate).
+        """
+
+        def per_component(x):
+            return np.broadcast_to(np.asarray(x, dtype=float), (n_task,))
+
+        beta, sigma, rhoinf = (per_component(x) for x in (funnel.beta, funnel.sigma, funnel.rhoinf))
         k_z = 2.0 * beta
+        k_z[:m2] = np.maximum(k_z[:m2], drift / (sigma[:m2] * rhoinf[:m2]))
         return cls(tuple(float(k) for k in k_z), float(min(10.0 * k_z.max(), 0.1 / dt)))
 
 
@@ -91,7 +107,8 @@ class GjmComputedTorque:
     ----------
     ctx:
         The run's context: model, estimates, reference, funnels (for the default gains),
-        ``[controller.params]`` (``k_z``, ``k_v`` override the derived gains).
+        ``[controller.params]`` (``k_z``, ``k_v`` override the derived gains,
+        :meth:`GjmGains.derived`).
     """
 
     needs_estimates = True
@@ -100,10 +117,16 @@ class GjmComputedTorque:
         sc = ctx.scenario
         self.model = ctx.model
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
-        derived = GjmGains.derived(sc.controller.funnel_z.beta, ctx.dt, self.nt)
+        self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.estimates)
+        # the drift a wrong model may miss: the larger of |v_0-hat| and the end-effector speed
+        # measured at t = 0 [m/s]
+        drift = max(
+            float(np.linalg.norm(self.theta_z[: self.m2])),
+            float(np.linalg.norm(np.asarray(ctx.initial.z_e_dot)[: self.m2])),
+        )
+        derived = GjmGains.derived(sc.controller.funnel_z, ctx.dt, self.m2, self.nt, drift)
         self.gains = GjmGains(**gains_from(ctx, derived))
         self._k_z = np.array(self.gains.k_z)
-        self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.estimates)
         self.reference = sc.reference
         self.q_bd = np.asarray(ctx.base_attitude_reference, dtype=float)
         self.threshold = sc.controller.singularity.threshold
