@@ -22,6 +22,7 @@ adapted; ``initial = "true"`` makes it the known-model baseline. The base attitu
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -75,6 +76,15 @@ class GjmGains:
         return cls(tuple(float(k) for k in k_z), float(min(10.0 * k_z.max(), 0.1 / dt)))
 
 
+def drift_bound(ctx: ControllerContext, theta_z: np.ndarray) -> float:
+    """The drift speed a wrong model may miss [m/s]: the larger of |v_0-hat| (the estimated
+    CoM velocity) and the end-effector speed measured at t = 0."""
+    return max(
+        float(np.linalg.norm(np.asarray(theta_z)[: ctx.m2])),
+        float(np.linalg.norm(np.asarray(ctx.initial.z_e_dot)[: ctx.m2])),
+    )
+
+
 def gains_from(ctx: ControllerContext, derived) -> dict:
     """The ``[controller.params]`` of a baseline, checked: numbers > 0 (or one per component
     where a tuple default says so); unknown keys are an error naming the valid ones."""
@@ -100,6 +110,37 @@ def gains_from(ctx: ControllerContext, derived) -> dict:
     return out
 
 
+class ResolvedRates(NamedTuple):
+    """Joint and base rates that make the task error decay at k_z (module docstring)."""
+
+    w_m: np.ndarray  # w_md = J*^+ (dz_d/dt - d - k_z e_z) [rad/s]
+    w_b: np.ndarray  # the base rate momentum conservation gives with it, H_bb^-1 (A_0 - H_bm w_md)
+    sigma_min: float  # smallest singular value of J* [m]
+    damping: float  # lambda^2 of its damped pseudo-inverse (0 = undamped)
+
+
+def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold, n_task,
+                   t, q_b, q_m, z_e) -> ResolvedRates:  # fmt: skip
+    """Resolved motion through the generalized Jacobian at a (possibly complex) state, with the
+    model of the estimates ``theta_z``, ``theta_b``; ``momentum`` gives H_bb, H_bm, A_0
+    (the model itself, or :class:`~.kinematic.ComplexStepMomentum` for spatial models)."""
+    m2 = model.m2
+    J_b, J_m = model.jacobians(theta_z, q_b, q_m)
+    J_b, J_m = J_b[:n_task], J_m[:n_task]
+    H_bb, H_bm, A0 = momentum.momentum_matrices(theta_b, q_b, q_m)
+    G = np.linalg.solve(H_bb, np.column_stack((H_bm, np.atleast_1d(A0))))
+    J_star = J_m - J_b @ G[:, :-1]  # the generalized Jacobian
+    drift = J_b @ G[:, -1]
+    drift[:m2] = drift[:m2] + theta_z[:m2]  # + (v_0, 0)
+    err = np.array(z_e)[:n_task] - reference.ee_pose(t)
+    if model.m3 == 1 and n_task > m2:
+        err[m2] = wrap_angle(err[m2])
+    inv = damped_row_pinv(J_star, threshold)
+    w_m = inv.pinv @ (reference.ee_rate(t) - drift - k_z * err)
+    w_b = G[:, -1] - G[:, :-1] @ w_m
+    return ResolvedRates(w_m, w_b, inv.sigma_min, inv.damping)
+
+
 class GjmComputedTorque:
     """Generalized-Jacobian resolved motion with a computed-torque joint loop (no adaptation).
 
@@ -118,12 +159,7 @@ class GjmComputedTorque:
         self.model = ctx.model
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
         self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.estimates)
-        # the drift a wrong model may miss: the larger of |v_0-hat| and the end-effector speed
-        # measured at t = 0 [m/s]
-        drift = max(
-            float(np.linalg.norm(self.theta_z[: self.m2])),
-            float(np.linalg.norm(np.asarray(ctx.initial.z_e_dot)[: self.m2])),
-        )
+        drift = drift_bound(ctx, self.theta_z)
         derived = GjmGains.derived(sc.controller.funnel_z, ctx.dt, self.m2, self.nt, drift)
         self.gains = GjmGains(**gains_from(ctx, derived))
         self._k_z = np.array(self.gains.k_z)
@@ -136,20 +172,11 @@ class GjmComputedTorque:
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
         """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring)."""
-        m, nt, m2 = self.model, self.nt, self.m2
-        J_b, J_m = m.jacobians(self.theta_z, q_b, q_m)
-        J_b, J_m = J_b[:nt], J_m[:nt]
-        H_bb, H_bm, A0 = self._momentum.momentum_matrices(self.theta_b, q_b, q_m)
-        G = np.linalg.solve(H_bb, np.column_stack((H_bm, np.atleast_1d(A0))))
-        J_star = J_m - J_b @ G[:, :-1]  # the generalized Jacobian
-        drift = J_b @ G[:, -1]
-        drift[:m2] = drift[:m2] + self.theta_z[:m2]  # + (v_0, 0)
-        err = np.array(z_e)[:nt] - self.reference.ee_pose(t)
-        if self.m3 == 1 and nt > m2:
-            err[m2] = wrap_angle(err[m2])
-        inv = damped_row_pinv(J_star, self.threshold)
-        w_md = inv.pinv @ (self.reference.ee_rate(t) - drift - self._k_z * err)
-        return w_md, inv.sigma_min, inv.damping
+        rates = resolved_rates(
+            self.model, self._momentum, self.reference, self.theta_z, self.theta_b, self._k_z,
+            self.threshold, self.nt, t, q_b, q_m, z_e,
+        )  # fmt: skip
+        return rates.w_m, rates.sigma_min, rates.damping
 
     def step(self, meas: Measurement):
         """u_m for the period starting at ``meas.t``, and w_md (as ``w_mc``), sigma_min and
@@ -171,4 +198,7 @@ class GjmComputedTorque:
         return u, {"w_mc": w_md, "sigma_min": sigma, "damping": damping}
 
 
-__all__ = ["GjmComputedTorque", "GjmGains", "gains_from"]
+__all__ = [
+    "GjmComputedTorque", "GjmGains", "ResolvedRates", "drift_bound", "gains_from",
+    "resolved_rates",
+]  # fmt: skip

@@ -22,12 +22,17 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 from ..errors import ControllerLoadError, choices_text, did_you_mean
+from .adaptive_ct import AdaptiveComputedTorque
 from .gjm_ct import GjmComputedTorque
 from .lu_jia import LuJiaController
 
 ENTRY_POINT_GROUP = "ffsm_pin.controllers"
 DEFAULT_TYPE = "lu-jia"
-BUILTIN: dict[str, type] = {"lu-jia": LuJiaController, "gjm-ct": GjmComputedTorque}
+BUILTIN: dict[str, type] = {
+    "lu-jia": LuJiaController,
+    "gjm-ct": GjmComputedTorque,
+    "adaptive-ct": AdaptiveComputedTorque,
+}
 
 
 def installed_types() -> dict[str, object]:

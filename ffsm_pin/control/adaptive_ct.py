@@ -1,0 +1,150 @@
+"""Baseline ``type = "adaptive-ct"``: adaptive computed torque of the Slotine & Li type on the
+barycentric regressors (docs/baselines.md).
+
+Reference motion: the resolved rates of :mod:`.gjm_ct` with the current estimates,
+``w_r = (w_br, w_mr)`` (w_mr = J*^+ (dz_d/dt - d - k_z e_z), w_br = H_bb^-1 (A_0 - H_bm w_mr)),
+and its derivative dw_r/dt by a complex step along the measured rates and the estimates' rates.
+With the sliding variable ``s = w - w_r`` (Slotine & Li 1987):
+
+    u_m = [Y theta_d-hat]_m - k_s M-hat_mm s_m,     Y theta_d = M dw_r/dt + C(q, w) w_r,
+    dtheta_d-hat/dt = -gamma_d Y_m^T s_m,
+
+``Y_m`` the joint rows of the regressor. C(q, w) w_r is the symmetric bilinear form of the
+model's C(q, w) w (Christoffel symbols are symmetric in their two velocity indices), by
+polarization ``C(q, w) w_r = 1/4 (Y_h(w + w_r) - Y_h(w - w_r)) theta_d``. The kinematic
+estimates theta_b and theta_z adapt by the paper's Eqs. (28) and (42) (gains gamma_1, gamma_2).
+No funnel, no filter, no attractive manifold: it is the textbook adaptive law on the same model.
+
+The base rows are not actuated, so Slotine & Li's Lyapunov argument covers only the joint rows;
+the base follows by momentum conservation. Their argument also needs dM/dt - 2 C skew-symmetric
+for the C used in C(q, w) w_r: true of the polarized form on planar robots (generalized
+coordinates), not on spatial ones, whose base rate is the angular velocity (quasi-velocities,
+tests/control/test_adaptive_ct.py checks both). The tests show what it does on the shipped robots
+with 30 % parameter error (tests/control/test_adaptive_ct.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import SimulationError
+from .adaptation import theta_b_step, theta_z_step
+from .gjm_ct import GjmGains, drift_bound, gains_from, resolved_rates
+from .interface import ControllerContext, Measurement
+from .kinematic import ComplexStepMomentum, attitude_matrix
+
+_H = 1e-30  # complex step
+
+
+@dataclass(frozen=True)
+class AdaptiveCtGains:
+    """Gains of the adaptive-ct baseline.
+
+    Attributes
+    ----------
+    k_z:
+        Decay rate of the end-effector error in the reference motion, per component [1/s].
+    k_s:
+        Rate of the sliding variable s (the damping is k_s M-hat_mm) [1/s].
+    gamma_b, gamma_z, gamma_d:
+        Adaptation gains of theta_b (Eq. 28), theta_z (Eq. 42) and theta_d (gradient law).
+    """
+
+    k_z: tuple[float, ...]
+    k_s: float
+    gamma_b: float
+    gamma_z: float
+    gamma_d: float
+
+    @classmethod
+    def derived(cls, scenario, dt: float, m2: int, n_task: int, drift: float) -> AdaptiveCtGains:
+        """k_z and k_s as gjm-ct's k_z and k_v (:meth:`~.gjm_ct.GjmGains.derived`, with the
+        drift term: without it the 5-link robot leaves its funnel at 7 s while theta_z-hat
+        adapts); the adaptation gains are the scenario's gamma_1, gamma_2, gamma_3."""
+        g = GjmGains.derived(scenario.controller.funnel_z, dt, m2, n_task, drift)
+        p = scenario.controller.gains
+        return cls(g.k_z, g.k_v, p.gamma_1, p.gamma_2, p.gamma_3)
+
+
+class AdaptiveComputedTorque:
+    """Adaptive computed torque (Slotine & Li type) on the barycentric regressors.
+
+    Parameters
+    ----------
+    ctx:
+        The run's context; ``[controller.params]`` may set ``k_z``, ``k_s``, ``gamma_b``,
+        ``gamma_z``, ``gamma_d`` (defaults: :meth:`AdaptiveCtGains.derived`).
+    """
+
+    needs_estimates = True
+
+    def __init__(self, ctx: ControllerContext):
+        sc = ctx.scenario
+        self.model = ctx.model
+        self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
+        self.theta_z, self.theta_d, self.theta_b = (np.array(x, dtype=float) for x in ctx.estimates)
+        drift = drift_bound(ctx, self.theta_z)
+        derived = AdaptiveCtGains.derived(sc, ctx.dt, self.m2, self.nt, drift)
+        self.gains = AdaptiveCtGains(**gains_from(ctx, derived))
+        self._k_z = np.array(self.gains.k_z)
+        self.dt = ctx.dt
+        self.reference = sc.reference
+        self.threshold = sc.controller.singularity.threshold
+        self._momentum = ComplexStepMomentum(ctx.model) if ctx.m3 > 1 else ctx.model
+        self.events: list[str] = []
+        self.signal_shapes = {
+            "w_mc": (self.n,), "sigma_min": (), "damping": (),
+            "theta_z_hat": (ctx.model.n_z,), "theta_d_hat": (ctx.model.n_d,),
+            "theta_b_hat": (ctx.model.n_b,),
+        }  # fmt: skip
+
+    def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
+        r = resolved_rates(
+            self.model, self._momentum, self.reference, theta_z, theta_b, self._k_z,
+            self.threshold, self.nt, t, q_b, q_m, z_e,
+        )  # fmt: skip
+        return np.concatenate((np.atleast_1d(r.w_b), r.w_m)), r.sigma_min, r.damping
+
+    def step(self, meas: Measurement):
+        """u_m for the period starting at ``meas.t``; the estimates advance to t + dt."""
+        m, g, m3, dt = self.model, self.gains, self.m3, self.dt
+        t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
+        signals = {  # the estimates at t, before the update
+            "theta_z_hat": self.theta_z.copy(),
+            "theta_d_hat": self.theta_d.copy(),
+            "theta_b_hat": self.theta_b.copy(),
+        }
+        # kinematic estimates, the paper's Eqs. (28) and (42)
+        theta_b = theta_b_step(self.theta_b, m.Y_b(q_b, q_m, w), g.gamma_b, dt)
+        Y_z = m.Y_z(q_b, q_m, w)[: self.m2]  # the attitude rows are parameter-free
+        theta_z = theta_z_step(self.theta_z, Y_z, meas.z_e_dot[: self.m2], g.gamma_z, dt)
+        # reference motion and its rate along the measured motion and the estimates' rates
+        # (complex step)
+        hj = 1j * _H
+        q_b_rate = attitude_matrix(q_b, m3) @ w[:m3]  # Eq. (1)
+        w_r_c, sigma, damping = self._reference(
+            t + hj,
+            q_b + hj * (q_b_rate[0] if m3 == 1 else q_b_rate),
+            q_m + hj * w[m3:],
+            np.asarray(meas.z_e) + hj * meas.z_e_dot,
+            self.theta_z + hj * (theta_z - self.theta_z) / dt,
+            self.theta_b + hj * (theta_b - self.theta_b) / dt,
+        )
+        w_r, w_r_dot = w_r_c.real.copy(), w_r_c.imag / _H
+        s = w - w_r
+        # Y theta_d = M dw_r/dt + C(q, w) w_r, the latter by polarization of C(q, x) x
+        Y = m.Y_M(q_b, q_m, w_r_dot) + 0.25 * (m.Y_h(q_b, q_m, w + w_r) - m.Y_h(q_b, q_m, w - w_r))
+        Y_m, s_m = Y[m3:], s[m3:]
+        M_hat = m.mass_matrix(self.theta_d, q_b, q_m)
+        u = Y_m @ self.theta_d - self.gains.k_s * (M_hat[m3:, m3:] @ s_m)
+        if not np.all(np.isfinite(u)):
+            raise SimulationError(
+                f"t = {t:.4f} s: the adaptive-ct torque became non-finite", time=t,
+                cause="nonfinite",
+            )  # fmt: skip
+        self.theta_d = self.theta_d - dt * g.gamma_d * (Y_m.T @ s_m)
+        self.theta_b, self.theta_z = theta_b, theta_z
+        signals.update(w_mc=w_r[m3:], sigma_min=sigma, damping=damping)
+        return u, signals
