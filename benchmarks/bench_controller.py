@@ -9,6 +9,8 @@ each side is a discarded warm-up (numba's cache is per source folder).
 * ``interface``: the package as it is against a baseline revision checked out beside it
   (default: the last commit before the controller interface, where the run loop called the
   paper's controller directly), same built-in case, same duration.
+* ``baselines``: the paper's controller against each built-in baseline (``gjm-ct``,
+  ``adaptive-ct``), same case and duration, every side the package as it is.
 * ``world``: the package with ideal actuators and sensors against the same case with torque
   limits, rate limit, lag and torque noise (``[actuators]``) and sensor noise on every
   quantity with a delay of 2 periods (``[sensors]``).
@@ -89,8 +91,8 @@ def compare(name: str, sides: dict, repeat: int, tmp: Path) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--parts", nargs="+", choices=["interface", "world"],
-                        default=["interface", "world"])  # fmt: skip
+    parser.add_argument("--parts", nargs="+", choices=["interface", "world", "baselines"],
+                        default=["interface", "world", "baselines"])  # fmt: skip
     parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=sorted(CASES))
     parser.add_argument("--repeat", type=int, default=5, help="timed runs per side")
     parser.add_argument("--baseline", default=BASELINE, help="git revision for 'interface'")
@@ -127,6 +129,20 @@ def main() -> int:
                 world = ["--scenario", str(path), "--duration", str(duration)]
                 compare(f"world {case}", {"ideal": (ideal, ROOT), "limits+noise": (world, ROOT)},
                         args.repeat, tmp)  # fmt: skip
+        if "baselines" in args.parts:
+            from ffsm_pin.sim.scenario_file import builtin_path
+
+            for case in args.cases:
+                name, duration = CASES[case]
+                paper = ["--case", name, "--duration", str(duration)]
+                text = Path(builtin_path(name)).read_text()
+                for kind in ("gjm-ct", "adaptive-ct"):
+                    path = tmp / f"{case}-{kind}.toml"
+                    kind_line = f'[controller]\ntype = "{kind}"\n'
+                    path.write_text(text.replace("[controller]\n", kind_line))
+                    other = ["--scenario", str(path), "--duration", str(duration)]
+                    compare(f"{kind} {case}", {"lu-jia": (paper, ROOT), kind: (other, ROOT)},
+                            args.repeat, tmp)  # fmt: skip
     return 0
 
 
