@@ -45,6 +45,24 @@ class _Scan:
     min_sigma: float | None = None
     damped: int = 0  # rows with damping > 0
     max_F_r: float = 0.0
+    effort: float = 0.0  # integral of |u_m|^2 dt [N^2 m^2 s]
+    sq_err_z_late: float = 0.0  # sum of |err_z|^2 over the rows of the last half
+    rows_late: int = 0
+    max_excursion: float = 0.0  # largest rotation of the base from its initial attitude [rad]
+
+
+def _rotation_angle(q_b: np.ndarray, q_b0: np.ndarray) -> np.ndarray:
+    """Per row, the angle of the rotation from attitude ``q_b0`` to ``q_b`` [rad]: planar the
+    angle difference, spatial (MRPs) 2 acos |<quat_0, quat>|."""
+    if q_b.shape[1] == 1:
+        return np.abs(q_b[:, 0] - q_b0[0])
+
+    def quat(s):  # MRP -> unit quaternion (w, x, y, z), rows
+        n2 = np.sum(s * s, axis=-1, keepdims=True)
+        return np.concatenate(((1 - n2) / (1 + n2), 2 * s / (1 + n2)), axis=-1)
+
+    dot = np.abs(quat(q_b) @ quat(q_b0[None, :])[0])
+    return 2 * np.arccos(np.minimum(dot, 1.0))
 
 
 def _inside(s: Mapping[str, np.ndarray], which: str) -> np.ndarray:
@@ -156,17 +174,33 @@ class RunResult:
         if self._scanned is not None:
             return self._scanned
         keys = ["err_b", "err_z", "bound_b_lower", "bound_b_upper", "bound_z_lower"]
-        keys += ["bound_z_upper", "u_m", "P", "L", "F_r"]
+        keys += ["bound_z_upper", "u_m", "P", "L", "F_r", "t", "q_b"]
         # u_cmd is absent in older recordings, sigma_min and damping for controllers that
         # do not report them (docs/controllers.md)
         keys += [k for k in ("u_cmd", "sigma_min", "damping") if k in self.signals]
         scan = _Scan(outside={"b": None, "z": None})
-        P0 = L0 = None
+        P0 = L0 = q_b0 = None
         n = 0
+        t_all = self.signals["t"]
+        t_half = float(t_all[-1]) / 2 if len(t_all) else 0.0
+        carry = None  # (t, |u|^2) of the previous block's last row
         for b in self.signals_blocks(keys):
             rows = len(b["u_m"])
             if rows == 0:
                 continue
+            t = np.asarray(b["t"])
+            u2 = np.sum(np.asarray(b["u_m"]) ** 2, axis=1)
+            if carry is not None:  # trapezoids, across blocks
+                scan.effort += 0.5 * (carry[1] + u2[0]) * (t[0] - carry[0])
+            scan.effort += float(np.sum(0.5 * (u2[:-1] + u2[1:]) * np.diff(t)))
+            carry = (float(t[-1]), float(u2[-1]))
+            late = t >= t_half
+            scan.sq_err_z_late += float(np.sum(np.asarray(b["err_z"])[late] ** 2))
+            scan.rows_late += int(np.count_nonzero(late))
+            q_b = np.asarray(b["q_b"]).reshape(rows, -1)
+            if q_b0 is None:
+                q_b0 = q_b[0]
+            scan.max_excursion = _max(scan.max_excursion, _rotation_angle(q_b, q_b0))
             for which in ("b", "z"):
                 bad = np.flatnonzero(~_inside(b, which))
                 if bad.size and scan.outside[which] is None:
@@ -233,6 +267,11 @@ class RunResult:
             "damping_threshold": self.damping_threshold,
             "damped_fraction": scan.damped / n if n else 0.0,
             "max_abs_F_r": scan.max_F_r,
+            "rms_err_z_late": (
+                float(np.sqrt(scan.sq_err_z_late / scan.rows_late)) if scan.rows_late else None
+            ),
+            "control_effort": scan.effort,
+            "max_base_excursion": scan.max_excursion,
             "final_theta_z_error": _final_norm(s, "theta_z"),
             "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),

@@ -19,7 +19,10 @@ import duckdb
 
 from .campaign import Campaign
 
-__all__ = ["CAUSES_SQL", "RATE_SQL", "SPREAD_SQL", "WORST_SQL", "query", "write_report"]
+__all__ = [
+    "CAUSES_SQL", "CONTROLLER_SQL", "RATE_SQL", "SPREAD_SQL", "WORST_SQL", "controller_table",
+    "query", "write_report",
+]  # fmt: skip
 
 Z95 = 1.959963984540054  # standard normal quantile of 0.975
 N_WORST = 10
@@ -89,6 +92,45 @@ WHERE NOT nominal AND status = 'stopped'
 GROUP BY ALL
 ORDER BY ALL"""
 
+CONTROLLER_KEY = "controller.type"
+KEPT_Z = "(status = 'completed' AND funnel_ok_z)"
+
+
+def _wilson(k: str, n: str, name: str) -> str:
+    """SQL for the 95 % Wilson score interval of the rate k / n, as name_lo, name_hi."""
+    p = f"({k} / {n})"
+    z = f"{Z95}"
+    half = f"{z} * sqrt({p} * (1 - {p}) / {n} + {z}^2 / (4 * {n} * {n}))"
+    return (
+        f"({p} + {z}^2 / (2 * {n}) - {half}) / (1 + {z}^2 / {n}) AS {name}_lo,\n"
+        f"  ({p} + {z}^2 / (2 * {n}) + {half}) / (1 + {z}^2 / {n}) AS {name}_hi"
+    )
+
+
+CONTROLLER_SQL = f"""\
+WITH runs AS (
+  SELECT * FROM read_parquet('{{path}}') WHERE NOT nominal AND status <> 'error'
+), per AS (
+  SELECT "{CONTROLLER_KEY}" AS controller,
+         count(*) AS n,
+         count(*) FILTER (WHERE {KEPT}) AS kept,
+         count(*) FILTER (WHERE {KEPT_Z}) AS kept_z,
+         median(rms_err_z_late) AS rms_err_z_late,
+         median(max_abs_u) AS max_abs_u,
+         median(saturation_fraction) AS saturation_fraction,
+         median(control_effort) AS control_effort,
+         median(max_base_excursion) AS max_base_excursion,
+         count(settle_time_z) AS settled_z,
+         median(settle_time_z) AS settle_time_z
+  FROM runs
+  GROUP BY 1
+)
+SELECT *, kept / n AS rate, kept_z / n AS rate_z,
+  {_wilson("kept", "n", "rate")},
+  {_wilson("kept_z", "n", "rate_z")}
+FROM per
+ORDER BY controller"""
+
 POINTS_SQL = """\
 SELECT {cols_sel} max_abs_u, settle_time_z, min_sigma, damping_threshold
 FROM read_parquet('{path}')
@@ -120,6 +162,53 @@ def query(sql: str) -> list[dict[str, Any]]:
         return [dict(zip(names, row, strict=True)) for row in cur.fetchall()]
     finally:
         con.close()
+
+
+def controller_table(path: Path) -> list[dict[str, Any]]:
+    """The per-controller rows of :data:`CONTROLLER_SQL` for ``results.parquet`` at ``path``."""
+    return query(CONTROLLER_SQL.format(path=str(path).replace("'", "''")))
+
+
+def _controller_section(path: Path) -> list[str]:
+    """report.md's per-controller table (campaigns that vary controller.type)."""
+    rows = controller_table(path)
+    lines = [
+        "## Per controller",
+        "",
+        "Over every grid point of each controller (medians over its runs; rates with 95 % "
+        "Wilson intervals). `kept b+z`: the whole horizon with both funnels kept; `kept z`: "
+        "with the end-effector funnel kept (a controller that leaves the base attitude free, "
+        "as gjm-ct, is judged on this one). RMS e_z: over the last half of each run; effort: "
+        "integral of |u_m|^2 dt; excursion: largest base rotation from its initial attitude.",
+        "",
+    ]
+    lines += _table(
+        rows,
+        [
+            ("controller", "controller", "{}"),
+            ("runs", "n", "{}"),
+            ("kept b+z", None, None),
+            ("kept z", None, None),
+            ("RMS e_z", "rms_err_z_late", "{:.3g}"),
+            ("max abs u_m [N m]", "max_abs_u", "{:.4g}"),
+            ("saturated", "saturation_fraction", "{:.1%}"),
+            ("effort [N^2 m^2 s]", "control_effort", "{:.4g}"),
+            ("excursion [rad]", "max_base_excursion", "{:.3g}"),
+            ("settled z", "settled_z", "{}"),
+            ("settle z [s]", "settle_time_z", "{:.2f}"),
+        ],
+        extra={
+            "kept b+z": lambda r: (
+                f"{_f(r['rate'], '{:.0%}')} ({_f(r['rate_lo'], '{:.0%}')} - "
+                f"{_f(r['rate_hi'], '{:.0%}')})"
+            ),
+            "kept z": lambda r: (
+                f"{_f(r['rate_z'], '{:.0%}')} ({_f(r['rate_z_lo'], '{:.0%}')} - "
+                f"{_f(r['rate_z_hi'], '{:.0%}')})"
+            ),
+        },  # fmt: skip
+    )
+    return lines + [""]
 
 
 def write_report(out: Path, campaign: Campaign) -> Path:
@@ -171,6 +260,8 @@ def write_report(out: Path, campaign: Campaign) -> Path:
             f"{_f(r.get('min_sigma'), '{:.3g}')} m.",
             "",
         ]
+    if CONTROLLER_KEY in cols:
+        lines += _controller_section(path)
     lines += ["## Funnel-keeping rate per grid point (95 % Wilson interval)", ""]
     lines += _table(
         rates,
@@ -278,6 +369,11 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         "",
         _sql(CAUSES_SQL, Path("results.parquet"), cols),
         ";",
+        *(
+            ["", CONTROLLER_SQL.format(path="results.parquet"), ";"]
+            if CONTROLLER_KEY in cols
+            else []
+        ),
         "```",
         "",
     ]

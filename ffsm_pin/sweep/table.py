@@ -69,6 +69,9 @@ SUMMARY_TYPES = {
     "damping_threshold": pa.float64(),
     "damped_fraction": pa.float64(),
     "max_abs_F_r": pa.float64(),
+    "rms_err_z_late": pa.float64(),
+    "control_effort": pa.float64(),
+    "max_base_excursion": pa.float64(),
     "final_theta_z_error": pa.float64(),
     "final_theta_d_error": pa.float64(),
     "case_wall_s": pa.float64(),  # the whole case on its worker (ffsm_pin.sweep.engine.run_case)

@@ -45,8 +45,13 @@ def test_spilled_recording_equals_in_memory(case, duration, monkeypatch, tmp_pat
         assert a.shape == b.shape and a.dtype == b.dtype, key
         assert np.array_equal(a, b, equal_nan=True), key
     s1, s2 = whole.summary(), spilled.summary()
-    assert {k: v for k, v in s1.items() if k not in WALL_CLOCK} == {
-        k: v for k, v in s2.items() if k not in WALL_CLOCK
+    # sums over rows (effort, RMS) add the blocks of another size in another order: the last
+    # bits may differ; every other value is a max, min, count or row and must be equal
+    sums = {"control_effort", "rms_err_z_late"}
+    for key in sums:
+        assert s2[key] == pytest.approx(s1[key], rel=1e-12), key
+    assert {k: v for k, v in s1.items() if k not in WALL_CLOCK | sums} == {
+        k: v for k, v in s2.items() if k not in WALL_CLOCK | sums
     }
     whole.save(tmp_path / "a")
     spilled.save(tmp_path / "b")

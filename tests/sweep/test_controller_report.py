@@ -1,0 +1,72 @@
+"""The per-controller table of a campaign report (sweep/report.py, CONTROLLER_SQL) equals the
+same statistics computed here with numpy from results.parquet: counts, the two rates with their
+95 % Wilson score intervals (from the formula), medians."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from ffsm_pin.sweep.campaign import load_campaign
+from ffsm_pin.sweep.report import controller_table
+
+Z = 1.959963984540054
+
+
+def _wilson(k: int, n: int) -> tuple[float, float]:
+    p = k / n
+    centre = p + Z**2 / (2 * n)
+    half = Z * math.sqrt(p * (1 - p) / n + Z**2 / (4 * n * n))
+    return (centre - half) / (1 + Z**2 / n), (centre + half) / (1 + Z**2 / n)
+
+
+def _synthetic(path, rng):
+    kinds = ["lu-jia", "gjm-ct", "adaptive-ct"]
+    rows = []
+    for i in range(90):
+        status = rng.choice(["completed", "stopped", "error"], p=[0.7, 0.2, 0.1])
+        settled = rng.random() < 0.6
+        rows.append({
+            "case": i + 1, "nominal": False, "controller.type": kinds[i % 3], "status": status,
+            "funnel_ok_b": bool(rng.random() < 0.6), "funnel_ok_z": bool(rng.random() < 0.8),
+            "rms_err_z_late": rng.lognormal(-3, 1), "max_abs_u": rng.lognormal(3, 1),
+            "saturation_fraction": rng.random(), "control_effort": rng.lognormal(5, 1),
+            "max_base_excursion": rng.random(), "settle_time_z": rng.random() * 30 if settled
+            else None,
+        })  # fmt: skip
+    rows.append({**rows[0], "case": 0, "nominal": True})  # never counted
+    pq.write_table(pa.Table.from_pylist(rows), path)
+    return [r for r in rows if not r["nominal"] and r["status"] != "error"]
+
+
+def test_controller_table_equals_numpy(tmp_path):
+    path = tmp_path / "results.parquet"
+    runs = _synthetic(path, np.random.default_rng(5))
+    table = {r["controller"]: r for r in controller_table(path)}
+    assert sorted(table) == ["adaptive-ct", "gjm-ct", "lu-jia"]
+    for kind, r in table.items():
+        mine = [x for x in runs if x["controller.type"] == kind]
+        n = len(mine)
+        done = [x for x in mine if x["status"] == "completed"]
+        kept = sum(x["funnel_ok_b"] and x["funnel_ok_z"] for x in done)
+        kept_z = sum(x["funnel_ok_z"] for x in done)
+        assert (r["n"], r["kept"], r["kept_z"]) == (n, kept, kept_z)
+        assert r["rate"] == pytest.approx(kept / n) and r["rate_z"] == pytest.approx(kept_z / n)
+        assert (r["rate_lo"], r["rate_hi"]) == pytest.approx(_wilson(kept, n), rel=1e-12)
+        assert (r["rate_z_lo"], r["rate_z_hi"]) == pytest.approx(_wilson(kept_z, n), rel=1e-12)
+        for key in ("rms_err_z_late", "max_abs_u", "saturation_fraction", "control_effort",
+                    "max_base_excursion"):  # fmt: skip
+            assert r[key] == pytest.approx(np.median([x[key] for x in mine]), rel=1e-12), key
+        settles = [x["settle_time_z"] for x in mine if x["settle_time_z"] is not None]
+        assert r["settled_z"] == len(settles)
+        assert r["settle_time_z"] == pytest.approx(np.median(settles), rel=1e-12)
+
+
+def test_builtin_comparison_campaign_is_valid():
+    c = load_campaign("compare-controllers")
+    kinds = next(v.values for v in c.vary if v.key == "controller.type")
+    assert set(kinds) == {"lu-jia", "gjm-ct", "adaptive-ct"}
