@@ -130,7 +130,7 @@ class CoordinatedController:
         funnel_b: FunnelParams,
         funnel_z: FunnelParams,
         reference,
-        base_attitude_ref: float,
+        base_attitude_ref: float | np.ndarray,
         singularity: SingularityPolicy,
         theta_z0,
         theta_d0,

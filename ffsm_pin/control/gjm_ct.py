@@ -158,7 +158,7 @@ class GjmComputedTorque:
         sc = ctx.scenario
         self.model = ctx.model
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
-        self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.estimates)
+        self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.required_estimates())
         drift = drift_bound(ctx, self.theta_z)
         derived = GjmGains.derived(sc.controller.funnel_z, ctx.dt, self.m2, self.nt, drift)
         self.gains = GjmGains(**gains_from(ctx, derived))

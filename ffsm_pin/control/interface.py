@@ -40,6 +40,8 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..errors import ParameterError
+
 # Signals a controller may report under their own names (units in docs/cli.md):
 STANDARD_SIGNALS = {
     "w_mc": "kinematic-level command, Eqs. (25)+(36) or (81) [rad/s]",
@@ -128,6 +130,13 @@ class ControllerContext:
     scenario: Any = None
     estimates_source: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
     truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def required_estimates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:attr:`estimates`, for a controller that cannot run without them."""
+        est = self.estimates
+        if est is None:
+            raise ParameterError("this controller needs initial estimates ([controller.estimates])")
+        return est
 
     @property
     def estimates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:

@@ -112,3 +112,7 @@ class ReducedModel(Protocol):
     def momentum_matrices(self, theta_b, q_b: Any, q_m) -> tuple[np.ndarray, np.ndarray, Any]:
         """(H_bb (m3 x m3), H_bm (m3 x m1), A_0) of Eq. (13)."""
         ...
+
+    def kernel_constants(self) -> Any:
+        """The constant arrays the compiled kernels of :mod:`ffsm_pin.control` take."""
+        ...
