@@ -39,6 +39,7 @@ DEFAULT_CASES = {
     "spatial-no-ppc": 1.0,
     "spatial-no-attitude": 1.0,
     "spatial-pose": 1.0,
+    "spatial-realistic": 1.0,
 }
 WALL_CLOCK = {"wall_time_s", "steps_per_s"}
 

@@ -82,6 +82,7 @@ BUILTIN: dict[str, str] = {
     "spatial-no-ppc": "spatial_no_ppc.toml",
     "spatial-no-attitude": "spatial_no_attitude.toml",
     "spatial-pose": "spatial_pose.toml",
+    "spatial-realistic": "spatial_realistic.toml",
 }
 
 
