@@ -66,7 +66,13 @@ def test_controller_table_equals_numpy(tmp_path):
         assert r["settle_time_z"] == pytest.approx(np.median(settles), rel=1e-12)
 
 
-def test_builtin_comparison_campaign_is_valid():
-    c = load_campaign("compare-controllers")
+@pytest.mark.parametrize(
+    "name", ["compare-controllers", "compare-controllers-planar5", "compare-controllers-spatial"]
+)
+def test_builtin_comparison_campaigns_are_valid(name):
+    from ffsm_pin.sweep.campaign import expand
+
+    c = load_campaign(name)
     kinds = next(v.values for v in c.vary if v.key == "controller.type")
     assert set(kinds) == {"lu-jia", "gjm-ct", "adaptive-ct"}
+    assert len(expand(c)) == c.n_cases
