@@ -53,7 +53,7 @@ class GjmGains:
     def derived(cls, funnel, dt: float, m2: int, n_task: int, drift: float = 0.0) -> GjmGains:
         """Defaults from the scenario's end-effector funnel ``funnel`` (a FunnelParams), the
         control period ``dt`` [s] and a drift speed ``drift`` [m/s] the model may miss (the
-        controller passes the larger of |v_0-hat| and the end-effector speed measured at t = 0).
+        controller passes the larger of ``|v_0-hat|`` and the end-effector speed measured at t = 0).
 
         Per task component, the larger of
 
@@ -77,7 +77,7 @@ class GjmGains:
 
 
 def drift_bound(ctx: ControllerContext, theta_z: np.ndarray) -> float:
-    """The drift speed a wrong model may miss [m/s]: the larger of |v_0-hat| (the estimated
+    """The drift speed a wrong model may miss [m/s]: the larger of ``|v_0-hat|`` (the estimated
     CoM velocity) and the end-effector speed measured at t = 0."""
     return max(
         float(np.linalg.norm(np.asarray(theta_z)[: ctx.m2])),

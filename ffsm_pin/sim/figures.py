@@ -59,10 +59,20 @@ def write_figures(
 ) -> list[Path]:
     """Draw the figures of one run, or overlay several, into ``out_dir``; return the paths.
 
-    labels: legend entry per run (default: the scenario names).
-    thresholds: damping threshold on sigma_min [m] per run (default: each run's
+    Parameters
+    ----------
+    results:
+        One run or several (overlaid).
+    out_dir:
+        Folder the PNG files are written to.
+    labels:
+        Legend entry per run (default: the scenario names).
+    thresholds:
+        Damping threshold on sigma_min [m] per run (default: each run's
         ``damping_threshold``, else 0.05, the default
         :class:`~ffsm_pin.control.gains.SingularityPolicy`).
+    dpi:
+        Resolution of the PNG files.
     """
     runs = [results] if isinstance(results, RunResult) else list(results)
     if not runs:

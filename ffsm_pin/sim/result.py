@@ -137,7 +137,7 @@ class RunResult:
         return self.stop_time if self.stop_funnel is not None else None
 
     def settle_time(self, which: str, rhoinf) -> float | None:
-        """Time after which |err| stays inside rho_inf (all components), None if never."""
+        """Time after which ``|err|`` stays inside rho_inf (all components), None if never."""
         n, last_out = 0, None  # rows seen, last row with a component outside rho_inf
         for block in self.signals_blocks([f"err_{which}"]):
             err = np.abs(block[f"err_{which}"])
@@ -157,7 +157,7 @@ class RunResult:
         )
 
     def drift(self) -> tuple[float, float]:
-        """(max |P - P0|, max |L - L0|) over the run [kg m/s, kg m^2/s]."""
+        """(max ``|P - P0|``, max ``|L - L0|``) over the run [kg m/s, kg m^2/s]."""
         scan = self._scan()
         return scan.drift_P, scan.drift_L
 
