@@ -399,9 +399,9 @@ def _figures(out: Path, cols, rates, points) -> dict[str, str]:
     ax.errorbar(
         [xs[i] for i in ok],
         [rates[i]["rate"] * 100 for i in ok],
-        yerr=[
-            [(rates[i]["rate"] - rates[i]["rate_lo"]) * 100 for i in ok],
-            [(rates[i]["rate_hi"] - rates[i]["rate"]) * 100 for i in ok],
+        yerr=[  # >= 0: at a rate of 0 or 1 the bound equals the rate up to rounding
+            [max(rates[i]["rate"] - rates[i]["rate_lo"], 0.0) * 100 for i in ok],
+            [max(rates[i]["rate_hi"] - rates[i]["rate"], 0.0) * 100 for i in ok],
         ],
         fmt="o-",
         capsize=4,
