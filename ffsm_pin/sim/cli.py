@@ -11,6 +11,7 @@ import argparse
 import dataclasses
 import datetime as _dt
 import math
+import signal
 import sys
 import time
 import warnings
@@ -23,13 +24,13 @@ import numpy as np
 from .._cli import Parser, UsageError, fail, positive_float, positive_int
 from ..errors import FfsmError
 from .compile_note import note_compilation
-from .result import RunResult
+from .result import FIGURE_ROWS, RunResult
 from .scenario import Scenario
 from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 2, 3, 130
 # figures and replay.html of a longer run are drawn from this many evenly spaced rows
-PLOT_ROWS = 100_000
+PLOT_ROWS = FIGURE_ROWS
 COMPARE_CASES = ("case1", "case2", "case3")
 # --compare [SET]: the paper's planar cases 1-3, or their spatial counterparts
 COMPARE_SETS = {
@@ -274,19 +275,30 @@ def _guarded(console: Console, what: str, fn, *args):
         return None
 
 
+class _Terminated(Exception):
+    """SIGTERM while the replay server runs (stop it like Ctrl-C, cleaning up)."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise _Terminated
+
+
 def _serve(robot, results: list[RunResult]) -> None:
     from .replay import close_visualizer, serve_replay
 
     vis = serve_replay(robot, results)  # meshcat prints the URL
+    # a SIGTERM (kill, a job scheduler, a terminal closing) also stops meshcat's server process
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         print("meshcat: open the URL above to watch the replay; Ctrl-C stops the server")
         sys.stdout.flush()
         while True:
             time.sleep(1.0)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, _Terminated):
         pass
     finally:
         close_visualizer(vis)
+        signal.signal(signal.SIGTERM, previous)
 
 
 # ------------------------------------------------------------------------------ reporting

@@ -77,7 +77,7 @@ def write_figures(
     runs = [results] if isinstance(results, RunResult) else list(results)
     if not runs:
         raise ValueError("write_figures needs at least one run")
-    labels = list(labels) if labels is not None else [r.scenario_name for r in runs]
+    labels = _labels(runs, labels)
     if thresholds is None:
         thresholds = [0.05 if r.damping_threshold is None else r.damping_threshold for r in runs]
     elif np.isscalar(thresholds):
@@ -99,9 +99,10 @@ def write_figures(
 def _errors(runs, labels, thresholds) -> Figure:
     rows = _error_rows(runs[0])
     fig, axes = _grid(
-        len(rows), "Tracking errors inside their prescribed-performance funnels", runs
+        len(rows) + 1, "Tracking errors inside their prescribed-performance funnels", runs
     )
-    for ax, (key, i, bound, ylabel) in zip(axes, rows, strict=True):
+    _error_norms(axes[-1], runs, labels)
+    for ax, (key, i, bound, ylabel) in zip(axes, rows, strict=False):
         drawn_bounds: list[np.ndarray] = []
         for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
             t = run["t"]
@@ -117,6 +118,32 @@ def _errors(runs, labels, thresholds) -> Figure:
         _mark_stops(ax, runs)
     _legend(axes[0], loc="upper right", fontsize=8)
     return fig
+
+
+def _labels(runs, labels) -> list:
+    """Legend entry per run: the given ones, else the scenario names; none for a single run,
+    whose name the title carries already."""
+    if labels is not None:
+        return list(labels)
+    return [r.scenario_name for r in runs] if len(runs) > 1 else [None]
+
+
+def _error_norms(ax: Axes, runs, labels) -> None:
+    """|err_z| and |err_b| on a log scale: the errors fall by decades (the panel above them
+    show the sign and the funnels)."""
+    for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
+        t = run["t"]
+        for key, style in (("err_z", "-"), ("err_b", ":")):
+            norm = np.linalg.norm(np.asarray(run[key]).reshape(len(t), -1), axis=1)
+            shown = np.where(norm > 0, norm, np.nan)  # log scale: zeros left out
+            name = "|e_z|" if key == "err_z" else "|e_b|"
+            _plot(ax, t, shown, color=f"C{k}", linestyle=style,
+                  label=f"{label}: {name}" if label else name)  # fmt: skip
+    if any(len(r["t"]) for r in runs):
+        ax.set_yscale("log")
+    ax.set_ylabel("|error| (log)")
+    _mark_stops(ax, runs)
+    _legend(ax, loc="upper right", fontsize=7, ncol=2)
 
 
 def _velocities(runs, labels, thresholds) -> Figure:

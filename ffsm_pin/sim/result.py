@@ -17,6 +17,7 @@ CONTRACT_KEYS = (
     "t", "q", "v", "w", "u_m", "z_e", "z_e_d", "err_z", "rho_z", "q_b", "err_b", "rho_b",
     "P", "L", "F_r", "w_tilde", "e", "theta_z_hat", "theta_d_hat", "theta_b_hat",
 )  # fmt: skip
+FIGURE_ROWS = 100_000  # figures are drawn from at most this many evenly spaced rows
 # Constant arrays saved alongside (the true parameters).
 TRUTH_KEYS = ("theta_z", "theta_d", "theta_b")
 # Extra signals (extensions of the contract).
@@ -288,13 +289,26 @@ class RunResult:
         return dataclasses.replace(self, signals=Thinned(self.signals, step, TRUTH_KEYS))
 
     # ---------------------------------------------------------------- files
-    def save(self, out_dir: str | Path) -> dict:
-        """Write ``trajectory.npz`` and ``summary.json`` into ``out_dir``; return the summary."""
+    def save(self, out_dir: str | Path, *, figures: bool = False) -> dict:
+        """Write ``trajectory.npz`` and ``summary.json`` into ``out_dir``; return the summary.
+
+        Parameters
+        ----------
+        out_dir:
+            Output folder (created if needed).
+        figures:
+            Also draw the figures (``fig_*.png``, as ``python -m ffsm_pin.sim`` does, from at
+            most 100,000 evenly spaced rows).
+        """
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         write_npz(out_dir / "trajectory.npz", self.signals)
         summary = self.summary()
         (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        if figures:
+            from .figures import write_figures  # matplotlib only when asked for
+
+            write_figures(self.thinned(FIGURE_ROWS), out_dir)
         return summary
 
 

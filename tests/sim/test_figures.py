@@ -76,3 +76,26 @@ def test_envelope_keeps_peaks_and_order():
 def test_no_run_is_an_error(tmp_path):
     with pytest.raises(ValueError):
         write_figures([], tmp_path)
+
+
+def test_log_error_panel_and_no_legend_entry_repeating_the_title():
+    """The error figure ends with |e_z|, |e_b| on a log scale; a single run's name is in the
+    title only, never a legend entry (issue 21)."""
+    from ffsm_pin.sim import figures
+
+    res = synthetic_result(duration=2.0)
+    runs = [res]
+    labels = figures._labels(runs, None)
+    for draw in (figures._errors, figures._velocities, figures._estimation, figures._torque,
+                 figures._path):  # fmt: skip
+        fig = draw(runs, labels, [0.05])
+        if draw is not figures._path:  # the path figure has a short title of its own
+            assert res.scenario_name in fig.get_suptitle()
+        for ax in fig.axes:
+            legend = ax.get_legend()
+            texts = [t.get_text() for t in legend.get_texts()] if legend else []
+            assert res.scenario_name not in texts, (draw.__name__, texts)
+    fig = figures._errors(runs, labels, [0.05])
+    assert fig.axes[-1].get_yscale() == "log"
+    two = figures._labels([res, res], None)
+    assert two == [res.scenario_name] * 2  # several runs: the legend tells them apart

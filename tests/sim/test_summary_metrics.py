@@ -36,3 +36,13 @@ def test_comparison_metrics_from_the_rows(case, duration):
         angle = np.arccos(np.clip((tr - 1) / 2, -1, 1))
     assert s["max_base_excursion"] == pytest.approx(angle.max(), rel=1e-6, abs=1e-9)
     assert s["max_base_excursion"] > 0
+
+
+def test_save_writes_the_figures_when_asked(tmp_path):
+    from ffsm_pin.sim.figures import FIGURE_NAMES
+
+    res = simulate(prepare(dataclasses.replace(builtin_scenario("case1"), duration=0.2)))
+    res.save(tmp_path / "plain")
+    assert not list((tmp_path / "plain").glob("fig_*.png"))
+    res.save(tmp_path / "figs", figures=True)
+    assert sorted(p.name for p in (tmp_path / "figs").glob("fig_*.png")) == sorted(FIGURE_NAMES)
