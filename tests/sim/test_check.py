@@ -11,6 +11,7 @@ import pytest
 from ffsm_pin.planar_urdf import chain_from_table, write_urdf
 from ffsm_pin.robot import urdf_dir
 from ffsm_pin.sim.cli import main
+from ffsm_pin.sim.scenario_file import BUILTIN
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -30,7 +31,7 @@ def _doomed(tmp_path: Path, old: str, new: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("case", ["case1", "case1-paper", "case3", "planar5"])
+@pytest.mark.parametrize("case", sorted(BUILTIN))
 def test_builtin_passes(case, capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["--check", "--case", case]) == 0
