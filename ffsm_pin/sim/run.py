@@ -10,7 +10,6 @@ reason, and everything recorded so far.
 from __future__ import annotations
 
 import dataclasses
-import math
 import tempfile
 import time
 import warnings
@@ -18,16 +17,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 
-from .. import paper
-from ..attitude import mrp
 from ..control.diagnostics import base_inertia, numba_available
 from ..control.funnel import Funnel
 from ..control.interface import (
     Controller,
     ControllerContext,
-    Measurement,
     ReferenceSample,
     recorded_name,
     split_reply,
@@ -36,20 +31,19 @@ from ..control.kinematic import task_errors, task_size
 from ..control.registry import controller_class
 from ..errors import ControllerLoadError, FfsmError, ScenarioError, SimulationError
 from ..model import ReducedModel, State, make_model
-from ..model._state_planar import base_twist_to_local
 from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..robot import Robot, load_robot
 from .actuators import Actuators
+from .estimates import initial_estimates
+from .initial import initial_state
+from .measurement import Sensor
 from .plant import Plant
+from .reach import ReachWarning, reach_horizon
 from .recorder import Recorder, extend
 from .result import RunResult
-from .scenario import InitialCondition, Scenario
+from .scenario import Scenario
 from .sensors import Sensors
 from .storage import check_storage, rows_recorded
-
-
-class ReachWarning(UserWarning):
-    """The reference leaves the arm's reach before the end of the run."""
 
 
 @dataclass
@@ -78,267 +72,7 @@ class Setup:
         return task_size(self.model.m2, self.model.m3, self.scenario.reference.task)
 
 
-# ---------------------------------------------------------------------- initial state
-def is_spatial(robot) -> bool:
-    """True for a free-flyer root (``robot.base == "free-flyer"``)."""
-    return robot.base == "free-flyer"
-
-
-def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.ndarray]:
-    """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
-    if is_spatial(robot):
-        return _initial_state_spatial(robot, init)
-    model = robot.model
-    data = model.createData()
-    n = robot.n_joints
-    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
-        if len(vec) != n:
-            raise ScenarioError(
-                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
-                f"({', '.join(list(model.names)[-n:])})"
-            )
-    q = robot.configuration(init.base_pose, init.joints)
-    if init.com_at_origin:
-        com = pin.centerOfMass(model, data, q)
-        q[0] -= com[0]
-        q[1] -= com[1]
-    v = np.zeros(model.nv)
-    v[3:] = init.joint_rates
-    if init.base_twist is not None:
-        v[:3] = base_twist_to_local(q, init.base_twist)
-        return q, v
-    # unknown base twist (local) from CoM velocity and base rate or angular momentum
-    Jcom = pin.jacobianCenterOfMass(model, data, q)[:2]
-    Ag = pin.computeCentroidalMap(model, data, q)[5]
-    vcom = np.asarray(init.com_velocity, dtype=float)
-    if init.base_rate is not None:
-        v[2] = init.base_rate
-        v[:2] = np.linalg.solve(Jcom[:, :2], vcom - Jcom[:, 2:] @ v[2:])
-    else:
-        A = np.vstack((Jcom[:, :3], Ag[None, :3]))
-        rhs = np.concatenate((vcom - Jcom[:, 3:] @ v[3:], [init.angular_momentum - Ag[3:] @ v[3:]]))
-        v[:3] = np.linalg.solve(A, rhs)
-    return q, v
-
-
-def _sized(value, n: int, key: str) -> np.ndarray:
-    vec = np.atleast_1d(np.asarray(value, dtype=float))
-    if vec.shape != (n,):
-        raise ScenarioError(f"initial.{key} has {vec.size} values, a free-flyer base needs {n}")
-    return vec
-
-
-def _initial_state_spatial(robot: Robot, init: InitialCondition):
-    """Free-flyer (q, v): base_pose = (x, y, z, MRP); velocities in the inertial frame,
-    converted to Pinocchio's base-frame twist (docs/spatial.md section 1)."""
-    model = robot.model
-    data = model.createData()
-    n = robot.n_joints
-    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
-        if len(vec) != n:
-            raise ScenarioError(
-                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
-                f"(unlocked: {', '.join(robot.joint_names)})"
-            )
-    pose = np.asarray(init.base_pose, dtype=float)
-    if pose.shape != (6,):
-        raise ScenarioError(
-            f"initial.base_pose has {pose.size} values, a free-flyer base needs 6 "
-            "(x, y, z [m], then the attitude as an MRP s1, s2, s3)"
-        )
-    if pose[3:] @ pose[3:] > 1.0:
-        raise ScenarioError(
-            f"initial.base_pose: attitude MRP {pose[3:].tolist()} has |s| > 1; give the "
-            "shadow MRP -s / |s|^2 (|s| <= 1)"
-        )
-    q = robot.configuration(pose, init.joints)
-    if init.com_at_origin:
-        q[:3] -= pin.centerOfMass(model, data, q)
-    R0 = mrp.to_rotation(pose[3:])
-    v = np.zeros(model.nv)
-    v[6:] = init.joint_rates
-    if init.base_twist is not None:
-        twist = _sized(init.base_twist, 6, "base_twist")
-        v[:3], v[3:6] = R0.T @ twist[:3], R0.T @ twist[3:]
-        return q, v
-    mass = robot.geometry.total_mass
-    vcom = _sized(init.com_velocity, 3, "com_velocity")
-    Ag = pin.computeCentroidalMap(model, data, q)  # h_g = (P, L about the CoM) = Ag v
-    if init.base_rate is not None:
-        v[3:6] = R0.T @ _sized(init.base_rate, 3, "base_rate")
-        v[:3] = np.linalg.solve(Ag[:3, :3], mass * vcom - Ag[:3, 3:] @ v[3:])
-    else:
-        h = np.concatenate((mass * vcom, _sized(init.angular_momentum, 3, "angular_momentum")))
-        v[:6] = np.linalg.solve(Ag[:, :6], h - Ag[:, 6:] @ v[6:])
-    return q, v
-
-
-# ---------------------------------------------------------------------- measurement
-class Sensor:
-    """Measures what the controller needs from the plant state (Pinocchio kinematics).
-
-    Planar: q_b the continuous base angle, z_e = (x, y, attitude). Free-flyer
-    (docs/spatial.md section 1): q_b the base MRP, w = (R_0 w_B, dq_m) with w_b in the
-    inertial frame, z_e = (p_e, q_e) with q_e the end-effector MRP (both on the |s| <= 1
-    branch), dz_e/dt = (dp_e/dt, 1/4 B(q_e) R_e^T w_e).
-    """
-
-    def __init__(self, robot, model: ReducedModel, full_model: bool):
-        self.robot = robot
-        self.pmodel = robot.model
-        self.data = self.pmodel.createData()
-        self.model = model
-        self.fid = robot.ee_frame_id
-        self.full_model = full_model
-        self.spatial = is_spatial(robot)
-        self.state = State(robot) if full_model else None
-        self._q_b_prev: float | None = None
-        self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
-
-    def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
-        if self.spatial:
-            return self._measure_spatial(t, q, v)
-        q_b = math.atan2(q[3], q[2])
-        if self._q_b_prev is not None:  # continuous attitude
-            q_b += 2 * math.pi * round((self._q_b_prev - q_b) / (2 * math.pi))
-        self._q_b_prev = q_b
-        pin.forwardKinematics(self.pmodel, self.data, q, v)
-        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
-        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
-        q_m = q[4:].copy()
-        z_e = np.array([oMf.translation[0], oMf.translation[1], self.model.ee_angle(q_b, q_m)])
-        z_e_dot = np.array([vel.linear[0], vel.linear[1], vel.angular[2]])
-        M = h = None
-        if self.full_model:
-            self.state.update(q, v)
-            M, h = self.state.M, self.state.h
-        return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
-
-    def _measure_spatial(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
-        q_b = mrp.from_quaternion(q[3:7])
-        self.R0 = R0 = mrp.to_rotation(q_b)  # kept for the recorder (one evaluation a step)
-        pin.forwardKinematics(self.pmodel, self.data, q, v)
-        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
-        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
-        R_e = oMf.rotation
-        q_e = mrp.from_rotation(R_e)
-        z_e = np.concatenate((oMf.translation, q_e))
-        z_e_dot = np.concatenate((vel.linear, mrp.L_matrix(q_e, R_e) @ vel.angular))
-        w = np.concatenate((R0 @ v[3:6], v[6:]))
-        M = h = None
-        if self.full_model:
-            self.state.update(q, v)
-            M, h = self.state.M, self.state.h
-        return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)
-
-
 # ---------------------------------------------------------------------- prepare
-def _initial_estimates(scenario: Scenario, model: ReducedModel, truth):
-    est = scenario.controller.estimates
-    tz, td, tb = truth
-    if scenario.controller.scheme == "known-model" or est.initial == "true":
-        return tz.copy(), td.copy(), tb.copy()
-    if est.initial == "paper":
-        sizes = (model.n_z, model.n_d, model.n_b)
-        paper_sizes = (len(paper.THETA_Z_HAT0), len(paper.THETA_D_HAT0), len(paper.THETA_B_HAT0))
-        if sizes != paper_sizes:
-            raise ScenarioError(
-                f"controller.estimates.initial = 'paper' (Table 2) has sizes {paper_sizes} for "
-                f"(theta_z, theta_d, theta_b), this robot needs {sizes}; use 'perturbed', "
-                "'true' or 'explicit'"
-            )
-        return (
-            np.array(paper.THETA_Z_HAT0, float),
-            np.array(paper.THETA_D_HAT0, float),
-            np.array(paper.THETA_B_HAT0, float),
-        )
-    if est.initial == "perturbed":
-        return _perturbed_estimates(model, truth, est.spread, est.seed)
-    out = []
-    for name, vec, size in (
-        ("theta_z", est.theta_z, model.n_z),
-        ("theta_d", est.theta_d, model.n_d),
-        ("theta_b", est.theta_b, model.n_b),
-    ):
-        vec = np.asarray(vec, dtype=float)
-        if vec.shape != (size,):
-            raise ScenarioError(
-                f"controller.estimates.{name} has {vec.size} entries, this robot needs {size} "
-                f"(layout: {_layout_name(model)})"
-            )
-        out.append(vec)
-    return tuple(out)
-
-
-def _layout_name(model) -> str:
-    if model.m3 == 3:
-        return "spatial"
-    return "collinear" if model.layout.collinear else "general 2-D"
-
-
-MAX_PERTURBATION_DRAWS = 200
-
-
-def _perturbed_estimates(model: ReducedModel, truth, spread: float, seed: int):
-    """Every true parameter times (1 + U(-spread, spread)), from a generator seeded with
-    ``seed``. A draw of theta_d whose inertia M(q, theta_d-hat) is not positive definite
-    (at 64 seeded random configurations) is redrawn from the same stream: independent
-    perturbations of 30 % make M-hat indefinite for 15-50 % of draws, which no filter (46)
-    can use."""
-    tz, td, tb = truth
-    rng = np.random.default_rng(seed)
-    m3 = model.m3
-    check = np.random.default_rng(seed + 1).uniform(-np.pi, np.pi, (64, model.n_joints + m3))
-    if m3 > 1:  # base attitudes as MRPs on the |s| <= 1 branch: |s_i| <= 0.5
-        check[:, :m3] *= 0.5 / np.pi
-
-    def perturb(x):
-        return x * (1.0 + rng.uniform(-spread, spread, size=np.shape(x)))
-
-    def inertia(x):
-        for _ in range(MAX_PERTURBATION_DRAWS):
-            cand = perturb(x)
-            if all(
-                np.linalg.eigvalsh(model.mass_matrix(cand, _q_b(c[:m3]), c[m3:]))[0] > 0
-                for c in check
-            ):
-                return cand
-        raise ScenarioError(
-            f"controller.estimates: no positive-definite perturbation of theta_d found in "
-            f"{MAX_PERTURBATION_DRAWS} draws (spread {spread}, seed {seed}); use a smaller spread"
-        )
-
-    tz_hat = perturb(tz)
-    td_hat = inertia(td)
-    tb_hat = np.concatenate((perturb(tb[:m3]), inertia(td)))
-    return tz_hat, td_hat, tb_hat
-
-
-def _q_b(x):
-    """The base attitude argument of a model: a number (planar) or an MRP 3-vector."""
-    return x[0] if len(x) == 1 else x
-
-
-REACH_SAMPLES = 100_000  # most samples of the reach scan; a longer run is scanned coarser
-
-
-def reach_horizon(model: ReducedModel, theta_z, com0, reference, duration: float, dt=0.01):
-    """First time at which the reference position is farther from the (drifting) system CoM
-    than the arm can reach (sum of |V_k|), or None.
-
-    Sampled every ``dt`` [s], or every ``duration / REACH_SAMPLES`` for runs longer than
-    ``REACH_SAMPLES * dt`` (1000 s by default), so that the scan stays cheap however long the
-    run."""
-    m2 = model.m2
-    reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))
-    dt = max(dt, duration / REACH_SAMPLES)
-    ts = np.arange(0.0, duration + dt, dt)
-    com = np.asarray(com0)[None, :m2] + ts[:, None] * np.asarray(theta_z[:m2])[None, :]
-    ref = np.array([reference.ee_pose(t)[:m2] for t in ts])
-    far = np.linalg.norm(ref - com, axis=1) > reach
-    return float(ts[np.argmax(far)]) if far.any() else None
-
-
 def prepare(scenario: Scenario) -> Setup:
     """Load, validate and build everything for ``scenario``; raise FfsmError on bad input."""
     spec = scenario.robot
@@ -381,7 +115,7 @@ def prepare(scenario: Scenario) -> Setup:
     )
 
     def estimates():  # drawn when the controller first reads ctx.estimates
-        return _initial_estimates(scenario, model, truth)
+        return initial_estimates(scenario, model, truth)
 
     if getattr(cls, "needs_estimates", False):  # checked before the funnels, as they are read
         estimates = _constant(estimates())

@@ -220,7 +220,7 @@ class Estimates:
 
     'perturbed': every true parameter times 1 + U(-spread, spread), from a generator seeded
     with ``seed``; a draw of theta_d with an indefinite inertia M-hat is redrawn from the same
-    stream (see :func:`ffsm_pin.sim.run._perturbed_estimates`).
+    stream (see :func:`ffsm_pin.sim.estimates.perturbed_estimates`).
     """
 
     initial: str = "paper"

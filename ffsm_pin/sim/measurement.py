@@ -1,0 +1,72 @@
+"""The exact measurement of the plant state: what a controller needs, from Pinocchio's
+kinematics (sensor noise and delay act on it afterwards, :mod:`.sensors`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from ..attitude import mrp
+from ..control.interface import Measurement
+from ..model import ReducedModel, State
+from .initial import is_spatial
+
+
+class Sensor:
+    """Measures what the controller needs from the plant state (Pinocchio kinematics).
+
+    Planar: q_b the continuous base angle, z_e = (x, y, attitude). Free-flyer
+    (docs/spatial.md section 1): q_b the base MRP, w = (R_0 w_B, dq_m) with w_b in the
+    inertial frame, z_e = (p_e, q_e) with q_e the end-effector MRP (both on the |s| <= 1
+    branch), dz_e/dt = (dp_e/dt, 1/4 B(q_e) R_e^T w_e).
+    """
+
+    def __init__(self, robot, model: ReducedModel, full_model: bool):
+        self.robot = robot
+        self.pmodel = robot.model
+        self.data = self.pmodel.createData()
+        self.model = model
+        self.fid = robot.ee_frame_id
+        self.full_model = full_model
+        self.spatial = is_spatial(robot)
+        self.state = State(robot) if full_model else None
+        self._q_b_prev: float | None = None
+        self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
+
+    def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
+        if self.spatial:
+            return self._measure_spatial(t, q, v)
+        q_b = math.atan2(q[3], q[2])
+        if self._q_b_prev is not None:  # continuous attitude
+            q_b += 2 * math.pi * round((self._q_b_prev - q_b) / (2 * math.pi))
+        self._q_b_prev = q_b
+        pin.forwardKinematics(self.pmodel, self.data, q, v)
+        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
+        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        q_m = q[4:].copy()
+        z_e = np.array([oMf.translation[0], oMf.translation[1], self.model.ee_angle(q_b, q_m)])
+        z_e_dot = np.array([vel.linear[0], vel.linear[1], vel.angular[2]])
+        M = h = None
+        if self.full_model:
+            self.state.update(q, v)
+            M, h = self.state.M, self.state.h
+        return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
+
+    def _measure_spatial(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
+        q_b = mrp.from_quaternion(q[3:7])
+        self.R0 = R0 = mrp.to_rotation(q_b)  # kept for the recorder (one evaluation a step)
+        pin.forwardKinematics(self.pmodel, self.data, q, v)
+        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
+        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        R_e = oMf.rotation
+        q_e = mrp.from_rotation(R_e)
+        z_e = np.concatenate((oMf.translation, q_e))
+        z_e_dot = np.concatenate((vel.linear, mrp.L_matrix(q_e, R_e) @ vel.angular))
+        w = np.concatenate((R0 @ v[3:6], v[6:]))
+        M = h = None
+        if self.full_model:
+            self.state.update(q, v)
+            M, h = self.state.M, self.state.h
+        return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)
