@@ -3,7 +3,14 @@ docstrings. Build: python -m sphinx -W --keep-going -b html docs docs/_build/htm
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import nbformat
+
 import ffsm_pin
+
+HERE = Path(__file__).resolve().parent
+EXAMPLES = HERE.parent / "examples"
 
 project = "ffsm-pin"
 author = "ffsm-pin developers"
@@ -34,3 +41,24 @@ napoleon_use_ivar = True  # Attributes sections as fields (autodoc documents the
 
 html_theme = "furo"
 html_title = f"ffsm-pin {release}"
+
+
+def _notebooks_as_pages(app) -> None:
+    """examples/*.ipynb -> docs/_generated/<name>.md (markdown cells as they are, code cells
+    as Python blocks; the notebooks are executed by the test suite, not by the build)."""
+    out = HERE / "_generated"
+    out.mkdir(exist_ok=True)
+    for path in sorted(EXAMPLES.glob("*.ipynb")):
+        nb = nbformat.read(path, as_version=4)
+        parts = [f"<!-- generated from examples/{path.name} by docs/conf.py -->"]
+        for cell in nb.cells:
+            if cell.cell_type == "markdown":
+                parts.append(cell.source)
+            elif cell.cell_type == "code":
+                parts.append("```python\n" + cell.source + "\n```")
+        parts.append(f"The notebook: `examples/{path.name}` (run it with Jupyter).")
+        (out / f"{path.stem}.md").write_text("\n\n".join(parts) + "\n", encoding="utf-8")
+
+
+def setup(app) -> None:
+    app.connect("builder-inited", _notebooks_as_pages)
