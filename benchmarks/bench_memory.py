@@ -29,7 +29,7 @@ import tempfile
 import time
 from pathlib import Path
 
-CASES = {"planar": "1", "spatial": "spatial"}
+CASES = {"planar": "1", "spatial": "spatial", "spatial-realistic": "spatial-realistic"}
 CHILD = """
 import resource, sys
 import ffsm_pin.sim.recorder as recorder
