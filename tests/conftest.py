@@ -130,3 +130,28 @@ def _random_state(robot: FreeFloatingRobot, rng: np.random.Generator, *, speed: 
 def random_state():
     """Factory ``random_state(robot, rng, *, speed=1.0) -> (q, v)`` (Pinocchio conventions)."""
     return _random_state
+
+
+@pytest.fixture(scope="session")
+def reduced_model_of():
+    """geometry -> reduced model: "planar" the paper's 4-link robot, "spatial" the Panda on the
+    built-in 'spatial' case's satellite (cached per session)."""
+    from ffsm_pin.model import make_model
+    from ffsm_pin.robot import load_robot
+    from ffsm_pin.sim.scenario_file import builtin_scenario
+
+    cache = {}
+
+    def get(geometry: str):
+        if geometry not in cache:
+            if geometry == "planar":
+                robot = load_robot("ffsm_planar4.urdf")
+            else:
+                r = builtin_scenario("spatial").robot
+                locked = dict(r.locked_joints)
+                robot = load_robot(r.urdf, r.end_effector, base=r.base, locked_joints=locked,
+                                   satellite=r.satellite)  # fmt: skip
+            cache[geometry] = make_model(robot)
+        return cache[geometry]
+
+    return get

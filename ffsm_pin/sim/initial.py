@@ -24,13 +24,7 @@ def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.
         return _initial_state_spatial(robot, init)
     model = robot.model
     data = model.createData()
-    n = robot.n_joints
-    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
-        if len(vec) != n:
-            raise ScenarioError(
-                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
-                f"({', '.join(list(model.names)[-n:])})"
-            )
+    _check_joint_lists(robot, init)
     q = robot.configuration(init.base_pose, init.joints)
     if init.com_at_origin:
         com = pin.centerOfMass(model, data, q)
@@ -55,6 +49,18 @@ def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.
     return q, v
 
 
+def _check_joint_lists(robot: Robot, init: InitialCondition, prefix: str = "") -> None:
+    """initial.joints and initial.joint_rates have one entry per joint; the error names the
+    list that is wrong and the joints."""
+    n = robot.n_joints
+    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
+        if len(vec) != n:
+            raise ScenarioError(
+                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
+                f"({prefix}{', '.join(robot.joint_names)})"
+            )
+
+
 def _sized(value, n: int, key: str) -> np.ndarray:
     vec = np.atleast_1d(np.asarray(value, dtype=float))
     if vec.shape != (n,):
@@ -67,13 +73,7 @@ def _initial_state_spatial(robot: Robot, init: InitialCondition):
     converted to Pinocchio's base-frame twist (docs/spatial.md section 1)."""
     model = robot.model
     data = model.createData()
-    n = robot.n_joints
-    for name, vec in (("joints", init.joints), ("joint_rates", init.joint_rates)):
-        if len(vec) != n:
-            raise ScenarioError(
-                f"initial.{name} has {len(vec)} entries, robot {robot.name!r} has {n} joints "
-                f"(unlocked: {', '.join(robot.joint_names)})"
-            )
+    _check_joint_lists(robot, init, "unlocked: ")
     pose = np.asarray(init.base_pose, dtype=float)
     if pose.shape != (6,):
         raise ScenarioError(

@@ -9,28 +9,17 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ffsm_pin.model import make_model
-from ffsm_pin.robot import load_robot
 from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sim.scenario import Estimates
 from ffsm_pin.sim.scenario_file import builtin_scenario
 
 
-def _model(geometry: str):
-    if geometry == "planar":
-        return make_model(load_robot("ffsm_planar4.urdf"))
-    r = builtin_scenario("spatial").robot
-    robot = load_robot(r.urdf, r.end_effector, base=r.base,
-                       locked_joints=dict(r.locked_joints), satellite=r.satellite)  # fmt: skip
-    return make_model(robot)
-
-
 @pytest.mark.parametrize("geometry, skew", [("planar", True), ("spatial", False)])
-def test_polarized_coriolis_term_and_its_skew_property(geometry, skew):
+def test_polarized_coriolis_term_and_its_skew_property(geometry, skew, reduced_model_of):
     """B(w, x) = 1/4 (Y_h(w + x) - Y_h(w - x)) theta_d is the symmetric bilinear form of
     C(q, w) w; dM/dt - 2 B(w, .) is skew (x^T (dM/dt x - 2 B(w, x)) = 0) in generalized
     coordinates (planar), not with the base angular velocity as rates (spatial)."""
-    m = _model(geometry)
+    m = reduced_model_of(geometry)
     th = np.array(m.theta_d)
     rng = np.random.default_rng(1)
     nb = m.n_joints + m.m3

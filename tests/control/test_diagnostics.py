@@ -8,25 +8,13 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.diagnostics import base_inertia, residual_54
-from ffsm_pin.model import make_model
-from ffsm_pin.robot import load_robot
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 pytest.importorskip("numba")
 
 
-def _model(geometry: str):
-    if geometry == "planar":
-        return make_model(load_robot("ffsm_planar4.urdf"))
-    r = builtin_scenario("spatial").robot
-    robot = load_robot(r.urdf, r.end_effector, base=r.base,
-                       locked_joints=dict(r.locked_joints), satellite=r.satellite)  # fmt: skip
-    return make_model(robot)
-
-
 @pytest.mark.parametrize("geometry", ["planar", "spatial"])
-def test_compiled_equals_reference_and_definition(geometry):
-    model = _model(geometry)
+def test_compiled_equals_reference_and_definition(geometry, reduced_model_of):
+    model = reduced_model_of(geometry)
     m3, nb = model.m3, model.n_joints + model.m3
     theta_d = np.array(model.theta_d)
     rng = np.random.default_rng(4)
