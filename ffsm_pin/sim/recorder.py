@@ -246,8 +246,12 @@ def extend(
     assert spool is not None
     shapes = dict(signals._shapes)
     files: dict[str, object] = {}
+    # blocks sized by what per_row makes of them (with room for its temporaries), not by the
+    # 8 bytes of t: a block of the whole t column made hundreds of MB of signals at once
+    width = sum(int(np.prod(v.shape[1:])) for v in per_row(np.zeros(1)).values())
+    rows = max(1, BLOCK_BYTES // (8 * 4 * (width + 1)))
     try:
-        for block in signals.blocks(["t"]):
+        for block in signals.blocks(["t"], rows=rows):
             for key, value in per_row(block["t"]).items():
                 if key not in files:
                     shapes[key] = value.shape[1:]
