@@ -28,6 +28,19 @@ Z95 = 1.959963984540054  # standard normal quantile of 0.975
 N_WORST = 10
 
 KEPT = "(status = 'completed' AND funnel_ok_b AND funnel_ok_z)"
+
+
+def _wilson(rate: str, n: str, name: str) -> str:
+    """SQL for the 95 % Wilson score interval of the column ``rate`` (a share of ``n`` runs),
+    as ``name_lo`` and ``name_hi``."""
+    half = f"{Z95} * sqrt({rate} * (1 - {rate}) / {n} + {Z95}^2 / (4 * {n} * {n}))"
+    centre, scale = f"{rate} + {Z95}^2 / (2 * {n})", f"(1 + {Z95}^2 / {n})"
+    return (
+        f"({centre} - {half})\n    / {scale} AS {name}_lo,\n"
+        f"  ({centre} + {half})\n    / {scale} AS {name}_hi"
+    )
+
+
 RATE_SQL = f"""\
 WITH counts AS (
   SELECT {{cols_sel}}
@@ -42,10 +55,7 @@ WITH counts AS (
   SELECT *, CASE WHEN n > 0 THEN kept / n END AS rate FROM counts
 )
 SELECT *,  -- Wilson score interval, z = {Z95:.4f}
-  (rate + {Z95}^2 / (2 * n) - {Z95} * sqrt(rate * (1 - rate) / n + {Z95}^2 / (4 * n * n)))
-    / (1 + {Z95}^2 / n) AS rate_lo,
-  (rate + {Z95}^2 / (2 * n) + {Z95} * sqrt(rate * (1 - rate) / n + {Z95}^2 / (4 * n * n)))
-    / (1 + {Z95}^2 / n) AS rate_hi
+  {_wilson("rate", "n", "rate")}
 FROM rates
 {{order}}"""
 
@@ -96,17 +106,6 @@ CONTROLLER_KEY = "controller.type"
 KEPT_Z = "(status = 'completed' AND funnel_ok_z)"
 
 
-def _wilson(k: str, n: str, name: str) -> str:
-    """SQL for the 95 % Wilson score interval of the rate k / n, as name_lo, name_hi."""
-    p = f"({k} / {n})"
-    z = f"{Z95}"
-    half = f"{z} * sqrt({p} * (1 - {p}) / {n} + {z}^2 / (4 * {n} * {n}))"
-    return (
-        f"({p} + {z}^2 / (2 * {n}) - {half}) / (1 + {z}^2 / {n}) AS {name}_lo,\n"
-        f"  ({p} + {z}^2 / (2 * {n}) + {half}) / (1 + {z}^2 / {n}) AS {name}_hi"
-    )
-
-
 CONTROLLER_SQL = f"""\
 WITH runs AS (
   SELECT * FROM read_parquet('{{path}}') WHERE NOT nominal AND status <> 'error'
@@ -124,11 +123,13 @@ WITH runs AS (
          median(settle_time_z) AS settle_time_z
   FROM runs
   GROUP BY 1
+), rates AS (
+  SELECT *, kept / n AS rate, kept_z / n AS rate_z FROM per
 )
-SELECT *, kept / n AS rate, kept_z / n AS rate_z,
-  {_wilson("kept", "n", "rate")},
-  {_wilson("kept_z", "n", "rate_z")}
-FROM per
+SELECT *,  -- Wilson score intervals, z = {Z95:.4f}
+  {_wilson("rate", "n", "rate")},
+  {_wilson("rate_z", "n", "rate_z")}
+FROM rates
 ORDER BY controller"""
 
 POINTS_SQL = """\
