@@ -39,9 +39,9 @@ from ..errors import SimulationError
 from .adaptation import theta_b_step, theta_d_increment, theta_z_step
 from .gjm_ct import GjmGains, drift_bound, gains_from, resolved_rates
 from .interface import ControllerContext, Measurement
-from .kinematic import ComplexStepMomentum, attitude_matrix
+from .kinematic import COMPLEX_STEP, along_measured_motion, momentum_evaluator
 
-_H = 1e-30  # complex step
+_H = COMPLEX_STEP  # the step of along_measured_motion
 
 
 @dataclass(frozen=True)
@@ -99,7 +99,7 @@ class AdaptiveComputedTorque:
         self.dt = ctx.dt
         self.reference = sc.reference
         self.threshold = sc.controller.singularity.threshold
-        self._momentum = ComplexStepMomentum(ctx.model) if ctx.m3 > 1 else ctx.model
+        self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
         self.signal_shapes = {
             "w_mc": (self.n,), "sigma_min": (), "damping": (),
@@ -130,12 +130,8 @@ class AdaptiveComputedTorque:
         # reference motion and its rate along the measured motion and the estimates' rates
         # (complex step)
         hj = 1j * _H
-        q_b_rate = attitude_matrix(q_b, m3) @ w[:m3]  # Eq. (1)
         w_r_c, sigma, damping = self._reference(
-            t + hj,
-            q_b + hj * (q_b_rate[0] if m3 == 1 else q_b_rate),
-            q_m + hj * w[m3:],
-            np.asarray(meas.z_e) + hj * meas.z_e_dot,
+            *along_measured_motion(meas, m3),
             self.theta_z + hj * (theta_z - self.theta_z) / dt,
             self.theta_b + hj * (theta_b - self.theta_b) / dt,
         )

@@ -28,10 +28,10 @@ import numpy as np
 
 from ..errors import ParameterError
 from .interface import ControllerContext, Measurement
-from .kinematic import ComplexStepMomentum, attitude_matrix, wrap_angle
+from .kinematic import COMPLEX_STEP, along_measured_motion, momentum_evaluator, wrap_angle
 from .linalg import damped_row_pinv
 
-_H = 1e-30  # complex step
+_H = COMPLEX_STEP  # the step of along_measured_motion
 
 
 @dataclass(frozen=True)
@@ -167,7 +167,7 @@ class GjmComputedTorque:
         self.q_bd = np.asarray(ctx.base_attitude_reference, dtype=float)
         self.threshold = sc.controller.singularity.threshold
         # spatial: H_bb, H_bm of complex-step arguments through the real model
-        self._momentum = ComplexStepMomentum(ctx.model) if ctx.m3 > 1 else ctx.model
+        self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
@@ -182,13 +182,8 @@ class GjmComputedTorque:
         """u_m for the period starting at ``meas.t``, and w_md (as ``w_mc``), sigma_min and
         damping as signals."""
         m3 = self.m3
-        w_b, w_m = meas.w[:m3], meas.w[m3:]
-        q_b_rate = attitude_matrix(meas.q_b, m3) @ w_b  # Eq. (1)
-        hj = 1j * _H
-        q_b = meas.q_b + hj * (q_b_rate[0] if m3 == 1 else q_b_rate)
-        w_md_c, sigma, damping = self.joint_rate_command(
-            meas.t + hj, q_b, meas.q_m + hj * w_m, np.asarray(meas.z_e) + hj * meas.z_e_dot
-        )
+        w_m = meas.w[m3:]
+        w_md_c, sigma, damping = self.joint_rate_command(*along_measured_motion(meas, m3))
         w_md, w_md_dot = w_md_c.real.copy(), w_md_c.imag / _H
         a_m = w_md_dot + self.gains.k_v * (w_md - w_m)
         M = self.model.mass_matrix(self.theta_d, meas.q_b, meas.q_m)

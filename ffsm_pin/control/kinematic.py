@@ -30,7 +30,7 @@ of the pseudo-inverse is computed from the real part and held constant.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -43,6 +43,7 @@ from .linalg import damped_row_pinv, row_pinv
 from .null_space import NullSpace, null_space_gradient
 
 _H = 1e-30  # complex step; any tiny h works (no subtractive cancellation)
+COMPLEX_STEP = _H  # the step h of :func:`along_measured_motion` (derivative = imag / h)
 _TWO_PI = 2.0 * np.pi
 
 
@@ -119,6 +120,26 @@ class ComplexStepMomentum:
         return H[:, :m3], H[:, m3:], tb[:m3]
 
 
+def momentum_evaluator(model: ReducedModel):
+    """What evaluates H_bb, H_bm, A_0 of ``model`` at complex-step arguments: the model itself
+    (planar), or :class:`ComplexStepMomentum` through its compiled real model (spatial)."""
+    return ComplexStepMomentum(model) if model.m3 > 1 else model
+
+
+def along_measured_motion(meas, m3: int) -> tuple[complex, Any, np.ndarray, np.ndarray]:
+    """(t, q_b, q_m, z_e) + i h (1, dq_b/dt, w_m, dz_e/dt): a measurement advanced by a complex
+    step along the measured rates (dq_b/dt = L_b w_b, Eq. 1), for exact time derivatives of a
+    law evaluated at these arguments."""
+    w = meas.w
+    q_b_rate = attitude_matrix(meas.q_b, m3) @ w[:m3]
+    return (
+        meas.t + 1j * _H,
+        _complex(meas.q_b, q_b_rate[0] if m3 == 1 else q_b_rate),
+        meas.q_m + 1j * _H * w[m3:],
+        np.asarray(meas.z_e) + 1j * _H * meas.z_e_dot,
+    )
+
+
 class KinematicInputs(NamedTuple):
     """Arguments of w_mc (all may be complex for the complex step)."""
 
@@ -165,7 +186,7 @@ class KinematicLaw:
         self.model = model
         self.m2, self.m3 = model.m2, model.m3
         # spatial: H_bb, H_bm through the compiled real model (see ComplexStepMomentum)
-        self._momentum = ComplexStepMomentum(model) if model.m3 > 1 else model
+        self._momentum = momentum_evaluator(model)
         self.task = task
         self.n_task = task_size(self.m2, self.m3, task)
         self.k_b, self.k_z = gains.k_b, gains.k_z

@@ -50,8 +50,9 @@ class LuJiaController:
         self.context = ctx
         sc = ctx.scenario
         c = sc.controller
-        if ctx.estimates is None or ctx.truth is None:
-            raise ValueError("the lu-jia controller needs the context's estimates and truth")
+        estimates = ctx.required_estimates()
+        if ctx.truth is None:
+            raise ValueError("the lu-jia controller needs the context's truth (for Eq. 54's e)")
         self.law = CoordinatedController(
             ctx.model,
             scheme=c.scheme,
@@ -61,9 +62,9 @@ class LuJiaController:
             reference=sc.reference,
             base_attitude_ref=ctx.base_attitude_reference,
             singularity=c.singularity,
-            theta_z0=ctx.estimates[0],
-            theta_d0=ctx.estimates[1],
-            theta_b0=ctx.estimates[2],
+            theta_z0=estimates[0],
+            theta_d0=estimates[1],
+            theta_b0=estimates[2],
             initial=ctx.initial,
             null_space=c.null_space,
             task=ctx.task,
