@@ -3,6 +3,7 @@ new user would run them from the repository root (README, "Documentation")."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -16,6 +17,7 @@ SCRIPTS = {  # file -> arguments that keep it short
     "own_arm.py": ["--duration", "1"],
     "small_campaign.py": ["--duration", "0.3"],
 }
+SCENARIOS = {"point_to_point.toml": ["--duration", "9"]}  # scenario file -> sim arguments
 
 
 def test_every_example_is_exercised():
@@ -24,7 +26,18 @@ def test_every_example_is_exercised():
     own_tests = {"joint_pd.py", "joint_pd_planar.toml", "joint_pd_spatial.toml"}
     notebooks = {p.name for p in EXAMPLES.glob("*.ipynb")}
     files = {p.name for p in EXAMPLES.iterdir() if p.is_file()}
-    assert files == set(SCRIPTS) | own_tests | notebooks
+    assert files == set(SCRIPTS) | set(SCENARIOS) | own_tests | notebooks
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_scenario_example_runs(name, tmp_path):
+    """The scenario runs through the command line and keeps its funnels."""
+    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--scenario", str(EXAMPLES / name),
+           "--out", str(tmp_path / "out"), "--no-plots", "--no-html", *SCENARIOS[name]]  # fmt: skip
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["funnel_ok_b"] and summary["funnel_ok_z"]
 
 
 @pytest.mark.parametrize("name", sorted(SCRIPTS))

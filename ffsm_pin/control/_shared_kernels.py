@@ -89,11 +89,42 @@ def funnel_terms(f, t, e, identity):
 
 
 @njit(cache=True)
-def _reference(rc, rA, ramp, rfreq, rphase, t, rate):
+def _reference(rc, rA, ramp, rfreq, rphase, rpp, t, rate):
+    """z_e,d(t) (``rate`` False) or dz_e,d/dt: the harmonic terms plus, when ``rpp`` has
+    segments, the piecewise polynomial of a reference from data (complex-step safe)."""
     arg = rfreq * t + rphase
     if rate:
-        return _mv(rA, -ramp * rfreq * np.sin(arg))
-    return rc + _mv(rA, ramp * np.cos(arg))
+        out = _mv(rA, -ramp * rfreq * np.sin(arg))
+    else:
+        out = rc + _mv(rA, ramp * np.cos(arg))
+    if rpp.shape[1] > 0:
+        out = out + _piecewise(rpp, t, 1 if rate else 0)
+    return out
+
+
+@njit(cache=True)
+def _piecewise(table, t, order):
+    """d^order/dt^order of :class:`ffsm_pin.sim.trajectory.PiecewisePolynomial` at t
+    (as its numpy ``derivative``; the segment is chosen by Re t)."""
+    starts = table[0]
+    tr = t.real
+    lo, hi = 0, starts.size  # last k with starts[k] <= tr (0 when none)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if starts[mid] <= tr:
+            lo = mid
+        else:
+            hi = mid
+    tau = t - starts[lo]
+    n = (table.shape[0] - 1) // 6
+    out = np.zeros(n) + 0.0 * tau  # real or complex, as t
+    for p in range(5, order - 1, -1):
+        fac = 1.0
+        for j in range(order):
+            fac *= p - j
+        for i in range(n):
+            out[i] = out[i] * tau + fac * table[1 + p * n + i, lo]
+    return out
 
 
 @njit(cache=True)

@@ -154,7 +154,7 @@ class CoordinatedController:
         self.q_bd = np.atleast_1d(np.asarray(base_attitude_ref, dtype=float))
         for name, size, want in (
             ("base_attitude_ref", self.q_bd.size, self.m3),
-            ("reference.ee", len(reference.ee), self.n_task),
+            ("reference.ee", reference.n_components, self.n_task),
             ("funnel_b", funnel_b.size, self.m3),
             ("funnel_z", funnel_z.size, self.n_task),
         ):
@@ -246,8 +246,7 @@ class CoordinatedController:
             np.array([self.gains.k_b, self.gains.k_z, self.gains.k_de, self.gains.k_d,
                       self.gains.gamma_1, self.gains.gamma_2, self.gains.gamma_3,
                       self.policy.threshold, float(self.q_bd[0])]),
-            self.reference._c, self.reference._A, self.reference._amp,
-            self.reference._freq, self.reference._phase,
+            *self.reference.kernel_arrays(),
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._fast_consts = consts  # the kernel's constant arguments (also used by tests)
@@ -271,8 +270,7 @@ class CoordinatedController:
             self.scheme != "no-attitude", self.scheme == "no-ppc", self.adaptive,
             fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
             fast.gains_array(self.gains, self.policy.threshold, self.q_bd),
-            *(np.ascontiguousarray(x, dtype=float)
-              for x in (ref._c, ref._A, ref._amp, ref._freq, ref._phase)),
+            *(np.ascontiguousarray(x, dtype=float) for x in ref.kernel_arrays()),
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._fast_consts = consts

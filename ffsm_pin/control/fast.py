@@ -149,13 +149,13 @@ def _damped_pinv(A, thr):
 
 @njit(cache=True)
 def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
-               fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
+               fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
                t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
     """w_mc of Eqs. (25)+(36) or (81) (complex-step safe); ``ns`` = :func:`pack_null_space`."""
     nb = S.shape[0]
     n = nb - 1
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-    err_z = z_e - _reference(rc, rA, ramp, rfreq, rphase, t, False)
+    err_z = z_e - _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
     err_z[2] = _wrap(err_z[2])
     err_b = np.empty(1, dtype=err_z.dtype)
     err_b[0] = _wrap(q_b - g[G_QBD])
@@ -166,7 +166,7 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
     J = _jacobian(theta_z, c, s, S, ee_row, collinear)
     Jm = np.ascontiguousarray(J[:, 1:])
-    target = _reference(rc, rA, ramp, rfreq, rphase, t, True) - g[G_KZ] * Phi_z * psi_z
+    target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - g[G_KZ] * Phi_z * psi_z
     target[0] -= theta_z[0]
     target[1] -= theta_z[1]
     if not attitude:  # Eq. (81)
@@ -289,7 +289,7 @@ def _velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
 
 @njit(cache=True)
 def period(S, off, K, L, ee_row, collinear, attitude, identity,
-           fb, fz, g, rc, rA, ramp, rfreq, rphase, ns, dt,
+           fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
            t, q_b, q_m, w, z_e, z_e_dot,
            theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
     """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64); updates the
@@ -337,7 +337,7 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
     tzc = theta_z + hj * (tz_new - theta_z) / dt
     w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
         S, off, K, L, ee_row, collinear, attitude, identity,
-        fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
+        fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
         t + hj, q_b + hj * w[0], qmc, zec, tbc, tzc, w[0] + 0j,
     )  # fmt: skip
     o = 3 * n + 4 + nb  # offset of the scalars in `out`, see out_layout()

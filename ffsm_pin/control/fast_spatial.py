@@ -237,11 +237,11 @@ def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
 
 @njit(cache=True)
 def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase,
-               ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+               rpp, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments; returns (w_mc, d w_mc/d w_b,
     sigma_min, damping, |H_bm|, err_b, err_z, status, exit index)."""
     n = q_m.size
-    ref = _reference(rc, rA, ramp, rfreq, rphase, t, False)
+    ref = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
     err_z = np.empty(nt, dtype=np.complex128)
     for i in range(nt):
         err_z[i] = z_e[i] - ref[i]  # Eq. (17)
@@ -256,7 +256,7 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
     J, Hbb, Hbm, R0 = _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
     Jb = np.ascontiguousarray(J[:, :3])
     Jm = np.ascontiguousarray(J[:, 3:])
-    target = _reference(rc, rA, ramp, rfreq, rphase, t, True) - g[G_KZ] * Phi_z * psi_z
+    target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - g[G_KZ] * Phi_z * psi_z
     for i in range(3):
         target[i] -= theta_z[i]  # -v0bar-hat
     if not attitude:  # Eq. (81)
@@ -286,7 +286,7 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
 # ---------------------------------------------------------------------- one period
 @njit(cache=True)
 def period(jr, ax, er, m, nt, attitude, identity, adaptive,
-           fb, fz, g, rc, rA, ramp, rfreq, rphase, ns, dt,
+           fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
            t, q_b, q_m, w, z_e, z_e_dot, M_true, h_true,
            theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
     """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64) of the spatial
@@ -334,7 +334,7 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
     hj = 1j * _H
     q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
-        jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
+        jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
         t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:], z_e + hj * z_e_dot,
         theta_b + hj * (tb_new - theta_b) / dt, theta_z + hj * (tz_new - theta_z) / dt,
         w[:3] + 0j,
@@ -454,9 +454,11 @@ def _cold(dispatcher) -> bool:
 def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
     """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex arrays
     of the measurement's shapes); the values only need to be finite."""
-    jr, ax, er, m, nt, attitude, identity, _, fb, fz, g, rc, rA, ramp, rfreq, rphase, ns = consts
+    jr, ax, er, m, nt, attitude, identity, _, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns = (
+        consts
+    )
     c = 1j * _H
-    return (jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, ns,
+    return (jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
             t + c, q_b + c, q_m + c, z_e + c, theta_b + c, theta_z + c, w[:3] + 0j)  # fmt: skip
 
 

@@ -72,10 +72,10 @@ def attitude_matrix(q_b, m3: int):
 
 def task_errors(reference, base_attitude_ref, t, q_b, z_e, m3: int = 1):
     """(err_b, err_z): attitude error q_b - q_bd (Eq. 16) and task error z_e - z_ed(t)
-    (Eq. 17), one entry per reference component of ``reference.ee``. Planar (m3 = 1): the
+    (Eq. 17), one entry per reference component. Planar (m3 = 1): the
     angles are wrapped to (-pi, pi]; spatial: component differences of the MRPs (the paper's
     Delta q_b, Delta q_e), the measured MRPs being on the |s| <= 1 branch. Complex-step safe."""
-    n = len(reference.ee)
+    n = reference.n_components
     q_b = np.atleast_1d(q_b)
     err_b = q_b - np.asarray(base_attitude_ref)
     err_z = np.array(z_e)[:n] - reference.ee_pose(t)

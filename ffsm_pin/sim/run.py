@@ -97,9 +97,9 @@ def prepare(scenario: Scenario) -> Setup:
                 f"controller.funnel ({name}) has {fp.size} components, the {ref.task!r} task "
                 f"of this robot needs {size}"
             )
-    if len(ref.ee) != n_task:
+    if ref.n_components != n_task:
         raise ScenarioError(
-            f"reference.ee has {len(ref.ee)} components; the {ref.task!r} task of this robot "
+            f"reference.ee has {ref.n_components} components; the {ref.task!r} task of this robot "
             f"needs {n_task}"
         )
     if len(ref.base_attitude) != m3:

@@ -25,6 +25,7 @@ from ..errors import ParameterError, choices_text
 from .actuators import ActuatorSpec
 from .plant import INTEGRATORS
 from .sensors import SensorSpec
+from .trajectory import PiecewisePolynomial, ReferenceData
 
 ESTIMATE_KINDS = ("paper", "true", "perturbed", "explicit")
 
@@ -79,14 +80,24 @@ class Reference:
     ``base_attitude``: planar (angle,) [rad], spatial an MRP (3).
     ``origin``: ``"absolute"``, or ``"initial"``: the constant terms ``c`` of ``ee`` and
     ``base_attitude`` are relative to the initial pose, resolved by :meth:`resolved`.
+    ``data``: a reference from data instead of harmonics (``ee`` is then empty): samples
+    through a C2 cubic spline or rest-to-rest waypoints
+    (:class:`~ffsm_pin.sim.trajectory.ReferenceData`); with ``origin = "initial"`` every
+    sample is relative to the initial pose.
     """
 
     ee: tuple[ComponentReference, ...]
     base_attitude: tuple[float, ...] = (0.0,)
     task: str = "pose"
     origin: str = "absolute"
+    data: ReferenceData | None = None
 
     def __post_init__(self) -> None:
+        if self.data is not None and self.ee:
+            raise ParameterError(
+                "reference: give the end-effector reference once: harmonics (ee) or data "
+                "(ee_file, ee_samples or ee_waypoints), not both"
+            )
         if self.task not in TASKS:
             raise ParameterError(
                 f"reference.task {self.task!r} unknown; valid choices: {choices_text(TASKS)}"
@@ -110,6 +121,23 @@ class Reference:
         object.__setattr__(self, "_amp", np.array([x[1] for x in terms], dtype=float))
         object.__setattr__(self, "_freq", np.array([x[2] for x in terms], dtype=float))
         object.__setattr__(self, "_phase", np.array([x[3] for x in terms], dtype=float))
+        n = self.n_components
+        if self.data is not None:
+            object.__setattr__(self, "_c", np.zeros(n))
+            object.__setattr__(self, "_A", np.zeros((n, 0)))
+        pp = self.data.polynomial() if self.data is not None else PiecewisePolynomial.empty(n)
+        object.__setattr__(self, "_pp", pp)
+
+    @property
+    def n_components(self) -> int:
+        """Task components of z_e,d (one per entry of ``ee``, or per data column)."""
+        return self.data.n_components if self.data is not None else len(self.ee)
+
+    def kernel_arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays the compiled periods evaluate z_e,d with: constant terms, harmonic
+        selection, amplitudes, frequencies [rad/s], phases [rad], and the piecewise
+        polynomial of a reference from data (no segments for harmonics)."""
+        return self._c, self._A, self._amp, self._freq, self._phase, self._pp.table
 
     def resolved(self, z_e0, q_b0, m2: int) -> Reference:
         """The absolute reference of an ``origin = "initial"`` one, for the initial
@@ -123,37 +151,53 @@ class Reference:
         if self.origin == "absolute":
             return self
         z0 = np.atleast_1d(np.asarray(z_e0, dtype=float))
-        c = np.array([comp.c for comp in self.ee], dtype=float)
         n_att = len(self.base_attitude)
+        base = _after(np.atleast_1d(np.asarray(q_b0, dtype=float)), np.array(self.base_attitude))
+        base_attitude = tuple(float(x) for x in base)
+        if self.data is not None:  # every sample relative to the initial pose
+            z = np.array(self.data.values, dtype=float)
+            z[:, :m2] += z0[:m2]
+            if z.shape[1] > m2:
+                z[:, m2:] = [_after(z0[m2 : m2 + n_att], row) for row in z[:, m2:]]
+            return dataclasses.replace(
+                self,
+                data=self.data.with_values(z),
+                base_attitude=base_attitude,
+                origin="absolute",
+            )
+        c = np.array([comp.c for comp in self.ee], dtype=float)
         new_c = c.copy()
         new_c[:m2] = c[:m2] + z0[:m2]
         if len(c) > m2:  # the task has the end-effector attitude
             new_c[m2:] = _after(z0[m2 : m2 + n_att], c[m2:])
-        base = _after(np.atleast_1d(np.asarray(q_b0, dtype=float)), np.array(self.base_attitude))
         ee = tuple(
             dataclasses.replace(comp, c=float(v)) for comp, v in zip(self.ee, new_c, strict=True)
         )
-        return dataclasses.replace(
-            self, ee=ee, base_attitude=tuple(float(x) for x in base), origin="absolute"
-        )
+        return dataclasses.replace(self, ee=ee, base_attitude=base_attitude, origin="absolute")
 
     def ee_pose(self, t):
         """z_e,d(t) [m, m, rad] (t may be complex)."""
-        return self._c + self._A @ (self._amp * np.cos(self._freq * t + self._phase))
+        out = self._c + self._A @ (self._amp * np.cos(self._freq * t + self._phase))
+        return out if self.data is None else out + self._pp.derivative(t, 0)
 
     def ee_rate(self, t):
         """dz_e,d/dt [m/s, m/s, rad/s] (t may be complex)."""
-        return self._A @ (-self._amp * self._freq * np.sin(self._freq * t + self._phase))
+        out = self._A @ (-self._amp * self._freq * np.sin(self._freq * t + self._phase))
+        return out if self.data is None else out + self._pp.derivative(t, 1)
 
     def ee_accel(self, t):
         """d^2 z_e,d/dt^2 [m/s^2, m/s^2, rad/s^2] (t may be complex)."""
-        return self._A @ (-self._amp * self._freq**2 * np.cos(self._freq * t + self._phase))
+        out = self._A @ (-self._amp * self._freq**2 * np.cos(self._freq * t + self._phase))
+        return out if self.data is None else out + self._pp.derivative(t, 2)
 
     def sample(self, ts) -> tuple[np.ndarray, np.ndarray]:
-        """(z_e,d, dz_e,d/dt) at the times ``ts`` [s], each of shape (len(ts), len(ee))."""
+        """(z_e,d, dz_e,d/dt) at the times ``ts`` [s], each of shape (len(ts), n_components)."""
         arg = np.multiply.outer(np.asarray(ts, dtype=float), self._freq) + self._phase
         pose = self._c + (self._amp * np.cos(arg)) @ self._A.T
         rate = (-self._amp * self._freq * np.sin(arg)) @ self._A.T
+        if self.data is not None:
+            pose = pose + self._pp.sample(ts, 0)
+            rate = rate + self._pp.sample(ts, 1)
         return pose, rate
 
 

@@ -63,6 +63,7 @@ from .scenario import (
     Scenario,
 )
 from .sensors import NOISE_KEYS, SensorSpec
+from .trajectory import ReferenceData
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -193,16 +194,9 @@ def scenario_to_toml(scenario: Scenario) -> str:
     lines += ["", "[reference]", f"task = {_toml(ref.task)}"]
     if ref.origin != "absolute":  # a run saves the resolved (absolute) reference
         lines += [f"origin = {_toml(ref.origin)}"]
-    lines += [f"base_attitude = {_toml(ref.base_attitude)}", "ee = ["]
-    for comp in ref.ee:
-        parts = [f"c = {_toml(comp.c)}"]
-        for kind in ("cos", "sin"):
-            terms = getattr(comp, kind)
-            if terms:
-                parts.append(f"{kind} = {_toml([[h.amplitude, h.frequency] for h in terms])}")
-        lines.append("  { " + ", ".join(parts) + " },")
+    lines += [f"base_attitude = {_toml(ref.base_attitude)}", *_ee_lines(ref)]
     kind = resolved_type(c.type, scenario.source.parent if scenario.source else None)
-    lines += ["]", "", "[controller]", f"type = {_toml(kind)}", f"scheme = {_toml(c.scheme)}"]
+    lines += ["", "[controller]", f"type = {_toml(kind)}", f"scheme = {_toml(c.scheme)}"]
     lines += [f"{k} = {_toml(getattr(c.gains, k))}" for k in schema.GAIN_KEYS]
     lines += ["", "[controller.funnel]"]
     for fun, tag in ((c.funnel_b, "b"), (c.funnel_z, "z")):
@@ -262,7 +256,7 @@ def _build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
     return Scenario(
         robot=_robot(m.robot, src),
         initial=_initial(m.initial),
-        reference=_reference(m.reference, n_b),
+        reference=_reference(m.reference, n_b, n_ee, src),
         controller=_controller(m.controller, n_ee, n_b),
         duration=m.sim.duration,
         dt=m.sim.dt,
@@ -353,17 +347,84 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
         raise ScenarioError(f"[initial] {exc}") from None
 
 
-def _reference(ref: schema.ReferenceModel, n_b: int) -> Reference:
+def _reference(ref: schema.ReferenceModel, n_b: int, n_ee: int, src: Path | None) -> Reference:
+    base = _vec(ref.base_attitude) or (0.0,) * n_b
+    data = None
+    if ref.ee_file is not None:
+        path = Path(ref.ee_file)
+        if not path.is_absolute() and src is not None:
+            path = src.parent / path
+        data = read_reference_csv(path, n_ee)
+    elif ref.ee_samples is not None:
+        rows = tuple(tuple(z) for z in ref.ee_samples.z)
+        data = _data(tuple(ref.ee_samples.t), rows, "spline")
+    elif ref.ee_waypoints is not None:
+        times = tuple(w.t for w in ref.ee_waypoints)
+        rows = tuple(tuple(w.z) for w in ref.ee_waypoints)
+        data = _data(times, rows, "waypoints")
     comps = tuple(
         ComponentReference(
             c=e.c,
             cos=tuple(Harmonic(amplitude=a, frequency=w) for a, w in e.cos),
             sin=tuple(Harmonic(amplitude=a, frequency=w) for a, w in e.sin),
         )
-        for e in ref.ee
+        for e in ref.ee or ()
     )
-    base = _vec(ref.base_attitude) or (0.0,) * n_b
-    return Reference(ee=comps, base_attitude=base, task=ref.task, origin=ref.origin)
+    return Reference(ee=comps, base_attitude=base, task=ref.task, origin=ref.origin, data=data)
+
+
+def _data(times: tuple, rows: tuple, interpolation: str) -> ReferenceData:
+    try:
+        return ReferenceData(times, rows, interpolation)
+    except ParameterError as exc:  # times not increasing; the message names the key
+        raise ScenarioError(str(exc)) from None
+
+
+def read_reference_csv(path: str | Path, n_components: int) -> ReferenceData:
+    """An end-effector reference from a CSV file: a header row ``t, <one name per task
+    component>``, then one row per sample, times [s] increasing (docs/cli.md, ``ee_file``).
+
+    Raises
+    ------
+    ScenarioError
+        Missing or unreadable file, a header whose first column is not ``t``, a row with
+        the wrong number of values or a non-number, times that do not increase.
+    """
+    path = Path(path)
+    where = f"reference.ee_file {str(path)!r}"
+    if not path.is_file():
+        raise ScenarioError(f"{where}: not found")
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{where}: cannot read: {exc}") from None
+    rows = [(i + 1, line) for i, line in enumerate(lines) if line.strip()]
+    if not rows:
+        raise ScenarioError(f"{where}: empty; expected a header row 't, ...' and samples")
+    header = [h.strip() for h in rows[0][1].split(",")]
+    if header[0] != "t" or len(header) != n_components + 1:
+        raise ScenarioError(
+            f"{where}: header {rows[0][1].strip()!r}; expected 't' and {n_components} column "
+            f"names (one per task component)"
+        )
+    times, values = [], []
+    for lineno, line in rows[1:]:
+        cells = line.split(",")
+        if len(cells) != n_components + 1:
+            raise ScenarioError(
+                f"{where}, line {lineno}: {len(cells)} values, expected {n_components + 1} "
+                "(t and one per task component)"
+            )
+        try:
+            numbers = [float(c) for c in cells]
+        except ValueError:
+            raise ScenarioError(f"{where}, line {lineno}: not numbers: {line.strip()!r}") from None
+        times.append(numbers[0])
+        values.append(tuple(numbers[1:]))
+    try:
+        return ReferenceData(tuple(times), tuple(values), "spline", str(path))
+    except ParameterError as exc:
+        raise ScenarioError(f"reference.ee_file {exc}") from None
 
 
 def _controller(c: schema.ControllerModel, n_ee: int, n_b: int) -> ControllerSpec:
@@ -392,6 +453,29 @@ def _controller(c: schema.ControllerModel, n_ee: int, n_b: int) -> ControllerSpe
         type=c.type,
         params=dict(c.params),
     )
+
+
+def _ee_lines(ref: Reference) -> list[str]:
+    """``ee = [...]``, or the samples of a reference from data written inline (a run's saved
+    scenario holds what was flown, also when the CSV changes or origin was "initial")."""
+    data = ref.data
+    if data is None:
+        lines = ["ee = ["]
+        for comp in ref.ee:
+            parts = [f"c = {_toml(comp.c)}"]
+            for kind in ("cos", "sin"):
+                terms = getattr(comp, kind)
+                if terms:
+                    parts.append(f"{kind} = {_toml([[h.amplitude, h.frequency] for h in terms])}")
+            lines.append("  { " + ", ".join(parts) + " },")
+        return [*lines, "]"]
+    if data.interpolation == "waypoints":
+        pairs = zip(data.times, data.values, strict=True)
+        rows = (f"  {{ t = {_toml(t)}, z = {_toml(z)} }}," for t, z in pairs)
+        return ["ee_waypoints = [", *rows, "]"]
+    head = [f"# samples of {data.file}"] if data.file else []
+    rows = (f"  {_toml(z)}," for z in data.values)
+    return [*head, "ee_samples.t = " + _toml(data.times), "ee_samples.z = [", *rows, "]"]
 
 
 def _null_space_lines(ns: NullSpace) -> list[str]:
@@ -451,6 +535,7 @@ __all__ = [
     "builtin_scenario",
     "load_any",
     "load_scenario",
+    "read_reference_csv",
     "scenario_from_dict",
     "scenario_from_toml",
     "scenario_to_toml",

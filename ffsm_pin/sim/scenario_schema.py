@@ -228,11 +228,55 @@ class HarmonicsModel(_Table):
     sin: Annotated[list[vec(2)], BeforeValidator(_pairs)] = []
 
 
+class WaypointModel(_Table):
+    """One entry of ``reference.ee_waypoints``: a time [s] and a task pose."""
+
+    t: Num
+    z: Vec
+
+
+class SamplesModel(_Table):
+    """``reference.ee_samples``: the inline form of ``ee_file`` (times [s], one row each)."""
+
+    t: Annotated[Vec, Field(min_length=2)]
+    z: list[Vec]
+
+
+#: The keys that give the end-effector reference; exactly one is needed.
+EE_KEYS = ("ee", "ee_file", "ee_samples", "ee_waypoints")
+
+
 class ReferenceModel(_Table):
     task: Literal[TASKS] = "pose"
     origin: Literal[ORIGINS] = "absolute"  # "initial": c and base_attitude from the start pose
     base_attitude: Vec | None = None  # planar angle [rad], spatial MRP; default zeros
-    ee: Annotated[list[HarmonicsModel], BeforeValidator(_tables)]
+    ee: Annotated[list[HarmonicsModel], BeforeValidator(_tables)] | None = None
+    ee_file: str | None = None  # CSV "t, <one column per component>", C2 spline
+    ee_samples: SamplesModel | None = None
+    ee_waypoints: Annotated[list[WaypointModel], BeforeValidator(_tables)] | None = None
+
+    @model_validator(mode="after")
+    def one_reference(self):
+        given = [k for k in EE_KEYS if getattr(self, k) is not None]
+        if len(given) != 1:
+            what = "none" if not given else " and ".join(f"reference.{k}" for k in given)
+            fail((), f": give exactly one of {choices_text(EE_KEYS)} (got {what})")
+        if self.ee_waypoints is not None and len(self.ee_waypoints) < 2:
+            fail(("ee_waypoints",), f": {len(self.ee_waypoints)} waypoint(s), at least 2 needed")
+        if self.ee_samples is not None and len(self.ee_samples.z) != len(self.ee_samples.t):
+            n_z, n_t = len(self.ee_samples.z), len(self.ee_samples.t)
+            fail(("ee_samples", "z"), f": {n_z} rows, expected {n_t} (one per time in t)")
+        return self
+
+    def widths(self) -> list[tuple[tuple, int]]:
+        """(key path, components) of every pose given inline (the file is read later)."""
+        if self.ee is not None:
+            return [(("ee",), len(self.ee))]
+        if self.ee_samples is not None:
+            return [(("ee_samples", "z", i), len(z)) for i, z in enumerate(self.ee_samples.z)]
+        if self.ee_waypoints is not None:
+            return [(("ee_waypoints", i, "z"), len(w.z)) for i, w in enumerate(self.ee_waypoints)]
+        return []
 
 
 class FunnelModel(_Table):
@@ -411,13 +455,15 @@ class ScenarioModel(_Table):
             _length(ref.base_attitude, n_b, ("reference", "base_attitude"))
             if spatial:
                 check_mrp(ref.base_attitude, ("reference", "base_attitude"))
-        if len(ref.ee) != n_ee:
-            names = ("x", "y", "z")[:m2] + (("attitude",) if n_b == 1 else ("s1", "s2", "s3"))
-            fail(
-                ("reference", "ee"),
-                f": {len(ref.ee)} entries, expected {n_ee} (one per component of the "
-                f"{ref.task!r} task: {', '.join(names[:n_ee])})",
-            )
+        names = ("x", "y", "z")[:m2] + (("attitude",) if n_b == 1 else ("s1", "s2", "s3"))
+        for at, width in ref.widths():
+            if width != n_ee:
+                what = "entries" if at == ("ee",) else "values"
+                fail(
+                    ("reference", *at),
+                    f": {width} {what}, expected {n_ee} (one per component of the "
+                    f"{ref.task!r} task: {', '.join(names[:n_ee])})",
+                )
         planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
         dflt = ControllerSpec()
         funnel = self.controller.funnel
