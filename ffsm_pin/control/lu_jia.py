@@ -13,6 +13,7 @@ import numpy as np
 
 from .controller import CoordinatedController, check_feasibility
 from .diagnostics import residual_54
+from .gains import step_problems
 from .interface import ControllerContext, Measurement
 from .kinematic import KinematicInputs
 
@@ -45,6 +46,15 @@ class LuJiaController:
         """Refuse, before anything is built, a robot with too few joints for the scheme
         (:func:`~.controller.check_feasibility`)."""
         check_feasibility(n_joints, scenario.controller.scheme, n_task=n_task, m3=m3)
+
+    @staticmethod
+    def check_gains(scenario, m3: int) -> list[str]:
+        """The discrete-time conditions the scenario's gains violate at its dt, one message
+        each naming the gain and a value that satisfies it (:func:`~.gains.step_problems`)."""
+        c = scenario.controller
+        attitude = c.scheme != "no-attitude"
+        found = step_problems(c.gains, c.funnel_b, c.funnel_z, scenario.dt, m3, attitude)
+        return [p.text for p in found]
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.context = ctx

@@ -65,17 +65,20 @@ def _joint_travel(robot) -> np.ndarray:
 
 def check(scenario: Scenario) -> CheckReport:
     """Build the scenario (``prepare``) and evaluate the t = 0 conditions; never simulates."""
+    from ..control.gains import GainWarning
     from ..control.kinematic import task_errors  # heavy imports here
     from ..model import State
     from .run import ReachWarning, Sensor, prepare
 
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("ignore", ReachWarning)
+            warnings.simplefilter("always", GainWarning)
             setup = prepare(scenario)
     except FfsmError as exc:
         return CheckReport(scenario.name, problems=[str(exc)])
-    problems: list[str] = []
+    # gains that violate a discrete-time condition (a warning on a run)
+    problems: list[str] = [str(w.message) for w in caught if w.category is GainWarning]
     m3 = setup.model.m3
     meas = Sensor(setup.robot, setup.model, full_model=False).measure(0.0, setup.q0, setup.v0)
     # distance to singularity, for controllers that invert a task Jacobian

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..control.diagnostics import base_inertia, numba_available
 from ..control.funnel import Funnel
+from ..control.gains import GainWarning
 from ..control.interface import (
     Controller,
     ControllerContext,
@@ -99,13 +100,16 @@ def prepare(scenario: Scenario) -> Setup:
             )
     if ref.n_components != n_task:
         raise ScenarioError(
-            f"reference.ee has {ref.n_components} components; the {ref.task!r} task of this robot "
-            f"needs {n_task}"
+            f"reference.ee has {ref.n_components} components; the {ref.task!r} task of this "
+            f"robot needs {n_task}"
         )
     if len(ref.base_attitude) != m3:
         raise ScenarioError(
             f"reference.base_attitude has {len(ref.base_attitude)} values, this robot needs {m3}"
         )
+    check_gains = getattr(cls, "check_gains", None)  # a controller's discrete-time conditions
+    for problem in check_gains(scenario, m3) if check_gains is not None else ():
+        warnings.warn(problem, GainWarning, stacklevel=2)
     q0, v0 = initial_state(robot, scenario.initial)
     st = State(robot).update(q0, v0)
     truth = (

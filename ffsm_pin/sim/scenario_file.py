@@ -13,7 +13,9 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[initial]``: ``com_at_origin = false``, ``joint_rates`` = zeros;
 * ``[reference]``: ``task = "pose"`` (or ``"position"``: the m2 position components only),
   ``base_attitude`` = zeros (1 angle planar, 3 MRP components spatial);
-* ``[controller]``: the paper's gains, funnels and Table 2 estimates (``scheme = "ppc"``);
+* ``[controller]``: ``k_b`` and ``k_z`` derived from the funnels and dt
+  (:func:`~ffsm_pin.control.gains.derived_gain`, docs/gains.md), the paper's other gains,
+  funnels and Table 2 estimates (``scheme = "ppc"``);
   a funnel entry may be a single number, used for every component; spatial robots and the
   position task have no default funnels (the paper's are planar pose funnels);
 * ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
@@ -46,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from ..control.funnel import FunnelParams
-from ..control.gains import Gains, SingularityPolicy
+from ..control.gains import ATTITUDE_RATE_SQUARED, Gains, SingularityPolicy, derived_gain
 from ..control.null_space import NullSpace
 from ..control.registry import resolved_type
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean
@@ -257,7 +259,7 @@ def _build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
         robot=_robot(m.robot, src),
         initial=_initial(m.initial),
         reference=_reference(m.reference, n_b, n_ee, src),
-        controller=_controller(m.controller, n_ee, n_b),
+        controller=_controller(m.controller, n_ee, n_b, m.sim.dt),
         duration=m.sim.duration,
         dt=m.sim.dt,
         name=m.name or (src.stem if src is not None else "scenario"),
@@ -427,17 +429,22 @@ def read_reference_csv(path: str | Path, n_components: int) -> ReferenceData:
         raise ScenarioError(f"reference.ee_file {exc}") from None
 
 
-def _controller(c: schema.ControllerModel, n_ee: int, n_b: int) -> ControllerSpec:
+def _controller(c: schema.ControllerModel, n_ee: int, n_b: int, dt: float) -> ControllerSpec:
     dflt = ControllerSpec()
     planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
     funnels = [
         FunnelParams(**schema.funnel_arrays(c.funnel, tag, n, default if planar else None))
         for tag, n, default in (("b", n_b, dflt.funnel_b), ("z", n_ee, dflt.funnel_z))
     ]
+    gains = {k: getattr(c, k) for k in schema.GAIN_KEYS}
+    if gains["k_b"] is None:  # omitted: derived from the funnel and dt (docs/gains.md)
+        gains["k_b"] = derived_gain(funnels[0], dt, ATTITUDE_RATE_SQUARED[n_b])
+    if gains["k_z"] is None:
+        gains["k_z"] = derived_gain(funnels[1], dt)
     e, ns = c.estimates, c.null_space
     return ControllerSpec(
         scheme=c.scheme,
-        gains=Gains(**{k: getattr(c, k) for k in schema.GAIN_KEYS}),
+        gains=Gains(**gains),
         funnel_b=funnels[0],
         funnel_z=funnels[1],
         estimates=Estimates(

@@ -258,8 +258,10 @@ class ReferenceModel(_Table):
     @model_validator(mode="after")
     def one_reference(self):
         given = [k for k in EE_KEYS if getattr(self, k) is not None]
-        if len(given) != 1:
-            what = "none" if not given else " and ".join(f"reference.{k}" for k in given)
+        if not given:
+            fail(("ee",), f": missing; give one of {choices_text(EE_KEYS)}")
+        if len(given) > 1:
+            what = " and ".join(f"reference.{k}" for k in given)
             fail((), f": give exactly one of {choices_text(EE_KEYS)} (got {what})")
         if self.ee_waypoints is not None and len(self.ee_waypoints) < 2:
             fail(("ee_waypoints",), f": {len(self.ee_waypoints)} waypoint(s), at least 2 needed")
@@ -346,8 +348,8 @@ class ControllerModel(_Table):
     type: Annotated[str, Field(min_length=1)] = "lu-jia"  # control.registry
     params: dict[str, Any] = {}  # free table for the controller (docs/controllers.md)
     scheme: Literal[SCHEMES] = "ppc"
-    k_b: Pos = _G.k_b
-    k_z: Pos = _G.k_z
+    k_b: Pos | None = None  # None: derived from the funnel and dt (gains.derived_gain)
+    k_z: Pos | None = None
     k_de: Pos = _G.k_de
     k_d: Pos = _G.k_d
     gamma_1: Pos = _G.gamma_1

@@ -204,7 +204,7 @@ def _scenario(reference: str, tmp_path):
             "t, x, y, a\n0, 1, 2, 3\n1, 1, 2, 3\n",
             "reference: give exactly one of .*reference.ee and reference.ee_file",
         ),
-        ("task = 'pose'", None, "reference: give exactly one of 'ee', 'ee_file'.*got none"),
+        ("task = 'pose'", None, "reference.ee: missing; give one of 'ee', 'ee_file'"),
         (
             "ee_waypoints = [{ t = 0.0, z = [1, 2, 3] }, { t = 1.0, z = [1, 2] }]",
             None,
