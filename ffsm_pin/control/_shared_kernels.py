@@ -142,3 +142,15 @@ def _spd_det(G):
             for j in range(k + 1, m):
                 G[i, j] -= f * G[k, j]
     return det
+
+
+@njit(cache=True)
+def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
+    """Eq. (42) by backward Euler on the position rows ``Yz`` of Y_z (as
+    :func:`ffsm_pin.control.adaptation.theta_z_step`); ``z_e_dot`` the measured rates."""
+    m = Yz.shape[0]
+    r = z_e_dot[:m] - Yz @ theta_z
+    gram = Yz @ Yz.T
+    for i in range(m):
+        gram[i, i] += 1.0 / (gamma_2 * dt)
+    return theta_z + Yz.T @ np.linalg.solve(gram, r)

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from .adaptation import theta_b_step, theta_d_increment, theta_z_step
+from .backend import choose_backend
 from .gjm_ct import GjmGains, drift_bound, gains_from, resolved_rates
 from .interface import ControllerContext, Measurement
 from .kinematic import COMPLEX_STEP, along_measured_motion, momentum_evaluator
@@ -86,8 +87,9 @@ class AdaptiveComputedTorque:
 
     needs_estimates = True
 
-    def __init__(self, ctx: ControllerContext):
+    def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario
+        self.context = ctx  # to rebuild it (e.g. on the other backend)
         self.model = ctx.model
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
         estimates = ctx.required_estimates()
@@ -106,6 +108,19 @@ class AdaptiveComputedTorque:
             "theta_z_hat": (ctx.model.n_z,), "theta_d_hat": (ctx.model.n_d,),
             "theta_b_hat": (ctx.model.n_b,),
         }  # fmt: skip
+        self.backend = choose_backend(backend)
+        if self.backend == "numba":
+            from ._adaptive_ct_kernels import PERIOD
+
+            ref = (np.ascontiguousarray(x, dtype=float) for x in self.reference.kernel_arrays())
+            g = self.gains
+            self._consts = (
+                *ctx.model.kernel_constants(), *ref, self._k_z, float(g.k_s), float(g.gamma_b),
+                float(g.gamma_z), float(g.gamma_d), float(self.threshold), int(self.nt),
+                float(self.dt),
+            )  # fmt: skip
+            self._period = PERIOD[self.m3]
+            self.step = self.step_numba  # type: ignore[method-assign]
 
     def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
         r = resolved_rates(
@@ -115,7 +130,32 @@ class AdaptiveComputedTorque:
         return np.concatenate((np.atleast_1d(r.w_b), r.w_m)), r.sigma_min, r.damping
 
     def step(self, meas: Measurement):
-        """u_m for the period starting at ``meas.t``; the estimates advance to t + dt."""
+        """u_m for the period starting at ``meas.t``; the estimates advance to t + dt (the
+        compiled period when numba is available, else :meth:`step_numpy`)."""
+        return self.step_numpy(meas)
+
+    def step_numba(self, meas: Measurement):
+        """:meth:`step` by the compiled period (``ffsm_pin/control/_adaptive_ct_kernels.py``)."""
+        signals = {  # the estimates at t, before the update
+            "theta_z_hat": self.theta_z.copy(),
+            "theta_d_hat": self.theta_d.copy(),
+            "theta_b_hat": self.theta_b.copy(),
+        }
+        q_b = meas.q_b if self.m3 > 1 else float(meas.q_b)
+        u, w_r, sigma, damping, finite = self._period(
+            *self._consts, meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
+            self.theta_z, self.theta_d, self.theta_b,
+        )  # fmt: skip
+        if not finite:
+            raise SimulationError(
+                f"t = {meas.t:.4f} s: the adaptive-ct torque became non-finite", time=meas.t,
+                cause="nonfinite",
+            )  # fmt: skip
+        signals.update(w_mc=w_r, sigma_min=sigma, damping=damping)
+        return u, signals
+
+    def step_numpy(self, meas: Measurement):
+        """:meth:`step` in numpy: the readable reference of the compiled period."""
         m, g, m3, dt = self.model, self.gains, self.m3, self.dt
         t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
         signals = {  # the estimates at t, before the update

@@ -36,6 +36,7 @@ from .adaptation import (
     theta_d_increment,
     theta_z_step,
 )
+from .backend import BACKENDS
 from .funnel import Funnel, FunnelEval, FunnelExit, FunnelParams, IdentityFunnel
 from .gains import Gains, SingularityPolicy
 from .interface import Measurement
@@ -72,9 +73,6 @@ class ControlOutput(NamedTuple):
     damping: float
     funnel_b: FunnelEval | None = None  # numpy backend only (None for Eq. 81)
     funnel_z: FunnelEval | None = None  # numpy backend only
-
-
-BACKENDS = ("auto", "numba", "numpy")
 
 
 def check_feasibility(

@@ -22,15 +22,6 @@ import numpy as np
 from ..model.interface import ReducedModel
 
 
-def numba_available() -> bool:
-    """True when the compiled kernels can be imported (numba installed)."""
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def residual_54(
     model: ReducedModel, theta_d: np.ndarray, compiled: bool
 ) -> Callable[..., np.ndarray]:

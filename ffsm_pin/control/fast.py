@@ -43,6 +43,7 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller an
     funnel_terms,
     pack_funnel,
     pack_null_space,
+    theta_z_step,
 )
 
 # entries of the packed gains array
@@ -288,28 +289,22 @@ def _velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
 
 
 @njit(cache=True)
-def period(S, off, K, L, ee_row, collinear, attitude, identity,
-           fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
-           t, q_b, q_m, w, z_e, z_e_dot,
-           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
-    """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64); updates the
-    estimator states in place, writes ``out`` (see :func:`out_layout`) and returns
-    (status, exit index)."""
-    nb = S.shape[0]
-    n = nb - 1
-    nd = theta_d.size
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-
-    # Eq. (28): exact zero-order hold of the rank-one law
-    Yb = _Y_M(pc, ps, K, L, S, w, nd, collinear)[0]  # sum of rows weighted by S[:, 0] = 1
-    yy = 1.0 + (Yb * Yb).sum()  # Y_b = [-1, Yb]
+def theta_b_step(theta_b, Yb, gamma_1, dt):
+    """Eq. (28) by its exact zero-order hold for the rank-one planar Y_b = [-1, Yb] (``Yb`` the
+    base row of Y_M(w)), as :func:`ffsm_pin.control.adaptation.theta_b_step`."""
+    yy = 1.0 + (Yb * Yb).sum()
     yth = -theta_b[0] + (Yb * theta_b[1:]).sum()
-    fac = -np.expm1(-g[G_G1] * dt * yy) / yy * yth
+    fac = -np.expm1(-gamma_1 * dt * yy) / yy * yth
     tb_new = theta_b.copy()
     tb_new[0] += fac
     tb_new[1:] -= fac * Yb
-    # Eq. (42): backward Euler, position rows of Y_z
-    nz = theta_z.size
+    return tb_new
+
+
+@njit(cache=True)
+def position_regressor(c, s, S, w, nz, collinear):
+    """The position rows of Y_z (Eq. 4), (2, nz), at the body angles' cos ``c``, sin ``s``."""
+    nb = S.shape[0]
     Yz = np.zeros((2, nz))
     Yz[0, 0] = 1.0
     Yz[1, 1] = 1.0
@@ -323,11 +318,25 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
             Yz[1, 2 + 2 * k] = c[k] * dphi[k]
             Yz[0, 3 + 2 * k] = -c[k] * dphi[k]
             Yz[1, 3 + 2 * k] = -s[k] * dphi[k]
-    r = z_e_dot[:2] - Yz @ theta_z
-    gram = Yz @ Yz.T
-    gram[0, 0] += 1.0 / (g[G_G2] * dt)
-    gram[1, 1] += 1.0 / (g[G_G2] * dt)
-    tz_new = theta_z + Yz.T @ np.linalg.solve(gram, r)
+    return Yz
+
+
+@njit(cache=True)
+def period(S, off, K, L, ee_row, collinear, attitude, identity,
+           fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
+           t, q_b, q_m, w, z_e, z_e_dot,
+           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
+    """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64); updates the
+    estimator states in place, writes ``out`` (see :func:`out_layout`) and returns
+    (status, exit index)."""
+    nb = S.shape[0]
+    n = nb - 1
+    nd = theta_d.size
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+
+    tb_new = theta_b_step(theta_b, _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
+    Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
+    tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
 
     # kinematic level, value and exact derivative in one complex evaluation
     hj = 1j * _H

@@ -56,6 +56,7 @@ from ._shared_kernels import (
     funnel_terms,
     pack_funnel,
     pack_null_space,
+    theta_z_step,
 )
 
 __all__ = [
@@ -285,6 +286,21 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
 
 # ---------------------------------------------------------------------- one period
 @njit(cache=True)
+def theta_b_step(theta_b, Yb, gamma_1, dt):
+    """Eq. (28) by its exact zero-order hold, exp(-g dt Y^T Y) through the 3x3 G = Y Y^T
+    (as :func:`ffsm_pin.control.adaptation.theta_b_step`); ``Yb`` (3, nd + 3) holds the base
+    rows of Y_M(w) in its columns 3: (the first three are set to -E_3 here)."""
+    for i in range(3):
+        for j in range(3):
+            Yb[i, j] = -1.0 if i == j else 0.0
+    lam, V = np.linalg.eigh(Yb @ Yb.T)
+    f = np.empty(3)
+    for i in range(3):
+        f[i] = -np.expm1(-gamma_1 * dt * lam[i]) / lam[i] if lam[i] > 0 else gamma_1 * dt
+    return theta_b - Yb.T @ (V @ (f * (V.T @ (Yb @ theta_b))))
+
+
+@njit(cache=True)
 def period(jr, ax, er, m, nt, attitude, identity, adaptive,
            fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
            t, q_b, q_m, w, z_e, z_e_dot, M_true, h_true,
@@ -312,23 +328,10 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
         Yb = np.empty((3, nd + 3))
         velocity_terms(R, z, w, w, w_tilde, YM, YMdot, Yh, Yb[:, 3:])
         subtract_dT(R, z, w, Yh)
-        for i in range(3):
-            for j in range(3):
-                Yb[i, j] = -1.0 if i == j else 0.0
-        # Eq. (28): exact zero-order hold, exp(-g dt Y^T Y) through the 3x3 G = Y Y^T
-        lam, V = np.linalg.eigh(Yb @ Yb.T)
-        f = np.empty(3)
-        for i in range(3):
-            f[i] = -np.expm1(-g[G_G1] * dt * lam[i]) / lam[i] if lam[i] > 0 else g[G_G1] * dt
-        tb_new = theta_b - Yb.T @ (V @ (f * (V.T @ (Yb @ theta_b))))
-        # Eq. (42): backward Euler, position rows of Y_z
+        tb_new = theta_b_step(theta_b, Yb, g[G_G1], dt)
         Yz = np.empty((3, nz))
         y_z(R, z, w, Yz)
-        r = z_e_dot[:3] - Yz @ theta_z
-        gram = Yz @ Yz.T
-        for i in range(3):
-            gram[i, i] += 1.0 / (g[G_G2] * dt)
-        tz_new = theta_z + Yz.T @ np.linalg.solve(gram, r)
+        tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
 
     # kinematic level, value and exact derivative in one complex evaluation
     hj = 1j * _H

@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import ParameterError
+from .backend import choose_backend
 from .interface import ControllerContext, Measurement
 from .kinematic import COMPLEX_STEP, along_measured_motion, momentum_evaluator, wrap_angle
 from .linalg import damped_row_pinv
@@ -154,8 +155,9 @@ class GjmComputedTorque:
 
     needs_estimates = True
 
-    def __init__(self, ctx: ControllerContext):
+    def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario
+        self.context = ctx  # to rebuild it (e.g. on the other backend)
         self.model = ctx.model
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
         self.theta_z, self.theta_d, self.theta_b = (np.array(x) for x in ctx.required_estimates())
@@ -169,6 +171,19 @@ class GjmComputedTorque:
         # spatial: H_bb, H_bm of complex-step arguments through the real model
         self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
+        self.backend = choose_backend(backend)
+        if self.backend == "numba":
+            from ._gjm_kernels import PERIOD
+
+            ref_arrays = (
+                np.ascontiguousarray(x, dtype=float) for x in self.reference.kernel_arrays()
+            )
+            self._consts = (
+                *ctx.model.kernel_constants(), *ref_arrays, self._k_z, float(self.gains.k_v),
+                float(self.threshold), int(self.nt),
+            )  # fmt: skip
+            self._period = PERIOD[self.m3]
+            self.step = self.step_numba  # type: ignore[method-assign]
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
         """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring)."""
@@ -180,7 +195,21 @@ class GjmComputedTorque:
 
     def step(self, meas: Measurement):
         """u_m for the period starting at ``meas.t``, and w_md (as ``w_mc``), sigma_min and
-        damping as signals."""
+        damping as signals (the compiled period when numba is available, else
+        :meth:`step_numpy`)."""
+        return self.step_numpy(meas)
+
+    def step_numba(self, meas: Measurement):
+        """:meth:`step` by the compiled period (``ffsm_pin/control/_gjm_kernels.py``)."""
+        q_b = meas.q_b if self.m3 > 1 else float(meas.q_b)
+        u, w_md, sigma, damping = self._period(
+            *self._consts, meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
+            self.theta_z, self.theta_d, self.theta_b,
+        )  # fmt: skip
+        return u, {"w_mc": w_md, "sigma_min": sigma, "damping": damping}
+
+    def step_numpy(self, meas: Measurement):
+        """:meth:`step` in numpy: the readable reference of the compiled period."""
         m3 = self.m3
         w_m = meas.w[m3:]
         w_md_c, sigma, damping = self.joint_rate_command(*along_measured_motion(meas, m3))

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control.diagnostics import base_inertia, numba_available
+from ..control.backend import numba_available
+from ..control.diagnostics import base_inertia
 from ..control.funnel import Funnel
 from ..control.gains import GainWarning
 from ..control.interface import (

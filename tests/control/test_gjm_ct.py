@@ -10,9 +10,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ffsm_pin.control.gjm_ct import GjmGains
+from ffsm_pin.control.gjm_ct import GjmComputedTorque, GjmGains
 from ffsm_pin.errors import ParameterError
-from ffsm_pin.sim.run import prepare, simulate
+from ffsm_pin.sim.run import Sensor, prepare, simulate
 from ffsm_pin.sim.scenario import Estimates
 from ffsm_pin.sim.scenario_file import builtin_scenario
 
@@ -82,3 +82,42 @@ def test_bad_params_name_the_key(params, words):
     with pytest.raises(ParameterError) as info:
         prepare(_gjm("case1", 1.0, **params))
     assert all(w in str(info.value) for w in words), str(info.value)
+
+
+# ----------------------------------------------------------------- compiled period
+@pytest.mark.parametrize("case", ["case1", "planar5", "spatial", "spatial-pose"])
+def test_compiled_period_equals_the_numpy_reference(case):
+    """The compiled period (control/_gjm_kernels.py) against step_numpy at random states and
+    estimates off the truth: the same torque and command to rounding (different operation
+    order: solves, the complex-step momentum rows), and the same damping decision."""
+    setup = prepare(_gjm(case, 1.0, initial="perturbed"))
+    ctrl = setup.controller
+    assert ctrl.backend == "numba"
+    sensor = Sensor(setup.robot, setup.model, full_model=False)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q, v = setup.q0.copy(), setup.v0.copy()
+        n = setup.robot.n_joints
+        q[-n:] += rng.uniform(-0.2, 0.2, n)
+        v[-n:] += rng.normal(0.0, 0.3, n)
+        meas = sensor.measure(float(rng.uniform(0, 20)), q, v)
+        got, want = ctrl.step_numba(meas), ctrl.step_numpy(meas)
+        scale = np.abs(want[0]).max()
+        np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-12 * scale)
+        for key in ("w_mc", "sigma_min", "damping"):
+            np.testing.assert_allclose(got[1][key], want[1][key], rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_compiled_run_follows_the_numpy_run(case):
+    """Whole runs on each backend (1 s): the trajectories agree to rounding growth."""
+    sc = _gjm(case, 1.0, initial="perturbed")
+    runs = []
+    for backend in ("numba", "numpy"):
+        setup = prepare(sc)
+        setup.controller = GjmComputedTorque(setup.controller.context, backend=backend)
+        runs.append(simulate(setup))
+    a, b = runs
+    for key in ("q", "u_m"):
+        scale = np.abs(np.asarray(b[key])).max()
+        np.testing.assert_allclose(a[key], b[key], rtol=0, atol=1e-9 * scale, err_msg=key)

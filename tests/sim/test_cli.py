@@ -268,7 +268,7 @@ BAD_INPUTS = {
             "--scenario",
             str(
                 scenario_file(
-                    p, rho_z0="rho_z0 = [0.1, 0.1, 0.1]", rho_zinf="rho_zinf = [0.01, 0.01, 0.01]"
+                    p, rho_z0="rho_z0 = [0.1, 0.1, 0.1]", rho_zinf="rho_zinf = [0.02, 0.02, 0.02]"
                 )
             ),
         ],

@@ -1,0 +1,128 @@
+"""Compiled control period of the ``adaptive-ct`` baseline (:mod:`ffsm_pin.control.adaptive_ct`).
+
+One period, planar and spatial, as
+:meth:`~ffsm_pin.control.adaptive_ct.AdaptiveComputedTorque.step_numpy` (the readable
+reference; tested against each other in ``tests/control/test_adaptive_ct.py``): the
+kinematic estimates by the paper's Eqs. (28) and (42), the reference motion of gjm-ct
+(:mod:`._gjm_kernels`) at the measurement and the estimates advanced by a complex step, the
+Slotine & Li torque with C(q, w) w_r by polarization, and the gradient law of theta_d stepped
+linearly implicitly. The estimates are updated in place; the period returns
+(u_m, w_mr, sigma_min, damping, finite).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms, y_z, ym
+from . import fast, fast_spatial
+from ._gjm_kernels import _H, _rates_planar, _rates_spatial
+from ._shared_kernels import theta_z_step
+
+
+@njit(cache=True)
+def _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt):
+    """The gradient law -gamma_d Y_m^T s_m, linearly implicit in its stiff mode (as
+    :func:`ffsm_pin.control.adaptation.theta_d_increment`)."""
+    c = gamma_d * dt
+    return -c * (Y_m.T @ np.linalg.solve(M_mm + c * (Y_m @ Y_m.T), M_mm @ s_m))
+
+
+@njit(cache=True)
+def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, rpp,
+                  k_z, k_s, gamma_b, gamma_z, gamma_d, thr, nt, dt,
+                  t, q_b, q_m, w, z_e, z_e_dot, theta_z, theta_d, theta_b):  # fmt: skip
+    """One adaptive-ct period (planar); updates the estimates in place."""
+    nb = S.shape[0]
+    nd = theta_d.size
+    c, s, pc, ps = fast._trig(S, off, K, L, q_b, q_m)
+    tb_new = fast.theta_b_step(
+        theta_b, fast._Y_M(pc, ps, K, L, S, w, nd, collinear)[0], gamma_b, dt
+    )
+    Yz = fast.position_regressor(c, s, S, w, theta_z.size, collinear)
+    tz_new = theta_z_step(theta_z, Yz, z_e_dot, gamma_z, dt)
+    hj = 1j * _H
+    w_mc, w_bc, sigma, damping = _rates_planar(
+        S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, rpp, k_z, thr, nt,
+        t + hj, q_b + hj * w[0], q_m + hj * w[1:], z_e + hj * z_e_dot,
+        theta_z + hj * (tz_new - theta_z) / dt, theta_b + hj * (tb_new - theta_b) / dt,
+    )  # fmt: skip
+    w_r = np.empty(nb)
+    w_r_dot = np.empty(nb)
+    w_r[0], w_r_dot[0] = w_bc.real, w_bc.imag / _H
+    w_r[1:], w_r_dot[1:] = w_mc.real, w_mc.imag / _H
+    sv = w - w_r
+    _, Yh_plus = fast._velocity_regressors(pc, ps, K, L, S, w + w_r, w + w_r, nd, collinear)
+    _, Yh_minus = fast._velocity_regressors(pc, ps, K, L, S, w - w_r, w - w_r, nd, collinear)
+    Y = fast._Y_M(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
+    Y_m = np.ascontiguousarray(Y[1:])
+    s_m = sv[1:].copy()
+    M_hat = S.T @ fast._mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    M_mm = np.ascontiguousarray(M_hat[1:, 1:])
+    u = Y_m @ theta_d - k_s * (M_mm @ s_m)
+    if not np.all(np.isfinite(u)):
+        return u, w_r[1:].copy(), sigma, damping, False
+    theta_d += _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt)
+    theta_b[:] = tb_new
+    theta_z[:] = tz_new
+    return u, w_r[1:].copy(), sigma, damping, True
+
+
+@njit(cache=True)
+def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
+                   k_z, k_s, gamma_b, gamma_z, gamma_d, thr, nt, dt,
+                   t, q_b, q_m, w, z_e, z_e_dot, theta_z, theta_d, theta_b):  # fmt: skip
+    """One adaptive-ct period (spatial); updates the estimates in place."""
+    n = q_m.size
+    nb, N, nd = n + 1, n + 3, theta_d.size
+    R = np.empty((nb, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    YM = np.empty((N, nd))
+    YMdot = np.empty((N, nd))
+    Yh = np.empty((N, nd))
+    Yb = np.empty((3, nd + 3))
+    velocity_terms(R, z, w, w, w, YM, YMdot, Yh, Yb[:, 3:])  # Yb: base rows of Y_M(w)
+    tb_new = fast_spatial.theta_b_step(theta_b, Yb, gamma_b, dt)
+    Yz = np.empty((3, theta_z.size))
+    y_z(R, z, w, Yz)
+    tz_new = theta_z_step(theta_z, Yz, z_e_dot, gamma_z, dt)
+    q_b_rate = np.ascontiguousarray(fast_spatial._l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    hj = 1j * _H
+    w_mc, w_bc, sigma, damping = _rates_spatial(
+        jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp, k_z, thr, nt,
+        t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:], z_e + hj * z_e_dot,
+        theta_z + hj * (tz_new - theta_z) / dt, theta_b + hj * (tb_new - theta_b) / dt,
+    )  # fmt: skip
+    w_r = np.empty(N)
+    w_r_dot = np.empty(N)
+    for i in range(3):
+        w_r[i], w_r_dot[i] = w_bc[i].real, w_bc[i].imag / _H
+    for j in range(n):
+        w_r[3 + j], w_r_dot[3 + j] = w_mc[j].real, w_mc[j].imag / _H
+    Y = np.empty((N, nd))
+    ym(R, z, w_r_dot, Y, False)  # Y_M(dw_r/dt)
+    for sign in (1.0, -1.0):  # + 1/4 (Y_h(w + w_r) - Y_h(w - w_r)), polarization
+        x = w + sign * w_r
+        velocity_terms(R, z, x, x, x, YM, YMdot, Yh, Yb[:, 3:])
+        subtract_dT(R, z, x, Yh)
+        Y += (0.25 * sign) * Yh
+    Y_m = np.ascontiguousarray(Y[3:])
+    s_m = w[3:] - w_r[3:]
+    M_hat = np.empty((N, N))
+    mass_matrix(R, z, theta_d, M_hat)
+    M_mm = np.ascontiguousarray(M_hat[3:, 3:])
+    u = Y_m @ theta_d - k_s * (M_mm @ s_m)
+    if not np.all(np.isfinite(u)):
+        return u, w_r[3:].copy(), sigma, damping, False
+    theta_d += _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt)
+    theta_b[:] = tb_new
+    theta_z[:] = tz_new
+    return u, w_r[3:].copy(), sigma, damping, True
+
+
+#: The compiled period by attitude dimension m3 (planar 1, spatial 3).
+PERIOD = {1: period_planar, 3: period_spatial}
+
+__all__ = ["PERIOD", "period_planar", "period_spatial"]
