@@ -12,6 +12,8 @@ linearly implicitly. The estimates are updated in place; the period returns
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numba import njit
 
@@ -79,11 +81,10 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
     R = np.empty((nb, 3, 3))
     z = np.empty((n, 3))
     kinematics(q_b, q_m, jr, ax, R, z)
-    YM = np.empty((N, nd))
-    YMdot = np.empty((N, nd))
-    Yh = np.empty((N, nd))
+    Yw = np.empty((3, nd))
+    ym(R, z, w, Yw, True)  # the base rows of Y_M(w)
     Yb = np.empty((3, nd + 3))
-    velocity_terms(R, z, w, w, w, YM, YMdot, Yh, Yb[:, 3:])  # Yb: base rows of Y_M(w)
+    Yb[:, 3:] = Yw
     tb_new = fast_spatial.theta_b_step(theta_b, Yb, gamma_b, dt)
     Yz = np.empty((3, theta_z.size))
     y_z(R, z, w, Yz)
@@ -101,11 +102,15 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
         w_r[i], w_r_dot[i] = w_bc[i].real, w_bc[i].imag / _H
     for j in range(n):
         w_r[3 + j], w_r_dot[3 + j] = w_mc[j].real, w_mc[j].imag / _H
+    # Y = Y_M(dw_r/dt) + 1/4 (Y_h(w + w_r) - Y_h(w - w_r)) (polarization); the first pass of
+    # velocity_terms also gives Y_M(dw_r/dt)
     Y = np.empty((N, nd))
-    ym(R, z, w_r_dot, Y, False)  # Y_M(dw_r/dt)
-    for sign in (1.0, -1.0):  # + 1/4 (Y_h(w + w_r) - Y_h(w - w_r)), polarization
+    scratch = np.empty((N, nd))  # Y_M of the second pass, unused
+    YMdot = np.empty((N, nd))  # unused
+    Yh = np.empty((N, nd))
+    for sign in (1.0, -1.0):
         x = w + sign * w_r
-        velocity_terms(R, z, x, x, x, YM, YMdot, Yh, Yb[:, 3:])
+        velocity_terms(R, z, x, w_r_dot, x, Y if sign > 0 else scratch, YMdot, Yh, Yw)
         subtract_dT(R, z, x, Yh)
         Y += (0.25 * sign) * Yh
     Y_m = np.ascontiguousarray(Y[3:])
@@ -123,6 +128,6 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
 
 
 #: The compiled period by attitude dimension m3 (planar 1, spatial 3).
-PERIOD = {1: period_planar, 3: period_spatial}
+PERIOD: dict[int, Callable[..., tuple]] = {1: period_planar, 3: period_spatial}
 
 __all__ = ["PERIOD", "period_planar", "period_spatial"]

@@ -12,6 +12,8 @@ regressors of :mod:`.fast` and :mod:`.fast_spatial`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numba import njit
 
@@ -135,6 +137,6 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
 
 
 #: The compiled period by attitude dimension m3 (planar 1, spatial 3).
-PERIOD = {1: period_planar, 3: period_spatial}
+PERIOD: dict[int, Callable[..., tuple]] = {1: period_planar, 3: period_spatial}
 
 __all__ = ["PERIOD", "period_planar", "period_spatial"]
