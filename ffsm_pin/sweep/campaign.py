@@ -1,10 +1,13 @@
 """Campaign files (TOML, docs/campaigns.md) -> a validated :class:`Campaign` -> its cases.
 
-A campaign names a scenario (built-in name or file), a root seed, a number of repeats per grid
-point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``), grid axes
+A campaign names a scenario (built-in name or file) or several, a root seed, a number of repeats
+per grid point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``) and
+for one scenario's cases (``[campaign.set_for.<scenario>]``), grid axes
 (``[[vary]]``: a dotted scenario key and its values) and randomly sampled keys (``[[sample]]``:
 a dotted key and a distribution). :func:`expand` turns it into cases:
 
+* with several scenarios, each gets the cases below in turn (its own nominal case first), and
+  the column ``scenario`` says which; the grid's seeds are the same for every scenario;
 * case 0 is the nominal scenario: the scenario file as it is, with only the run length and
   step applied (``duration``/``dt``, or ``sim.duration``/``sim.dt`` of ``[campaign.set]``;
   no other set, varied or sampled key, its own estimates seed);
@@ -58,6 +61,7 @@ __all__ = [
     "Campaign",
     "CampaignError",
     "Case",
+    "SCENARIO_COLUMN",
     "Sample",
     "Vary",
     "builtin_campaign_path",
@@ -65,6 +69,10 @@ __all__ = [
     "expand",
     "load_campaign",
 ]
+
+
+#: The column of the scenario in a campaign over several scenarios.
+SCENARIO_COLUMN = "scenario"
 
 
 class CampaignError(FfsmError, ValueError):
@@ -120,8 +128,8 @@ class Campaign:
     """A parsed, validated campaign file."""
 
     name: str
-    scenario: str  # as written: a built-in name or a path
-    scenario_path: Path  # the scenario file it resolves to
+    scenarios: tuple[str, ...]  # as written: built-in names or paths
+    scenario_paths: tuple[Path, ...]  # the scenario files they resolve to
     seed: int
     repeat: int
     duration: float | None
@@ -132,15 +140,34 @@ class Campaign:
     source: str  # campaign file path (for messages)
     text: str  # the campaign file's text
     description: str = ""
+    set_for: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # per scenario
+
+    @property
+    def scenario(self) -> str:
+        """The scenario (the first one of a campaign over several)."""
+        return self.scenarios[0]
+
+    @property
+    def scenario_path(self) -> Path:
+        """The file of :attr:`scenario`."""
+        return self.scenario_paths[0]
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The grid axes a report groups by: ``scenario`` first when there are several."""
+        first = (SCENARIO_COLUMN,) if len(self.scenarios) > 1 else ()
+        return first + tuple(v.key for v in self.vary)
 
     @property
     def columns(self) -> tuple[str, ...]:
-        """Dotted keys that get a column in results.parquet (varied, then sampled)."""
-        return tuple(v.key for v in self.vary) + tuple(s.key for s in self.sample)
+        """Keys that get a column in results.parquet (``scenario`` when there are several,
+        the varied keys, then the sampled ones)."""
+        return self.axes + tuple(s.key for s in self.sample)
 
     @property
     def n_cases(self) -> int:
-        return 1 + math.prod(len(v.values) for v in self.vary) * self.repeat
+        grid = math.prod(len(v.values) for v in self.vary) * self.repeat
+        return len(self.scenarios) * (1 + grid)
 
 
 @dataclass(frozen=True)
@@ -160,7 +187,7 @@ class Case:
 
     def label(self) -> str:
         if self.nominal:
-            return "nominal"
+            return "nominal" + "".join(f" {v}" for v in self.point.values())
         return ", ".join(f"{k} = {_fmt(v)}" for k, v in self.point.items()) or "all"
 
 
@@ -211,10 +238,12 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
     except ValidationError as exc:
         raise CampaignError(first_error(exc, schema.CampaignModel)) from None
     c = m.campaign
+    scenarios = tuple(c.scenario) if isinstance(c.scenario, list) else (c.scenario,)
     return Campaign(
         name=c.name or path.stem,
-        scenario=c.scenario,
-        scenario_path=_scenario_path(c.scenario, path),
+        scenarios=scenarios,
+        scenario_paths=tuple(_scenario_path(x, path) for x in scenarios),
+        set_for={k: dict(v) for k, v in c.set_for.items()},
         seed=c.seed,
         repeat=c.repeat,
         duration=c.duration,
@@ -258,32 +287,41 @@ def expand(campaign: Campaign) -> list[Case]:
         A scenario file that does not load, or a value the scenario validation refuses (the
         message names the campaign file, the key and the value).
     """
-    try:
-        base = tomllib.loads(campaign.scenario_path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise CampaignError(
-            f"{campaign.source}: scenario {str(campaign.scenario_path)!r}: {exc}"
-        ) from None
+    several = len(campaign.scenarios) > 1
     common = {}  # run length and step, also for the nominal case (comparable rows)
     for opt, full in (("duration", "sim.duration"), ("dt", "sim.dt")):
         if getattr(campaign, opt) is not None:
             common[full] = getattr(campaign, opt)
         elif full in campaign.set:
             common[full] = campaign.set[full]
-    cases = [
-        _case(campaign, base, 0, None, None, {}, common, _seed_of(base), label="nominal scenario")
-    ]
+    cases: list[Case] = []
     points = list(itertools.product(*(v.values for v in campaign.vary)))
-    for p, values in enumerate(points):
-        point = {v.key: x for v, x in zip(campaign.vary, values, strict=True)}
-        for r in range(campaign.repeat):
-            seed = estimates_seed(campaign.seed, point, r)
-            keys = {**common, **campaign.set, **point, SEED_KEY: seed}
-            for s in campaign.sample:
-                rng = np.random.default_rng(case_stream(campaign.seed, point, r, "sample:" + s.key))
-                keys[s.key] = s.draw(rng)
-            index = len(cases)
-            cases.append(_case(campaign, base, index, p, r, point, keys, seed))
+    for name, path in zip(campaign.scenarios, campaign.scenario_paths, strict=True):
+        try:
+            base = tomllib.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise CampaignError(f"{campaign.source}: scenario {str(path)!r}: {exc}") from None
+        own = campaign.set_for.get(name, {})
+        tag = {SCENARIO_COLUMN: name} if several else {}
+        index = len(cases)
+        label = f"nominal scenario {name}" if several else "nominal scenario"
+        cases.append(
+            _case(campaign, base, path, index, None, None, tag, common, _seed_of(base), label)
+        )
+        for p, values in enumerate(points):
+            point = {**tag, **{v.key: x for v, x in zip(campaign.vary, values, strict=True)}}
+            # every scenario draws the same seeds (common random numbers; a campaign over one
+            # scenario draws what it drew before campaigns could have several)
+            grid = {k: v for k, v in point.items() if k != SCENARIO_COLUMN}
+            for r in range(campaign.repeat):
+                seed = estimates_seed(campaign.seed, grid, r)
+                keys = {**common, **campaign.set, **own, **grid, SEED_KEY: seed}
+                for s in campaign.sample:
+                    stream = case_stream(campaign.seed, grid, r, "sample:" + s.key)
+                    keys[s.key] = s.draw(np.random.default_rng(stream))
+                index = len(cases)
+                point_index = p + len(points) * campaign.scenarios.index(name)
+                cases.append(_case(campaign, base, path, index, point_index, r, point, keys, seed))
     for col in campaign.columns:  # one type per column: lists if any case resolves to a list
         if any(isinstance(c.values[col], list) for c in cases):
             for c in cases:
@@ -304,21 +342,26 @@ def _seed_of(doc: Mapping) -> int:
     return seed if isinstance(seed, int) else 0
 
 
-def _case(campaign, base, index, p, r, point, keys, seed, label=None) -> Case:
+def _case(campaign, base, path, index, p, r, point, keys, seed, label=None) -> Case:
     doc = copy.deepcopy(base)
     for key, value in keys.items():
         _assign(doc, key, value, campaign.source)
-    what = label or ", ".join(f"{k} = {_fmt(v)}" for k, v in keys.items() if k != SEED_KEY)
+    what = label or ", ".join(
+        f"{k} = {_fmt(v)}" for k, v in {**point, **keys}.items() if k != SEED_KEY
+    )
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            scenario = scenario_from_dict(doc, source=campaign.scenario_path)
+            scenario = scenario_from_dict(doc, source=path)
     except FfsmError as exc:
         raise CampaignError(f"{campaign.source}: case {index} ({what}): {exc}") from None
     text = scenario_to_toml(scenario)
     resolved = tomllib.loads(text)
     values = {}
     for col in campaign.columns:
+        if col == SCENARIO_COLUMN:
+            values[col] = point[col]
+            continue
         given = keys.get(col) if col in keys else _lookup(doc, col)
         values[col] = _readback(_lookup(resolved, col, default=given), given)
     digest = hashlib.sha256(f"ffsm-pin {__version__}\n{text}".encode()).hexdigest()[:16]

@@ -64,8 +64,29 @@ def _distribution(table: Any) -> Any:
 Key = Annotated[str, Field(min_length=1)]  # a dotted scenario key
 
 
+def _scenarios(value: Any) -> Any:
+    if isinstance(value, list):
+        if not value or not all(isinstance(x, str) and x for x in value):
+            fail(
+                (), f": expected a scenario or a non-empty list of scenarios, got {describe(value)}"
+            )
+        for i, x in enumerate(value):
+            if x in value[:i]:
+                fail((), f": {x!r} appears twice")
+    return value
+
+
+def _set_for(table: Any) -> Any:
+    if not isinstance(table, Mapping) or not all(isinstance(v, Mapping) for v in table.values()):
+        fail((), f": expected a table of tables (one per scenario), got {describe(table)}")
+    return {name: flatten(v) for name, v in table.items()}
+
+
 class CampaignTable(_Table):
-    scenario: str  # a built-in scenario name or a file (relative to the campaign file)
+    # a built-in scenario name or a file (relative to the campaign file), or a list of them
+    scenario: Annotated[str | list[str], BeforeValidator(_scenarios)]
+    # {scenario: {dotted key: value}}: overrides for that scenario's cases only
+    set_for: Annotated[dict[str, dict[str, Any]], BeforeValidator(_set_for)] = {}
     name: str | None = None  # default: the file's stem
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
@@ -125,6 +146,16 @@ class CampaignModel(_Table):
     def keys_once(self):
         where: dict[str, str] = {}
         c = self.campaign
+        names = c.scenario if isinstance(c.scenario, list) else [c.scenario]
+        for name, keys in c.set_for.items():
+            if name not in names:
+                fail(("campaign", "set_for", name), f": not a scenario of this campaign; "
+                     f"valid choices: {choices_text(names)}")  # fmt: skip
+            varied = {v.key for v in self.vary}
+            for key in keys:
+                if key in c.set or key == SEED_KEY or key in varied:
+                    why = ": also set for every case (campaign.set, [[vary]] or the seed)"
+                    fail(("campaign", "set_for", name, key), why)
         for key, place in [
             *((k, "campaign.set") for k in c.set),
             *((v.key, "[[vary]]") for v in self.vary),

@@ -17,7 +17,7 @@ from typing import Any
 
 import duckdb
 
-from .campaign import Campaign
+from .campaign import SCENARIO_COLUMN, Campaign
 
 __all__ = [
     "CAUSES_SQL", "CONTROLLER_SQL", "RATE_SQL", "SPREAD_SQL", "WORST_SQL", "controller_table",
@@ -110,7 +110,7 @@ CONTROLLER_SQL = f"""\
 WITH runs AS (
   SELECT * FROM read_parquet('{{path}}') WHERE NOT nominal AND status <> 'error'
 ), per AS (
-  SELECT "{CONTROLLER_KEY}" AS controller,
+  SELECT {{by}}"{CONTROLLER_KEY}" AS controller,
          count(*) AS n,
          count(*) FILTER (WHERE {KEPT}) AS kept,
          count(*) FILTER (WHERE {KEPT_Z}) AS kept_z,
@@ -122,7 +122,7 @@ WITH runs AS (
          count(settle_time_z) AS settled_z,
          median(settle_time_z) AS settle_time_z
   FROM runs
-  GROUP BY 1
+  GROUP BY ALL
 ), rates AS (
   SELECT *, kept / n AS rate, kept_z / n AS rate_z FROM per
 )
@@ -130,7 +130,7 @@ SELECT *,  -- Wilson score intervals, z = {Z95:.4f}
   {_wilson("rate", "n", "rate")},
   {_wilson("rate_z", "n", "rate_z")}
 FROM rates
-ORDER BY controller"""
+ORDER BY {{by}}controller"""
 
 POINTS_SQL = """\
 SELECT {cols_sel} max_abs_u, settle_time_z, min_sigma, damping_threshold
@@ -165,16 +165,21 @@ def query(sql: str) -> list[dict[str, Any]]:
         con.close()
 
 
-def controller_table(path: Path) -> list[dict[str, Any]]:
-    """The per-controller rows of :data:`CONTROLLER_SQL` for ``results.parquet`` at ``path``."""
-    return query(CONTROLLER_SQL.format(path=str(path).replace("'", "''")))
+def controller_table(path: Path, by: tuple[str, ...] = ()) -> list[dict[str, Any]]:
+    """The per-controller rows of :data:`CONTROLLER_SQL` for ``results.parquet`` at ``path``,
+    per value of the columns ``by`` too (``("scenario",)``: per scenario and controller)."""
+    return query(CONTROLLER_SQL.format(path=str(path).replace("'", "''"), by=_by_sel(by)))
 
 
-def _controller_section(path: Path) -> list[str]:
+def _by_sel(by: tuple[str, ...]) -> str:
+    return "".join(f"{_ident(c)}, " for c in by)
+
+
+def _controller_section(path: Path, by: tuple[str, ...] = ()) -> list[str]:
     """report.md's per-controller table (campaigns that vary controller.type)."""
-    rows = controller_table(path)
+    rows = controller_table(path, by)
     lines = [
-        "## Per controller",
+        "## Per controller" + (" and scenario" if by else ""),
         "",
         "Over every grid point of each controller (medians over its runs; rates with 95 % "
         "Wilson intervals). `kept b+z`: the whole horizon with both funnels kept; `kept z`: "
@@ -186,6 +191,7 @@ def _controller_section(path: Path) -> list[str]:
     lines += _table(
         rows,
         [
+            *((c, c, "{}") for c in by),
             ("controller", "controller", "{}"),
             ("runs", "n", "{}"),
             ("kept b+z", None, None),
@@ -212,17 +218,30 @@ def _controller_section(path: Path) -> list[str]:
     return lines + [""]
 
 
+def _scenarios_text(campaign: Campaign) -> str:
+    if len(campaign.scenarios) == 1:
+        return f"Scenario `{campaign.scenario}`"
+    return "Scenarios " + ", ".join(f"`{x}`" for x in campaign.scenarios)
+
+
+def _nominal_text(campaign: Campaign) -> str:
+    if len(campaign.scenarios) == 1:
+        return "case 0 is the nominal scenario"
+    return "the first case of each scenario is its nominal run"
+
+
 def write_report(out: Path, campaign: Campaign) -> Path:
     """Write ``report.md``, its figures (``fig_*.png``) and the worst cases' scenario files
     (``worst/case-NNNNN.toml``) into ``out``; return the report's path."""
     path = out / "results.parquet"
-    cols = [v.key for v in campaign.vary]
+    cols = list(campaign.axes)
+    by = tuple(c for c in cols if c == SCENARIO_COLUMN)
     rates = query(_sql(RATE_SQL, path, cols))
     spread = query(_sql(SPREAD_SQL, path, cols))
     worst = query(_sql(WORST_SQL, path, cols))
     points = query(_sql(POINTS_SQL, path, cols))
     causes = query(_sql(CAUSES_SQL, path, cols))
-    nominal = query(f"SELECT * FROM read_parquet('{path}') WHERE nominal")
+    nominal = query(f"SELECT * FROM read_parquet('{path}') WHERE nominal ORDER BY \"case\"")
     errors = query(
         f"SELECT \"case\", error FROM read_parquet('{path}') WHERE status = 'error' ORDER BY 1"
     )
@@ -233,8 +252,8 @@ def write_report(out: Path, campaign: Campaign) -> Path:
     if campaign.description:
         lines += [campaign.description, ""]
     lines += [
-        f"Scenario `{campaign.scenario}`, root seed {campaign.seed}, {campaign.repeat} draws per "
-        f"grid point, {campaign.n_cases} cases (case 0 is the nominal scenario); "
+        f"{_scenarios_text(campaign)}, root seed {campaign.seed}, {campaign.repeat} draws per "
+        f"grid point, {campaign.n_cases} cases ({_nominal_text(campaign)}); "
         f"{total['n']} rows in `results.parquet`, {_f(total['wall'], '{:.0f}')} s of simulation "
         "wall time in total.",
         "",
@@ -250,19 +269,19 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         "",
     ]
     if nominal:
-        r = nominal[0]
-        lines += [
-            "## Nominal case",
-            "",
-            f"Case 0, the scenario as shipped: status `{r['status']}`, funnels "
-            f"{_kept(r.get('funnel_ok_b'))} / {_kept(r.get('funnel_ok_z'))} (b / z), max |u_m| = "
-            f"{_f(r.get('max_abs_u'), '{:.4g}')} N m, settle time z = "
-            f"{_f(r.get('settle_time_z'), '{:.2f}')} s, min sigma = "
-            f"{_f(r.get('min_sigma'), '{:.3g}')} m.",
-            "",
-        ]
+        lines += ["## Nominal case" + ("s" if len(nominal) > 1 else ""), ""]
+        for r in nominal:
+            which = f"the scenario `{r['scenario']}`" if by else "the scenario"
+            lines += [
+                f"Case {r['case']}, {which} as shipped: status `{r['status']}`, funnels "
+                f"{_kept(r.get('funnel_ok_b'))} / {_kept(r.get('funnel_ok_z'))} (b / z), max "
+                f"|u_m| = {_f(r.get('max_abs_u'), '{:.4g}')} N m, settle time z = "
+                f"{_f(r.get('settle_time_z'), '{:.2f}')} s, min sigma = "
+                f"{_f(r.get('min_sigma'), '{:.3g}')} m.",
+                "",
+            ]
     if CONTROLLER_KEY in cols:
-        lines += _controller_section(path)
+        lines += _controller_section(path, by)
     lines += ["## Funnel-keeping rate per grid point (95 % Wilson interval)", ""]
     lines += _table(
         rates,
@@ -371,7 +390,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         _sql(CAUSES_SQL, Path("results.parquet"), cols),
         ";",
         *(
-            ["", CONTROLLER_SQL.format(path="results.parquet"), ";"]
+            ["", CONTROLLER_SQL.format(path="results.parquet", by=_by_sel(by)), ";"]
             if CONTROLLER_KEY in cols
             else []
         ),

@@ -125,6 +125,7 @@ class ResultsTable:
         """Record one case's outcome (replacing a row of the same hash); rewrite the file if
         ``write``."""
         row = {**case_columns(case), **{k: None for k in SUMMARY_TYPES}, **outcome}
+        row.update(case.values)  # a case column the summary also has (scenario) is the case's
         row["scenario_toml"] = case.scenario_toml
         self.rows[case.case_hash] = row
         self.dirty = True

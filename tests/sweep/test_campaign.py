@@ -18,8 +18,25 @@ from ffsm_pin.sweep.campaign import (
     load_campaign,
 )
 
+TWO = SMALL.replace('scenario = "case1"', 'scenario = ["case1", "planar5"]') + (
+    '\n[campaign.set_for.planar5]\n"actuators.torque_limit" = 100.0\n'
+)
+
 # name -> (campaign text, fragment of the error line)
 BAD = {
+    "set_for an absent scenario": (
+        TWO.replace("set_for.planar5", "set_for.case2"),
+        "campaign.set_for.case2: not a scenario of this campaign; valid choices: 'case1', "
+        "'planar5'",
+    ),
+    "set_for a key set for every case": (
+        TWO + '"controller.estimates.initial" = "true"\n',
+        "also set for every case",
+    ),
+    "a scenario twice": (
+        SMALL.replace('scenario = "case1"', 'scenario = ["case1", "case1"]'),
+        "'case1' appears twice",
+    ),
     "unknown key path": (
         SMALL.replace("controller.estimates.spread", "controller.estimates.sprad"),
         "controller.estimates.sprad: unknown key",
@@ -254,3 +271,21 @@ def test_controller_type_and_params_can_be_varied(campaign_file):
     assert {k for k, _ in kinds} == {"lu-jia", f"{examples / 'joint_pd.py'}:JointPD"}
     user = [r for (k, _), r in sorted(kinds.items()) if k != "lu-jia"]
     assert not np.array_equal(user[0]["u_cmd"], user[1]["u_cmd"])  # kp reached the class
+
+
+def test_several_scenarios(campaign_file):
+    """scenario = [a, b]: each scenario's nominal case then its grid, a ``scenario`` column,
+    the same seeds for every scenario, set_for only on its scenario; each scenario's cases are
+    exactly those of a campaign over it alone (same case hashes)."""
+    both = load_campaign(campaign_file(TWO))
+    cases = expand(both)
+    assert both.columns[0] == "scenario" and len(cases) == both.n_cases == 2 * 5
+    assert [c.nominal for c in cases] == [True, False, False, False, False] * 2
+    assert [c.values["scenario"] for c in cases] == ["case1"] * 5 + ["planar5"] * 5
+    assert [c.estimates_seed for c in cases[1:5]] == [c.estimates_seed for c in cases[6:]]
+    assert {c.scenario.actuators.torque_limit for c in cases[6:]} == {100.0}
+    assert all(c.scenario.actuators == cases[0].scenario.actuators for c in cases[1:5])
+    alone = expand(load_campaign(campaign_file(SMALL, "alone.toml")))
+    assert [c.case_hash for c in alone] == [c.case_hash for c in cases[:5]]
+    assert len({c.case_hash for c in cases}) == len(cases)
+    assert len({c.point_index for c in cases if not c.nominal}) == 4

@@ -66,15 +66,38 @@ def test_controller_table_equals_numpy(tmp_path):
         assert r["settle_time_z"] == pytest.approx(np.median(settles), rel=1e-12)
 
 
-@pytest.mark.parametrize(
-    "name", ["compare-controllers", "compare-controllers-planar5", "compare-controllers-spatial"]
-)
-def test_builtin_comparison_campaigns_are_valid(name):
+def test_per_scenario_controller_table_equals_numpy(tmp_path):
+    """by = ("scenario",): one row per scenario and controller, each that group's counts."""
+    path = tmp_path / "results.parquet"
+    rng = np.random.default_rng(8)
+    _synthetic(path, rng)
+    rows = pq.read_table(path).to_pylist()
+    for r in rows:
+        r["scenario"] = "a" if r["case"] % 2 else "b"
+    pq.write_table(pa.Table.from_pylist(rows), path)
+    runs = [r for r in rows if not r["nominal"] and r["status"] != "error"]
+    table = controller_table(path, by=("scenario",))
+    assert [(r["scenario"], r["controller"]) for r in table] == sorted(
+        {(r["scenario"], r["controller.type"]) for r in runs}
+    )
+    for r in table:
+        group = (r["scenario"], r["controller"])
+        mine = [x for x in runs if (x["scenario"], x["controller.type"]) == group]
+        done = [x for x in mine if x["status"] == "completed"]
+        assert r["n"] == len(mine)
+        assert r["kept"] == sum(x["funnel_ok_b"] and x["funnel_ok_z"] for x in done)
+        assert r["max_abs_u"] == pytest.approx(np.median([x["max_abs_u"] for x in mine]))
+
+
+def test_builtin_comparison_campaign_is_valid():
+    """compare-controllers: the three controllers on case 1, the 5-link robot and the
+    realistic spatial case, every case valid."""
     from ffsm_pin.sweep.campaign import expand
 
-    c = load_campaign(name)
+    c = load_campaign("compare-controllers")
     kinds = next(v.values for v in c.vary if v.key == "controller.type")
     assert set(kinds) == {"lu-jia", "gjm-ct", "adaptive-ct"}
+    assert c.scenarios == ("case1", "planar5", "spatial-realistic")
     assert len(expand(c)) == c.n_cases
 
 
@@ -93,3 +116,20 @@ def test_rate_figure_with_rates_of_zero_and_one(tmp_path):
     assert [r["rate"] for r in rates] == [0.0, 1.0]
     files = _figures(tmp_path, ["x"], rates, rows)
     assert (tmp_path / files["rate"]).stat().st_size > 0
+
+
+def test_shipped_comparison_report_shows_its_results():
+    """docs/campaigns/compare-controllers: the per-controller table of report.md is what
+    controller_table computes from the results.parquet beside it (runs and kept counts)."""
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "campaigns" / "compare-controllers"
+    rows = controller_table(folder / "results.parquet", by=("scenario",))
+    text = (folder / "report.md").read_text(encoding="utf-8")
+    table = text.split("## Per controller and scenario", 1)[1].split("\n## ", 1)[0]
+    lines = [ln for ln in table.splitlines() if ln.startswith("| ") and "---" not in ln][1:]
+    assert len(lines) == len(rows) == 9
+    for line, r in zip(lines, rows, strict=True):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[:3] == [r["scenario"], r["controller"], str(r["n"])]
+        assert cells[3].startswith(f"{r['rate']:.0%}") and cells[4].startswith(f"{r['rate_z']:.0%}")
