@@ -232,27 +232,34 @@ class Recorder:
 
 def extend(
     signals: Signals,
-    per_row: Callable[[np.ndarray], dict[str, np.ndarray]],
+    per_row: Callable[[Mapping[str, np.ndarray]], dict[str, np.ndarray]],
     constants: dict[str, np.ndarray],
+    inputs: tuple[str, ...] = ("t",),
 ) -> Signals:
-    """``signals`` plus the per-row signals ``per_row(t)`` computes from the time column and
-    the ``constants`` (arrays without a time axis); computed a block at a time when spilled."""
+    """``signals`` plus the per-row signals ``per_row(block)`` computes from the recorded
+    columns ``inputs`` (``block``: ``{key: rows x shape}``) and the ``constants`` (arrays
+    without a time axis); computed a block at a time when spilled."""
     if not signals.spilled:
         arrays = dict(signals._arrays)
-        arrays.update(per_row(arrays["t"]))
+        arrays.update(per_row({k: arrays[k] for k in inputs}))
         arrays.update(constants)
         return Signals(arrays)
     spool = signals._spool
     assert spool is not None
     shapes = dict(signals._shapes)
+
+    def empty(rows: int) -> dict[str, np.ndarray]:
+        return {k: np.zeros((rows, *shapes[k])) for k in inputs}
+
     files: dict[str, object] = {}
     # blocks sized by what per_row makes of them (with room for its temporaries), not by the
     # 8 bytes of t: a block of the whole t column made hundreds of MB of signals at once
-    width = sum(int(np.prod(v.shape[1:])) for v in per_row(np.zeros(1)).values())
+    width = sum(int(np.prod(v.shape[1:])) for v in per_row(empty(1)).values())
+    width += sum(int(np.prod(shapes[k])) for k in inputs)
     rows = max(1, BLOCK_BYTES // (8 * 4 * (width + 1)))
     try:
-        for block in signals.blocks(["t"], rows=rows):
-            for key, value in per_row(block["t"]).items():
+        for block in signals.blocks(list(inputs), rows=rows):
+            for key, value in per_row(block).items():
                 if key not in files:
                     shapes[key] = value.shape[1:]
                     files[key] = open(spool / f"{key}.bin", "wb")  # noqa: SIM115
@@ -261,7 +268,7 @@ def extend(
         for f in files.values():
             f.close()  # type: ignore[attr-defined]
     if signals._rows == 0:  # no block: shapes from an empty call
-        for key, value in per_row(np.zeros(0)).items():
+        for key, value in per_row(empty(0)).items():
             shapes[key] = value.shape[1:]
     assert signals._finalizer is not None
     signals._finalizer.detach()  # handed over: the new object owns the folder

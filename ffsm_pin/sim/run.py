@@ -29,7 +29,7 @@ from ..control.interface import (
     recorded_name,
     split_reply,
 )
-from ..control.kinematic import task_errors, task_size
+from ..control.kinematic import task_errors, task_size, wrap_angle
 from ..control.registry import controller_class
 from ..errors import ControllerLoadError, FfsmError, ScenarioError, SimulationError
 from ..model import ReducedModel, State, make_model
@@ -226,12 +226,12 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     m3, nt = m.m3, setup.n_task
     planar = m3 == 1
     nw = n + m3
-    # per-step signals; rho, the funnel bounds and the reference depend on t only and
-    # are added by finish()
+    # per-step signals; the funnels, their bounds, the reference and the true task errors
+    # are computed after the run (_after_run_signals)
     declared = getattr(setup.controller, "signal_shapes", None) or {}
     return {
         "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
-        "err_z": (nt,), "q_b": (m3,), "err_b": (m3,), "P": (m.m2,),
+        "q_b": (m3,), "P": (m.m2,),
         "L": () if planar else (3,), "F_r": () if planar else (3,), "z_e_dot": (nt,),
         "u_cmd": (n,),
         **({} if setup.sensors is None else {  # what the controller saw
@@ -244,19 +244,29 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
 
 def recording_size(setup: Setup) -> tuple[int, int]:
     """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
-    :func:`_time_signals` adds (funnels, their bounds, the reference)."""
+    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors)."""
     sc = setup.scenario
     steps = int(round(sc.duration / sc.dt))
     per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
     m3, nt = setup.model.m3, setup.n_task
-    return steps, 8 * (per_step + 3 * m3 + 5 * nt)
+    return steps, 8 * (per_step + 4 * m3 + 6 * nt)
 
 
-def _time_signals(setup: Setup):
-    """The recorded signals that depend on t only: funnels, their bounds, the reference."""
+#: The recorded columns the signals computed after the run are functions of.
+AFTER_RUN_INPUTS = ("t", "q_b", "z_e")
+
+
+def _after_run_signals(setup: Setup):
+    """The recorded signals computed after the run, a block of rows at a time, from the
+    recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
+    of Eqs. (16)-(17) (as :func:`~ffsm_pin.control.kinematic.task_errors`, on which the
+    specification's funnels are judged)."""
     ref = setup.scenario.reference
+    q_bd = np.asarray(ref.base_attitude, dtype=float)
+    planar = setup.model.m3 == 1
 
-    def per_row(t: np.ndarray) -> dict[str, np.ndarray]:
+    def per_row(block) -> dict[str, np.ndarray]:
+        t = block["t"]
         out = {}
         for name, funnel in (("b", setup.funnel_b), ("z", setup.funnel_z)):
             rho = funnel.rho(t[:, None])  # (samples, components)
@@ -264,6 +274,13 @@ def _time_signals(setup: Setup):
             out[f"bound_{name}_lower"] = funnel.lower * rho
             out[f"bound_{name}_upper"] = funnel.upper * rho
         out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
+        err_z = block["z_e"] - out["z_e_d"]  # Eq. (17)
+        err_b = block["q_b"] - q_bd  # Eq. (16)
+        if planar:  # angles wrapped to (-pi, pi]; MRPs: component differences
+            err_b = wrap_angle(err_b)
+            if err_z.shape[1] > 2:
+                err_z[:, 2] = wrap_angle(err_z[:, 2])
+        out["err_b"], out["err_z"] = err_b, err_z
         return out
 
     truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}
@@ -343,7 +360,6 @@ def simulate(
     n_lin = 3 if spatial else 2  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
-    ref, base_ref = sc.reference, sc.reference.base_attitude
     names: dict[str, str] = {}  # controller signal -> recorded name
     wall0 = time.perf_counter()
     k = 0
@@ -408,8 +424,6 @@ def simulate(
                 A["u_cmd"][i] = u_cmd
                 A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
                 A["q_b"][i] = meas.q_b
-                # the specification's funnels are judged on the true errors
-                A["err_b"][i], A["err_z"][i] = task_errors(ref, base_ref, t, meas.q_b, meas.z_e, m3)
                 if sensors is not None:  # what the controller saw
                     A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
                     A["meas_z_e"][i] = seen.z_e[:nt]
@@ -455,7 +469,7 @@ def simulate(
         wall_time_s=wall,
         completed=completed,
         stop_reason=stop_reason,
-        signals=extend(rec.finish(), *_time_signals(setup)),
+        signals=extend(rec.finish(), *_after_run_signals(setup), AFTER_RUN_INPUTS),
         scenario_name=sc.name,
         stop_time=stop_time,
         stop_cause=stop_cause,

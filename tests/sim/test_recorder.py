@@ -105,7 +105,7 @@ def test_blocks_every_and_npz_of_a_spilled_recording(tmp_path):
         assert np.array_equal(sig.every("x", step), x[idx])
     consts = Signals({"t": t, "x": x, "c": np.arange(3.0)})
     write_npz(tmp_path / "a.npz", consts)
-    spilled = recorder.extend(sig, lambda tt: {"y": 2 * tt[:, None]}, {"c": np.arange(3.0)})
+    spilled = recorder.extend(sig, lambda b: {"y": 2 * b["t"][:, None]}, {"c": np.arange(3.0)})
     write_npz(tmp_path / "b.npz", spilled)
     with np.load(tmp_path / "a.npz") as A, np.load(tmp_path / "b.npz") as B:
         assert set(B.files) == {"t", "x", "y", "c"}
@@ -163,3 +163,24 @@ def test_ctrl_c_writes_what_was_recorded(tmp_path):
     assert "interrupted (Ctrl-C)" in err.decode()
     assert not any(p.name.startswith("ffsm-pin-rec-") for p in out.iterdir())
     assert Path(out / "scenario.toml").is_file()
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial-pose"])
+def test_errors_computed_after_the_run_are_the_per_step_errors(case):
+    """err_b, err_z are computed after the run from the recorded t, q_b, z_e (a block of rows
+    at a time); they equal task_errors row by row, the function the loop used to call."""
+    import dataclasses
+
+    from ffsm_pin.control.kinematic import task_errors
+    from ffsm_pin.sim.run import prepare, simulate
+    from ffsm_pin.sim.scenario_file import builtin_scenario
+
+    sc = dataclasses.replace(builtin_scenario(case), duration=0.5)
+    run = simulate(prepare(sc), record_every=7)
+    ref, m3 = sc.reference, np.asarray(run["q_b"]).shape[1]
+    for i in range(len(run["t"])):
+        err_b, err_z = task_errors(
+            ref, ref.base_attitude, run["t"][i], run["q_b"][i], run["z_e"][i], m3
+        )
+        np.testing.assert_allclose(run["err_b"][i], err_b, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(run["err_z"][i], err_z, rtol=0, atol=1e-14)
