@@ -14,7 +14,7 @@ from .errors import FfsmError
 try:
     import tomllib
 except ModuleNotFoundError:  # Python < 3.11
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 
 def table_to_urdf_main(

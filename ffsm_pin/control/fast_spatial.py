@@ -531,6 +531,7 @@ def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) 
             [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL, env=env,
         )  # fmt: skip
+        assert child.stdin is not None  # stdin=PIPE
         child.stdin.write(pickle.dumps(_with_flags((consts, q_b, q_m, w, theta_z, theta_d))))
         child.stdin.close()
     except OSError:

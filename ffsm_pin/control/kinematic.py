@@ -143,7 +143,7 @@ def along_measured_motion(meas, m3: int) -> tuple[complex, Any, np.ndarray, np.n
 class KinematicInputs(NamedTuple):
     """Arguments of w_mc (all may be complex for the complex step)."""
 
-    t: float  # [s]
+    t: float | complex  # [s]
     q_b: float | np.ndarray  # base attitude [rad] (planar) or MRP (spatial)
     q_m: np.ndarray  # joint angles [rad]
     z_e: np.ndarray  # measured end-effector pose [m, rad or MRP]
@@ -246,6 +246,7 @@ class KinematicLaw:
         Hp_ab = Hp @ a_b
         xi = inv.pinv @ (target - J_m @ Hp_ab)  # Eq. (36)
         if self.null_space.active:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
+            assert self.center is not None  # set in __init__ when the option is active
             grad = null_space_gradient(
                 self.null_space, self.center, x.q_m, lambda q: self._reduced_jacobian(x, q)
             )

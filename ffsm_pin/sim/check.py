@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -99,7 +100,7 @@ def check(scenario: Scenario) -> CheckReport:
         )
     authority = att = None
     if m3 == 3:
-        st = State(setup.robot).update(setup.q0, setup.v0)
+        st: Any = State(setup.robot).update(setup.q0, setup.v0)
         gain = np.linalg.svd(np.linalg.solve(st.H_bb, st.H_bm), compute_uv=False)
         authority = float(gain[0] * np.linalg.norm(_joint_travel(setup.robot)))
         q_bd = np.array(setup.scenario.reference.base_attitude, dtype=float)  # resolved

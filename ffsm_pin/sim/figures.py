@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -46,7 +47,7 @@ FIGURE_NAMES = (
 MAX_COLUMNS = 1500  # envelope bins per line (2 points each)
 _FUNNEL_STYLE = {"color": "black", "linestyle": ":", "linewidth": 1.0}
 _JOINT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
-_RUN_STYLES = ("-", "--", "-.", (0, (5, 1, 1, 1)))
+_RUN_STYLES: tuple[Any, ...] = ("-", "--", "-.", (0, (5, 1, 1, 1)))
 
 
 def write_figures(
@@ -81,7 +82,7 @@ def write_figures(
     if thresholds is None:
         thresholds = [0.05 if r.damping_threshold is None else r.damping_threshold for r in runs]
     elif np.isscalar(thresholds):
-        thresholds = [float(thresholds)] * len(runs)
+        thresholds = [float(thresholds)] * len(runs)  # type: ignore[arg-type]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     draw = (_errors, _velocities, _estimation, _torque, _path)

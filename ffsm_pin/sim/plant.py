@@ -169,7 +169,10 @@ class Plant:
             v_new, a = out[0], out[2]
         if self.project_momentum:
             _project_base(
-                pin.computeCentroidalMap(model, data, q_new), v_new, self.momentum0, self._rows
+                pin.computeCentroidalMap(model, data, q_new),
+                v_new,
+                self.momentum0,  # type: ignore[arg-type]  # set by reset() above
+                self._rows,
             )
         return StepResult(q_new, v_new, a)
 
@@ -189,6 +192,9 @@ class Plant:
         array; v is not modified)."""
         out = np.array(v, dtype=float)
         _project_base(
-            pin.computeCentroidalMap(self.model, self.data, q), out, self.momentum0, self._rows
+            pin.computeCentroidalMap(self.model, self.data, q),
+            out,
+            self.momentum0,  # type: ignore[arg-type]  # the run calls reset() first
+            self._rows,
         )
         return out

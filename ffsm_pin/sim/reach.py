@@ -23,7 +23,7 @@ def reach_horizon(model: ReducedModel, theta_z, com0, reference, duration: float
     ``REACH_SAMPLES * dt`` (1000 s by default), so that the scan stays cheap however long the
     run."""
     m2 = model.m2
-    reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))
+    reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))  # type: ignore[attr-defined]
     dt = max(dt, duration / REACH_SAMPLES)
     ts = np.arange(0.0, duration + dt, dt)
     com = np.asarray(com0)[None, :m2] + ts[:, None] * np.asarray(theta_z[:m2])[None, :]

@@ -242,6 +242,7 @@ def build_scene(
         raise ParameterError(f"replay: fps must be > 0, got {fps}")
     own_animation = animation is None
     anim = Animation(default_framerate=fps) if own_animation else animation
+    assert anim is not None
     t = np.asarray(result["t"], dtype=float)
     q = np.asarray(result["q"], dtype=float)
     if len(t) == 0:

@@ -179,7 +179,7 @@ class Case:
     point_index: int | None  # grid point number (None for the nominal case)
     repeat: int | None  # repeat index within the grid point (None for the nominal case)
     point: Mapping[str, Any]  # grid point {dotted key: value as written in the campaign}
-    values: Mapping[str, Any]  # {column: value the resolved scenario uses}
+    values: dict[str, Any]  # {column: value the resolved scenario uses}
     estimates_seed: int
     scenario_toml: str  # the resolved scenario (loads with scenario_from_toml)
     case_hash: str

@@ -115,7 +115,7 @@ class Uniform(_Table):
 
 
 class LogUniform(Uniform):
-    distribution: Literal["log-uniform"]
+    distribution: Literal["log-uniform"]  # type: ignore[assignment]
     low: Pos  # log-uniform needs low > 0
 
 

@@ -99,7 +99,7 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
     stale = 0
     if not args.force:
         for row in table.read():
-            case = by_hash.get(row.get("case_hash"))
+            case = by_hash.get(str(row.get("case_hash")))
             if case is not None and row.get("status") in ("completed", "stopped"):
                 table.keep(row, case)
             elif case is None:

@@ -433,7 +433,7 @@ def _figures(out: Path, cols, rates, points) -> dict[str, str]:
     ax.grid(alpha=0.3)
     files["rate"] = _save(fig, out / "fig_funnel_rate.png")
 
-    groups = {lab: [] for lab in labels}
+    groups: dict[str, list[dict[str, Any]]] = {lab: [] for lab in labels}
     for p in points:
         groups.setdefault(_label(p, cols), []).append(p)
     for key, name, ylabel, log in (
