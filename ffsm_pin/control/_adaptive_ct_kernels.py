@@ -32,6 +32,24 @@ def _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt):
 
 
 @njit(cache=True)
+def _torque_and_update(Y, s, M_hat, m3, k_s, gamma_d, dt, theta_d, theta_b, theta_z,
+                       tb_new, tz_new):  # fmt: skip
+    """u_m = [Y theta_d-hat]_m - k_s M-hat_mm s_m from the joint rows (after the m3 base rows),
+    then, if it is finite, the gradient law and the kinematic estimates of this period.
+    Returns (u_m, finite)."""
+    Y_m = np.ascontiguousarray(Y[m3:])
+    s_m = s[m3:].copy()
+    M_mm = np.ascontiguousarray(M_hat[m3:, m3:])
+    u = Y_m @ theta_d - k_s * (M_mm @ s_m)
+    if not np.all(np.isfinite(u)):
+        return u, False
+    theta_d += _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt)
+    theta_b[:] = tb_new
+    theta_z[:] = tz_new
+    return u, True
+
+
+@njit(cache=True)
 def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, rpp,
                   k_z, k_s, gamma_b, gamma_z, gamma_d, thr, nt, dt,
                   t, q_b, q_m, w, z_e, z_e_dot, theta_z, theta_d, theta_b):  # fmt: skip
@@ -54,21 +72,13 @@ def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
     w_r_dot = np.empty(nb)
     w_r[0], w_r_dot[0] = w_bc.real, w_bc.imag / _H
     w_r[1:], w_r_dot[1:] = w_mc.real, w_mc.imag / _H
-    sv = w - w_r
     _, Yh_plus = fast._velocity_regressors(pc, ps, K, L, S, w + w_r, w + w_r, nd, collinear)
     _, Yh_minus = fast._velocity_regressors(pc, ps, K, L, S, w - w_r, w - w_r, nd, collinear)
     Y = fast._Y_M(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
-    Y_m = np.ascontiguousarray(Y[1:])
-    s_m = sv[1:].copy()
     M_hat = S.T @ fast._mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    M_mm = np.ascontiguousarray(M_hat[1:, 1:])
-    u = Y_m @ theta_d - k_s * (M_mm @ s_m)
-    if not np.all(np.isfinite(u)):
-        return u, w_r[1:].copy(), sigma, damping, False
-    theta_d += _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt)
-    theta_b[:] = tb_new
-    theta_z[:] = tz_new
-    return u, w_r[1:].copy(), sigma, damping, True
+    u, finite = _torque_and_update(Y, w - w_r, M_hat, 1, k_s, gamma_d, dt,
+                                   theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
+    return u, w_r[1:].copy(), sigma, damping, finite
 
 
 @njit(cache=True)
@@ -113,18 +123,11 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
         velocity_terms(R, z, x, w_r_dot, x, Y if sign > 0 else scratch, YMdot, Yh, Yw)
         subtract_dT(R, z, x, Yh)
         Y += (0.25 * sign) * Yh
-    Y_m = np.ascontiguousarray(Y[3:])
-    s_m = w[3:] - w_r[3:]
     M_hat = np.empty((N, N))
     mass_matrix(R, z, theta_d, M_hat)
-    M_mm = np.ascontiguousarray(M_hat[3:, 3:])
-    u = Y_m @ theta_d - k_s * (M_mm @ s_m)
-    if not np.all(np.isfinite(u)):
-        return u, w_r[3:].copy(), sigma, damping, False
-    theta_d += _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt)
-    theta_b[:] = tb_new
-    theta_z[:] = tz_new
-    return u, w_r[3:].copy(), sigma, damping, True
+    u, finite = _torque_and_update(Y, w - w_r, M_hat, 3, k_s, gamma_d, dt,
+                                   theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
+    return u, w_r[3:].copy(), sigma, damping, finite
 
 
 #: The compiled period by attitude dimension m3 (planar 1, spatial 3).

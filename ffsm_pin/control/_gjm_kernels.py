@@ -20,8 +20,7 @@ from numba import njit
 from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms
 from . import fast, fast_spatial
 from ._shared_kernels import _reference
-
-_H = 1e-30  # complex step (as control.kinematic.COMPLEX_STEP)
+from .fast import _H  # the complex step (control.kinematic.COMPLEX_STEP)
 
 
 # ---------------------------------------------------------------------- planar

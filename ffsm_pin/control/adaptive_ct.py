@@ -112,12 +112,11 @@ class AdaptiveComputedTorque:
         if self.backend == "numba":
             from ._adaptive_ct_kernels import PERIOD
 
-            ref = (np.ascontiguousarray(x, dtype=float) for x in self.reference.kernel_arrays())
             g = self.gains
             self._consts = (
-                *ctx.model.kernel_constants(), *ref, self._k_z, float(g.k_s), float(g.gamma_b),
-                float(g.gamma_z), float(g.gamma_d), float(self.threshold), int(self.nt),
-                float(self.dt),
+                *ctx.model.kernel_constants(), *self.reference.kernel_arrays(), self._k_z,
+                float(g.k_s), float(g.gamma_b), float(g.gamma_z), float(g.gamma_d),
+                float(self.threshold), int(self.nt), float(self.dt),
             )  # fmt: skip
             self._period = PERIOD[self.m3]
             self.step = self.step_numba  # type: ignore[method-assign]

@@ -262,13 +262,12 @@ class CoordinatedController:
 
     def _setup_spatial(self, fast) -> None:
         m = self.model
-        ref = self.reference
         consts = (
             *m.kernel_constants(), self.n_task,
             self.scheme != "no-attitude", self.scheme == "no-ppc", self.adaptive,
             fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
             fast.gains_array(self.gains, self.policy.threshold, self.q_bd),
-            *(np.ascontiguousarray(x, dtype=float) for x in ref.kernel_arrays()),
+            *self.reference.kernel_arrays(),
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._fast_consts = consts

@@ -175,12 +175,9 @@ class GjmComputedTorque:
         if self.backend == "numba":
             from ._gjm_kernels import PERIOD
 
-            ref_arrays = (
-                np.ascontiguousarray(x, dtype=float) for x in self.reference.kernel_arrays()
-            )
             self._consts = (
-                *ctx.model.kernel_constants(), *ref_arrays, self._k_z, float(self.gains.k_v),
-                float(self.threshold), int(self.nt),
+                *ctx.model.kernel_constants(), *self.reference.kernel_arrays(), self._k_z,
+                float(self.gains.k_v), float(self.threshold), int(self.nt),
             )  # fmt: skip
             self._period = PERIOD[self.m3]
             self.step = self.step_numba  # type: ignore[method-assign]

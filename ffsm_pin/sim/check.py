@@ -78,8 +78,12 @@ def check(scenario: Scenario) -> CheckReport:
             setup = prepare(scenario)
     except FfsmError as exc:
         return CheckReport(scenario.name, problems=[str(exc)])
-    # gains that violate a discrete-time condition (a warning on a run)
+    # gains that violate a discrete-time condition (a warning on a run) are problems here;
+    # any other warning is shown as it would have been
     problems: list[str] = [str(w.message) for w in caught if w.category is GainWarning]
+    for w in caught:
+        if w.category is not GainWarning:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     m3 = setup.model.m3
     meas = Sensor(setup.robot, setup.model, full_model=False).measure(0.0, setup.q0, setup.v0)
     # distance to singularity, for controllers that invert a task Jacobian

@@ -136,8 +136,10 @@ class Reference:
     def kernel_arrays(self) -> tuple[np.ndarray, ...]:
         """The arrays the compiled periods evaluate z_e,d with: constant terms, harmonic
         selection, amplitudes, frequencies [rad/s], phases [rad], and the piecewise
-        polynomial of a reference from data (no segments for harmonics)."""
-        return self._c, self._A, self._amp, self._freq, self._phase, self._pp.table
+        polynomial of a reference from data (no segments for harmonics); C-contiguous float
+        arrays (the stored ones themselves, not copies)."""
+        arrays = (self._c, self._A, self._amp, self._freq, self._phase, self._pp.table)
+        return tuple(np.ascontiguousarray(x, dtype=float) for x in arrays)
 
     def resolved(self, z_e0, q_b0, m2: int) -> Reference:
         """The absolute reference of an ``origin = "initial"`` one, for the initial

@@ -11,6 +11,7 @@ held, after the last time the last value (the velocity and acceleration are zero
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -141,13 +142,7 @@ class PiecewisePolynomial:
         starts = self.table[0]
         k = max(int(np.searchsorted(starts, np.real(t), side="right")) - 1, 0)
         tau = t - starts[k]
-        out = np.zeros(n, dtype=np.result_type(tau, float))
-        for p in range(DEGREE, order - 1, -1):  # Horner on the order-th derivative
-            fac = 1.0
-            for j in range(order):
-                fac *= p - j
-            out = out * tau + fac * self.table[1 + p * n : 1 + (p + 1) * n, k]
-        return out
+        return self._horner(k, tau, order, np.zeros(n, dtype=np.result_type(tau, float)))
 
     def sample(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
         """d^order value / dt^order at the real times ``ts`` [s], shape ``(len(ts), n)``."""
@@ -155,12 +150,14 @@ class PiecewisePolynomial:
         n = self.n_components
         starts = self.table[0]
         k = np.maximum(np.searchsorted(starts, ts, side="right") - 1, 0)
-        tau = (ts - starts[k])[:, None]
-        out = np.zeros((ts.size, n))
+        return self._horner(k, (ts - starts[k])[:, None], order, np.zeros((ts.size, n)))
+
+    def _horner(self, k, tau, order: int, out: np.ndarray) -> np.ndarray:
+        """Horner's scheme for the order-th derivative on the segments ``k`` (an index, or an
+        array of them with ``tau`` a column), accumulated onto ``out`` (zeros)."""
+        n = self.n_components
         for p in range(DEGREE, order - 1, -1):
-            fac = 1.0
-            for j in range(order):
-                fac *= p - j
+            fac = float(math.perm(p, order))  # p! / (p - order)!: the factor of tau^(p - order)
             out = out * tau + fac * self.table[1 + p * n : 1 + (p + 1) * n, k].T
         return out
 

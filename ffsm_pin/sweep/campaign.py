@@ -296,7 +296,8 @@ def expand(campaign: Campaign) -> list[Case]:
             common[full] = campaign.set[full]
     cases: list[Case] = []
     points = list(itertools.product(*(v.values for v in campaign.vary)))
-    for name, path in zip(campaign.scenarios, campaign.scenario_paths, strict=True):
+    scenarios = zip(campaign.scenarios, campaign.scenario_paths, strict=True)
+    for which, (name, path) in enumerate(scenarios):
         try:
             base = tomllib.loads(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
@@ -320,7 +321,7 @@ def expand(campaign: Campaign) -> list[Case]:
                     stream = case_stream(campaign.seed, grid, r, "sample:" + s.key)
                     keys[s.key] = s.draw(np.random.default_rng(stream))
                 index = len(cases)
-                point_index = p + len(points) * campaign.scenarios.index(name)
+                point_index = p + len(points) * which
                 cases.append(_case(campaign, base, path, index, point_index, r, point, keys, seed))
     for col in campaign.columns:  # one type per column: lists if any case resolves to a list
         if any(isinstance(c.values[col], list) for c in cases):

@@ -133,3 +133,27 @@ def test_attitude_beyond_authority_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert any("authority" in ln for ln in err.splitlines() if ln.startswith("error:")), err
     assert main(["--check", "--case", "spatial"]) == 0  # the shipped bus passes
+
+
+def test_other_warnings_of_the_setup_still_show(monkeypatch):
+    """--check turns the gain warnings of the set-up into problems; any other warning the
+    set-up raises (a URDF repair, say) is shown as on a run, not swallowed."""
+    import warnings
+
+    from ffsm_pin.control.gains import GainWarning
+    from ffsm_pin.sim import run
+    from ffsm_pin.sim.check import check
+    from ffsm_pin.sim.scenario_file import builtin_scenario
+
+    original = run.prepare
+
+    def noisy(scenario):
+        warnings.warn("a URDF repair", UserWarning, stacklevel=1)
+        warnings.warn("k_z breaks a condition", GainWarning, stacklevel=1)
+        return original(scenario)
+
+    monkeypatch.setattr(run, "prepare", noisy)
+    with pytest.warns(UserWarning, match="a URDF repair") as shown:
+        report = check(builtin_scenario("case1"))
+    assert report.problems == ["k_z breaks a condition"]
+    assert not [w for w in shown if w.category is GainWarning]
