@@ -20,9 +20,11 @@ Usage::
     python benchmarks/bench_controller.py                    # both, planar case 1 and spatial
     python benchmarks/bench_controller.py --parts world --repeat 7
     python benchmarks/bench_controller.py --baseline <rev>   # any git revision
+    python benchmarks/bench_controller.py --parts baselines --duration-scale 5
 
-Printed per case: the median loop time [s] of each side over ``--repeat`` runs, their ratio
-(B / A), and the quartiles of the per-pair ratios.
+Printed per case: the median loop time per step [us] of each side over ``--repeat`` runs
+(with the steps each side ran: a run that stops early has fewer), their ratio (B / A), and the
+quartiles of the per-pair ratios.
 """
 
 from __future__ import annotations
@@ -61,31 +63,37 @@ ee_velocity = 1e-4
 """
 
 
-def loop_time(args: list[str], out: Path, source: Path) -> float:
-    """The loop's wall time [s] of one run of ``python -m ffsm_pin.sim args`` from ``source``."""
+def loop_time(args: list[str], out: Path, source: Path) -> tuple[float, int]:
+    """The loop's wall time per step [s] of one run of ``python -m ffsm_pin.sim args`` from
+    ``source``, and its number of steps (a run that stops early has fewer)."""
     env = {**os.environ, "PYTHONPATH": str(source)}
     cmd = [sys.executable, "-m", "ffsm_pin.sim", *args]
     cmd += ["--no-plots", "--no-html", "--quiet", "--out", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, check=False)
     if proc.returncode not in (0, 3):
         raise SystemExit(f"{' '.join(cmd)}: exit {proc.returncode}\n{proc.stderr}")
-    return float(json.loads((out / "summary.json").read_text())["wall_time_s"])
+    summary = json.loads((out / "summary.json").read_text())
+    steps = max(int(summary["steps"]), 1)
+    return float(summary["wall_time_s"]) / steps, steps
 
 
 def compare(name: str, sides: dict, repeat: int, tmp: Path) -> None:
-    """Interleaved runs of two sides {label: (args, source)}; print medians and the ratio."""
+    """Interleaved runs of two sides {label: (args, source)}; print the median time per step
+    of each side [us], their ratio and each side's steps (fewer when its run stopped)."""
     (la, (args_a, src_a)), (lb, (args_b, src_b)) = sides.items()
     times: dict[str, list[float]] = {la: [], lb: []}
+    steps: dict[str, int] = {}
     for k in range(repeat + 1):
-        ta = loop_time(args_a, tmp / f"{name}-a", src_a)
-        tb = loop_time(args_b, tmp / f"{name}-b", src_b)
+        (ta, steps[la]) = loop_time(args_a, tmp / f"{name}-a", src_a)
+        (tb, steps[lb]) = loop_time(args_b, tmp / f"{name}-b", src_b)
         if k:  # the first pair warms numba's caches and the file system
             times[la].append(ta)
             times[lb].append(tb)
     ma, mb = statistics.median(times[la]), statistics.median(times[lb])
     ratios = sorted(b / a for a, b in zip(times[la], times[lb], strict=True))
     q = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else [ratios[0]] * 3
-    print(f"{name:22s} {la:>10s} {ma:8.3f} s  {lb:>10s} {mb:8.3f} s  ratio {mb / ma:6.3f} "
+    print(f"{name:22s} {la:>10s} {ma * 1e6:7.1f} us ({steps[la]} steps)  {lb:>10s} "
+          f"{mb * 1e6:7.1f} us ({steps[lb]} steps)  ratio {mb / ma:6.3f} "
           f"(pairs: {q[0]:.3f} .. {q[2]:.3f})", flush=True)  # fmt: skip
 
 
@@ -96,6 +104,9 @@ def main() -> int:
     parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=sorted(CASES))
     parser.add_argument("--repeat", type=int, default=5, help="timed runs per side")
     parser.add_argument("--baseline", default=BASELINE, help="git revision for 'interface'")
+    parser.add_argument("--duration-scale", type=float, default=1.0,
+                        help="multiply every case's duration (longer runs dilute the first "
+                             "step, where numba loads the kernels from its cache)")  # fmt: skip
     args = parser.parse_args()
     load = os.getloadavg()
     head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
@@ -111,6 +122,7 @@ def main() -> int:
             try:
                 for case in args.cases:
                     name, duration = CASES[case]
+                    duration *= args.duration_scale
                     run = ["--case", name, "--duration", str(duration)]
                     compare(f"interface {case}", {f"{args.baseline}": (run, base),
                             "HEAD": (run, ROOT)}, args.repeat, tmp)  # fmt: skip
@@ -122,6 +134,7 @@ def main() -> int:
 
             for case in args.cases:
                 name, duration = CASES[case]
+                duration *= args.duration_scale
                 text = Path(builtin_path(name)).read_text()
                 path = tmp / f"{case}-world.toml"
                 path.write_text(text + WORLD)
@@ -134,6 +147,7 @@ def main() -> int:
 
             for case in args.cases:
                 name, duration = CASES[case]
+                duration *= args.duration_scale
                 paper = ["--case", name, "--duration", str(duration)]
                 text = Path(builtin_path(name)).read_text()
                 for kind in ("gjm-ct", "adaptive-ct"):

@@ -248,7 +248,7 @@ class CoordinatedController:
             fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
         self._fast_consts = consts  # the kernel's constant arguments (also used by tests)
-        self._parallel_compile = None
+        self._parallel_compile = fast.compile_in_parallel
         self._layout = fast.out_layout(m.n_joints)
         period = fast.period
 
@@ -295,7 +295,7 @@ class CoordinatedController:
         m0 = self._initial
         if m0.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             m0 = m0._replace(M=np.eye(len(m0.w)), h=np.zeros(len(m0.w)))
-        if self._parallel_compile is not None:  # spatial first run: use both cores
+        if self._parallel_compile is not None:  # a first run: use both cores
             self._parallel_compile(
                 self._fast_consts, m0.t, m0.q_b, m0.q_m, m0.w, m0.z_e, self.theta_z,
                 self.theta_d, self.theta_b,

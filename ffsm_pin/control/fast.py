@@ -322,6 +322,47 @@ def position_regressor(c, s, S, w, nz, collinear):
 
 
 @njit(cache=True)
+def _dynamic_level(S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, sens,
+                   theta_d, w_hat, Y_df):  # fmt: skip
+    """The dynamic level of :func:`period` (Eqs. 46, 49-52, 60a, 64-65): returns (status,
+    u_m, dw-hat/dt, w~) and, when the status is ``STATUS_OK``, advances theta_d-hat, w-hat
+    and Y_df in place. A separate kernel so that a first run compiles it in the second
+    process (:func:`compile_in_parallel`)."""
+    nb = S.shape[0]
+    nd = theta_d.size
+    none = np.empty(0)
+    w_tilde = w - w_hat
+    Mphi = _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
+    M_hat = S.T @ Mphi @ S
+    if np.linalg.eigvalsh(M_hat)[0] <= 0:
+        return STATUS_M_NOT_PD, none, none, none
+    Ymd, Yh = _velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
+    cg = g[G_G3] * dt
+    d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+    eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
+    rr = (Ymd - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
+    # Eqs. (60a), (64)-(65)
+    tgt = w_mc_dot - g[G_KD] * (w_hat[1:] - w_mc)
+    denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
+    if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
+        return STATUS_BASE_ROW, none, none, none
+    wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
+    w_hat_dot = np.empty(nb)
+    w_hat_dot[0] = wb_dot
+    w_hat_dot[1:] = tgt + sens * wb_dot
+    u_m = M_hat[1:] @ w_hat_dot - rr[1:]
+    if not np.all(np.isfinite(u_m)):
+        return STATUS_NONFINITE, none, none, none
+    # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
+    Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
+    decay = np.exp(-g[G_KDE] * dt)
+    Y_df[:, :] = decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc
+    theta_d += d_theta_d
+    w_hat += dt * w_hat_dot
+    return STATUS_OK, u_m, w_hat_dot, w_tilde
+
+
+@njit(cache=True)
 def period(S, off, K, L, ee_row, collinear, attitude, identity,
            fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
            t, q_b, q_m, w, z_e, z_e_dot,
@@ -362,36 +403,13 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
         return status, idx
     w_mc = w_mc_c.real.copy()
     w_mc_dot = w_mc_c.imag / _H
-
-    # dynamic level
-    w_tilde = w - w_hat
-    Mphi = _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
-    M_hat = S.T @ Mphi @ S
-    if np.linalg.eigvalsh(M_hat)[0] <= 0:
-        return STATUS_M_NOT_PD, -1
-    Ymd, Yh = _velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
-    cg = g[G_G3] * dt
-    d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
-    eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-    rr = (Ymd - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
-    # Eqs. (60a), (64)-(65)
-    tgt = w_mc_dot - g[G_KD] * (w_hat[1:] - w_mc)
-    denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
-    if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
-        return STATUS_BASE_ROW, -1
-    wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
-    w_hat_dot = np.empty(nb)
-    w_hat_dot[0] = wb_dot
-    w_hat_dot[1:] = tgt + sens * wb_dot
-    u_m = M_hat[1:] @ w_hat_dot - rr[1:]
-    if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, -1
-    # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
-    Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
-    decay = np.exp(-g[G_KDE] * dt)
-    Y_df[:, :] = decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc
-    theta_d += d_theta_d
-    w_hat += dt * w_hat_dot
+    status, u_m, w_hat_dot, w_tilde = _dynamic_level(
+        S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, np.ascontiguousarray(sens),
+        theta_d, w_hat, Y_df,
+    )  # fmt: skip
+    if status != STATUS_OK:
+        return status, -1
+    wb_dot = w_hat_dot[0]
     theta_b[:] = tb_new
     theta_z[:] = tz_new
     out[:n] = u_m
@@ -420,3 +438,50 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     e0[0] = 1.0
     Ymd, _ = _velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
     return M[0, 0], (Ymd @ theta_d)[0]
+
+
+# ---------------------------------------------------------------------- first compilation
+def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
+    """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex values
+    of the measurement's shapes); the values only need to be finite."""
+    c = 1j * _H
+    return (*consts, t + c, q_b + c, q_m + c, z_e + c, theta_b + c, theta_z + c, w[0] + 0j)
+
+
+def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+    """Compile the real kernels :func:`period` calls, with the argument types it passes, and
+    the run's :func:`residual_54` and :func:`base_inertia` with those the run passes (the
+    second process of :func:`compile_in_parallel`)."""
+    S, off, K, L, ee_row, collinear = consts[:6]
+    nb, nd = S.shape[0], theta_d.size
+    # first the complex null-space gradient, which this process's _kinematic reaches late
+    c = 1j * _H
+    _null_space_gradient(S, off, K, L, ee_row, collinear, consts[17], q_b + c, q_m + c,
+                         theta_b + c, theta_z + c)  # fmt: skip
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    theta_b_step(np.zeros(nd + 1), _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], 1.0, 1e-3)
+    Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
+    theta_z_step(theta_z, Yz, z_e, 1.0, 1e-3)  # z_e: the type of the measured z_e_dot
+    _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
+    _velocity_regressors(pc, ps, K, L, S, w, w - w, nd, collinear)
+    n = nb - 1
+    _dynamic_level(S, K, L, collinear, consts[10], 1e-3, pc, ps, w, np.zeros(n), np.zeros(n),
+                   np.zeros(n), theta_d.copy(), np.zeros(nb), np.zeros((nb, nd)))  # fmt: skip
+    residual_54(S, off, K, L, collinear, q_b, q_m, np.zeros(nb), np.zeros((nb, nd)),
+                theta_d, theta_d)  # fmt: skip
+    base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d)
+
+
+def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+    """On a first run, compile the real kernels of :func:`period`, :func:`residual_54` and
+    :func:`base_inertia` in a second process while this one compiles the complex kinematic
+    law (:mod:`._first_compile`); :func:`period` then loads the former from the cache.
+    Does nothing when the cache is warm."""
+    from . import _first_compile
+
+    _first_compile.compile_in_parallel(
+        __name__,
+        (consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b),
+        (period, _kinematic),
+        lambda: _kinematic(*_kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b)),
+    )

@@ -20,12 +20,6 @@ Status codes and the packed funnel/null-space arrays are those of :mod:`.fast`.
 
 from __future__ import annotations
 
-import os
-import pickle
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 from numba import njit, typeof, types
 
@@ -39,6 +33,7 @@ from ..model._spatial_kernels import (
     y_z,
     ym,
 )
+from . import _first_compile
 from ._shared_kernels import (
     NS_CENTER,
     NS_CODE,
@@ -446,14 +441,6 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
 
 
 # ---------------------------------------------------------------------- first compilation
-def _cold(dispatcher) -> bool:
-    """True when numba's on-disk cache has no entry at all for ``dispatcher`` (a first run)."""
-    try:
-        return not os.path.exists(dispatcher._cache._cache_file._index_path)
-    except AttributeError:  # internals of another numba version: assume it is cached
-        return False
-
-
 def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
     """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex arrays
     of the measurement's shapes); the values only need to be finite."""
@@ -486,66 +473,15 @@ def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     base_inertia(jr, ax, q_b, q_m, np.zeros(N), theta_d)
 
 
-def _with_flags(x):
-    """(x, writeable) for arrays, recursively: numba types a read-only array differently, and
-    pickling drops the flag."""
-    if isinstance(x, np.ndarray):
-        return ("array", x, bool(x.flags.writeable))
-    if isinstance(x, tuple):
-        return ("tuple", tuple(_with_flags(v) for v in x), None)
-    return ("value", x, None)
-
-
-def _restore_flags(item):
-    kind, x, writeable = item
-    if kind == "array":
-        x = x.copy()  # an unpickled array may sit on a read-only buffer
-        x.setflags(write=writeable)
-        return x
-    if kind == "tuple":
-        return tuple(_restore_flags(v) for v in x)
-    return x
-
-
-def _compile_real_kernels_from_stdin() -> None:
-    """Entry point of the second process of :func:`compile_in_parallel`."""
-    _compile_real_kernels(*_restore_flags(pickle.load(sys.stdin.buffer)))
-
-
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """On a first run (nothing in numba's cache yet), compile the real kernels of
-    :func:`period`, :func:`residual_54` and :func:`base_inertia` in a second process while
-    this one compiles the complex kinematic law; :func:`period` then loads the former from the
-    cache. On two cores this takes about a quarter off the first spatial run
-    (benchmarks/README.md, "Spatial closed loop"). Nothing changes in what is computed: both
-    processes compile the same source. When the cache is warm, or a second process cannot be
-    started, it does nothing and :func:`period` compiles (or loads) everything itself as
-    before."""
-    if not (_cold(period) and _cold(_kinematic)):
-        return
-    root = str(Path(__file__).resolve().parents[2])  # the folder that holds ffsm_pin/
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
-    code = "from ffsm_pin.control.fast_spatial import _compile_real_kernels_from_stdin as f; f()"
-    try:
-        child = subprocess.Popen(
-            [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL, env=env,
-        )  # fmt: skip
-        assert child.stdin is not None  # stdin=PIPE
-        child.stdin.write(pickle.dumps(_with_flags((consts, q_b, q_m, w, theta_z, theta_d))))
-        child.stdin.close()
-    except OSError:
-        return
-    try:
-        _kinematic(*_kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b))
-    except Exception:  # noqa: BLE001 - only the compilation matters; period reports errors
-        pass
-    except BaseException:  # Ctrl-C: do not leave the second process compiling
-        child.kill()
-        child.wait()
-        raise
-    try:
-        child.wait(timeout=600)
-    except subprocess.TimeoutExpired:  # period compiles what is missing itself
-        child.kill()
-        child.wait()
+    """On a first run, compile the real kernels of :func:`period`, :func:`residual_54` and
+    :func:`base_inertia` in a second process while this one compiles the complex kinematic
+    law (:mod:`._first_compile`); :func:`period` then loads the former from the cache. On two
+    cores this takes about a third off the first spatial run (benchmarks/README.md, "First
+    run"). Does nothing when the cache is warm."""
+    _first_compile.compile_in_parallel(
+        __name__,
+        (consts, q_b, q_m, w, theta_z, theta_d),
+        (period, _kinematic),
+        lambda: _kinematic(*_kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b)),
+    )

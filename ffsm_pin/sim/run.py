@@ -298,7 +298,7 @@ def _checked_torque(u, n: int) -> np.ndarray:
             f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
             "joint [N m]"
         )
-    if not np.all(np.isfinite(u)):
+    if not np.isfinite(u).all():
         raise _ControllerFault(
             f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
         )
@@ -441,11 +441,11 @@ def simulate(
                 rec.commit()
             if final:
                 break
-            if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(v_new))):
+            if not (np.isfinite(q_new).all() and np.isfinite(v_new).all()):
                 completed, stop_time, stop_cause = False, t + dt, "nonfinite"
                 stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
                 break
-            if np.max(np.abs(v_new[n_lin:])) > 1e4:
+            if np.abs(v_new[n_lin:]).max() > 1e4:
                 completed, stop_time, stop_cause = False, t + dt, "nonfinite"
                 stop_reason = (
                     f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "

@@ -1,7 +1,8 @@
-"""The first compilation of the spatial period on two processes (control/fast_spatial.py,
-``compile_in_parallel``): the argument types survive the trip to the second process, a warm
-cache starts no process, and a run from an empty numba cache (kernels compiled in two
-processes) gives bitwise the trajectory of a run from a warm cache."""
+"""The first compilation of the compiled periods on two processes (control/_first_compile.py,
+``fast.compile_in_parallel``, ``fast_spatial.compile_in_parallel``): the argument types
+survive the trip to the second process, a warm cache starts no process, and a run from an
+empty numba cache (kernels compiled in two processes) gives bitwise the trajectory of a run
+from a warm cache, planar and spatial."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 import pytest
 from numba import typeof
 
-from ffsm_pin.control import fast_spatial
+from ffsm_pin.control import _first_compile, fast, fast_spatial
 from ffsm_pin.sim.compile_note import MESSAGE
 
 REPO = Path(__file__).resolve().parents[2]
@@ -28,24 +29,32 @@ def test_array_types_survive_the_trip_to_the_second_process():
     ro.setflags(write=False)
     view = np.zeros((4, 5))[:, 2:]  # non-contiguous: layout 'A'
     args = (ro, np.ones(3), (7, True, ro), view)
-    back = fast_spatial._restore_flags(pickle.loads(pickle.dumps(fast_spatial._with_flags(args))))
+    back = _first_compile.restore_flags(pickle.loads(pickle.dumps(_first_compile.with_flags(args))))
     assert typeof(back[0]) == typeof(ro) and not back[0].flags.writeable
     assert typeof(back[1]) == typeof(args[1]) and back[1].flags.writeable
     assert back[2][:2] == (7, True) and typeof(back[2][2]) == typeof(ro)
     np.testing.assert_array_equal(back[3], view)  # values kept (layout becomes 'C')
 
 
-def test_a_warm_cache_starts_no_second_process(monkeypatch):
+@pytest.mark.parametrize("kernels", [fast, fast_spatial], ids=["planar", "spatial"])
+def test_a_warm_cache_starts_no_second_process(monkeypatch, kernels):
     started = []
-    monkeypatch.setattr(fast_spatial, "_cold", lambda dispatcher: False)
+    monkeypatch.setattr(_first_compile, "cold", lambda dispatcher: False)
     monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: started.append(a))
-    fast_spatial.compile_in_parallel(*([None] * 9))
+    kernels.compile_in_parallel(*([None] * 9))
     assert started == []
 
 
 @pytest.mark.slow
-def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(tmp_path):
-    """About 40-70 s: everything compiled anew, the complex kinematic law here and the real
+@pytest.mark.parametrize(
+    ("case", "second_process_kernel"),
+    [("case1", "_velocity_regressors"), ("spatial", "velocity_terms")],
+    ids=["planar", "spatial"],
+)
+def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
+    tmp_path, case, second_process_kernel
+):
+    """20-70 s: everything compiled anew, the complex kinematic law here and the real
     kernels in the second process. Also the per-user cache (``ffsm_pin/_numba_cache.py``) and
     the compile line (``ffsm_pin/sim/compile_note.py``): the line appears on the cold run
     only, and a run from another folder finds the same cache (one cache per installation)."""
@@ -56,7 +65,7 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(tmp_path):
         env.pop("NUMBA_CACHE_DIR", None)  # the package picks $XDG_CACHE_HOME/ffsm-pin/numba
         (tmp_path / out).mkdir()
         proc = subprocess.run(
-            [sys.executable, "-m", "ffsm_pin.sim", "--case", "spatial", "--duration", "0.2",
+            [sys.executable, "-m", "ffsm_pin.sim", "--case", case, "--duration", "0.2",
              "--no-plots", "--no-html", "--out", "run"],
             cwd=tmp_path / out, env=env, capture_output=True, text=True, timeout=600,
         )  # fmt: skip
@@ -66,7 +75,8 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(tmp_path):
     cache = xdg / "ffsm-pin" / "numba"
     first, cold_err = run("cold")
     assert MESSAGE in cold_err  # a fresh cache: compilation really happens, and is announced
-    assert any(cache.rglob("*velocity_terms*.nbi"))  # the second process's kernels are cached
+    # the second process's kernels are cached
+    assert any(cache.rglob(f"*{second_process_kernel}*.nbi"))
     assert any(cache.glob("control_*/*.nbi"))
     second, warm_err = run("warm")  # another folder, the same cache
     assert MESSAGE not in warm_err

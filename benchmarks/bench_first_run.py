@@ -1,0 +1,88 @@
+"""What the first run of a fresh installation costs: a whole run from an empty numba cache.
+
+Each sample is one ``python -m ffsm_pin.sim --case C --no-plots --no-html --quiet`` in a fresh
+process with ``XDG_CACHE_HOME`` pointing to an empty folder (so the package's numba cache,
+``$XDG_CACHE_HOME/ffsm-pin/numba``, starts empty), timed from the process start to its exit:
+what a user waits for after ``pip install``. Then the same run once more with that cache
+warm. With ``--baseline REV`` the same is done, interleaved, for a git revision checked out
+beside this one (default: none).
+
+Usage::
+
+    python benchmarks/bench_first_run.py                       # case 1 and spatial, 2 samples
+    python benchmarks/bench_first_run.py --cases case1 --repeat 3 --baseline 411cfc5
+
+Printed per case and side: the median cold and warm wall times [s] and the samples.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def timed_run(case: str, source: Path, xdg: Path, out: Path) -> float:
+    """Wall time [s] of one whole CLI run of ``case`` from ``source`` with cache home ``xdg``."""
+    env = {**os.environ, "PYTHONPATH": str(source), "XDG_CACHE_HOME": str(xdg)}
+    env.pop("NUMBA_CACHE_DIR", None)  # the package then picks $XDG_CACHE_HOME/ffsm-pin/numba
+    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--case", case, "--no-plots", "--no-html",
+           "--quiet", "--out", str(out)]  # fmt: skip
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)
+    wall = time.perf_counter() - t0
+    if proc.returncode not in (0, 3):
+        raise SystemExit(f"{' '.join(cmd)}: exit {proc.returncode}\n{proc.stderr}")
+    return wall
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", nargs="+", default=["case1", "spatial"])
+    parser.add_argument("--repeat", type=int, default=2, help="cold samples per case and side")
+    parser.add_argument("--baseline", default=None, help="a git revision to compare with")
+    args = parser.parse_args()
+    load = os.getloadavg()
+    head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+    print(f"ffsm-pin first-run benchmark: HEAD {head} (+ the working tree), python "
+          f"{sys.version.split()[0]}, {os.cpu_count()} CPU(s), load {load[0]:.2f} "
+          f"{load[1]:.2f} {load[2]:.2f}", flush=True)  # fmt: skip
+    with tempfile.TemporaryDirectory(prefix="ffsm-bench-first-") as tmp_name:
+        tmp = Path(tmp_name)
+        sides = {"HEAD": ROOT}
+        if args.baseline:
+            base = tmp / "baseline"
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q",
+                            str(base), args.baseline], check=True)  # fmt: skip
+            sides = {args.baseline: base, "HEAD": ROOT}
+        try:
+            for case in args.cases:
+                cold: dict[str, list[float]] = {s: [] for s in sides}
+                warm: dict[str, list[float]] = {s: [] for s in sides}
+                for k in range(args.repeat):
+                    for label, source in sides.items():
+                        xdg = tmp / f"xdg-{case}-{label}-{k}"
+                        xdg.mkdir()
+                        cold[label].append(timed_run(case, source, xdg, tmp / "run"))
+                        warm[label].append(timed_run(case, source, xdg, tmp / "run"))
+                for label in sides:
+                    print(f"{case:10s} {label:>10s}  cold {statistics.median(cold[label]):6.1f} s"
+                          f"  warm {statistics.median(warm[label]):6.1f} s   cold samples "
+                          + " ".join(f"{x:.1f}" for x in cold[label]), flush=True)  # fmt: skip
+        finally:
+            if args.baseline:
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                                str(tmp / "baseline")], check=False)  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,107 @@
+"""The first compilation of a compiled control period on two processes.
+
+A first run (numba's on-disk cache holds nothing for the period yet) spends most of its time
+compiling. The period's kernels are separate numba functions, cached one by one, so the work
+splits: a second Python process compiles the period's real-valued kernels (and the run's
+diagnostics) with the argument types the period passes, while this process compiles the
+complex-step kinematic law; the period then finds the former in the cache. Both processes
+compile the same source, so nothing changes in what is computed (a run from an empty cache
+is bitwise a run from a warm one: ``tests/control/test_first_compile.py``). When the cache is
+warm, or a second process cannot be started, nothing happens and the period compiles (or
+loads) everything itself. Measured in benchmarks/README.md ("First run").
+
+Each geometry's kernel module (:mod:`.fast`, :mod:`.fast_spatial`) provides
+``_compile_real_kernels(*args)``, what the second process runs.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import pickle
+import subprocess
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+
+def cold(dispatcher: Any) -> bool:
+    """True when numba's on-disk cache has no entry at all for ``dispatcher`` (a first run)."""
+    try:
+        return not os.path.exists(dispatcher._cache._cache_file._index_path)
+    except AttributeError:  # internals of another numba version: assume it is cached
+        return False
+
+
+def with_flags(x: Any) -> tuple:
+    """(kind, x, writeable), recursively through tuples: numba types a read-only array
+    differently, and pickling drops the flag."""
+    import numpy as np
+
+    if isinstance(x, np.ndarray):
+        return ("array", x, bool(x.flags.writeable))
+    if isinstance(x, tuple):
+        return ("tuple", tuple(with_flags(v) for v in x), None)
+    return ("value", x, None)
+
+
+def restore_flags(item: tuple) -> Any:
+    """The inverse of :func:`with_flags`."""
+    kind, x, writeable = item
+    if kind == "array":
+        x = x.copy()  # an unpickled array may sit on a read-only buffer
+        x.setflags(write=writeable)
+        return x
+    if kind == "tuple":
+        return tuple(restore_flags(v) for v in x)
+    return x
+
+
+def _child_main() -> None:
+    """Entry point of the second process: ``(module name, arguments)`` on stdin."""
+    module, args = pickle.load(sys.stdin.buffer)
+    importlib.import_module(module)._compile_real_kernels(*restore_flags(args))
+
+
+def compile_in_parallel(
+    module: str,
+    child_args: tuple,
+    dispatchers: Sequence[Any],
+    compile_here: Callable[[], object],
+) -> None:
+    """If every dispatcher in ``dispatchers`` is :func:`cold`, start a second process running
+    ``module._compile_real_kernels(*child_args)``, call ``compile_here()`` meanwhile (its
+    errors are ignored: only the compilation matters, the period reports errors), then wait
+    for the second process (at most 10 minutes; the period compiles what is missing)."""
+    if not all(cold(d) for d in dispatchers):
+        return
+    root = str(Path(__file__).resolve().parents[2])  # the folder that holds ffsm_pin/
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
+    code = "from ffsm_pin.control._first_compile import _child_main as f; f()"
+    try:
+        child = subprocess.Popen(
+            [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL, env=env,
+        )  # fmt: skip
+        assert child.stdin is not None  # stdin=PIPE
+        child.stdin.write(pickle.dumps((module, with_flags(child_args))))
+        child.stdin.close()
+    except OSError:
+        return
+    try:
+        compile_here()
+    except Exception:  # noqa: BLE001 - only the compilation matters; period reports errors
+        pass
+    except BaseException:  # Ctrl-C: do not leave the second process compiling
+        child.kill()
+        child.wait()
+        raise
+    try:
+        child.wait(timeout=600)
+    except subprocess.TimeoutExpired:  # the period compiles what is missing itself
+        child.kill()
+        child.wait()
+
+
+__all__ = ["cold", "compile_in_parallel", "restore_flags", "with_flags"]
