@@ -1,269 +1,47 @@
-"""Write the URDF of a planar free-floating serial manipulator from a small table.
+"""Deprecated location of the planar URDF writer, now :mod:`ffsm_pin.robot.writer` (one
+writer and one command line for planar and spatial tables); an alias for one release.
 
-The table is a TOML file (or the equivalent dict)::
-
-    name = "ffsm_planar4"
-    end_effector = "ee"            # optional, default "ee"
-
-    [base]
-    mass = 61.2                    # [kg]
-    inertia = 26.112               # about the base CoM, z axis [kg m^2]
-    com = [0.0, 0.0]               # base CoM in the base frame [m]
-    mount = [0.8, 0.0]             # joint 1 in the base frame [m]
-    size = [1.6, 1.6]              # visual box [m] (optional)
-
-    [[links]]                      # one table per link, base outwards
-    mass = 6.3
-    inertia = 1.029
-    length = 1.4                   # next joint (or the end effector) at (length, 0) [m]
-    com = [0.7, 0.0]               # link CoM in the link frame [m]
-    # tip = [1.4, 0.1]             # optional: next joint / end effector off the x axis
-    # axis = -1                    # optional: joint axis -z instead of +z
-
-Every joint is revolute about z, the end-effector frame is a fixed child of the last link at
-its tip. The 3-D inertia written to the URDF is (I, I, I) so that it is physically valid for
-3-D engines (MuJoCo) while the planar dynamics only ever use I_zz.
-
-Command line::
-
-    python -m ffsm_pin.planar_urdf urdf/ffsm_planar4.toml -o urdf/ffsm_planar4.urdf
+``python -m ffsm_pin.planar_urdf TABLE`` still works and reads planar tables only, as before;
+use ``python -m ffsm_pin.robot.writer TABLE``.
 """
 
-from __future__ import annotations
+import warnings
 
-from dataclasses import dataclass, field
-from pathlib import Path
-from xml.sax.saxutils import escape as _escape
+from .robot.writer import write_urdf
+from .robot.writer._xml import escape
+from .robot.writer.planar import (
+    PlanarBody,
+    PlanarChain,
+    PlanarLink,
+    chain_from_table,
+    chain_to_urdf,
+)
 
-from ._urdf_cli import table_to_urdf_main
-from .errors import ParameterError
-
-
-def escape(text: str) -> str:
-    """Escape text for an XML attribute value (quotes included)."""
-    return _escape(text, {'"': "&quot;"})
-
-
-@dataclass(frozen=True)
-class PlanarBody:
-    """Mass properties of one rigid body of the chain (planar)."""
-
-    mass: float  # [kg]
-    inertia: float  # I_zz about the body CoM [kg m^2]
-    com: tuple[float, float] = (0.0, 0.0)  # CoM in the body frame [m]
-
-    def __post_init__(self) -> None:
-        # plain floats, so that the URDF text never shows numpy reprs
-        object.__setattr__(self, "mass", float(self.mass))
-        object.__setattr__(self, "inertia", float(self.inertia))
-        object.__setattr__(self, "com", _pair(self.com, "com"))
-
-
-@dataclass(frozen=True)
-class PlanarLink(PlanarBody):
-    """A link: its mass properties and where its child joint (or tip) sits."""
-
-    tip: tuple[float, float] = (1.0, 0.0)  # child joint / end effector in the link frame [m]
-    axis: int = 1  # +1: joint axis +z, -1: joint axis -z
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        object.__setattr__(self, "tip", _pair(self.tip, "tip"))
-        if self.axis not in (1, -1):
-            raise ParameterError(f"link axis must be 1 or -1, got {self.axis!r}")
-        object.__setattr__(self, "axis", int(self.axis))
-
-
-@dataclass(frozen=True)
-class PlanarChain:
-    """A planar floating base carrying a serial chain of revolute-z links."""
-
-    name: str
-    base: PlanarBody
-    mount: tuple[float, float]  # joint 1 in the base frame [m]
-    links: tuple[PlanarLink, ...]
-    end_effector: str = "ee"
-    base_size: tuple[float, float] = (1.0, 1.0)  # visual box [m]
-    joint_names: tuple[str, ...] = field(default=())
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "mount", _pair(self.mount, "mount"))
-        object.__setattr__(self, "base_size", _pair(self.base_size, "size"))
-        object.__setattr__(self, "links", tuple(self.links))
-        if not self.links:
-            raise ParameterError(f"robot {self.name!r}: at least one link is needed")
-        for i, body in enumerate((self.base, *self.links)):
-            what = "base" if i == 0 else f"link {i}"
-            if not body.mass > 0:
-                raise ParameterError(f"{what}: mass must be > 0, got {body.mass}")
-            if not body.inertia > 0:
-                raise ParameterError(f"{what}: inertia must be > 0, got {body.inertia}")
-        for i, link in enumerate(self.links, start=1):
-            if link.axis not in (1, -1):
-                raise ParameterError(f"link {i}: axis must be 1 or -1, got {link.axis}")
-
-
-def chain_from_table(table: dict) -> PlanarChain:
-    """Build a :class:`PlanarChain` from the dict form of the TOML table."""
-    base = _get(table, "base", "robot table")
-    links = _get(table, "links", "robot table")
-    return PlanarChain(
-        name=str(table.get("name", "planar_ffsm")),
-        base=PlanarBody(
-            mass=_num(_get(base, "mass", "base"), "base.mass"),
-            inertia=_num(_get(base, "inertia", "base"), "base.inertia"),
-            com=_pair(base.get("com", (0.0, 0.0)), "base.com"),
-        ),
-        mount=_pair(_get(base, "mount", "base"), "base.mount"),
-        base_size=_pair(base.get("size", (1.0, 1.0)), "base.size"),
-        end_effector=str(table.get("end_effector", "ee")),
-        links=tuple(_link(link, i) for i, link in enumerate(links, start=1)),
-    )
-
-
-def _link(link: dict, i: int) -> PlanarLink:
-    where = f"links[{i}]"
-    length = link.get("length")
-    if length is None and ("com" not in link or "tip" not in link):
-        raise ParameterError(f"{where}: missing key 'length' (or both 'com' and 'tip')")
-    length = None if length is None else _num(length, f"{where}.length")
-    axis = _num(link.get("axis", 1), f"{where}.axis")
-    if axis not in (1.0, -1.0):
-        raise ParameterError(f"{where}.axis must be 1 or -1, got {link.get('axis')!r}")
-    return PlanarLink(
-        mass=_num(_get(link, "mass", where), f"{where}.mass"),
-        inertia=_num(_get(link, "inertia", where), f"{where}.inertia"),
-        com=_pair(link.get("com", (0.5 * (length or 0.0), 0.0)), f"{where}.com"),
-        tip=_pair(link.get("tip", (length, 0.0)), f"{where}.tip"),
-        axis=int(axis),
-    )
-
-
-def _get(table: dict, key: str, where: str):
-    if not isinstance(table, dict) or key not in table:
-        raise ParameterError(f"{where}: missing key {key!r}")
-    return table[key]
-
-
-def _num(value, key: str) -> float:
-    if isinstance(value, bool):
-        raise ParameterError(f"{key}: expected a number, got {value!r}")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{key}: expected a number, got {value!r}") from None
-
-
-def _pair(x, key: str = "vector") -> tuple[float, float]:
-    try:
-        values = tuple(_num(v, key) for v in x)
-    except TypeError:
-        raise ParameterError(f"{key}: expected a 2-vector [x, y], got {x!r}") from None
-    if len(values) != 2:
-        raise ParameterError(f"{key}: expected a 2-vector [x, y], got {list(values)}")
-    return values  # type: ignore[return-value]
-
-
-def _inertial(mass: float, inertia: float, com: tuple[float, float]) -> str:
-    return (
-        "    <inertial>\n"
-        f'      <origin xyz="{com[0]!r} {com[1]!r} 0" rpy="0 0 0"/>\n'
-        f'      <mass value="{mass!r}"/>\n'
-        f'      <inertia ixx="{inertia!r}" ixy="0" ixz="0" iyy="{inertia!r}" iyz="0" '
-        f'izz="{inertia!r}"/>\n'
-        "    </inertial>\n"
-    )
-
-
-def _bar_visual(tip: tuple[float, float], width: float, material: str) -> str:
-    import math
-
-    length = math.hypot(*tip)
-    if length == 0.0:
-        return ""
-    yaw = math.atan2(tip[1], tip[0])
-    return (
-        "    <visual>\n"
-        f'      <origin xyz="{tip[0] / 2!r} {tip[1] / 2!r} 0" rpy="0 0 {yaw!r}"/>\n'
-        f'      <geometry><box size="{length!r} {width!r} {width!r}"/></geometry>\n'
-        f'      <material name="{material}"/>\n'
-        "    </visual>\n"
-    )
-
-
-def chain_to_urdf(chain: PlanarChain) -> str:
-    """Return the URDF text of ``chain``."""
-    n = len(chain.links)
-    names = chain.joint_names or tuple(f"joint{i}" for i in range(1, n + 1))
-    out = [
-        '<?xml version="1.0"?>\n',
-        "<!-- Generated by ffsm_pin.planar_urdf: edit the table, not this file. -->\n",
-        f'<robot name="{escape(chain.name)}">\n',
-        '  <material name="base_gold"><color rgba="0.85 0.7 0.25 1"/></material>\n',
-        '  <material name="link_grey"><color rgba="0.55 0.6 0.7 1"/></material>\n',
-        '  <material name="ee_red"><color rgba="0.85 0.15 0.15 1"/></material>\n',
-        '  <link name="base_link">\n',
-        _inertial(chain.base.mass, chain.base.inertia, chain.base.com),
-        "    <visual>\n",
-        '      <origin xyz="0 0 0" rpy="0 0 0"/>\n',
-        f'      <geometry><box size="{chain.base_size[0]!r} {chain.base_size[1]!r} 0.3"/>'
-        "</geometry>\n",
-        '      <material name="base_gold"/>\n',
-        "    </visual>\n",
-        "  </link>\n",
-    ]
-    parent, origin = "base_link", chain.mount
-    for i, link in enumerate(chain.links, start=1):
-        lname = f"link{i}"
-        out += [
-            f'  <link name="{lname}">\n',
-            _inertial(link.mass, link.inertia, link.com),
-            _bar_visual(link.tip, 0.12, "link_grey"),
-            "  </link>\n",
-            f'  <joint name="{names[i - 1]}" type="revolute">\n',
-            f'    <parent link="{parent}"/>\n',
-            f'    <child link="{lname}"/>\n',
-            f'    <origin xyz="{origin[0]!r} {origin[1]!r} 0" rpy="0 0 0"/>\n',
-            f'    <axis xyz="0 0 {link.axis}"/>\n',
-            '    <limit lower="-6.283185307179586" upper="6.283185307179586" '
-            'effort="1000" velocity="100"/>\n',
-            "  </joint>\n",
-        ]
-        parent, origin = lname, link.tip
-    ee = escape(chain.end_effector)
-    out += [
-        f'  <link name="{ee}_link">\n',
-        "    <visual>\n",
-        '      <geometry><sphere radius="0.1"/></geometry>\n',
-        '      <material name="ee_red"/>\n',
-        "    </visual>\n",
-        "  </link>\n",
-        f'  <joint name="{ee}" type="fixed">\n',
-        f'    <parent link="{parent}"/>\n',
-        f'    <child link="{ee}_link"/>\n',
-        f'    <origin xyz="{origin[0]!r} {origin[1]!r} 0" rpy="0 0 0"/>\n',
-        "  </joint>\n",
-        "</robot>\n",
-    ]
-    return "".join(out)
-
-
-def write_urdf(chain: PlanarChain, path: str | Path) -> Path:
-    """Write the URDF of ``chain`` to ``path`` and return the path."""
-    path = Path(path)
-    path.write_text(chain_to_urdf(chain))
-    return path
+warnings.warn(
+    "ffsm_pin.planar_urdf moved to ffsm_pin.robot.writer (python -m ffsm_pin.robot.writer); "
+    "this alias goes in the next release",
+    DeprecationWarning,
+    stacklevel=2,
+)
 
 
 def main(argv: list[str] | None = None) -> int:
-    return table_to_urdf_main(
-        "python -m ffsm_pin.planar_urdf",
-        "Write a planar free-floating manipulator URDF from a TOML table.",
-        chain_from_table,
-        chain_to_urdf,
-        argv,
-    )
+    """The former command line: planar tables only."""
+    from .robot.writer.__main__ import main as _main
 
+    return _main(argv, prog="python -m ffsm_pin.planar_urdf", kind="planar")
+
+
+__all__ = [
+    "PlanarBody",
+    "PlanarChain",
+    "PlanarLink",
+    "chain_from_table",
+    "chain_to_urdf",
+    "escape",
+    "main",
+    "write_urdf",
+]
 
 if __name__ == "__main__":
     raise SystemExit(main())

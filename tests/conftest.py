@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ffsm_pin.planar_urdf import PlanarBody, PlanarChain, PlanarLink, write_urdf
 from ffsm_pin.robot import FreeFloatingRobot, load_robot
+from ffsm_pin.robot.writer import PlanarBody, PlanarChain, PlanarLink, write_urdf
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
 SEED = 20190611

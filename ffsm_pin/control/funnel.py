@@ -76,6 +76,7 @@ class FunnelParams:
 
     @property
     def size(self) -> int:
+        """Number of error components the funnel bounds."""
         return len(self.rho0)
 
     def rho_and_rate(self, t):
@@ -157,6 +158,7 @@ class Funnel:
         return np.minimum(self.upper - s, s - self.lower)
 
     def inside(self, t: float, error) -> bool:
+        """True when every component of ``error`` is strictly inside the funnel at ``t``."""
         return bool(np.all(self.margin(t, error) > 0))
 
     def evaluate(self, t, error) -> FunnelEval:
@@ -184,6 +186,8 @@ class IdentityFunnel(Funnel):
     """
 
     def evaluate(self, t, error) -> FunnelEval:
+        """psi, Phi (Eqs. 18-24) of ``error`` at ``t`` without the funnel: psi = error,
+        Phi = 1."""
         one = np.ones(self.params.size)
         zero = np.zeros(self.params.size)
         margin = self.margin(np.real(t), np.real(error))

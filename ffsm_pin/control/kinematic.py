@@ -104,6 +104,7 @@ class ComplexStepMomentum:
         self._basis = np.eye(model.n_joints + model.m3)[: model.m3]
 
     def momentum_matrices(self, theta_b, q_b, q_m):
+        """(H_bb, H_bm) of the estimated model, complex-step safe (Eq. 14)."""
         m, m3 = self.model, self.m3
         if not any(np.iscomplexobj(x) for x in (theta_b, q_b, q_m)):
             return m.momentum_matrices(theta_b, q_b, q_m)

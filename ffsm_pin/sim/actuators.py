@@ -169,7 +169,7 @@ class Actuators:
         return out
 
     def _next_noise(self) -> np.ndarray:
-        """This period's torque noise [N m] (zeros without noise); BLOCK periods are drawn at
+        """The torque noise of this period [N m] (zeros without noise); BLOCK periods are drawn at
         once, the same numbers as one draw per period from the same stream."""
         if not self.noisy:
             return self._zeros

@@ -394,6 +394,7 @@ class Console:
         self._interval = 0.1 if _isatty(self.stream) else 2.0  # [s] between redraws
 
     def start(self, name: str, duration: float, dt: float) -> None:
+        """Open the progress bar of a run of ``duration`` [s] in steps of ``dt`` [s]."""
         from tqdm import tqdm  # the same progress library as the campaigns (ffsm_pin.sweep)
 
         self._close()
@@ -441,6 +442,7 @@ class Console:
             self._bar = None
 
     def warn(self, message: str) -> None:
+        """Print a ``warning:`` line without breaking the progress bar (unless quiet)."""
         if self.quiet:
             return
         self.clear()

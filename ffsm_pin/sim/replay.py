@@ -98,6 +98,7 @@ class SceneRecorder:
         self.tree = SceneTree()
 
     def send(self, command) -> None:
+        """Record one meshcat command (as meshcat's visualizer would send it)."""
         data = command.lower()
         packed = umsgpack.packb(data)
         kind = data["type"]
@@ -130,7 +131,7 @@ class SceneRecorder:
         return _HTML.format(mainminjs=_viewer_js(), commands="".join(commands))
 
     def close(self) -> None:
-        pass
+        """Nothing to close: the recording lives in memory."""
 
 
 def write_replay_html(

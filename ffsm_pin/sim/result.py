@@ -280,7 +280,7 @@ class RunResult:
         return out
 
     def thinned(self, max_rows: int) -> RunResult:
-        """This result with at most about ``max_rows`` evenly spaced rows (and the last one)
+        """The result with at most about ``max_rows`` evenly spaced rows (and the last one)
         of every per-row signal, for figures and replays; ``self`` when it has no more."""
         n = len(self.signals["t"])
         if n <= max_rows:

@@ -174,6 +174,8 @@ class SatelliteModel(_Table):
 
 
 class RobotModel(_Table):
+    """``[robot]``: the URDF, its root (planar or free-flyer), end effector, satellite."""
+
     urdf: str = "ffsm_planar4.urdf"
     base: Literal[tuple(TASK_SIZE)] = "planar"
     end_effector: str = "ee"
@@ -182,6 +184,7 @@ class RobotModel(_Table):
 
     @model_validator(mode="after")
     def spatial_only(self):
+        """Refuse locked joints and a satellite body on a planar robot."""
         if (self.locked_joints or self.satellite is not None) and self.base != "free-flyer":
             fail(("locked_joints",), " and [robot.satellite] apply only to base = 'free-flyer'")
         return self
@@ -195,6 +198,8 @@ def _unit_quaternion(q: list[float]) -> list[float]:
 
 
 class InitialModel(_Table):
+    """``[initial]``: the initial base pose, joints and rates."""
+
     base_pose: Vec  # planar x, y, q_b [m, rad]; spatial x, y, z [m] + MRP (or rpy / quaternion)
     base_attitude_rpy: vec(3) | None = None  # [rad], free-flyer only
     base_attitude_quaternion: vec(4) | None = None  # (x, y, z, w), free-flyer only
@@ -209,10 +214,12 @@ class InitialModel(_Table):
     @field_validator("base_attitude_quaternion")
     @classmethod
     def unit_quaternion(cls, q: list[float] | None) -> list[float] | None:
+        """Refuse a quaternion that is not of unit norm."""
         return q if q is None else _unit_quaternion(q)
 
     @model_validator(mode="after")
     def rates_and_attitude(self):
+        """Refuse two initial base attitudes."""
         # the lengths of joints and joint_rates are checked against the robot's joint count
         # where the robot is known (run.initial_state), so the list that is wrong is blamed
         if self.base_attitude_rpy is not None and self.base_attitude_quaternion is not None:
@@ -247,6 +254,8 @@ EE_KEYS = ("ee", "ee_file", "ee_samples", "ee_waypoints")
 
 
 class ReferenceModel(_Table):
+    """``[reference]``: the task and its end-effector reference (one of the EE keys)."""
+
     task: Literal[TASKS] = "pose"
     origin: Literal[ORIGINS] = "absolute"  # "initial": c and base_attitude from the start pose
     base_attitude: Vec | None = None  # planar angle [rad], spatial MRP; default zeros
@@ -257,6 +266,7 @@ class ReferenceModel(_Table):
 
     @model_validator(mode="after")
     def one_reference(self):
+        """Exactly one of ``ee``, ``ee_file``, ``ee_samples``, ``ee_waypoints``."""
         given = [k for k in EE_KEYS if getattr(self, k) is not None]
         if not given:
             fail(("ee",), f": missing; give one of {choices_text(EE_KEYS)}")
@@ -295,6 +305,8 @@ class FunnelModel(_Table):
 
 
 class EstimatesModel(_Table):
+    """``[controller.estimates]``: how the initial parameter estimates are made."""
+
     initial: Literal[ESTIMATE_KINDS] = "paper"
     spread: Fraction = 0.3
     seed: int = 0
@@ -304,6 +316,7 @@ class EstimatesModel(_Table):
 
     @model_validator(mode="after")
     def explicit_thetas(self):
+        """``initial = "explicit"`` needs all three thetas, and only then."""
         p, thetas = "controller.estimates", ("theta_z", "theta_d", "theta_b")
         missing = [k for k in thetas if getattr(self, k) is None]
         if self.initial == "explicit" and missing:
@@ -320,6 +333,8 @@ _SP = SingularityPolicy()
 
 
 class SingularityModel(_Table):
+    """``[controller.singularity]``: the damped pseudo-inverse policy."""
+
     threshold: Pos = _SP.threshold  # [m]
     max_damped_time: Pos = _SP.max_damped_time  # [s]
 
@@ -333,6 +348,7 @@ class NullSpaceModel(_Table):
 
     @model_validator(mode="after")
     def center_with_centering(self):
+        """``center`` applies to the joint-centering objective only."""
         if self.center is not None and self.objective != "joint-centering":
             fail(
                 ("center",),
@@ -345,6 +361,8 @@ _G = Gains()
 
 
 class ControllerModel(_Table):
+    """``[controller]``: the controller type, its params, the paper's gains and funnels."""
+
     type: Annotated[str, Field(min_length=1)] = "lu-jia"  # control.registry
     params: dict[str, Any] = {}  # free table for the controller (docs/controllers.md)
     scheme: Literal[SCHEMES] = "ppc"
@@ -362,6 +380,8 @@ class ControllerModel(_Table):
 
 
 class SimModel(_Table):
+    """``[sim]``: duration, step, integrator."""
+
     duration: Pos = 30.0  # [s]
     dt: Pos = 1e-3  # [s]
     integrator: Literal[INTEGRATORS] = "semi-implicit"
@@ -369,6 +389,7 @@ class SimModel(_Table):
 
     @model_validator(mode="after")
     def dt_within_duration(self):
+        """Refuse a step longer than the run."""
         if self.dt > self.duration:
             fail(("dt",), f" = {self.dt} is longer than sim.duration = {self.duration}")
         return self
@@ -424,6 +445,7 @@ class ScenarioModel(_Table):
 
     @model_validator(mode="after")
     def robot_and_task_sizes(self):
+        """Check the sizes that depend on the robot's root and the task."""
         m2, n_b, n_ee = self.sizes
         spatial = self.robot.base == "free-flyer"
         ini, ref = self.initial, self.reference

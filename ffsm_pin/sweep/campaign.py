@@ -115,6 +115,7 @@ class Sample:
     params: tuple[float, float]
 
     def draw(self, rng: np.random.Generator) -> float:
+        """One value of the distribution from ``rng``."""
         a, b = self.params
         if self.distribution == "uniform":
             return float(rng.uniform(a, b))
@@ -166,6 +167,8 @@ class Campaign:
 
     @property
     def n_cases(self) -> int:
+        """Cases the campaign runs: per scenario, the nominal case and the grid times
+        ``repeat``."""
         grid = math.prod(len(v.values) for v in self.vary) * self.repeat
         return len(self.scenarios) * (1 + grid)
 
@@ -186,6 +189,7 @@ class Case:
     scenario: Scenario = field(repr=False, compare=False)
 
     def label(self) -> str:
+        """The case's grid point in words, as the report shows it."""
         if self.nominal:
             return "nominal" + "".join(f" {v}" for v in self.point.values())
         return ", ".join(f"{k} = {_fmt(v)}" for k, v in self.point.items()) or "all"

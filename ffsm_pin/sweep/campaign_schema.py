@@ -83,6 +83,8 @@ def _set_for(table: Any) -> Any:
 
 
 class CampaignTable(_Table):
+    """``[campaign]``: the scenario(s), per-scenario overrides and the run settings."""
+
     # a built-in scenario name or a file (relative to the campaign file), or a list of them
     scenario: Annotated[str | list[str], BeforeValidator(_scenarios)]
     # {scenario: {dotted key: value}}: overrides for that scenario's cases only
@@ -97,11 +99,15 @@ class CampaignTable(_Table):
 
 
 class VaryTable(_Table):
+    """One ``[[vary]]`` axis of the grid: a dotted scenario key and its values."""
+
     key: Key
     values: Annotated[list[Any], BeforeValidator(_values)]
 
 
 class Uniform(_Table):
+    """A ``[[sample]]`` key drawn uniformly from [low, high]."""
+
     key: Key
     distribution: Literal["uniform"]
     low: Num
@@ -109,17 +115,22 @@ class Uniform(_Table):
 
     @model_validator(mode="after")
     def low_below_high(self):
+        """Refuse an empty interval."""
         if not self.low < self.high:
             fail((), f": low = {self.low} must be < high = {self.high}")
         return self
 
 
 class LogUniform(Uniform):
+    """A ``[[sample]]`` key whose logarithm is uniform on [log low, log high], low > 0."""
+
     distribution: Literal["log-uniform"]  # type: ignore[assignment]
     low: Pos  # log-uniform needs low > 0
 
 
 class Normal(_Table):
+    """A ``[[sample]]`` key drawn from a normal distribution (mean, std > 0)."""
+
     key: Key
     distribution: Literal["normal"]
     mean: Num
@@ -144,6 +155,7 @@ class CampaignModel(_Table):
 
     @model_validator(mode="after")
     def keys_once(self):
+        """Refuse a key given twice, or one the campaign itself sets."""
         where: dict[str, str] = {}
         c = self.campaign
         names = c.scenario if isinstance(c.scenario, list) else [c.scenario]

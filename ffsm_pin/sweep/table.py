@@ -138,6 +138,7 @@ class ResultsTable:
         self.rows[case.case_hash] = {**dict(row), **case_columns(case)}
 
     def table(self) -> pa.Table:
+        """The rows so far as an Arrow table, sorted by case, with the file's column types."""
         rows = sorted(self.rows.values(), key=lambda r: r["case"])
         known = {**HEAD, **{k: None for k in self.key_columns}, **MIDDLE, **SUMMARY_TYPES}
         names = list(known)

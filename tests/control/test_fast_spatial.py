@@ -20,10 +20,10 @@ from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import ParameterError, SimulationError
 from ffsm_pin.model.spatial import SpatialBarycentricModel
 from ffsm_pin.robot import load_spatial_robot
+from ffsm_pin.robot.writer import SpatialBody, SpatialChain, SpatialLink, write_urdf
 from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sim.scenario import ComponentReference, Harmonic, Reference
 from ffsm_pin.sim.scenario_file import builtin_scenario
-from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_urdf
 
 SPATIAL9 = Path(__file__).resolve().parents[2] / "urdf" / "spatial9.urdf"
 OUTPUTS = ("u_m", "w_mc", "w_mc_dot", "err_b", "err_z", "w_tilde")
@@ -39,7 +39,7 @@ def _inertia(rng, scale):
 
 @pytest.fixture(scope="module")
 def robots(tmp_path_factory):
-    """``robots(name)``: "random7", "random9" (random chains from ffsm_pin.spatial_urdf: any
+    """``robots(name)``: "random7", "random9" (random chains from ffsm_pin.robot.writer: any
     axes, CoMs off axis, full inertias) or "spatial9" (urdf/spatial9.urdf)."""
     folder = tmp_path_factory.mktemp("fast_spatial")
     cache = {}

@@ -22,10 +22,10 @@ from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import InfeasibleTaskError
 from ffsm_pin.model.spatial import SpatialBarycentricModel
 from ffsm_pin.robot import load_spatial_robot
+from ffsm_pin.robot.writer import SpatialBody, SpatialChain, SpatialLink, write_urdf
 from ffsm_pin.sim.run import Sensor, prepare, simulate
 from ffsm_pin.sim.scenario import ComponentReference, Reference
 from ffsm_pin.sim.scenario_file import builtin_scenario
-from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_urdf
 
 
 def _inertia(rng, scale):

@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from ffsm_pin.errors import ParameterError
 from ffsm_pin.model.planar import BarycentricModel
 from ffsm_pin.model.state import State as FloatingBaseState
-from ffsm_pin.planar_urdf import PlanarBody, PlanarChain, PlanarLink, write_urdf
 from ffsm_pin.robot import load_robot
+from ffsm_pin.robot.writer import PlanarBody, PlanarChain, PlanarLink, write_urdf
 
 # Barycentric closed form vs Pinocchio's algorithms: both are exact formulas evaluated in double
 # precision (observed differences ~1e-14 of the magnitude); 1e-10 of max(|expected|, 1) leaves

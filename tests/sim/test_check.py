@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from ffsm_pin.planar_urdf import chain_from_table, write_urdf
 from ffsm_pin.robot import urdf_dir
+from ffsm_pin.robot.writer import chain_from_table, write_urdf
 from ffsm_pin.sim.cli import main
 from ffsm_pin.sim.scenario_file import BUILTIN
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ffsm_pin.planar_urdf import chain_from_table, chain_to_urdf
 from ffsm_pin.robot import urdf_dir
+from ffsm_pin.robot.writer import chain_from_table, chain_to_urdf
 from ffsm_pin.sim import compile_note
 from ffsm_pin.sim.result import CONTRACT_KEYS, EXTRA_KEYS, TRUTH_KEYS
 from ffsm_pin.sim.scenario_file import builtin_path, load_scenario

@@ -204,10 +204,10 @@ def test_every_spatial_builtin_prepares(name):
 
 
 def test_spatial9_urdf_is_its_table():
-    """The shipped 9-joint arm is exactly what ffsm_pin.spatial_urdf writes from its table."""
+    """The shipped 9-joint arm is exactly what ffsm_pin.robot.writer writes from its table."""
     import tomllib
 
-    from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
+    from ffsm_pin.robot.writer import chain_from_table, chain_to_urdf
 
     folder = urdf_dir()
     table = tomllib.loads((folder / "spatial9.toml").read_text())

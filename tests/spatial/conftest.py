@@ -1,7 +1,7 @@
 """Fixtures of the spatial model tests.
 
 ``spatial_chain(n_links, seed) -> SpatialRobot`` (session): a random spatial chain written by
-``ffsm_pin.spatial_urdf`` into a temporary folder and loaded: random unit joint axes, random
+``ffsm_pin.robot.writer`` into a temporary folder and loaded: random unit joint axes, random
 joint-origin rotations and offsets, CoMs off the joint axes, full inertia tensors (random
 principal axes, principal moments satisfying the triangle inequality), an end-effector frame
 with a random pose. Deterministic in (n_links, seed), cached.
@@ -16,7 +16,7 @@ import pytest
 
 from ffsm_pin.attitude import mrp
 from ffsm_pin.robot import load_spatial_robot
-from ffsm_pin.spatial_urdf import SpatialBody, SpatialChain, SpatialLink, write_urdf
+from ffsm_pin.robot.writer import SpatialBody, SpatialChain, SpatialLink, write_urdf
 
 
 def random_inertia(rng, scale):

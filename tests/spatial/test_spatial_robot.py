@@ -11,7 +11,6 @@ import pinocchio as pin
 import pytest
 
 from ffsm_pin import load_robot
-from ffsm_pin._urdf_cli import tomllib
 from ffsm_pin.errors import (
     FrameNotFoundError,
     InertiaError,
@@ -21,14 +20,14 @@ from ffsm_pin.errors import (
     UrdfError,
 )
 from ffsm_pin.robot import EXAMPLE_ROBOTS, Satellite, load_spatial_robot
-from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
+from ffsm_pin.robot.writer import chain_from_table, chain_to_urdf, read_table
 
 PANDA_LOCK = {"panda_finger_joint1": 0.02, "panda_finger_joint2": 0.02}
 
 
 @pytest.fixture(scope="module")
 def table(data_dir):
-    return tomllib.loads((data_dir / "spatial3.toml").read_text())
+    return read_table(data_dir / "spatial3.toml")
 
 
 @pytest.fixture

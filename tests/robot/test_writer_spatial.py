@@ -1,4 +1,4 @@
-"""The spatial URDF generator (ffsm_pin.spatial_urdf): the command line writes what the
+"""The spatial URDF writer (ffsm_pin.robot.writer.spatial): the command line writes what the
 Python API writes, and bad tables are refused naming the key (the loaded geometry of a
 generated URDF is checked in tests/spatial/test_spatial_robot.py)."""
 
@@ -10,29 +10,29 @@ from pathlib import Path
 
 import pytest
 
-from ffsm_pin._urdf_cli import tomllib
 from ffsm_pin.errors import ParameterError
-from ffsm_pin.spatial_urdf import chain_from_table, chain_to_urdf
+from ffsm_pin.robot.writer import chain_to_urdf, read_table
+from ffsm_pin.robot.writer.spatial import chain_from_table
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 TABLE = REPO / "tests" / "data" / "spatial3.toml"
 
 
 def test_command_line_writes_the_api_text(tmp_path):
     out = tmp_path / "spatial3.urdf"
     subprocess.run(
-        [sys.executable, "-m", "ffsm_pin.spatial_urdf", str(TABLE), "-o", str(out)],
+        [sys.executable, "-m", "ffsm_pin.robot.writer", str(TABLE), "-o", str(out)],
         check=True,
         cwd=REPO,
     )
-    assert out.read_text() == chain_to_urdf(chain_from_table(tomllib.loads(TABLE.read_text())))
+    assert out.read_text() == chain_to_urdf(chain_from_table(read_table(TABLE)))
 
 
 def test_command_line_bad_table_is_one_error_line(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[base]\nmass = 1.0\ninertia = [1, 0, 0, 1, 0]\n[[links]]\nmass = 1.0\n")
     proc = subprocess.run(
-        [sys.executable, "-m", "ffsm_pin.spatial_urdf", str(bad)],
+        [sys.executable, "-m", "ffsm_pin.robot.writer", str(bad)],
         capture_output=True,
         text=True,
         cwd=REPO,
@@ -53,7 +53,7 @@ def test_command_line_bad_table_is_one_error_line(tmp_path):
     ],
 )
 def test_bad_tables_name_the_key(edit, match):
-    table = tomllib.loads(TABLE.read_text())
+    table = read_table(TABLE)
     edit(table)
     with pytest.raises(ParameterError, match=match):
         chain_from_table(table)

@@ -1,5 +1,6 @@
-"""The URDF generator (ffsm_pin.planar_urdf): tables round-trip through the loader, the command
-line reproduces the committed URDFs byte for byte, bad tables are refused naming the key."""
+"""The planar URDF writer (ffsm_pin.robot.writer.planar): tables round-trip through the
+loader, the command line reproduces the committed URDFs byte for byte, bad tables are refused
+naming the key."""
 
 from __future__ import annotations
 
@@ -12,15 +13,16 @@ import numpy as np
 import pytest
 
 from ffsm_pin.errors import ParameterError
-from ffsm_pin.planar_urdf import PlanarLink, chain_from_table, chain_to_urdf, write_urdf
 from ffsm_pin.robot import load_robot
+from ffsm_pin.robot.writer import PlanarLink, chain_to_urdf, write_urdf
+from ffsm_pin.robot.writer.planar import chain_from_table
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 TABLES = [
     REPO / "urdf" / "ffsm_planar4.toml",
     REPO / "tests" / "data" / "planar5_collinear.toml",
@@ -31,7 +33,8 @@ ATOL = 1e-14
 
 
 def expected_geometry(table: dict) -> dict:
-    """What the table means, read directly (defaults as documented in planar_urdf)."""
+    """What the table means, read directly (defaults as documented in
+    ffsm_pin/robot/writer/planar.py)."""
     base, links = table["base"], table["links"]
     tips = [lk.get("tip", [lk["length"], 0.0]) for lk in links]
     return {
@@ -94,7 +97,7 @@ def test_random_chains_round_trip(random_chain, make_chain, offaxis, seed):
 
 def _cli(*args, cwd=REPO):
     return subprocess.run(
-        [sys.executable, "-m", "ffsm_pin.planar_urdf", *map(str, args)],
+        [sys.executable, "-m", "ffsm_pin.robot.writer", *map(str, args)],
         cwd=cwd,
         capture_output=True,
         check=False,
