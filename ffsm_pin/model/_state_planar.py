@@ -41,14 +41,27 @@ def base_twist_to_local(q: np.ndarray, twist_world) -> np.ndarray:
     return np.array([c * vx + s * vy, -s * vx + c * vy, wb])
 
 
+def fill_dynamics(st, q: np.ndarray, v: np.ndarray) -> None:
+    """Set only ``st.M``, ``st.h`` (Eqs. 9a, 8), ``st.mass_matrix`` and
+    ``st.nonlinear_effects`` for the plant state (q, v): what a controller that is given the
+    true model needs each period (:meth:`ffsm_pin.model.state.State.update_dynamics`)."""
+    model, data = st.model, st.data
+    M = pin.crba(model, data, q).copy()
+    M = np.triu(M) + np.triu(M, 1).T
+    h = pin.rnea(model, data, q, v, np.zeros(model.nv)).copy()
+    Mtt_inv_Mtr = np.linalg.solve(M[_T, _T], np.column_stack((M[_T, _R], h[_T])))
+    st.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv)
+    st.nonlinear_effects = read_only(h)  # full RNEA velocity terms (nv)
+    st.M = read_only(M[_R, _R] - M[_R, _T] @ Mtt_inv_Mtr[:, :-1])  # Eq. (9a)
+    st.h = read_only(h[_R] - M[_R, _T] @ Mtt_inv_Mtr[:, -1])  # C(q, w) w, Eq. (8)
+
+
 def fill(st, q: np.ndarray, v: np.ndarray) -> None:
     """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
     plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
     model, data = st.model, st.data
 
-    M = pin.crba(model, data, q).copy()
-    M = np.triu(M) + np.triu(M, 1).T
-    h = pin.rnea(model, data, q, v, np.zeros(model.nv)).copy()
+    fill_dynamics(st, q, v)
     pin.ccrba(model, data, q, v)  # Ag, hg, com about the CoM (world-aligned)
     Ag = data.Ag.copy()
     hg = data.hg.copy()
@@ -59,11 +72,6 @@ def fill(st, q: np.ndarray, v: np.ndarray) -> None:
     J_com = pin.jacobianCenterOfMass(model, data, q, False)
     oMe = data.oMf[st.ee_frame_id]
 
-    Mtt_inv_Mtr = np.linalg.solve(M[_T, _T], np.column_stack((M[_T, _R], h[_T])))
-    st.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv)
-    st.nonlinear_effects = read_only(h)  # full RNEA velocity terms (nv)
-    st.M = read_only(M[_R, _R] - M[_R, _T] @ Mtt_inv_Mtr[:, :-1])  # Eq. (9a)
-    st.h = read_only(h[_R] - M[_R, _T] @ Mtt_inv_Mtr[:, -1])  # C(q, w) w, Eq. (8)
     st.H_bb = read_only(Ag[5:6, 2:3].copy())  # Eq. (13)
     st.H_bm = read_only(Ag[5:6, 3:].copy())
     st.centroidal_map = read_only(Ag)

@@ -48,9 +48,11 @@ def reaction_torque(M_bb, M_bb_dot, w_b, w_b_dot) -> np.ndarray:
     )
 
 
-def fill(st, q: np.ndarray, v: np.ndarray) -> None:
-    """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
-    plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
+def fill_dynamics(st, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Set only ``st.M``, ``st.h`` (Eqs. 9a, 8), ``st.mass_matrix`` and
+    ``st.nonlinear_effects`` for the plant state (q, v), and return R_0: what a controller
+    that is given the true model needs each period
+    (:meth:`ffsm_pin.model.state.State.update_dynamics`)."""
     model, data = st.model, st.data
     nv = model.nv
     R0 = pin.Quaternion(q[3:7]).normalized().toRotationMatrix()
@@ -62,15 +64,6 @@ def fill(st, q: np.ndarray, v: np.ndarray) -> None:
     a_corr = np.zeros(nv)
     a_corr[:3] = mrp.skew(v_B) @ w_B
     h = pin.rnea(model, data, q, v, a_corr).copy()  # M T_dot x + h, Pinocchio rows
-    pin.dccrba(model, data, q, v)  # Ag and its time derivative dAg, about the CoM
-    dAg = data.dAg.copy()
-    Ag = data.Ag.copy()
-    hg = Ag @ v  # centroidal momentum (P, L about the CoM)
-    com = data.com[0].copy()
-    pin.computeJointJacobians(model, data, q)
-    pin.updateFramePlacements(model, data)
-    J_ee = pin.getFrameJacobian(model, data, st.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
-    oMe = data.oMf[st.ee_frame_id]
 
     # x-coordinates: M_x = T^T M T, h_x = T^T h
     Mx = M.copy()
@@ -87,6 +80,25 @@ def fill(st, q: np.ndarray, v: np.ndarray) -> None:
     st.nonlinear_effects = read_only(h - M[:, :3] @ a_corr[:3])  # RNEA(q, v, 0) (nv)
     st.M = read_only(Mx[_R, _R] - Mx[_R, _T] @ sol[:, :-1])  # Eq. (9a)
     st.h = read_only(hx[_R] - Mx[_R, _T] @ sol[:, -1])  # C(q, w) w, Eq. (8)
+    return R0
+
+
+def fill(st, q: np.ndarray, v: np.ndarray) -> None:
+    """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
+    plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
+    model, data = st.model, st.data
+    nv = model.nv
+    R0 = fill_dynamics(st, q, v)
+    v_B, w_B = v[:3], v[3:6]
+    pin.dccrba(model, data, q, v)  # Ag and its time derivative dAg, about the CoM
+    dAg = data.dAg.copy()
+    Ag = data.Ag.copy()
+    hg = Ag @ v  # centroidal momentum (P, L about the CoM)
+    com = data.com[0].copy()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    J_ee = pin.getFrameJacobian(model, data, st.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
+    oMe = data.oMf[st.ee_frame_id]
 
     # angular momentum rows about the CoM, in w = (w_b inertial, dq_m): Eq. (13)
     H = np.empty((3, nv - 3))

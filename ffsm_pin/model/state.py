@@ -68,6 +68,23 @@ class State:
         self._filler.fill(self, q, v)
         return self
 
+    def update_dynamics(self, q, v) -> State:
+        """Compute only ``M``, ``h`` (Eqs. 9a, 8), ``mass_matrix`` and ``nonlinear_effects``
+        for the plant state (q, v), the same numbers :meth:`update` gives; every other
+        quantity keeps the value of an earlier :meth:`update`. What a controller given the
+        true model needs each period, at a fraction of the cost."""
+        model = self.model
+        q = np.array(q, dtype=float)
+        v = np.array(v, dtype=float)
+        if q.shape != (model.nq,) or v.shape != (model.nv,):
+            raise ValueError(
+                f"state shapes must be q ({model.nq},) and v ({model.nv},), "
+                f"got {q.shape} and {v.shape}"
+            )
+        self.q, self.v = read_only(q), read_only(v)
+        self._filler.fill_dynamics(self, q, v)
+        return self
+
     @property
     def joint_angles(self) -> np.ndarray:
         """q_m [rad] of the last :meth:`update`."""

@@ -36,6 +36,7 @@ class Sensor:
         self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
 
     def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
+        """The exact measurement at time ``t`` [s] of the plant state (q, v)."""
         if self.spatial:
             return self._measure_spatial(t, q, v)
         q_b = math.atan2(q[3], q[2])
@@ -50,7 +51,7 @@ class Sensor:
         z_e_dot = np.array([vel.linear[0], vel.linear[1], vel.angular[2]])
         M = h = None
         if self.full_model:
-            self.state.update(q, v)
+            self.state.update_dynamics(q, v)  # M, h only
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
 
@@ -67,6 +68,6 @@ class Sensor:
         w = np.concatenate((R0 @ v[3:6], v[6:]))
         M = h = None
         if self.full_model:
-            self.state.update(q, v)
+            self.state.update_dynamics(q, v)  # M, h only
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)

@@ -94,3 +94,17 @@ def test_old_module_paths_still_import_with_a_warning():
     with pytest.warns(DeprecationWarning, match="ffsm_pin.model.state"):
         from ffsm_pin.state import FloatingBaseState
     assert FloatingBaseState is State
+
+
+def test_update_dynamics_gives_the_numbers_of_update(robot, rng):
+    """The known-model controller's per-period path (M, h only) is the full update's
+    arithmetic: bitwise equal (the full update's M, h are checked against Pinocchio's ABA in
+    tests/model/test_state.py)."""
+    for _ in range(3):
+        q, v, _ = _state(robot, rng)
+        full = State(robot).update(q, v)
+        lean = State(robot).update_dynamics(q, v)
+        for key in ("M", "h", "mass_matrix", "nonlinear_effects"):
+            np.testing.assert_array_equal(getattr(lean, key), getattr(full, key), err_msg=key)
+    with pytest.raises(ValueError, match="state shapes"):
+        State(robot).update_dynamics(q[:-1], v)
