@@ -21,6 +21,7 @@ becomes non-finite. Damping of the pseudo-inverse is announced by a
 
 from __future__ import annotations
 
+import importlib
 import warnings
 from typing import NamedTuple
 
@@ -218,20 +219,17 @@ class CoordinatedController:
             )
         if backend == "numpy" or not (spatial or (self.adaptive and planar_pose)):
             return "numpy"
-        try:
-            if spatial:
-                from . import fast_spatial as fast
-            else:
-                from . import fast
+        try:  # the compiled module of this geometry (imports numba)
+            kernels = importlib.import_module(".fast_spatial" if spatial else ".fast", __package__)
         except ImportError:
             if backend == "numba":
                 raise
             return "numpy"
-        self._fast = fast
+        self._fast = kernels
         if spatial:
-            self._setup_spatial(fast)
+            self._setup_spatial(kernels)
         else:
-            self._setup_planar(fast)
+            self._setup_planar(kernels)
         self._warm_up()
         return "numba"
 
@@ -291,7 +289,10 @@ class CoordinatedController:
         """Compile (or load from numba's cache) the kernel now, on copies of the states, so
         that the first control period of a run is not the one that pays for it."""
         saved = (self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df)
-        self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = (x.copy() for x in saved)
+        self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = (
+            self.theta_z.copy(), self.theta_d.copy(), self.theta_b.copy(), self.w_hat.copy(),
+            self.Y_df.copy(),
+        )  # fmt: skip
         m0 = self._initial
         if m0.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             m0 = m0._replace(M=np.eye(len(m0.w)), h=np.zeros(len(m0.w)))
@@ -388,6 +389,7 @@ class CoordinatedController:
             w_hat = self.w_hat
         else:  # known model: computed torque on the true reduced dynamics
             w_tilde = np.zeros_like(w)
+            assert meas.M is not None and meas.h is not None  # the sensor's full model
             M_hat, r, w_hat = meas.M, -meas.h, w
         mi = manifold_input(M_hat, r, w_hat, kc.w_mc, kc.w_mc_dot, kc.dwmc_dwb, g.k_d, t)
         if not np.all(np.isfinite(mi.u_m)):

@@ -177,7 +177,7 @@ class KinematicLaw:
         funnel_b: Funnel,
         funnel_z: Funnel,
         reference,
-        base_attitude_ref: float,
+        base_attitude_ref: float | np.ndarray,
         threshold: float,
         attitude: bool = True,
         null_space: NullSpace | None = None,

@@ -42,6 +42,32 @@ class State:
         A loaded :class:`~ffsm_pin.robot.Robot` (planar or free-flyer root).
     """
 
+    # set by update() (update_dynamics(): the first four only); read-only arrays
+    M: np.ndarray  # Eq. (9a) [kg m^2]
+    h: np.ndarray  # C(q, w) w, Eq. (8) [N m]
+    mass_matrix: np.ndarray  # Pinocchio's CRBA matrix (nv x nv)
+    nonlinear_effects: np.ndarray  # Pinocchio's RNEA(q, v, 0)
+    H_bb: np.ndarray  # Eq. (13)
+    H_bm: np.ndarray
+    J_b: np.ndarray  # Eq. (3)
+    J_m: np.ndarray
+    centroidal_map: np.ndarray
+    linear_momentum: np.ndarray  # P [kg m/s]
+    angular_momentum: float | np.ndarray  # L about the CoM: planar a number [kg m^2/s]
+    com_position: np.ndarray  # [m]
+    com_velocity: np.ndarray  # v_0 [m/s]
+    base_attitude: float | np.ndarray  # q_b: planar angle [rad], spatial MRP
+    ee_pose: np.ndarray  # z_e
+    w: np.ndarray  # (w_b, w_m) [rad/s]
+    base_twist_world: np.ndarray
+    # free-flyer root only
+    M_bb_dot: np.ndarray
+    L_b: np.ndarray  # Eq. (1)
+    base_rotation: np.ndarray
+    ee_rotation: np.ndarray
+    ee_angular_jacobian: np.ndarray
+    base_velocity_world: np.ndarray
+
     def __init__(self, robot: Robot):
         self.robot = robot
         self.model = robot.model

@@ -37,12 +37,12 @@ def initial_estimates(scenario: Scenario, model: ReducedModel, truth):
     if est.initial == "perturbed":
         return perturbed_estimates(model, truth, est.spread, est.seed)
     out = []
-    for name, vec, size in (
+    for name, given, size in (
         ("theta_z", est.theta_z, model.n_z),
         ("theta_d", est.theta_d, model.n_d),
         ("theta_b", est.theta_b, model.n_b),
     ):
-        vec = np.asarray(vec, dtype=float)
+        vec = np.asarray(given, dtype=float)
         if vec.shape != (size,):
             raise ScenarioError(
                 f"controller.estimates.{name} has {vec.size} entries, this robot needs {size} "

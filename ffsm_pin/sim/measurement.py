@@ -47,10 +47,11 @@ class Sensor:
         oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
         vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
         q_m = q[4:].copy()
-        z_e = np.array([oMf.translation[0], oMf.translation[1], self.model.ee_angle(q_b, q_m)])
+        ee_angle = self.model.ee_angle  # type: ignore[attr-defined]  # the planar model's
+        z_e = np.array([oMf.translation[0], oMf.translation[1], ee_angle(q_b, q_m)])
         z_e_dot = np.array([vel.linear[0], vel.linear[1], vel.angular[2]])
         M = h = None
-        if self.full_model:
+        if self.state is not None:  # full_model
             self.state.update_dynamics(q, v)  # M, h only
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
@@ -67,7 +68,7 @@ class Sensor:
         z_e_dot = np.concatenate((vel.linear, mrp.L_matrix(q_e, R_e) @ vel.angular))
         w = np.concatenate((R0 @ v[3:6], v[6:]))
         M = h = None
-        if self.full_model:
+        if self.state is not None:  # full_model
             self.state.update_dynamics(q, v)  # M, h only
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)

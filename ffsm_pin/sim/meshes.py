@@ -22,7 +22,7 @@ import io
 import os
 import warnings
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
 from typing import NamedTuple
@@ -108,7 +108,7 @@ def resolve_mesh(filename: str, base_dir: Path | None, package_dirs: Sequence[Pa
         for d in package_dirs:
             if (d / rest).is_file():
                 return (d / rest).resolve()
-    handlers = []
+    handlers: list[Callable[[str], str]] = []
     if base_dir is not None:
         handlers.append(partial(filename_handler_magic, dir=str(base_dir)))
     elif filename.startswith("file://") or os.path.isabs(filename):
@@ -169,7 +169,7 @@ def compact_mesh(obj: pin.GeometryObject) -> mg.Mesh:
     import trimesh  # noqa: PLC0415 - only for robots whose meshes exceed the size budget
 
     scene = trimesh.load(obj.meshPath, force="scene")
-    parts = scene.dump()  # meshes in the file's root frame
+    parts = scene.dump()  # type: ignore[attr-defined]  # a Scene (force="scene"): its meshes in the file's root frame
     mesh = trimesh.util.concatenate(parts) if len(parts) > 1 else parts[0]
     if obj.overrideMaterial:
         rgba = np.asarray(obj.meshColor, dtype=float)
@@ -185,7 +185,7 @@ def compact_mesh(obj: pin.GeometryObject) -> mg.Mesh:
                 areas.append(part.area)
         rgba = np.average(colors, axis=0, weights=areas) if colors else np.array(_DEFAULT_RGBA)
     scale = np.diag([*np.asarray(obj.meshScale, dtype=float), 1.0])
-    stl = mg.StlMeshGeometry.from_stream(io.BytesIO(mesh.export(file_type="stl")))
+    stl = mg.StlMeshGeometry.from_stream(io.BytesIO(mesh.export(file_type="stl")))  # type: ignore[call-arg]  # trimesh's stubs: file_obj is optional
     return mg.Mesh(_Placed(stl, scale), material(rgba))
 
 
@@ -232,7 +232,7 @@ class _Placed(mg.Geometry):
 def _root_link(root: ET.Element) -> str:
     children = {c.get("link") for c in root.iter("child")}
     roots = [link.get("name") for link in root.iter("link") if link.get("name") not in children]
-    return roots[0] if roots else ""
+    return (roots[0] or "") if roots else ""
 
 
 class _quiet_yourdfpy:

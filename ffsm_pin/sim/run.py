@@ -264,11 +264,14 @@ def _after_run_signals(setup: Setup):
     ref = setup.scenario.reference
     q_bd = np.asarray(ref.base_attitude, dtype=float)
     planar = setup.model.m3 == 1
+    funnel_b, funnel_z = setup.funnel_b, setup.funnel_z
+    assert funnel_b is not None and funnel_z is not None  # prepare() sets both
+    funnels = (("b", funnel_b), ("z", funnel_z))
 
     def per_row(block) -> dict[str, np.ndarray]:
         t = block["t"]
         out = {}
-        for name, funnel in (("b", setup.funnel_b), ("z", setup.funnel_z)):
+        for name, funnel in funnels:
             rho = funnel.rho(t[:, None])  # (samples, components)
             out[f"rho_{name}"] = rho
             out[f"bound_{name}_lower"] = funnel.lower * rho
@@ -457,6 +460,7 @@ def simulate(
         completed, stop_time, stop_cause = False, k * dt, "interrupted"
         stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
     wall = time.perf_counter() - wall0
+    per_row, truth = _after_run_signals(setup)
     if progress is not None:
         progress(min(k * dt, duration))
     kind = sc.controller.type
@@ -469,7 +473,7 @@ def simulate(
         wall_time_s=wall,
         completed=completed,
         stop_reason=stop_reason,
-        signals=extend(rec.finish(), *_after_run_signals(setup), AFTER_RUN_INPUTS),
+        signals=extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS),
         scenario_name=sc.name,
         stop_time=stop_time,
         stop_cause=stop_cause,

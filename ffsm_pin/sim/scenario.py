@@ -11,7 +11,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -91,6 +91,13 @@ class Reference:
     task: str = "pose"
     origin: str = "absolute"
     data: ReferenceData | None = None
+    if TYPE_CHECKING:  # set in __post_init__ (the kernels' arrays): not fields at run time
+        _c: np.ndarray = field(init=False)
+        _A: np.ndarray = field(init=False)
+        _amp: np.ndarray = field(init=False)
+        _freq: np.ndarray = field(init=False)
+        _phase: np.ndarray = field(init=False)
+        _pp: PiecewisePolynomial = field(init=False)
 
     def __post_init__(self) -> None:
         if self.data is not None and self.ee:

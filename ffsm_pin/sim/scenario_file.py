@@ -299,7 +299,11 @@ def _sensors(s: schema.SensorsModel) -> SensorSpec:
 
 
 def _vec(x: list[float] | None) -> tuple[float, ...] | None:
-    return None if x is None else tuple(float(v) for v in x)
+    return None if x is None else _floats(x)
+
+
+def _floats(x: list[float]) -> tuple[float, ...]:
+    return tuple(float(v) for v in x)
 
 
 def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
@@ -321,7 +325,7 @@ def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
 def _initial(ini: schema.InitialModel) -> InitialCondition:
     """Spatial attitude given as rpy or a unit quaternion (x, y, z, w): converted to the MRP
     on the |s| <= 1 branch and appended to base_pose = (x, y, z)."""
-    base_pose = _vec(ini.base_pose)
+    base_pose = _floats(ini.base_pose)
     if ini.base_attitude_rpy is not None or ini.base_attitude_quaternion is not None:
         from ..attitude import mrp
 
@@ -331,7 +335,7 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
             q = np.array(ini.base_attitude_quaternion)
             s = mrp.from_quaternion(q / np.linalg.norm(q))
         base_pose = base_pose + tuple(float(x) for x in s)
-    joints = _vec(ini.joints)
+    joints = _floats(ini.joints)
     rates = ini.base_rate, ini.angular_momentum
     rate, mom = (_vec(x) if isinstance(x, list) else x for x in rates)
     try:

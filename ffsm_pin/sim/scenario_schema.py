@@ -9,6 +9,9 @@ validator. :func:`first_error` turns a ``pydantic.ValidationError`` into the one
 (``controller.funnel.rho_b0[0]: ...``), with the valid choices or keys and a did-you-mean hint.
 """
 
+# mypy: disable-error-code="valid-type"
+# (the field types are built at run time, vec(n) and Literal over tables; pydantic checks them)
+
 from __future__ import annotations
 
 import math
@@ -639,8 +642,8 @@ def message(err: Mapping[str, Any], root: type[BaseModel]) -> str:
         )
     if kind in _NUMBER:
         if loc and isinstance(loc[-1], int):
-            where = key_path(loc[:-1])
-            return f"{where}: expected a list of numbers, [{loc[-1]}] is {describe(value)}"
+            at = key_path(loc[:-1])
+            return f"{at}: expected a list of numbers, [{loc[-1]}] is {describe(value)}"
         return f"{path}: expected a number, got {describe(value)}"
     if kind == "finite_number":
         return f"{path} = {value}: must be finite"
