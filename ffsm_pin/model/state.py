@@ -82,16 +82,7 @@ class State:
 
     def update(self, q, v) -> State:
         """Compute every quantity for the plant state (q, v) in Pinocchio conventions."""
-        model = self.model
-        q = np.array(q, dtype=float)
-        v = np.array(v, dtype=float)
-        if q.shape != (model.nq,) or v.shape != (model.nv,):
-            raise ValueError(
-                f"state shapes must be q ({model.nq},) and v ({model.nv},), "
-                f"got {q.shape} and {v.shape}"
-            )
-        self.q, self.v = read_only(q), read_only(v)
-        self._filler.fill(self, q, v)
+        self._filler.fill(self, *self._store(q, v))
         return self
 
     def update_dynamics(self, q, v) -> State:
@@ -99,6 +90,12 @@ class State:
         for the plant state (q, v), the same numbers :meth:`update` gives; every other
         quantity keeps the value of an earlier :meth:`update`. What a controller given the
         true model needs each period, at a fraction of the cost."""
+        self._filler.fill_dynamics(self, *self._store(q, v))
+        return self
+
+    def _store(self, q, v) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) as float arrays of the model's sizes (checked), kept read-only as
+        ``self.q``, ``self.v``."""
         model = self.model
         q = np.array(q, dtype=float)
         v = np.array(v, dtype=float)
@@ -108,8 +105,7 @@ class State:
                 f"got {q.shape} and {v.shape}"
             )
         self.q, self.v = read_only(q), read_only(v)
-        self._filler.fill_dynamics(self, q, v)
-        return self
+        return q, v
 
     @property
     def joint_angles(self) -> np.ndarray:
