@@ -37,8 +37,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .._arrays import read_only
-from ..errors import ParameterError
 from ..robot import PlanarGeometry
+from ._common import BarycentricCommon
 
 _COLLINEAR_TOL = 1e-12
 
@@ -99,7 +99,7 @@ class PlanarKernelConstants(NamedTuple):
     collinear: bool  # the paper's collinear layout (no Ds_kl parameters)
 
 
-class BarycentricModel:
+class BarycentricModel(BarycentricCommon):
     """The reduced, parametric free-floating model of a planar serial chain.
 
     Configuration arguments ``q_b`` [rad] and ``q_m`` [rad] are the base attitude and the
@@ -199,31 +199,6 @@ class BarycentricModel:
             self.S, self._phi_offset, self._K, self._L, self._ee_row, self.layout.collinear
         )
 
-    # ------------------------------------------------------------------ sizes, truth
-    @property
-    def n_z(self) -> int:
-        """n_1 = len(theta_z) (Eq. 4)."""
-        return self.layout.n_z
-
-    @property
-    def n_d(self) -> int:
-        """n_2 = len(theta_d) (Eq. 12)."""
-        return self.layout.n_d
-
-    @property
-    def n_b(self) -> int:
-        """n_3 = len(theta_b) = m3 + n_d (Eq. 14)."""
-        return self.layout.n_b
-
-    def true_theta_z(self, com_velocity) -> np.ndarray:
-        """theta_z for a CoM velocity v_0 [m/s] (the kinematic parameters of Eq. 4)."""
-        v0 = np.asarray(com_velocity, dtype=float).reshape(2)
-        return read_only(np.concatenate((v0, self._V_body)))
-
-    def true_theta_b(self, angular_momentum: float) -> np.ndarray:
-        """theta_b = col(A_0, theta_d) for the angular momentum A_0 about the CoM [kg m^2/s]."""
-        return read_only(np.concatenate(([float(angular_momentum)], self.theta_d)))
-
     # ------------------------------------------------------------------ configuration
     def body_angles(self, q_b, q_m) -> BodyAngles:
         """Trigonometry of one configuration, shared by every evaluator.
@@ -270,14 +245,6 @@ class BarycentricModel:
     def ee_angle(self, q_b: float, q_m) -> float:
         """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m)."""
         return self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m) + self._ee_angle_offset
-
-    def _check(self, theta, size, name):
-        theta = np.asarray(theta)
-        if theta.dtype.kind not in "fc":
-            theta = theta.astype(float)
-        if theta.shape != (size,):
-            raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
-        return theta
 
     def _expand_rates(self, dphi):
         return dphi if self.layout.collinear else np.repeat(dphi, 2)

@@ -49,6 +49,7 @@ from ..attitude import mrp
 from ..errors import ParameterError
 from ..robot import SpatialGeometry
 from . import _spatial_kernels as kern
+from ._common import BarycentricCommon
 from ._state_spatial import reaction_torque as _reaction_torque
 
 _H = 1e-20  # complex step (exact for the bilinear expressions here)
@@ -154,7 +155,7 @@ class SpatialKernelConstants(NamedTuple):
     ee_body: int  # body carrying the end effector (1..n)
 
 
-class SpatialBarycentricModel:
+class SpatialBarycentricModel(BarycentricCommon):
     """The reduced, parametric free-floating model of a spatial serial chain.
 
     Configuration arguments: ``q_b`` the base attitude as an MRP 3-vector, ``q_m`` the joint
@@ -233,40 +234,6 @@ class SpatialBarycentricModel:
         return SpatialKernelConstants(
             self._joint_rot_c, self._axes_c, self._ee_rot_c, int(self.geometry.ee_body)
         )
-
-    # ------------------------------------------------------------------ sizes, truth
-    @property
-    def n_z(self) -> int:
-        """n_1 = len(theta_z) (Eq. 4)."""
-        return self.layout.n_z
-
-    @property
-    def n_d(self) -> int:
-        """n_2 = len(theta_d) (Eq. 12)."""
-        return self.layout.n_d
-
-    @property
-    def n_b(self) -> int:
-        """n_3 = len(theta_b) = m3 + n_d (Eq. 14)."""
-        return self.layout.n_b
-
-    def true_theta_z(self, com_velocity) -> np.ndarray:
-        """theta_z for a CoM velocity v_0 [m/s] (inertial frame), Eq. (4)."""
-        v0 = np.asarray(com_velocity, dtype=float).reshape(3)
-        return read_only(np.concatenate((v0, self._V_body)))
-
-    def true_theta_b(self, angular_momentum) -> np.ndarray:
-        """theta_b = col(A_0, theta_d) for A_0 about the CoM [kg m^2/s] (3-vector), Eq. (14)."""
-        A0 = np.asarray(angular_momentum, dtype=float).reshape(3)
-        return read_only(np.concatenate((A0, self.theta_d)))
-
-    def _check(self, theta, size, name):
-        theta = np.asarray(theta)
-        if theta.dtype.kind not in "fc":
-            theta = theta.astype(float)
-        if theta.shape != (size,):
-            raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
-        return theta
 
     # ------------------------------------------------------------------ configuration
     def kinematics(self, q_b, q_m) -> Kinematics:
