@@ -459,8 +459,9 @@ def simulate(
     except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
         completed, stop_time, stop_cause = False, k * dt, "interrupted"
         stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
-    wall = time.perf_counter() - wall0
     per_row, truth = _after_run_signals(setup)
+    signals = extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS)
+    wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))
     kind = sc.controller.type
@@ -473,7 +474,7 @@ def simulate(
         wall_time_s=wall,
         completed=completed,
         stop_reason=stop_reason,
-        signals=extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS),
+        signals=signals,
         scenario_name=sc.name,
         stop_time=stop_time,
         stop_cause=stop_cause,
