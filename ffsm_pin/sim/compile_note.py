@@ -9,7 +9,7 @@ from pathlib import Path
 
 import ffsm_pin
 
-MESSAGE = "compiling the controller kernels (first run only, about 30 s)"
+MESSAGE = "compiling the controller kernels (first run only, about 30-45 s)"
 
 
 def cache_is_cold() -> bool:
