@@ -3,7 +3,9 @@
 * :func:`residual_54`: the paper's Eq. (54) residual ``e = M w~ + Y_df (theta_d - theta_d-hat)``
   (the paper's controller reports it, :mod:`.lu_jia`);
 * :func:`base_inertia`: the base block of the inertia M_bb and its time derivative along the
-  motion, from which the run loop forms the reaction torque of Eq. (7) for every controller:
+  motion;
+* :func:`reaction_torques`: from them, the reaction torque of Eq. (7) on a run's recorded
+  rows, computed after the run for every controller:
   ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` (planar), plus the gyroscopic
   ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
   against Pinocchio).
@@ -19,6 +21,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..model.interface import ReducedModel
 
 
@@ -86,3 +89,51 @@ def base_inertia(model: ReducedModel, theta_d: np.ndarray, compiled: bool) -> Ca
         return M[:m3, :m3], Mbb_dot
 
     return reference
+
+
+def reaction_torques(
+    model: ReducedModel, theta_d: np.ndarray, compiled: bool
+) -> Callable[..., np.ndarray]:
+    """f(q_b, q_m, w, dw_b) -> F_r of Eq. (7) on N recorded rows with the true model: q_b
+    (N, m3) [rad or MRP], q_m (N, n) [rad], w (N, n + m3) [rad/s], dw_b (N, m3) the base's
+    angular acceleration (inertial frame) [rad/s^2]; planar (N,), spatial (N, 3) [N m]."""
+    if compiled and model.m3 == 3:
+        from . import fast_spatial
+
+        jr, ax = model.kernel_constants()[:2]
+
+        def spatial_kernel(q_b, q_m, w, dw_b):
+            return fast_spatial.reaction_rows(jr, ax, *_rows(q_b, q_m, w, dw_b), theta_d)
+
+        return spatial_kernel
+    if compiled:
+        from . import fast
+
+        k = model.kernel_constants()
+        geo = (k.S, k.phi_offset, k.K, k.L, k.collinear)
+
+        def planar_kernel(q_b, q_m, w, dw_b):
+            q_b, q_m, w, dw_b = _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))
+            return fast.reaction_rows(*geo, q_b, q_m, w, dw_b, theta_d)
+
+        return planar_kernel
+    per_row = base_inertia(model, theta_d, False)
+    m3 = model.m3
+
+    def reference(q_b, q_m, w, dw_b):
+        out = np.empty((len(q_b),) if m3 == 1 else (len(q_b), m3))
+        for i in range(len(q_b)):
+            qb = q_b[i, 0] if m3 == 1 else q_b[i]
+            M_bb, M_bb_dot = per_row(qb, q_m[i], w[i])
+            if m3 == 1:
+                out[i] = M_bb * dw_b[i].item() + 0.5 * M_bb_dot * w[i, 0]
+            else:
+                out[i] = spatial_reaction_torque(M_bb, M_bb_dot, w[i, :3], dw_b[i])
+        return out
+
+    return reference
+
+
+def _rows(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """C-contiguous float copies (where needed) of a block of recorded rows."""
+    return tuple(np.ascontiguousarray(a, dtype=float) for a in arrays)

@@ -440,6 +440,18 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     return M[0, 0], (Ymd @ theta_d)[0]
 
 
+@njit(cache=True)
+def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
+    """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` with
+    (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N,), q_m (N, n), w (N, n + 1), dw_b (N,)."""
+    N = q_b.shape[0]
+    out = np.empty(N)
+    for i in range(N):
+        Mbb, Mbb_dot = base_inertia(S, off, K, L, collinear, q_b[i], q_m[i], w[i], theta_d)
+        out[i] = Mbb * dw_b[i] + 0.5 * Mbb_dot * w[i, 0]
+    return out
+
+
 # ---------------------------------------------------------------------- first compilation
 def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
     """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex values
@@ -470,6 +482,9 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
     residual_54(S, off, K, L, collinear, q_b, q_m, np.zeros(nb), np.zeros((nb, nd)),
                 theta_d, theta_d)  # fmt: skip
     base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d)
+    rows = np.zeros((1, w.size))
+    reaction_rows(S, off, K, L, collinear, np.zeros(1), np.zeros((1, q_m.size)), rows,
+                  np.zeros(1), theta_d)  # fmt: skip
 
 
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:

@@ -440,6 +440,23 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     return M[:3, :3].copy(), Mc[:3, :3].imag / _H
 
 
+@njit(cache=True)
+def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
+    """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b +
+    1/2 w_b x (M_bb w_b)`` (as :func:`ffsm_pin.model._state_spatial.reaction_torque`) with
+    (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N, 3), q_m (N, n), w (N, n + 3), dw_b (N, 3)
+    the base's angular acceleration in the inertial frame."""
+    N = q_b.shape[0]
+    out = np.empty((N, 3))
+    for i in range(N):
+        M, Md = base_inertia(jr, ax, q_b[i], q_m[i], w[i], theta_d)
+        wb = w[i, :3].copy()
+        sk = np.array([[0.0 * wb[0], -wb[2], wb[1]], [wb[2], 0.0 * wb[0], -wb[0]],
+                       [-wb[1], wb[0], 0.0 * wb[0]]])  # fmt: skip
+        out[i] = M @ dw_b[i].copy() + 0.5 * (Md @ wb) + 0.5 * (sk @ (M @ wb))
+    return out
+
+
 # ---------------------------------------------------------------------- first compilation
 def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
     """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex arrays
@@ -471,6 +488,8 @@ def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     _l_matrix(q_b, R[0])
     residual_54(jr, ax, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
     base_inertia(jr, ax, q_b, q_m, np.zeros(N), theta_d)
+    reaction_rows(jr, ax, np.zeros((1, 3)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, 3)),
+                  theta_d)  # fmt: skip
 
 
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:

@@ -30,6 +30,7 @@ EXTRA_KEYS = (
     "damping",  # lambda^2 of the damped pseudo-inverse (0 = undamped)
     "bound_b_lower", "bound_b_upper",  # funnel bounds on err_b (Eq. 16)
     "bound_z_lower", "bound_z_upper",  # funnel bounds on err_z (Eq. 17)
+    "dw_b",  # base angular acceleration (inertial frame) [rad/s^2], for F_r of Eq. (7)
 )  # fmt: skip
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..control.backend import numba_available
-from ..control.diagnostics import base_inertia
+from ..control.diagnostics import reaction_torques
 from ..control.funnel import Funnel
 from ..control.gains import GainWarning
 from ..control.interface import (
@@ -33,7 +33,6 @@ from ..control.kinematic import task_errors, task_size, wrap_angle
 from ..control.registry import controller_class
 from ..errors import ControllerLoadError, FfsmError, ScenarioError, SimulationError
 from ..model import ReducedModel, State, make_model
-from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..robot import Robot, load_robot
 from .actuators import Actuators
 from .estimates import initial_estimates
@@ -226,13 +225,13 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     m3, nt = m.m3, setup.n_task
     planar = m3 == 1
     nw = n + m3
-    # per-step signals; the funnels, their bounds, the reference and the true task errors
-    # are computed after the run (_after_run_signals)
+    # per-step signals; the funnels, their bounds, the reference, the true task errors and the
+    # reaction torque are computed after the run (_after_run_signals)
     declared = getattr(setup.controller, "signal_shapes", None) or {}
     return {
         "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
         "q_b": (m3,), "P": (m.m2,),
-        "L": () if planar else (3,), "F_r": () if planar else (3,), "z_e_dot": (nt,),
+        "L": () if planar else (3,), "dw_b": () if planar else (3,), "z_e_dot": (nt,),
         "u_cmd": (n,),
         **({} if setup.sensors is None else {  # what the controller saw
             "meas_q_b": (m3,), "meas_q_m": (n,), "meas_w": (nw,), "meas_z_e": (nt,),
@@ -244,24 +243,28 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
 
 def recording_size(setup: Setup) -> tuple[int, int]:
     """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
-    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors)."""
+    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors, F_r)."""
     sc = setup.scenario
     steps = int(round(sc.duration / sc.dt))
     per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
     m3, nt = setup.model.m3, setup.n_task
-    return steps, 8 * (per_step + 4 * m3 + 6 * nt)
+    return steps, 8 * (per_step + 5 * m3 + 6 * nt)
 
 
 #: The recorded columns the signals computed after the run are functions of.
-AFTER_RUN_INPUTS = ("t", "q_b", "z_e")
+AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "w", "dw_b")
 
 
 def _after_run_signals(setup: Setup):
     """The recorded signals computed after the run, a block of rows at a time, from the
     recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
     of Eqs. (16)-(17) (as :func:`~ffsm_pin.control.kinematic.task_errors`, on which the
-    specification's funnels are judged)."""
+    specification's funnels are judged); from the recorded q_b, q, w and the base's angular
+    acceleration dw_b: the reaction torque F_r of Eq. (7) with the true model, one compiled
+    pass (:func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
     ref = setup.scenario.reference
+    reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
+    nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
     planar = setup.model.m3 == 1
     funnel_b, funnel_z = setup.funnel_b, setup.funnel_z
@@ -284,6 +287,8 @@ def _after_run_signals(setup: Setup):
             if err_z.shape[1] > 2:
                 err_z[:, 2] = wrap_angle(err_z[:, 2])
         out["err_b"], out["err_z"] = err_b, err_z
+        q_m = block["q"][:, nq_root:]
+        out["F_r"] = reaction(block["q_b"], q_m, block["w"], block["dw_b"])
         return out
 
     truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}
@@ -349,16 +354,13 @@ def simulate(
     A = rec.arrays
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
-    # M_bb and dM_bb/dt of the true model, for the reaction torque (Eq. 7)
-    base_terms = base_inertia(model, setup.theta_d, numba_available())
     completed, stop_reason, stop_time = True, None, None
     stop_cause = stop_funnel = None
     next_progress = 0.0
     m3, nt, n = model.m3, setup.n_task, model.n_joints
     spatial = m3 > 1
-    meas0 = sensor.measure(0.0, q, v)  # compile / load the kernels before the clock starts
+    sensor.measure(0.0, q, v)  # compile / load the kernels before the clock starts
     sensor._q_b_prev = None  # the run measures t = 0 again
-    base_terms(meas0.q_b, meas0.q_m, np.zeros(n + m3))
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
     n_lin = 3 if spatial else 2  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors
@@ -432,15 +434,14 @@ def simulate(
                     A["meas_z_e"][i] = seen.z_e[:nt]
                     A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
                 mom = plant.momentum(q, v)
-                Mbb, Mbb_dot = base_terms(meas.q_b, meas.q_m, meas.w)
+                # dw_b/dt for F_r (Eq. 7, after the run): spatial in the inertial frame,
+                # R_0(q_b) of this measurement (docs/spatial.md 1)
                 if spatial:
                     A["P"][i], A["L"][i] = mom[:3], mom[3:]
-                    w_b_dot = sensor.R0 @ a[3:6]  # R_0(q_b) of this measurement, docs/spatial.md 1
-                    A["F_r"][i] = spatial_reaction_torque(Mbb, Mbb_dot, meas.w[:3], w_b_dot)
+                    A["dw_b"][i] = sensor.R0 @ a[3:6]
                 else:
                     A["P"][i], A["L"][i] = mom[:2], mom[2]
-                    # Eqs. (6)-(7), Christoffel C
-                    A["F_r"][i] = Mbb * a[2] + 0.5 * Mbb_dot * meas.w[0]
+                    A["dw_b"][i] = a[2]
                 rec.commit()
             if final:
                 break

@@ -65,7 +65,7 @@ def expected_shapes(n: int) -> dict[str, tuple[int, ...]]:
         "L": (), "F_r": (), "w_tilde": (5,), "e": (5,), "theta_z_hat": (7,),
         "theta_d_hat": (15,), "theta_b_hat": (16,), "z_e_dot": (3,), "z_e_d_dot": (3,),
         "w_mc": (4,), "w_hat": (5,), "sigma_min": (), "damping": (), "bound_b_lower": (1,),
-        "bound_b_upper": (1,), "bound_z_lower": (3,), "bound_z_upper": (3,),
+        "bound_b_upper": (1,), "bound_z_lower": (3,), "bound_z_upper": (3,), "dw_b": (),
     }  # fmt: skip
     shapes = {k: (n, *s) for k, s in per_sample.items()}
     shapes.update(theta_z=(7,), theta_d=(15,), theta_b=(16,))
