@@ -2,9 +2,12 @@
 
 Every run is one ``python -m ffsm_pin.sim`` in a fresh process (``--no-plots --no-html
 --quiet``, recording every step); the time compared is the loop's own (``wall_time_s`` of
-``summary.json``), so start-up and file writing do not dilute the ratios. Runs are interleaved
-(A, B, A, B, ...) so that a change of machine load hits both sides alike, and the first run of
-each side is a discarded warm-up (numba's cache is per source folder).
+``summary.json``), so start-up and file writing do not dilute the ratios. Since bc54e04
+``wall_time_s`` also covers the signals computed after the loop (funnels, reference, errors,
+F_r: a few ms); an ``interface`` comparison with an older revision counts them on one side
+only. Runs are interleaved (A, B, A, B, ...) so that a change of machine load hits both sides
+alike, and the first run of each side is a discarded warm-up (numba's cache is per source
+folder).
 
 * ``interface``: the package as it is against a baseline revision checked out beside it
   (default: the last commit before the controller interface, where the run loop called the

@@ -5,6 +5,7 @@ writer and one command line for planar and spatial tables); an alias for one rel
 use ``python -m ffsm_pin.robot.writer TABLE``.
 """
 
+import sys
 import warnings
 
 from .robot.writer import write_urdf
@@ -26,8 +27,14 @@ warnings.warn(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The former command line: planar tables only."""
+    """The former command line: planar tables only (says on stderr that it is deprecated)."""
     from .robot.writer.__main__ import main as _main
+
+    print(
+        "warning: python -m ffsm_pin.planar_urdf is deprecated and goes in the next release; "
+        "use python -m ffsm_pin.robot.writer",
+        file=sys.stderr,
+    )
 
     return _main(argv, prog="python -m ffsm_pin.planar_urdf", kind="planar")
 

@@ -5,6 +5,7 @@ writer and one command line for planar and spatial tables); an alias for one rel
 use ``python -m ffsm_pin.robot.writer TABLE``.
 """
 
+import sys
 import warnings
 
 from .robot.writer import write_urdf
@@ -27,8 +28,14 @@ warnings.warn(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The former command line: spatial tables only."""
+    """The former command line: spatial tables only (says on stderr that it is deprecated)."""
     from .robot.writer.__main__ import main as _main
+
+    print(
+        "warning: python -m ffsm_pin.spatial_urdf is deprecated and goes in the next release; "
+        "use python -m ffsm_pin.robot.writer",
+        file=sys.stderr,
+    )
 
     return _main(argv, prog="python -m ffsm_pin.spatial_urdf", kind="spatial")
 

@@ -21,7 +21,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..model._state_spatial import reaction_torque as spatial_reaction_torque
 from ..model.interface import ReducedModel
 
 
@@ -117,18 +116,15 @@ def reaction_torques(
             return fast.reaction_rows(*geo, q_b, q_m, w, dw_b, theta_d)
 
         return planar_kernel
-    per_row = base_inertia(model, theta_d, False)
     m3 = model.m3
 
-    def reference(q_b, q_m, w, dw_b):
+    def reference(q_b, q_m, w, dw_b):  # the model's reaction_torque, row by row
         out = np.empty((len(q_b),) if m3 == 1 else (len(q_b), m3))
+        w_dot = np.zeros(w.shape[1])  # only the base rows enter Eq. (7)
         for i in range(len(q_b)):
+            w_dot[:m3] = dw_b[i]
             qb = q_b[i, 0] if m3 == 1 else q_b[i]
-            M_bb, M_bb_dot = per_row(qb, q_m[i], w[i])
-            if m3 == 1:
-                out[i] = M_bb * dw_b[i].item() + 0.5 * M_bb_dot * w[i, 0]
-            else:
-                out[i] = spatial_reaction_torque(M_bb, M_bb_dot, w[i, :3], dw_b[i])
+            out[i] = model.reaction_torque(theta_d, qb, q_m[i], w[i], w_dot)
         return out
 
     return reference

@@ -13,6 +13,7 @@ import dataclasses
 import tempfile
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -255,15 +256,14 @@ def recording_size(setup: Setup) -> tuple[int, int]:
 AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "w", "dw_b")
 
 
-def _after_run_signals(setup: Setup):
+def _after_run_signals(setup: Setup, reaction: Callable[..., np.ndarray]):
     """The recorded signals computed after the run, a block of rows at a time, from the
     recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
     of Eqs. (16)-(17) (as :func:`~ffsm_pin.control.kinematic.task_errors`, on which the
     specification's funnels are judged); from the recorded q_b, q, w and the base's angular
     acceleration dw_b: the reaction torque F_r of Eq. (7) with the true model, one compiled
-    pass (:func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
+    pass (``reaction``: :func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
     ref = setup.scenario.reference
-    reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
     planar = setup.model.m3 == 1
@@ -360,6 +360,10 @@ def simulate(
     m3, nt, n = model.m3, setup.n_task, model.n_joints
     spatial = m3 > 1
     sensor.measure(0.0, q, v)  # compile / load the kernels before the clock starts
+    # likewise F_r's after-run pass (true model, Eq. 7), on one row of zeros
+    reaction = reaction_torques(model, setup.theta_d, numba_available())
+    reaction(np.zeros((1, m3)), np.zeros((1, n)), np.zeros((1, n + m3)),
+             np.zeros((1, *shapes["dw_b"])))  # fmt: skip
     sensor._q_b_prev = None  # the run measures t = 0 again
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
     n_lin = 3 if spatial else 2  # base linear velocity entries of v
@@ -460,7 +464,7 @@ def simulate(
     except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
         completed, stop_time, stop_cause = False, k * dt, "interrupted"
         stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
-    per_row, truth = _after_run_signals(setup)
+    per_row, truth = _after_run_signals(setup, reaction)
     signals = extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:

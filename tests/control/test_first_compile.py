@@ -83,3 +83,36 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
     assert first.keys() == second.keys()
     for key in first:
         np.testing.assert_array_equal(first[key], second[key], err_msg=key)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["case1", "spatial"], ids=["planar", "spatial"])
+def test_the_second_process_runs_without_error(case, monkeypatch):
+    """What the second process runs (the geometry module's ``_compile_real_kernels``, with the
+    arguments a real controller passes, through the pickle) exits 0 and prints nothing: a
+    broken second process only makes a first run slower, which the run test above cannot
+    see (the period compiles whatever is missing itself)."""
+    import dataclasses
+
+    from ffsm_pin.sim.run import prepare
+    from ffsm_pin.sim.scenario_file import builtin_scenario
+
+    captured = {}
+
+    def capture(module, child_args, dispatchers, compile_here):
+        captured["payload"] = (module, child_args)
+
+    monkeypatch.setattr(_first_compile, "compile_in_parallel", capture)
+    monkeypatch.setattr(_first_compile, "cold", lambda dispatcher: True)
+    prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
+    module, child_args = captured["payload"]
+    assert module == (
+        "ffsm_pin.control.fast" if case == "case1" else "ffsm_pin.control.fast_spatial"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", "from ffsm_pin.control._first_compile import _child_main as f; f()"],
+        input=pickle.dumps((module, _first_compile.with_flags(child_args))),
+        capture_output=True, env={**os.environ, "PYTHONPATH": str(REPO)}, timeout=600,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr.decode()[-3000:]
+    assert proc.stdout == b"" and proc.stderr == b""

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..._cli import fail
 from ...errors import FfsmError
-from . import KINDS, chain_from_table, chain_to_urdf
+from . import KINDS, chain_from_table, chain_to_urdf, read_table
 from ._xml import tomllib
 
 PROG = "python -m ffsm_pin.robot.writer"
@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None, prog: str = PROG, kind: str | None = Non
     parser.add_argument("-o", "--output", type=Path, help="URDF to write (default: stdout)")
     args = parser.parse_args(argv)
     try:
-        table = tomllib.loads(args.table.read_text())
+        table = read_table(args.table)
         chain = chain_from_table(table) if kind is None else KINDS[kind](table)
     except (OSError, tomllib.TOMLDecodeError, FfsmError) as exc:
         return fail(f"{args.table}: {exc}")
