@@ -5,10 +5,10 @@ writer and one command line for planar and spatial tables); an alias for one rel
 use ``python -m ffsm_pin.robot.writer TABLE``.
 """
 
-import sys
 import warnings
 
 from .robot.writer import write_urdf
+from .robot.writer.__main__ import deprecated_main, moved
 from .robot.writer._xml import escape
 from .robot.writer.spatial import (
     SpatialBody,
@@ -19,25 +19,12 @@ from .robot.writer.spatial import (
     inertial_xml,
 )
 
-warnings.warn(
-    "ffsm_pin.spatial_urdf moved to ffsm_pin.robot.writer (python -m ffsm_pin.robot.writer); "
-    "this alias goes in the next release",
-    DeprecationWarning,
-    stacklevel=2,
-)
+warnings.warn(moved("ffsm_pin.spatial_urdf"), DeprecationWarning, stacklevel=2)
 
 
 def main(argv: list[str] | None = None) -> int:
     """The former command line: spatial tables only (says on stderr that it is deprecated)."""
-    from .robot.writer.__main__ import main as _main
-
-    print(
-        "warning: python -m ffsm_pin.spatial_urdf is deprecated and goes in the next release; "
-        "use python -m ffsm_pin.robot.writer",
-        file=sys.stderr,
-    )
-
-    return _main(argv, prog="python -m ffsm_pin.spatial_urdf", kind="spatial")
+    return deprecated_main("ffsm_pin.spatial_urdf", "spatial", argv)
 
 
 __all__ = [

@@ -154,3 +154,19 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
     for i in range(m):
         gram[i, i] += 1.0 / (gamma_2 * dt)
     return theta_z + Yz.T @ np.linalg.solve(gram, r)
+
+
+@njit(cache=True)
+def report_kinematic(out, start, o, err_b, err_z, sigma, damping, hnorm, status, idx):
+    """Write what a period's kinematic level reports into ``out`` (the periods' ``out_layout``):
+    the real parts of err_b then err_z from ``start``; sigma_min, the damping and |H_bm| at
+    ``o``; on a funnel exit (``idx`` >= 0) the exiting error component at ``o + 3``."""
+    for i in range(err_b.size):
+        out[start + i] = err_b[i].real
+    for i in range(err_z.size):
+        out[start + err_b.size + i] = err_z[i].real
+    out[o] = sigma
+    out[o + 1] = damping
+    out[o + 2] = hnorm
+    if status != STATUS_OK and idx >= 0:
+        out[o + 3] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real

@@ -2,10 +2,9 @@
 
 * :func:`residual_54`: the paper's Eq. (54) residual ``e = M w~ + Y_df (theta_d - theta_d-hat)``
   (the paper's controller reports it, :mod:`.lu_jia`);
-* :func:`base_inertia`: the base block of the inertia M_bb and its time derivative along the
-  motion;
-* :func:`reaction_torques`: from them, the reaction torque of Eq. (7) on a run's recorded
-  rows, computed after the run for every controller:
+* :func:`reaction_torques`: the reaction torque of Eq. (7) on a run's recorded rows, from the
+  base block of the inertia M_bb and its time derivative along the motion (the kernels'
+  ``base_inertia``), computed after the run for every controller:
   ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` (planar), plus the gyroscopic
   ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
   against Pinocchio).
@@ -51,41 +50,6 @@ def residual_54(
     def reference(q_b, q_m, w_tilde, Y_df, theta_d_hat):
         M = model.mass_matrix(theta_d, q_b, q_m)
         return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
-
-    return reference
-
-
-def base_inertia(model: ReducedModel, theta_d: np.ndarray, compiled: bool) -> Callable[..., tuple]:
-    """f(q_b, q_m, w) -> (M_bb, dM_bb/dt) of the true model: numbers (planar) or 3 x 3."""
-    if compiled and model.m3 == 3:
-        from . import fast_spatial
-
-        jr, ax = model.kernel_constants()[:2]
-
-        def spatial_kernel(q_b, q_m, w):
-            return fast_spatial.base_inertia(jr, ax, q_b, q_m, w, theta_d)
-
-        return spatial_kernel
-    if compiled:
-        from . import fast
-
-        k = model.kernel_constants()
-        geo = (k.S, k.phi_offset, k.K, k.L, k.collinear)
-
-        def planar_kernel(q_b, q_m, w):
-            return fast.base_inertia(*geo, q_b, q_m, w, theta_d)
-
-        return planar_kernel
-    m3 = model.m3
-    basis = np.eye(model.n_joints + m3)[:m3]
-
-    def reference(q_b, q_m, w):
-        M = model.mass_matrix(theta_d, q_b, q_m)
-        # columns of the symmetric dM/dt: its regressor times theta_d, one base direction each
-        Mbb_dot = np.column_stack([model.Y_Mdot(q_b, q_m, w, e)[:m3] @ theta_d for e in basis])
-        if m3 == 1:
-            return M[0, 0], Mbb_dot[0, 0]
-        return M[:m3, :m3], Mbb_dot
 
     return reference
 

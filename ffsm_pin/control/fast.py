@@ -43,6 +43,7 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller an
     funnel_terms,
     pack_funnel,
     pack_null_space,
+    report_kinematic,
     theta_z_step,
 )
 
@@ -391,15 +392,8 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
         t + hj, q_b + hj * w[0], qmc, zec, tbc, tzc, w[0] + 0j,
     )  # fmt: skip
     o = 3 * n + 4 + nb  # offset of the scalars in `out`, see out_layout()
-    out[3 * n] = err_b[0].real
-    for i in range(3):
-        out[3 * n + 1 + i] = err_z[i].real
-    out[o] = sigma
-    out[o + 1] = damping
-    out[o + 2] = hnorm
+    report_kinematic(out, 3 * n, o, err_b, err_z, sigma, damping, hnorm, status, idx)
     if status != STATUS_OK:
-        if idx >= 0:
-            out[o + 3] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real
         return status, idx
     w_mc = w_mc_c.real.copy()
     w_mc_dot = w_mc_c.imag / _H
@@ -462,7 +456,7 @@ def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
 
 def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """Compile the real kernels :func:`period` calls, with the argument types it passes, and
-    the run's :func:`residual_54` and :func:`base_inertia` with those the run passes (the
+    the run's :func:`residual_54` and :func:`reaction_rows` with those the run passes (the
     second process of :func:`compile_in_parallel`)."""
     S, off, K, L, ee_row, collinear = consts[:6]
     nb, nd = S.shape[0], theta_d.size
@@ -481,15 +475,14 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
                    np.zeros(n), theta_d.copy(), np.zeros(nb), np.zeros((nb, nd)))  # fmt: skip
     residual_54(S, off, K, L, collinear, q_b, q_m, np.zeros(nb), np.zeros((nb, nd)),
                 theta_d, theta_d)  # fmt: skip
-    base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d)
-    rows = np.zeros((1, w.size))
+    rows = np.zeros((1, w.size))  # reaction_rows compiles base_inertia with the row types
     reaction_rows(S, off, K, L, collinear, np.zeros(1), np.zeros((1, q_m.size)), rows,
                   np.zeros(1), theta_d)  # fmt: skip
 
 
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """On a first run, compile the real kernels of :func:`period`, :func:`residual_54` and
-    :func:`base_inertia` in a second process while this one compiles the complex kinematic
+    :func:`reaction_rows` in a second process while this one compiles the complex kinematic
     law (:mod:`._first_compile`); :func:`period` then loads the former from the cache.
     Does nothing when the cache is warm."""
     from . import _first_compile

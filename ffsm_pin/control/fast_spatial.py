@@ -51,6 +51,7 @@ from ._shared_kernels import (
     funnel_terms,
     pack_funnel,
     pack_null_space,
+    report_kinematic,
     theta_z_step,
 )
 
@@ -339,16 +340,8 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
     )  # fmt: skip
     e = 3 * n + 3 + nt
     o = e + N  # offset of the scalars in `out`, see out_layout()
-    for i in range(3):
-        out[3 * n + i] = err_b[i].real
-    for i in range(nt):
-        out[3 * n + 3 + i] = err_z[i].real
-    out[o] = sigma
-    out[o + 1] = damping
-    out[o + 2] = hnorm
+    report_kinematic(out, 3 * n, o, err_b, err_z, sigma, damping, hnorm, status, idx)
     if status != STATUS_OK:
-        if idx >= 0:
-            out[o + 3] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real
         return status, idx
     w_mc = w_mc_c.real.copy()
     w_mc_dot = w_mc_c.imag / _H
@@ -471,7 +464,7 @@ def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
 
 def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     """Compile the real kernels :func:`period` calls, with the argument types it passes, and
-    the recorded :func:`residual_54` and :func:`base_inertia` with those the run passes."""
+    the run's :func:`residual_54` and :func:`reaction_rows` with those the run passes."""
     jr, ax = consts[0], consts[1]
     n = q_m.size
     N, nd = n + 3, theta_d.size
@@ -487,14 +480,14 @@ def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     ym.compile(tuple(typeof(x) for x in (R, z, w - w, YM)) + (types.literal(False),))
     _l_matrix(q_b, R[0])
     residual_54(jr, ax, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
-    base_inertia(jr, ax, q_b, q_m, np.zeros(N), theta_d)
+    # reaction_rows compiles base_inertia with the row types
     reaction_rows(jr, ax, np.zeros((1, 3)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, 3)),
                   theta_d)  # fmt: skip
 
 
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """On a first run, compile the real kernels of :func:`period`, :func:`residual_54` and
-    :func:`base_inertia` in a second process while this one compiles the complex kinematic
+    :func:`reaction_rows` in a second process while this one compiles the complex kinematic
     law (:mod:`._first_compile`); :func:`period` then loads the former from the cache. On two
     cores this takes about a third off the first spatial run (benchmarks/README.md, "First
     run"). Does nothing when the cache is warm."""

@@ -76,13 +76,20 @@ def task_errors(reference, base_attitude_ref, t, q_b, z_e, m3: int = 1):
     angles are wrapped to (-pi, pi]; spatial: component differences of the MRPs (the paper's
     Delta q_b, Delta q_e), the measured MRPs being on the |s| <= 1 branch. Complex-step safe."""
     n = reference.n_components
-    q_b = np.atleast_1d(q_b)
+    return error_terms(np.atleast_1d(q_b), base_attitude_ref, np.array(z_e)[:n],
+                       reference.ee_pose(t), m3)  # fmt: skip
+
+
+def error_terms(q_b, base_attitude_ref, z_e, z_e_d, m3: int):
+    """(err_b, err_z) = (q_b - q_bd, z_e - z_e,d) (Eqs. 16-17) of one sample or of rows
+    (components along the last axis), wrapped as :func:`task_errors` says (planar angles to
+    (-pi, pi]; MRPs as component differences)."""
     err_b = q_b - np.asarray(base_attitude_ref)
-    err_z = np.array(z_e)[:n] - reference.ee_pose(t)
+    err_z = z_e - z_e_d
     if m3 == 1:
         err_b = wrap_angle(err_b)
-        if n > 2:
-            err_z[2] = wrap_angle(err_z[2])
+        if err_z.shape[-1] > 2:
+            err_z[..., 2] = wrap_angle(err_z[..., 2])
     return err_b, err_z
 
 

@@ -30,7 +30,7 @@ from ..control.interface import (
     recorded_name,
     split_reply,
 )
-from ..control.kinematic import task_errors, task_size, wrap_angle
+from ..control.kinematic import error_terms, task_errors, task_size
 from ..control.registry import controller_class
 from ..errors import ControllerLoadError, FfsmError, ScenarioError, SimulationError
 from ..model import ReducedModel, State, make_model
@@ -266,7 +266,7 @@ def _after_run_signals(setup: Setup, reaction: Callable[..., np.ndarray]):
     ref = setup.scenario.reference
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
-    planar = setup.model.m3 == 1
+    m3 = setup.model.m3
     funnel_b, funnel_z = setup.funnel_b, setup.funnel_z
     assert funnel_b is not None and funnel_z is not None  # prepare() sets both
     funnels = (("b", funnel_b), ("z", funnel_z))
@@ -280,13 +280,7 @@ def _after_run_signals(setup: Setup, reaction: Callable[..., np.ndarray]):
             out[f"bound_{name}_lower"] = funnel.lower * rho
             out[f"bound_{name}_upper"] = funnel.upper * rho
         out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
-        err_z = block["z_e"] - out["z_e_d"]  # Eq. (17)
-        err_b = block["q_b"] - q_bd  # Eq. (16)
-        if planar:  # angles wrapped to (-pi, pi]; MRPs: component differences
-            err_b = wrap_angle(err_b)
-            if err_z.shape[1] > 2:
-                err_z[:, 2] = wrap_angle(err_z[:, 2])
-        out["err_b"], out["err_z"] = err_b, err_z
+        out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
         q_m = block["q"][:, nq_root:]
         out["F_r"] = reaction(block["q_b"], q_m, block["w"], block["dw_b"])
         return out

@@ -41,5 +41,20 @@ def main(argv: list[str] | None = None, prog: str = PROG, kind: str | None = Non
     return 0
 
 
+def moved(old: str) -> str:
+    """The deprecation message of the former module ``old`` (``ffsm_pin.planar_urdf``...)."""
+    return f"{old} moved to ffsm_pin.robot.writer ({PROG}); this alias goes in the next release"
+
+
+def deprecated_main(old: str, kind: str, argv: list[str] | None = None) -> int:
+    """The former per-geometry command line ``python -m old``: reads ``kind`` tables only and
+    says on stderr that it is deprecated."""
+    print(
+        f"warning: python -m {old} is deprecated and goes in the next release; use {PROG}",
+        file=sys.stderr,
+    )
+    return main(argv, prog=f"python -m {old}", kind=kind)
+
+
 if __name__ == "__main__":
     raise SystemExit(main())
