@@ -30,9 +30,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import time_interleaved  # noqa: E402
 
+from ffsm_pin.scenario.file import builtin_scenario  # noqa: E402
 from ffsm_pin.sim.plant import Plant  # noqa: E402
 from ffsm_pin.sim.run import Sensor, prepare, simulate  # noqa: E402
-from ffsm_pin.sim.scenario_file import builtin_scenario  # noqa: E402
 
 TARGET_US = 100.0  # issue 3: median closed-loop step on this machine
 

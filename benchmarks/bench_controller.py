@@ -133,7 +133,7 @@ def main() -> int:
                 subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
                                 str(base)], check=False)  # fmt: skip
         if "world" in args.parts:
-            from ffsm_pin.sim.scenario_file import builtin_path
+            from ffsm_pin.scenario.file import builtin_path
 
             for case in args.cases:
                 name, duration = CASES[case]
@@ -146,7 +146,7 @@ def main() -> int:
                 compare(f"world {case}", {"ideal": (ideal, ROOT), "limits+noise": (world, ROOT)},
                         args.repeat, tmp)  # fmt: skip
         if "baselines" in args.parts:
-            from ffsm_pin.sim.scenario_file import builtin_path
+            from ffsm_pin.scenario.file import builtin_path
 
             for case in args.cases:
                 name, duration = CASES[case]

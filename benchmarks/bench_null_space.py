@@ -26,9 +26,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import time_interleaved  # noqa: E402
 
 from ffsm_pin.control.null_space import NullSpace  # noqa: E402
+from ffsm_pin.scenario.file import builtin_path, load_scenario  # noqa: E402
 from ffsm_pin.sim.plant import Plant  # noqa: E402
 from ffsm_pin.sim.run import Sensor, prepare  # noqa: E402
-from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 OBJECTIVES = ("none", "manipulability", "joint-centering")

@@ -104,9 +104,9 @@ def bare_loop(scenario: str, duration: float) -> dict:
 
     import numpy as np
 
+    from ffsm_pin.scenario.file import builtin_scenario
     from ffsm_pin.sim.plant import Plant
     from ffsm_pin.sim.run import prepare
-    from ffsm_pin.sim.scenario_file import builtin_scenario
 
     sc = dataclasses.replace(builtin_scenario(scenario), duration=duration)
     with warnings.catch_warnings():  # reach and gain warnings: the run prints them, not this

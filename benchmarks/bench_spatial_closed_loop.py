@@ -36,9 +36,9 @@ from _timing import time_interleaved  # noqa: E402
 
 from ffsm_pin.attitude import mrp  # noqa: E402
 from ffsm_pin.control.kinematic import KinematicInputs  # noqa: E402
+from ffsm_pin.scenario.file import builtin_scenario  # noqa: E402
 from ffsm_pin.sim.plant import Plant  # noqa: E402
 from ffsm_pin.sim.run import Sensor, prepare, simulate  # noqa: E402
-from ffsm_pin.sim.scenario_file import builtin_scenario  # noqa: E402
 
 TARGET_US = 150.0  # issue 9: median closed-loop step, 7-DOF spatial case
 STATES = ("theta_z", "theta_d", "theta_b", "w_hat", "Y_df")

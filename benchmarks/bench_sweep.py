@@ -86,8 +86,8 @@ def write_campaign(folder: Path, n_cases: int, seed: int) -> Path:
 
 
 def serial(path: Path) -> float:
+    from ffsm_pin.scenario.file import scenario_from_toml
     from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sim.scenario_file import scenario_from_toml
     from ffsm_pin.sweep.campaign import expand, load_campaign
 
     cases = expand(load_campaign(path))
@@ -104,8 +104,8 @@ def _pool_init() -> None:
     """Load the kernels in a pool process (numba's on-disk cache) before any timed case."""
     import dataclasses
 
+    from ffsm_pin.scenario.file import builtin_scenario
     from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sim.scenario_file import builtin_scenario
 
     sc = builtin_scenario("case1")
     with warnings.catch_warnings():
@@ -176,8 +176,8 @@ def start_cluster(n: int, dask_defaults: bool = False):
 def _one_case(scenario_toml: str) -> dict[str, float]:
     """Run one case in the calling thread: its thread CPU (user + system) [s], system time [s],
     minor page faults, and the CPU of the whole process over the same interval [s]."""
+    from ffsm_pin.scenario.file import scenario_from_toml
     from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sim.scenario_file import scenario_from_toml
 
     t0 = resource.getrusage(resource.RUSAGE_THREAD)
     with warnings.catch_warnings():

@@ -1,6 +1,6 @@
 """Numbers of docs/null_space.md: the null-space option on the shipped 5-link planar robot.
 
-Runs the built-in scenario ``planar5`` (``ffsm_pin/sim/scenarios/planar5.toml``: perturbed
+Runs the built-in scenario ``planar5`` (``ffsm_pin/scenario/builtin/planar5.toml``: perturbed
 estimates, spread 0.3) for every seed and every objective, and prints one table row per
 (objective, gain, seed; seed -1 = the true parameters): whether the run completed with both
 funnels kept, max |u_m| [N m] (Euclidean norm of the joint torques, as in ``summary.json``),
@@ -35,9 +35,9 @@ if str(REPO) not in sys.path:
 from ffsm_pin.control.null_space import NullSpace  # noqa: E402
 from ffsm_pin.model.state import State as FloatingBaseState  # noqa: E402
 from ffsm_pin.robot import load_robot  # noqa: E402
+from ffsm_pin.scenario.file import builtin_path, load_scenario  # noqa: E402
+from ffsm_pin.scenario.spec import Estimates, Reference  # noqa: E402
 from ffsm_pin.sim.run import initial_state, prepare, simulate  # noqa: E402
-from ffsm_pin.sim.scenario import Estimates, Reference  # noqa: E402
-from ffsm_pin.sim.scenario_file import builtin_path, load_scenario  # noqa: E402
 
 # Gains k_s chosen in docs/null_space.md (section "Gain").
 DEFAULT_GAINS = {"none": 0.0, "manipulability": 1.0, "joint-centering": 1.0}

@@ -14,8 +14,8 @@ import re
 import warnings
 
 from ffsm_pin import prepare, simulate
+from ffsm_pin.scenario.file import builtin_path, scenario_from_toml
 from ffsm_pin.sim.check import check
-from ffsm_pin.sim.scenario_file import builtin_path, scenario_from_toml
 
 ARMS = {  # example-robot-data name -> (end-effector frame, a bent start pose [rad])
     "ur5": ("ee_link", [1.49, -0.11, 1.65, 1.06, 1.66, -1.49]),

@@ -7,7 +7,9 @@ Layers, from the bottom up (imports run downwards only):
 * :mod:`ffsm_pin.model` is the paper's reduced model: Pinocchio's reduced quantities for a state
   (:class:`State`) and the barycentric parameterisation (:func:`make_model`);
 * :mod:`ffsm_pin.control` is the adaptive prescribed-performance controller of Lu & Jia (2019);
-* :mod:`ffsm_pin.sim` is the momentum-exact plant, scenarios, runs, figures and replay;
+* :mod:`ffsm_pin.scenario` holds what a run needs (dataclasses, the scenario file and its
+  validation, the built-in scenarios);
+* :mod:`ffsm_pin.sim` is the momentum-exact plant, runs, figures and replay;
 * :mod:`ffsm_pin.sweep` runs campaigns of many scenarios on Dask.
 
 The names a user needs are importable from here: :func:`load_robot`, :class:`Robot`,
@@ -28,9 +30,9 @@ __version__ = "0.1.0"
 
 # the simulation layer is imported on first use, so that `import ffsm_pin` stays light
 _LAZY = {
-    "Scenario": "ffsm_pin.sim.scenario",
-    "load_scenario": "ffsm_pin.sim.scenario_file",
-    "builtin_scenario": "ffsm_pin.sim.scenario_file",
+    "Scenario": "ffsm_pin.scenario.spec",
+    "load_scenario": "ffsm_pin.scenario.file",
+    "builtin_scenario": "ffsm_pin.scenario.file",
     "prepare": "ffsm_pin.sim.run",
     "simulate": "ffsm_pin.sim.run",
 }

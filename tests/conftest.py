@@ -138,7 +138,7 @@ def reduced_model_of():
     built-in 'spatial' case's satellite (cached per session)."""
     from ffsm_pin.model import make_model
     from ffsm_pin.robot import load_robot
-    from ffsm_pin.sim.scenario_file import builtin_scenario
+    from ffsm_pin.scenario.file import builtin_scenario
 
     cache = {}
 

@@ -104,7 +104,7 @@ def _reference(rc, rA, ramp, rfreq, rphase, rpp, t, rate):
 
 @njit(cache=True)
 def _piecewise(table, t, order):
-    """d^order/dt^order of :class:`ffsm_pin.sim.trajectory.PiecewisePolynomial` at t
+    """d^order/dt^order of :class:`ffsm_pin.scenario.trajectory.PiecewisePolynomial` at t
     (as its numpy ``derivative``; the segment is chosen by Re t)."""
     starts = table[0]
     tr = t.real

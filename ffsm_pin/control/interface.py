@@ -1,6 +1,6 @@
 """The one interface every controller implements: the paper's, a baseline, a user's.
 
-The run loop (:mod:`ffsm_pin.sim.run`) knows nothing of a controller's insides. It builds the
+The run loop (:mod:`ffsm_pin.sim.loop`) knows nothing of a controller's insides. It builds the
 controller once from a :class:`ControllerContext`, then calls :meth:`Controller.step` once per
 control period with what the sensors report (:class:`Measurement`) and gets joint torques back,
 optionally with named signals to record. docs/controllers.md is the user's description.

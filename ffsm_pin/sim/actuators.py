@@ -15,13 +15,10 @@ See docs/controllers.md, "Actuators".
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..errors import ParameterError
-
-LIMIT_WORDS = ("none", "urdf")
+from ..scenario.devices import ActuatorSpec
 
 
 def _compiled_kernel():
@@ -31,41 +28,6 @@ def _compiled_kernel():
     except ImportError:
         return None
     return actuate
-
-
-@dataclass(frozen=True)
-class ActuatorSpec:
-    """The ``[actuators]`` table (all off by default).
-
-    Attributes
-    ----------
-    torque_limit:
-        ``"none"``, ``"urdf"`` (each joint's ``<limit effort>``), a number or one per joint [N m].
-    rate_limit:
-        Largest change of the applied torque, a number or one per joint [N m/s]; 0 = none.
-    time_constant:
-        First-order lag of the applied torque [s]; 0 = none.
-    torque_noise:
-        Standard deviation of additive Gaussian torque noise, a number or one per joint [N m].
-    seed:
-        Seed of the torque noise.
-    """
-
-    torque_limit: str | float | tuple[float, ...] = "none"
-    rate_limit: float | tuple[float, ...] = 0.0
-    time_constant: float = 0.0
-    torque_noise: float | tuple[float, ...] = 0.0
-    seed: int = 0
-
-    @property
-    def ideal(self) -> bool:
-        """True when the actuators apply the command unchanged."""
-        return (
-            self.torque_limit == "none"
-            and not np.any(self.rate_limit)
-            and self.time_constant == 0
-            and not np.any(self.torque_noise)
-        )
 
 
 def per_joint(value, n: int, key: str, joints: tuple[str, ...] = ()) -> np.ndarray:

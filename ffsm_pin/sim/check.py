@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FfsmError
-from .scenario import Scenario
+from ..scenario.spec import Scenario
 
 
 @dataclass(frozen=True)
@@ -69,7 +69,9 @@ def check(scenario: Scenario) -> CheckReport:
     from ..control.gains import GainWarning
     from ..control.kinematic import task_errors  # heavy imports here
     from ..model import State
-    from .run import ReachWarning, Sensor, prepare
+    from .measurement import Sensor
+    from .reach import ReachWarning
+    from .setup import prepare
 
     try:
         with warnings.catch_warnings(record=True) as caught:

@@ -23,10 +23,10 @@ import numpy as np
 
 from .._cli import Parser, UsageError, fail, positive_float, positive_int
 from ..errors import FfsmError
+from ..scenario.file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
+from ..scenario.spec import Scenario
 from .compile_note import note_compilation
 from .result import FIGURE_ROWS, RunResult
-from .scenario import Scenario
-from .scenario_file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 2, 3, 130
 # figures and replay.html of a longer run are drawn from this many evenly spaced rows
@@ -143,7 +143,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 # ------------------------------------------------------------------------------ the runs
 def _run(args: argparse.Namespace, console: Console) -> int:
-    from .run import prepare, recording_size, simulate  # heavy imports: command line is fine
+    from .loop import recording_size, simulate  # heavy imports: command line is fine
+    from .setup import prepare
     from .storage import check_storage
 
     scenarios = [_override(sc, args) for sc in _scenarios(args)]
@@ -415,7 +416,7 @@ class Console:
         self.progress(0.0)
 
     def progress(self, t: float) -> None:
-        """Callback for :func:`ffsm_pin.sim.run.simulate`: t = simulated time [s]."""
+        """Callback for :func:`ffsm_pin.sim.loop.simulate`: t = simulated time [s]."""
         bar = self._bar
         if bar is None:
             return

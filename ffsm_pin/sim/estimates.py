@@ -8,7 +8,7 @@ import numpy as np
 from .. import paper
 from ..errors import ScenarioError
 from ..model import ReducedModel
-from .scenario import Scenario
+from ..scenario.spec import Scenario
 
 
 def initial_estimates(scenario: Scenario, model: ReducedModel, truth):

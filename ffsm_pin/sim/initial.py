@@ -10,7 +10,7 @@ from ..attitude import mrp
 from ..errors import ScenarioError
 from ..model._state_planar import base_twist_to_local
 from ..robot import Robot
-from .scenario import InitialCondition
+from ..scenario.spec import InitialCondition
 
 
 def is_spatial(robot) -> bool:

@@ -29,9 +29,8 @@ import pinocchio as pin
 from numba import njit
 
 from ..errors import ParameterError, choices_text
+from ..scenario.spec import INTEGRATORS
 from .integrators import chart_block, gauss_solve, rkmk4_step
-
-INTEGRATORS = ("semi-implicit", "rk4")
 
 # root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept)
 _ROOTS = {

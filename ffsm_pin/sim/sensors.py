@@ -1,7 +1,7 @@
 """What the controller sees: the exact measurement with seeded Gaussian noise and a delay.
 
-The run measures the plant exactly (``ffsm_pin.sim.run.Sensor``); :class:`Sensors` turns that
-into what the controller is given. Noise and delay act on this copy only: the plant, its
+The run measures the plant exactly (``ffsm_pin.sim.measurement.Sensor``); :class:`Sensors`
+turns that into what the controller is given. Noise and delay act on this copy only: the plant, its
 momentum and the recorded true signals stay exact. With the defaults (no noise, no delay)
 the controller gets the exact measurement itself.
 
@@ -18,41 +18,12 @@ See docs/controllers.md, "Sensors".
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..control.controller import Measurement
 from ..errors import ParameterError
-
-# [sensors.noise] keys, in the order the noise is drawn
-NOISE_KEYS = ("joints", "joint_rates", "base_attitude", "base_rate", "ee_pose", "ee_velocity")
-
-
-@dataclass(frozen=True)
-class SensorSpec:
-    """The ``[sensors]`` table (exact and undelayed by default).
-
-    Attributes
-    ----------
-    seed:
-        Seed of the noise streams.
-    delay:
-        Control periods between a measurement and its use (>= 0).
-    noise:
-        ``(key, standard deviation)`` pairs, key in :data:`NOISE_KEYS`; a number or one value
-        per component [rad, rad/s, rad or MRP, rad/s, m and rad or MRP, m/s and rad/s or 1/s].
-    """
-
-    seed: int = 0
-    delay: int = 0
-    noise: tuple[tuple[str, float | tuple[float, ...]], ...] = ()
-
-    @property
-    def ideal(self) -> bool:
-        """True when the controller sees the exact measurement."""
-        return self.delay == 0 and not any(np.any(v) for _, v in self.noise)
-
+from ..scenario.devices import NOISE_KEYS, SensorSpec
 
 BLOCK = 1024  # measurements whose noise is drawn in one call
 

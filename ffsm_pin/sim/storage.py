@@ -54,7 +54,7 @@ def check_storage(
     Parameters
     ----------
     steps, row_bytes:
-        Steps of the run and bytes of one recorded row (``ffsm_pin.sim.run.recording_size``).
+        Steps of the run and bytes of one recorded row (``ffsm_pin.sim.loop.recording_size``).
     record_every:
         The run's recording interval [steps]; the error names the smallest one that fits.
     folder:

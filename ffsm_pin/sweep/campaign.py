@@ -17,7 +17,7 @@ a dotted key and a distribution). :func:`expand` turns it into cases:
   (:mod:`ffsm_pin.sweep.seeds`).
 
 Every case's scenario is the scenario file's TOML document with the keys replaced, validated by
-:func:`ffsm_pin.sim.scenario_file.scenario_from_dict` exactly like a file; the case records the
+:func:`ffsm_pin.scenario.file.scenario_from_dict` exactly like a file; the case records the
 value each key has in the resolved scenario (read back from its TOML form). Its ``case_hash``
 hashes that scenario's TOML text and the package version.
 
@@ -44,9 +44,9 @@ from pydantic import ValidationError
 
 from .. import __version__
 from ..errors import FfsmError, choices_text, did_you_mean
-from ..sim.scenario import Scenario
-from ..sim.scenario_file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
-from ..sim.scenario_schema import first_error
+from ..scenario.file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
+from ..scenario.schema import first_error
+from ..scenario.spec import Scenario
 from . import campaign_schema as schema
 from .campaign_schema import DISTRIBUTIONS, SEED_KEY
 from .seeds import case_stream, estimates_seed
@@ -385,7 +385,7 @@ def _case(campaign, base, path, index, p, r, point, keys, seed, label=None) -> C
 
 
 def check_cases(cases: list[Case], source: str) -> None:
-    """Run :func:`ffsm_pin.sim.run.prepare` (robot, feasibility, initial errors inside the
+    """Run :func:`ffsm_pin.sim.setup.prepare` (robot, feasibility, initial errors inside the
     funnels, estimates) on the nominal case and on the first case of every grid point, so a
     value that only the run set-up refuses is bad input before anything runs."""
     from ..sim.run import prepare

@@ -86,8 +86,8 @@ class WarmUp(WorkerPlugin):
 
     def setup(self, worker=None) -> None:  # noqa: D102 - WorkerPlugin API
         try:
+            from ..scenario.file import scenario_from_toml
             from ..sim.run import prepare, simulate
-            from ..sim.scenario_file import scenario_from_toml
 
             sc = scenario_from_toml(self.scenario_toml)
             sc = dataclasses.replace(sc, duration=WARMUP_STEPS * sc.dt)
@@ -115,8 +115,8 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     ``case_wall_s`` and ``case_cpu_s`` are the case's wall and CPU time on the worker [s].
     ``keep_dir``: write the run folder there as ``python -m ffsm_pin.sim`` does.
     """
+    from ..scenario.file import scenario_from_toml
     from ..sim.run import prepare, simulate
-    from ..sim.scenario_file import scenario_from_toml
 
     wall0, cpu0 = time.perf_counter(), time.thread_time()
     try:

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.adaptive_ct import AdaptiveComputedTorque
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import Estimates
 from ffsm_pin.sim.run import Sensor, prepare, simulate
-from ffsm_pin.sim.scenario import Estimates
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 
 @pytest.mark.parametrize("geometry, skew", [("planar", True), ("spatial", False)])

@@ -22,8 +22,8 @@ from ffsm_pin.control.gains import Gains, SingularityPolicy
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.errors import FfsmError, InfeasibleTaskError, ScenarioError
 from ffsm_pin.model.planar import BarycentricModel
-from ffsm_pin.sim.run import Sensor, prepare, simulate
-from ffsm_pin.sim.scenario import (
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import (
     ComponentReference,
     ControllerSpec,
     Estimates,
@@ -32,7 +32,7 @@ from ffsm_pin.sim.scenario import (
     RobotSpec,
     Scenario,
 )
-from ffsm_pin.sim.scenario_file import builtin_scenario
+from ffsm_pin.sim.run import Sensor, prepare, simulate
 
 # The paper's case as shipped (Table 2 initial state, Eq. 80 reference, rho_b0 = 1.0), so the
 # tests also guard the built-in scenario file.

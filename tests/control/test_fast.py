@@ -18,9 +18,8 @@ from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import SimulationError
 from ffsm_pin.model.state import State as FloatingBaseState
-from ffsm_pin.sim.plant import Plant
-from ffsm_pin.sim.run import Sensor, initial_state, prepare
-from ffsm_pin.sim.scenario import (
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import (
     ComponentReference,
     ControllerSpec,
     Estimates,
@@ -30,7 +29,8 @@ from ffsm_pin.sim.scenario import (
     RobotSpec,
     Scenario,
 )
-from ffsm_pin.sim.scenario_file import builtin_scenario
+from ffsm_pin.sim.plant import Plant
+from ffsm_pin.sim.run import Sensor, initial_state, prepare
 
 pytest.importorskip("numba")
 DATA = Path(__file__).resolve().parents[1] / "data"

@@ -21,9 +21,9 @@ from ffsm_pin.errors import ParameterError, SimulationError
 from ffsm_pin.model.spatial import SpatialBarycentricModel
 from ffsm_pin.robot import load_spatial_robot
 from ffsm_pin.robot.writer import SpatialBody, SpatialChain, SpatialLink, write_urdf
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import ComponentReference, Harmonic, Reference
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario import ComponentReference, Harmonic, Reference
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 SPATIAL9 = Path(__file__).resolve().parents[2] / "urdf" / "spatial9.urdf"
 OUTPUTS = ("u_m", "w_mc", "w_mc_dot", "err_b", "err_z", "w_tilde")

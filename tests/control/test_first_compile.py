@@ -94,8 +94,8 @@ def test_the_second_process_runs_without_error(case, monkeypatch):
     see (the period compiles whatever is missing itself)."""
     import dataclasses
 
+    from ffsm_pin.scenario.file import builtin_scenario
     from ffsm_pin.sim.run import prepare
-    from ffsm_pin.sim.scenario_file import builtin_scenario
 
     captured = {}
 

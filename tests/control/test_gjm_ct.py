@@ -12,9 +12,9 @@ import pytest
 
 from ffsm_pin.control.gjm_ct import GjmComputedTorque, GjmGains
 from ffsm_pin.errors import ParameterError
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import Estimates
 from ffsm_pin.sim.run import Sensor, prepare, simulate
-from ffsm_pin.sim.scenario import Estimates
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 
 def _gjm(case: str, duration: float | None, initial: str | None = "true", **params):

@@ -18,13 +18,13 @@ import pytest
 
 from ffsm_pin.control.kinematic import KinematicInputs
 from ffsm_pin.control.lu_jia import LuJiaController
-from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario import (
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import (
     ControllerSpec,
     RobotSpec,
     Scenario,
 )
-from ffsm_pin.sim.scenario_file import builtin_scenario
+from ffsm_pin.sim.run import prepare, simulate
 
 DURATION = 2.5  # [s] long enough for the adaptation to move every estimate
 DT = 1e-3

@@ -26,8 +26,13 @@ import pytest
 from ffsm_pin.control.kinematic import KinematicInputs
 from ffsm_pin.control.null_space import OBJECTIVES, NullSpace
 from ffsm_pin.errors import FfsmError, ParameterError, ScenarioError
-from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario import (
+from ffsm_pin.scenario.file import (
+    builtin_path,
+    load_scenario,
+    scenario_from_toml,
+    scenario_to_toml,
+)
+from ffsm_pin.scenario.spec import (
     ComponentReference,
     ControllerSpec,
     Estimates,
@@ -37,12 +42,7 @@ from ffsm_pin.sim.scenario import (
     RobotSpec,
     Scenario,
 )
-from ffsm_pin.sim.scenario_file import (
-    builtin_path,
-    load_scenario,
-    scenario_from_toml,
-    scenario_to_toml,
-)
+from ffsm_pin.sim.run import prepare, simulate
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 REPO = Path(__file__).resolve().parents[2]

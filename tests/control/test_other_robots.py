@@ -33,8 +33,7 @@ import pytest
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import load_robot
-from ffsm_pin.sim.run import initial_state, prepare, simulate
-from ffsm_pin.sim.scenario import (
+from ffsm_pin.scenario.spec import (
     ComponentReference,
     ControllerSpec,
     Estimates,
@@ -44,6 +43,7 @@ from ffsm_pin.sim.scenario import (
     RobotSpec,
     Scenario,
 )
+from ffsm_pin.sim.run import initial_state, prepare, simulate
 
 pytestmark = pytest.mark.slow
 

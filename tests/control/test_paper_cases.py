@@ -21,13 +21,13 @@ import pytest
 
 from ffsm_pin.control.controller import SingularityWarning
 from ffsm_pin.control.funnel import FunnelParams
-from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario import (
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import (
     ControllerSpec,
     RobotSpec,
     Scenario,
 )
-from ffsm_pin.sim.scenario_file import builtin_scenario
+from ffsm_pin.sim.run import prepare, simulate
 
 pytestmark = pytest.mark.slow
 

@@ -11,8 +11,8 @@ import warnings
 import numpy as np
 import pytest
 
+from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 pytestmark = pytest.mark.slow
 

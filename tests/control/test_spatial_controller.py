@@ -23,9 +23,9 @@ from ffsm_pin.errors import InfeasibleTaskError
 from ffsm_pin.model.spatial import SpatialBarycentricModel
 from ffsm_pin.robot import load_spatial_robot
 from ffsm_pin.robot.writer import SpatialBody, SpatialChain, SpatialLink, write_urdf
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import ComponentReference, Reference
 from ffsm_pin.sim.run import Sensor, prepare, simulate
-from ffsm_pin.sim.scenario import ComponentReference, Reference
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 
 def _inertia(rng, scale):
@@ -75,7 +75,7 @@ def _reference(n_task, rng):
         ComponentReference(c=float(rng.uniform(-0.5, 0.5)), cos=(), sin=()) for _ in range(n_task)
     ]
     # one harmonic per component so that dz_ed/dt != 0
-    from ffsm_pin.sim.scenario import Harmonic
+    from ffsm_pin.scenario.spec import Harmonic
 
     comps = [
         dataclasses.replace(

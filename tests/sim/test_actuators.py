@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from ffsm_pin.errors import ParameterError
-from ffsm_pin.sim.actuators import Actuators, ActuatorSpec
+from ffsm_pin.scenario import ActuatorSpec
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
+from ffsm_pin.sim.actuators import Actuators
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario, scenario_from_toml, scenario_to_toml
 
 
 def _run(case="case1", duration=0.5, **actuators):

@@ -10,15 +10,15 @@ import pytest
 
 from ffsm_pin.robot import urdf_dir
 from ffsm_pin.robot.writer import chain_from_table, write_urdf
+from ffsm_pin.scenario.file import BUILTIN
 from ffsm_pin.sim.cli import main
-from ffsm_pin.sim.scenario_file import BUILTIN
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
 
-SCEN = Path(str(resources.files("ffsm_pin.sim") / "scenarios"))
+SCEN = Path(str(resources.files("ffsm_pin.scenario") / "builtin"))
 
 
 def _doomed(tmp_path: Path, old: str, new: str) -> Path:
@@ -141,18 +141,18 @@ def test_other_warnings_of_the_setup_still_show(monkeypatch):
     import warnings
 
     from ffsm_pin.control.gains import GainWarning
-    from ffsm_pin.sim import run
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim import setup
     from ffsm_pin.sim.check import check
-    from ffsm_pin.sim.scenario_file import builtin_scenario
 
-    original = run.prepare
+    original = setup.prepare
 
     def noisy(scenario):
         warnings.warn("a URDF repair", UserWarning, stacklevel=1)
         warnings.warn("k_z breaks a condition", GainWarning, stacklevel=1)
         return original(scenario)
 
-    monkeypatch.setattr(run, "prepare", noisy)
+    monkeypatch.setattr(setup, "prepare", noisy)
     with pytest.warns(UserWarning, match="a URDF repair") as shown:
         report = check(builtin_scenario("case1"))
     assert report.problems == ["k_z breaks a condition"]

@@ -14,9 +14,9 @@ import pytest
 
 from ffsm_pin.robot import urdf_dir
 from ffsm_pin.robot.writer import chain_from_table, chain_to_urdf
+from ffsm_pin.scenario.file import builtin_path, load_scenario
 from ffsm_pin.sim import compile_note
 from ffsm_pin.sim.result import CONTRACT_KEYS, EXTRA_KEYS, TRUTH_KEYS
-from ffsm_pin.sim.scenario_file import builtin_path, load_scenario
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -348,8 +348,8 @@ def test_divergent_run_stops_and_writes_what_it_has(tmp_path):
 
 def test_help_names_every_builtin_case():
     """--case's help is made from the built-in scenarios, so a new one cannot be left out."""
+    from ffsm_pin.scenario.file import BUILTIN
     from ffsm_pin.sim.cli import _CASE_ALIASES, build_parser
-    from ffsm_pin.sim.scenario_file import BUILTIN
 
     text = " ".join(build_parser().format_help().split())
     aliases = {v: k for k, v in _CASE_ALIASES.items()}

@@ -10,8 +10,8 @@ import pytest
 import tomllib
 
 from ffsm_pin.control.gains import step_problems
+from ffsm_pin.scenario.file import BUILTIN, builtin_path, scenario_from_dict
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import BUILTIN, builtin_path, scenario_from_dict
 
 # ----------------------------------------------------------------- every built-in robot
 LU_JIA_GAINS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")

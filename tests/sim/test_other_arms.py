@@ -14,9 +14,9 @@ import warnings
 
 import pytest
 
+from ffsm_pin.scenario.file import builtin_path, scenario_from_toml
 from ffsm_pin.sim.check import check
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_path, scenario_from_toml
 
 # name -> (end-effector frame, a bent pose inside the joint limits [rad])
 ARMS = {

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim import recorder
 from ffsm_pin.sim.recorder import Recorder, Signals, write_npz
 from ffsm_pin.sim.run import prepare, recording_size, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 WALL_CLOCK = {"wall_time_s", "steps_per_s"}
 
@@ -177,8 +177,8 @@ def test_errors_computed_after_the_run_are_the_per_step_errors(case):
     import dataclasses
 
     from ffsm_pin.control.kinematic import task_errors
+    from ffsm_pin.scenario.file import builtin_scenario
     from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sim.scenario_file import builtin_scenario
 
     sc = dataclasses.replace(builtin_scenario(case), duration=0.5)
     run = simulate(prepare(sc), record_every=7)
@@ -201,8 +201,8 @@ def test_reaction_torque_after_the_run_is_the_models_on_every_row(case):
     planar, 9e-5 spatial; the tolerance is 1e-2, which a wrong sign, index or scale fails)."""
     import dataclasses
 
+    from ffsm_pin.scenario.file import builtin_scenario
     from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sim.scenario_file import builtin_scenario
 
     sc = dataclasses.replace(builtin_scenario(case), duration=0.2)
     setup = prepare(sc)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ffsm_pin.attitude import mrp
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
 from ffsm_pin.sim.run import Sensor, prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario, scenario_from_toml, scenario_to_toml
 
 
 def _start(sc):

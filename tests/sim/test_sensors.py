@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ffsm_pin.scenario.devices import NOISE_KEYS, SensorSpec
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario, scenario_from_toml, scenario_to_toml
-from ffsm_pin.sim.sensors import NOISE_KEYS, SensorSpec
 
 CASES = [("case1", 0.4), ("spatial", 0.1)]
 

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from ffsm_pin.errors import ParameterError, ScenarioError
-from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import (
+from ffsm_pin.scenario.file import (
     builtin_path,
     builtin_scenario,
     scenario_from_toml,
     scenario_to_toml,
 )
+from ffsm_pin.sim.run import prepare, simulate
 
 
 def with_sim(extra: str) -> str:

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ffsm_pin.model import State
+from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 SC = builtin_scenario("spatial-realistic")
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ffsm_pin.errors import StorageError
+from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.run import prepare, recording_size, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario
 from ffsm_pin.sim.storage import check_storage, rows_recorded
 
 

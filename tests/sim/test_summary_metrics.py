@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from ffsm_pin.attitude import mrp
+from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import builtin_scenario
 
 
 @pytest.mark.parametrize("case, duration", [("case1", 2.0), ("spatial", 1.0)])

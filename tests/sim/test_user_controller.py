@@ -18,9 +18,9 @@ import pytest
 
 from ffsm_pin.control.registry import controller_class, known_types
 from ffsm_pin.errors import ControllerLoadError
+from ffsm_pin.scenario import SensorSpec
+from ffsm_pin.scenario.file import load_scenario, scenario_from_toml, scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sim.scenario_file import load_scenario, scenario_from_toml, scenario_to_toml
-from ffsm_pin.sim.sensors import SensorSpec
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 EXAMPLE_FILES = {"planar": "joint_pd_planar.toml", "spatial": "joint_pd_spatial.toml"}

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from sweep_cases import SMALL
 
-from ffsm_pin.sim.scenario_file import builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml
 from ffsm_pin.sweep import cli
 from ffsm_pin.sweep.campaign import (
     BUILTIN_CAMPAIGNS,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from sweep_cases import SMALL
 
-from ffsm_pin.sim.scenario_file import load_scenario
+from ffsm_pin.scenario.file import load_scenario
 from ffsm_pin.sweep.campaign import expand, load_campaign
 from ffsm_pin.sweep.report import RATE_SQL, _sql, query, write_report
 from ffsm_pin.sweep.table import ResultsTable

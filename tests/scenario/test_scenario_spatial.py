@@ -15,14 +15,14 @@ import pytest
 from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import FfsmError
 from ffsm_pin.robot import urdf_dir
-from ffsm_pin.sim.run import initial_state, prepare
-from ffsm_pin.sim.scenario_file import (
+from ffsm_pin.scenario.file import (
     BUILTIN,
     builtin_path,
     builtin_scenario,
     scenario_from_toml,
     scenario_to_toml,
 )
+from ffsm_pin.sim.run import initial_state, prepare
 
 SPATIAL_TEXT = builtin_path("spatial").read_text()
 

@@ -12,7 +12,7 @@ import pytest
 from ffsm_pin import paper
 from ffsm_pin.errors import FfsmError, ScenarioError
 from ffsm_pin.robot import load_robot, urdf_dir
-from ffsm_pin.sim.scenario_file import (
+from ffsm_pin.scenario.file import (
     BUILTIN,
     builtin_path,
     builtin_scenario,
@@ -50,7 +50,7 @@ PLANAR_BUILTIN = sorted(n for n in BUILTIN if not n.startswith("spatial"))
 
 @pytest.mark.parametrize("name", PLANAR_BUILTIN)
 def test_every_builtin_loads(name):
-    """(The spatial built-ins: tests/sim/test_scenario_spatial.py.)"""
+    """(The spatial built-ins: tests/scenario/test_scenario_spatial.py.)"""
     sc = builtin_scenario(name)
     assert sc.name == name
     assert sc.duration == 30.0 and sc.dt == 1e-3

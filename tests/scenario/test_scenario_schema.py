@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import ScenarioError
-from ffsm_pin.sim.scenario_file import (
+from ffsm_pin.scenario.file import (
     BUILTIN,
     builtin_path,
     builtin_scenario,
@@ -24,7 +24,7 @@ from ffsm_pin.sim.scenario_file import (
     scenario_from_toml,
     scenario_to_toml,
 )
-from ffsm_pin.sim.scenario_schema import ScenarioModel, key_path
+from ffsm_pin.scenario.schema import ScenarioModel, key_path
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -13,16 +13,16 @@ from scipy.interpolate import CubicSpline
 
 from ffsm_pin.control._shared_kernels import _piecewise
 from ffsm_pin.errors import ParameterError, ScenarioError
-from ffsm_pin.sim.run import Sensor, prepare, simulate
-from ffsm_pin.sim.scenario import Reference
-from ffsm_pin.sim.scenario_file import (
+from ffsm_pin.scenario.file import (
     builtin_path,
     builtin_scenario,
     load_scenario,
     scenario_from_toml,
     scenario_to_toml,
 )
-from ffsm_pin.sim.trajectory import ReferenceData
+from ffsm_pin.scenario.spec import Reference
+from ffsm_pin.scenario.trajectory import ReferenceData
+from ffsm_pin.sim.run import Sensor, prepare, simulate
 
 H = 1e-20  # complex step
 

@@ -1,0 +1,66 @@
+"""Scenarios: everything one run needs, as frozen dataclasses, and their TOML files.
+
+Layers inside (imports run downwards only):
+
+* :mod:`~ffsm_pin.scenario.trajectory`: references from data (samples through a spline,
+  rest-to-rest waypoints) as one piecewise-polynomial table;
+* :mod:`~ffsm_pin.scenario.devices`: the ``[actuators]`` and ``[sensors]`` options;
+* :mod:`~ffsm_pin.scenario.spec`: the scenario's dataclasses (:class:`Scenario`, its robot,
+  initial condition, reference and controller) with their defaults;
+* :mod:`~ffsm_pin.scenario.schema`: the scenario file's pydantic models, which validate a
+  file once and turn the first problem into one ``ScenarioError`` line naming its TOML key;
+* :mod:`~ffsm_pin.scenario.file`: TOML read and write and the built-in scenarios (the
+  paper's cases and the spatial cases, shipped in ``ffsm_pin/scenario/builtin/``).
+
+The file format is documented in ``docs/cli.md``; the simulation that runs a scenario is
+:mod:`ffsm_pin.sim`.
+"""
+
+from __future__ import annotations
+
+from .devices import ActuatorSpec, SensorSpec
+from .file import (
+    BUILTIN,
+    builtin_path,
+    builtin_scenario,
+    load_any,
+    load_scenario,
+    read_reference_csv,
+    scenario_from_dict,
+    scenario_from_toml,
+    scenario_to_toml,
+)
+from .spec import (
+    ComponentReference,
+    ControllerSpec,
+    Estimates,
+    Harmonic,
+    InitialCondition,
+    Reference,
+    RobotSpec,
+    Scenario,
+)
+from .trajectory import ReferenceData
+
+__all__ = [
+    "BUILTIN",
+    "ActuatorSpec",
+    "ComponentReference",
+    "ControllerSpec",
+    "Estimates",
+    "Harmonic",
+    "InitialCondition",
+    "Reference",
+    "ReferenceData",
+    "RobotSpec",
+    "Scenario",
+    "SensorSpec",
+    "builtin_path",
+    "builtin_scenario",
+    "load_any",
+    "load_scenario",
+    "read_reference_csv",
+    "scenario_from_dict",
+    "scenario_from_toml",
+    "scenario_to_toml",
+]

@@ -1,0 +1,303 @@
+"""The closed loop: :func:`simulate` runs a prepared :class:`~ffsm_pin.sim.setup.Setup` and
+records it.
+
+Per step the loop measures the plant (:class:`~ffsm_pin.sim.measurement.Sensor`), hands the
+controller what the sensors let it see, applies the actuators' torque to the momentum-exact
+plant and records raw states; the signals that are functions of recorded states (funnels,
+reference, task errors, the reaction torque) are computed after the run. ``simulate`` never
+raises on numerical trouble: a run that has to stop returns ``completed=False`` with the time
+and the reason, and everything recorded so far.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..control.backend import numba_available
+from ..control.diagnostics import reaction_torques
+from ..control.interface import recorded_name, split_reply
+from ..control.kinematic import error_terms
+from ..errors import SimulationError
+from .measurement import Sensor
+from .plant import Plant
+from .recorder import Recorder, extend
+from .result import RunResult
+from .setup import Setup
+from .storage import check_storage, rows_recorded
+
+
+def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
+    """Shape of one recorded row of every per-step signal the loop itself records, and of
+    the controller's signals it declares (``signal_shapes``, under their recorded names)."""
+    m = setup.model
+    nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
+    m3, nt = m.m3, setup.n_task
+    planar = m3 == 1
+    nw = n + m3
+    # per-step signals; the funnels, their bounds, the reference, the true task errors and the
+    # reaction torque are computed after the run (_after_run_signals)
+    declared = getattr(setup.controller, "signal_shapes", None) or {}
+    return {
+        "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
+        "q_b": (m3,), "P": (m.m2,),
+        "L": () if planar else (3,), "dw_b": () if planar else (3,), "z_e_dot": (nt,),
+        "u_cmd": (n,),
+        **({} if setup.sensors is None else {  # what the controller saw
+            "meas_q_b": (m3,), "meas_q_m": (n,), "meas_w": (nw,), "meas_z_e": (nt,),
+            "meas_z_e_dot": (nt,),
+        }),
+        **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
+    }  # fmt: skip
+
+
+def recording_size(setup: Setup) -> tuple[int, int]:
+    """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
+    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors, F_r)."""
+    sc = setup.scenario
+    steps = int(round(sc.duration / sc.dt))
+    per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
+    m3, nt = setup.model.m3, setup.n_task
+    return steps, 8 * (per_step + 5 * m3 + 6 * nt)
+
+
+#: The recorded columns the signals computed after the run are functions of.
+AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "w", "dw_b")
+
+
+def _after_run_signals(setup: Setup, reaction: Callable[..., np.ndarray]):
+    """The recorded signals computed after the run, a block of rows at a time, from the
+    recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
+    of Eqs. (16)-(17) (as :func:`~ffsm_pin.control.kinematic.task_errors`, on which the
+    specification's funnels are judged); from the recorded q_b, q, w and the base's angular
+    acceleration dw_b: the reaction torque F_r of Eq. (7) with the true model, one compiled
+    pass (``reaction``: :func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
+    ref = setup.scenario.reference
+    nq_root = setup.robot.root.nq  # q = (root, q_m)
+    q_bd = np.asarray(ref.base_attitude, dtype=float)
+    m3 = setup.model.m3
+    funnel_b, funnel_z = setup.funnel_b, setup.funnel_z
+    assert funnel_b is not None and funnel_z is not None  # prepare() sets both
+    funnels = (("b", funnel_b), ("z", funnel_z))
+
+    def per_row(block) -> dict[str, np.ndarray]:
+        t = block["t"]
+        out = {}
+        for name, funnel in funnels:
+            rho = funnel.rho(t[:, None])  # (samples, components)
+            out[f"rho_{name}"] = rho
+            out[f"bound_{name}_lower"] = funnel.lower * rho
+            out[f"bound_{name}_upper"] = funnel.upper * rho
+        out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
+        out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
+        q_m = block["q"][:, nq_root:]
+        out["F_r"] = reaction(block["q_b"], q_m, block["w"], block["dw_b"])
+        return out
+
+    truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}
+    return per_row, truth
+
+
+class _ControllerFault(Exception):
+    """A controller broke the interface (a bad torque or signal); the run stops."""
+
+
+def _checked_torque(u, n: int) -> np.ndarray:
+    u = np.asarray(u, dtype=float)
+    if u.shape != (n,):
+        raise _ControllerFault(
+            f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
+            "joint [N m]"
+        )
+    if not np.isfinite(u).all():
+        raise _ControllerFault(
+            f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
+        )
+    return u
+
+
+def simulate(
+    setup: Setup,
+    progress=None,
+    record_every: int = 1,
+    spool_dir: str | Path | None = None,
+) -> RunResult:
+    """Run the closed loop for the scenario's duration; see the module docstring.
+
+    Parameters
+    ----------
+    setup:
+        The prepared run (:func:`prepare`).
+    progress:
+        Called with the simulated time [s] every 0.1 s of it, or None.
+    record_every:
+        Record every this many steps (and the last step).
+    spool_dir:
+        Where a recording longer than the recorder's memory chunk is spilled
+        (``ffsm_pin.sim.recorder``); the system's temporary folder when None.
+
+    A Ctrl-C (``KeyboardInterrupt``) ends the run like a stop: the result holds every row
+    recorded so far, ``stop_cause = "interrupted"``. A controller that raises, or returns a
+    torque of the wrong shape or not finite, stops the run with ``stop_cause = "controller"``.
+    """
+    sc = setup.scenario
+    dt, duration = sc.dt, sc.duration
+    n_steps = int(round(duration / dt))
+    record_every = max(1, int(record_every))
+    # the rows a run records go to disk past the first chunk (ffsm_pin.sim.recorder)
+    check_storage(*recording_size(setup), record_every, spool_dir or tempfile.gettempdir())
+    controller = setup.controller
+    model = setup.model
+    plant = Plant(setup.robot, integrator=sc.integrator)
+    needs_dynamics = bool(getattr(controller, "needs_dynamics", False))
+    sensor = Sensor(setup.robot, model, full_model=needs_dynamics)  # Pinocchio M, C w
+    shapes = recorder_shapes(setup)
+    n_rows = rows_recorded(n_steps, record_every)
+    rec = Recorder(shapes, n_rows, spool_dir)
+    A = rec.arrays
+    q, v = setup.q0.copy(), setup.v0.copy()
+    plant.reset(q, v)
+    completed, stop_reason, stop_time = True, None, None
+    stop_cause = stop_funnel = None
+    next_progress = 0.0
+    m3, nt, n = model.m3, setup.n_task, model.n_joints
+    spatial = m3 > 1
+    sensor.measure(0.0, q, v)  # compile / load the kernels before the clock starts
+    # likewise F_r's after-run pass (true model, Eq. 7), on one row of zeros
+    reaction = reaction_torques(model, setup.theta_d, numba_available())
+    reaction(np.zeros((1, m3)), np.zeros((1, n)), np.zeros((1, n + m3)),
+             np.zeros((1, *shapes["dw_b"])))  # fmt: skip
+    sensor._q_b_prev = None  # the run measures t = 0 again
+    plant.project(q, v)  # likewise the plant's compiled projection (result unused)
+    n_lin = 3 if spatial else 2  # base linear velocity entries of v
+    actuators, sensors = setup.actuators, setup.sensors
+    saturated = 0  # control periods with some joint at its torque limit
+    names: dict[str, str] = {}  # controller signal -> recorded name
+    wall0 = time.perf_counter()
+    k = 0
+    try:
+        for k in range(n_steps + 1):
+            t = k * dt
+            if progress is not None and t >= next_progress:
+                progress(t)
+                next_progress += 0.1
+            meas = sensor.measure(t, q, v)
+            record = k % record_every == 0 or k == n_steps
+            seen = meas if sensors is None else sensors.observe(meas)  # noise, delay
+            try:
+                u_cmd, signals = split_reply(controller.step(seen))
+                u_cmd = _checked_torque(u_cmd, n)
+                if k == 0:  # the controller's signals: names and shapes from the first period
+                    names = {key: recorded_name(key) for key in signals}
+                    new = {names[key]: np.shape(val) for key, val in signals.items()}
+                    if any(shapes.get(key, shape) != shape for key, shape in new.items()):
+                        raise _ControllerFault(
+                            f"the controller's signals {new} differ from its signal_shapes"
+                        )
+                    if set(new) - set(shapes):
+                        shapes = {**shapes, **new}
+                        rec = Recorder(shapes, n_rows, spool_dir)
+                        A = rec.arrays
+            except SimulationError as exc:
+                completed, stop_reason, stop_time = False, str(exc), exc.time
+                stop_cause, stop_funnel = exc.cause, exc.funnel
+                break
+            except Exception as exc:  # a controller's own failure is a stop, not a crash
+                what = str(exc) if isinstance(exc, _ControllerFault) else (
+                    f"the controller raised {type(exc).__name__}: {exc}"
+                )  # fmt: skip
+                completed, stop_time, stop_cause = False, t, "controller"
+                stop_reason = f"t = {t:.4f} s: {what}"
+                break
+            final = k == n_steps
+            u_m = u_cmd
+            if actuators is not None:
+                u_m = actuators.apply(u_m)
+                saturated += actuators.last_saturated
+            if not final:
+                q_new, v_new, a = plant.advance(q, v, u_m, dt, sc.substeps)
+            else:
+                a = plant.acceleration(q, v, u_m)
+            if record:
+                i = rec.i
+                try:
+                    for key, val in signals.items():
+                        A[names[key]][i] = val
+                except (KeyError, ValueError) as exc:
+                    completed, stop_time, stop_cause = False, t, "controller"
+                    stop_reason = (
+                        f"t = {t:.4f} s: the controller's signals changed after the first "
+                        f"period ({type(exc).__name__}: {exc}); each signal needs the same "
+                        "name and shape every period"
+                    )
+                    break
+                A["t"][i] = t
+                A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, u_m
+                A["u_cmd"][i] = u_cmd
+                A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
+                A["q_b"][i] = meas.q_b
+                if sensors is not None:  # what the controller saw
+                    A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
+                    A["meas_z_e"][i] = seen.z_e[:nt]
+                    A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
+                mom = plant.momentum(q, v)
+                # dw_b/dt for F_r (Eq. 7, after the run): spatial in the inertial frame,
+                # R_0(q_b) of this measurement (docs/spatial.md 1)
+                if spatial:
+                    A["P"][i], A["L"][i] = mom[:3], mom[3:]
+                    A["dw_b"][i] = sensor.R0 @ a[3:6]
+                else:
+                    A["P"][i], A["L"][i] = mom[:2], mom[2]
+                    A["dw_b"][i] = a[2]
+                rec.commit()
+            if final:
+                break
+            if not (np.isfinite(q_new).all() and np.isfinite(v_new).all()):
+                completed, stop_time, stop_cause = False, t + dt, "nonfinite"
+                stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
+                break
+            if np.abs(v_new[n_lin:]).max() > 1e4:
+                completed, stop_time, stop_cause = False, t + dt, "nonfinite"
+                stop_reason = (
+                    f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
+                    f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})"
+                )
+                break
+            q, v = q_new, v_new
+    except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
+        completed, stop_time, stop_cause = False, k * dt, "interrupted"
+        stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
+    per_row, truth = _after_run_signals(setup, reaction)
+    signals = extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS)
+    wall = time.perf_counter() - wall0  # the loop and the signals computed after it
+    if progress is not None:
+        progress(min(k * dt, duration))
+    kind = sc.controller.type
+    return RunResult(
+        scheme=sc.controller.scheme if kind == "lu-jia" else None,
+        robot=setup.robot.name,
+        dt=dt,
+        duration=duration,
+        steps=k,
+        wall_time_s=wall,
+        completed=completed,
+        stop_reason=stop_reason,
+        signals=signals,
+        scenario_name=sc.name,
+        stop_time=stop_time,
+        stop_cause=stop_cause,
+        stop_funnel=stop_funnel,
+        integrator=sc.integrator,
+        substeps=sc.substeps,
+        events=setup.events + list(getattr(controller, "events", [])),
+        rhoinf_b=sc.controller.funnel_b.rhoinf,
+        rhoinf_z=sc.controller.funnel_z.rhoinf,
+        damping_threshold=sc.controller.singularity.threshold,
+        description=sc.description,
+        saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
+        controller=kind,
+    )

@@ -1,0 +1,206 @@
+"""A scenario made concrete: :func:`prepare` builds everything a run needs and checks it.
+
+``prepare(scenario)`` does every check that can fail *before* simulating and needs the robot
+(the task's size, funnel and reference lengths for the robot's root, feasibility, initial
+errors inside the funnels, the reach horizon); the checks that need only the file are the
+scenario schema's (:mod:`ffsm_pin.scenario.schema`). Bad input raises
+:class:`~ffsm_pin.errors.FfsmError` subclasses. The loop that runs a :class:`Setup` is
+:mod:`ffsm_pin.sim.loop`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..control.funnel import Funnel
+from ..control.gains import GainWarning
+from ..control.interface import (
+    Controller,
+    ControllerContext,
+    ReferenceSample,
+)
+from ..control.kinematic import task_errors, task_size
+from ..control.registry import controller_class
+from ..errors import ControllerLoadError, FfsmError, ScenarioError
+from ..model import ReducedModel, State, make_model
+from ..robot import Robot, load_robot
+from ..scenario.spec import Scenario
+from .actuators import Actuators
+from .estimates import initial_estimates
+from .initial import initial_state
+from .measurement import Sensor
+from .reach import ReachWarning, reach_horizon
+from .sensors import Sensors
+
+
+@dataclass
+class Setup:
+    """A scenario made concrete: robot, models, initial state, truths and controller."""
+
+    scenario: Scenario
+    robot: Robot
+    model: ReducedModel
+    q0: np.ndarray
+    v0: np.ndarray
+    theta_z: np.ndarray  # true parameters
+    theta_d: np.ndarray
+    theta_b: np.ndarray
+    controller: Controller  # any implementation of control.interface.Controller
+    reach_horizon: float | None  # time the reference leaves the reach [s], None if never
+    events: list[str]
+    actuators: Actuators | None = None  # between the controller and the plant (ideal: None)
+    sensors: Sensors | None = None  # between the plant and the controller (exact: None)
+    funnel_b: Funnel | None = None  # the performance specification, sides fixed at t = 0
+    funnel_z: Funnel | None = None
+
+    @property
+    def n_task(self) -> int:
+        """Components of the end-effector task."""
+        return task_size(self.model.m2, self.model.m3, self.scenario.reference.task)
+
+
+# ---------------------------------------------------------------------- prepare
+def prepare(scenario: Scenario) -> Setup:
+    """Load, validate and build everything for ``scenario``; raise FfsmError on bad input."""
+    spec = scenario.robot
+    spatial = spec.base == "free-flyer"
+    options = {}
+    if spatial:
+        options = {"locked_joints": dict(spec.locked_joints) or None, "satellite": spec.satellite}
+    robot = load_robot(
+        spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
+    )
+    ctrl, ref = scenario.controller, scenario.reference
+    cls = controller_class(ctrl.type, scenario.source.parent if scenario.source else None)
+    model = make_model(robot)
+    m3 = model.m3
+    n_task = task_size(model.m2, m3, ref.task)
+    check_task = getattr(cls, "check_task", None)  # a controller's early refusal, if any
+    if check_task is not None:
+        check_task(scenario, robot.n_joints, n_task, m3)
+    for name, fp, size in (("b", ctrl.funnel_b, m3), ("z", ctrl.funnel_z, n_task)):
+        if fp.size != size:
+            raise ScenarioError(
+                f"controller.funnel ({name}) has {fp.size} components, the {ref.task!r} task "
+                f"of this robot needs {size}"
+            )
+    if ref.n_components != n_task:
+        raise ScenarioError(
+            f"reference.ee has {ref.n_components} components; the {ref.task!r} task of this "
+            f"robot needs {n_task}"
+        )
+    if len(ref.base_attitude) != m3:
+        raise ScenarioError(
+            f"reference.base_attitude has {len(ref.base_attitude)} values, this robot needs {m3}"
+        )
+    check_gains = getattr(cls, "check_gains", None)  # a controller's discrete-time conditions
+    for problem in check_gains(scenario, m3) if check_gains is not None else ():
+        warnings.warn(problem, GainWarning, stacklevel=2)
+    q0, v0 = initial_state(robot, scenario.initial)
+    st = State(robot).update(q0, v0)
+    truth = (
+        np.array(model.true_theta_z(st.com_velocity)),
+        np.array(model.theta_d),
+        np.array(model.true_theta_b(st.angular_momentum)),
+    )
+
+    def estimates():  # drawn when the controller first reads ctx.estimates
+        return initial_estimates(scenario, model, truth)
+
+    if getattr(cls, "needs_estimates", False):  # checked before the funnels, as they are read
+        estimates = _constant(estimates())
+    sensor = Sensor(robot, model, full_model=False)
+    meas0 = sensor.measure(0.0, q0, v0)
+    if ref.origin != "absolute":  # relative to the initial pose: resolved, and saved resolved
+        ref = ref.resolved(meas0.z_e, meas0.q_b, model.m2)
+        scenario = dataclasses.replace(scenario, reference=ref)
+    q_bd = np.array(ref.base_attitude, dtype=float)
+    err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
+    funnels = {"b": Funnel(ctrl.funnel_b, err_b), "z": Funnel(ctrl.funnel_z, err_z)}
+    for label, key, funnel, err in (
+        ("base attitude", "rho_b0", funnels["b"], err_b),
+        ("end-effector", "rho_z0", funnels["z"], err_z),
+    ):
+        if getattr(cls, "needs_funnels", False) and not funnel.inside(0.0, err):
+            z0 = np.round(np.atleast_1d(meas0.z_e), 4).tolist()
+            qb0 = np.round(np.atleast_1d(meas0.q_b), 4).tolist()
+            hint = (
+                f"move reference.ee (c terms) toward the initial end-effector pose z_e(0) = {z0}"
+                if key == "rho_z0"
+                else f"set reference.base_attitude near q_b(0) = {qb0}"
+            )
+            lo, hi = funnel.bounds(0.0)
+            raise ScenarioError(
+                f"initial {label} error {np.round(err, 4).tolist()} is not strictly inside its "
+                f"funnel at t = 0 (bounds {np.round(lo, 4).tolist()} .. "
+                f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key} or {hint}"
+            )
+    ctx = ControllerContext(
+        n_joints=robot.n_joints,
+        m2=model.m2,
+        m3=m3,
+        task=ref.task,
+        n_task=n_task,
+        dt=scenario.dt,
+        params=dict(ctrl.params),
+        reference=_reference_function(ref),
+        base_attitude_reference=q_bd,
+        robot=robot,
+        model=model,
+        initial=meas0,
+        scenario=scenario,
+        estimates_source=estimates,
+        truth=truth,
+    )
+    controller = _build_controller(cls, ctx, ctrl.type)
+    events = []
+    horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)
+    if horizon is not None:
+        msg = (
+            f"the reference leaves the arm's reach at t = {horizon:.1f} s (the system CoM drifts "
+            f"with v_0 = {np.round(truth[0][: model.m2], 4).tolist()} m/s); no controller can "
+            "track it "
+            "beyond that"
+        )
+        events.append(msg)
+        warnings.warn(msg, ReachWarning, stacklevel=2)
+    n = robot.n_joints
+    effort = np.asarray(robot.model.effortLimit)[-n:]  # the arm joints' URDF <limit effort>
+    actuators = Actuators(scenario.actuators, n, scenario.dt, effort, robot.joint_names)
+    sensors = Sensors(scenario.sensors, n, m3, model.m2 + m3)
+    return Setup(
+        scenario, robot, model, q0, v0, *truth, controller, horizon, events,
+        None if actuators.ideal else actuators, None if sensors.ideal else sensors,
+        funnels["b"], funnels["z"],
+    )  # fmt: skip
+
+
+def _constant(value):
+    """A function returning ``value``."""
+    return lambda: value
+
+
+def _reference_function(ref):
+    """ctx.reference: t -> (z_d, dz_d, ddz_d), task-size arrays."""
+
+    def reference(t: float) -> ReferenceSample:
+        return ReferenceSample(ref.ee_pose(t), ref.ee_rate(t), ref.ee_accel(t))
+
+    return reference
+
+
+def _build_controller(cls: type, ctx: ControllerContext, kind: str) -> Controller:
+    """``cls(ctx)``; a user's constructor that fails is bad input (exit 2)."""
+    try:
+        return cls(ctx)
+    except FfsmError:
+        raise
+    except Exception as exc:
+        raise ControllerLoadError(
+            f"controller.type {kind!r}: building {cls.__name__}(ctx) failed "
+            f"({type(exc).__name__}: {exc})"
+        ) from exc
