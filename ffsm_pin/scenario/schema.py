@@ -14,6 +14,7 @@ validator. :func:`first_error` turns a ``pydantic.ValidationError`` into the one
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from collections.abc import Mapping
@@ -38,8 +39,18 @@ from ..control.gains import Gains, SingularityPolicy
 from ..control.kinematic import TASKS
 from ..control.null_space import OBJECTIVES, NullSpace
 from ..errors import ScenarioError, choices_text, did_you_mean
-from .devices import LIMIT_WORDS
-from .spec import ESTIMATE_KINDS, INTEGRATORS, ORIGINS, ControllerSpec
+from ..robot.satellite import Satellite
+from .devices import LIMIT_WORDS, ActuatorSpec, SensorSpec
+from .spec import (
+    ESTIMATE_KINDS,
+    INTEGRATORS,
+    ORIGINS,
+    ControllerSpec,
+    Estimates,
+    Reference,
+    RobotSpec,
+    Scenario,
+)
 
 #: For each supported base: (m2 end-effector position components, m3 attitude components).
 TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
@@ -64,6 +75,15 @@ def describe(x: Any) -> str:
 
 def _is_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def default(cls: type, name: str) -> Any:
+    """The default of field ``name`` of the dataclass ``cls``: the dataclasses of
+    :mod:`.spec` (and :mod:`.devices`, :class:`~ffsm_pin.robot.Satellite`) hold every default
+    once, the file's models read them from there (a tuple as the list TOML has)."""
+    f: Any = {f.name: f for f in dataclasses.fields(cls)}[name]
+    value = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+    return list(value) if isinstance(value, tuple) else value
 
 
 # ------------------------------------------------------------------------------ value types
@@ -165,22 +185,22 @@ class _Table(BaseModel):
 
 # ------------------------------------------------------------------------------ sections
 class SatelliteModel(_Table):
-    """``[robot.satellite]``, :class:`~ffsm_pin.spatial.robot.Satellite` (defaults there)."""
+    """``[robot.satellite]``, :class:`~ffsm_pin.robot.Satellite` (defaults there)."""
 
-    mass: Pos = 500.0  # [kg]
-    inertia: vec(6) = [80.0, 80.0, 80.0, 0.0, 0.0, 0.0]  # [kg m^2]
-    size: vec(3) = [1.0, 1.0, 1.0]  # [m]
-    mount_xyz: vec(3) = [0.0, 0.0, 0.5]  # [m]
-    mount_rpy: vec(3) = [0.0, 0.0, 0.0]  # [rad]
-    name: str = "satellite"
+    mass: Pos = default(Satellite, "mass")  # [kg]
+    inertia: vec(6) = default(Satellite, "inertia")  # [kg m^2]
+    size: vec(3) = default(Satellite, "size")  # [m]
+    mount_xyz: vec(3) = default(Satellite, "mount_xyz")  # [m]
+    mount_rpy: vec(3) = default(Satellite, "mount_rpy")  # [rad]
+    name: str = default(Satellite, "name")
 
 
 class RobotModel(_Table):
     """``[robot]``: the URDF, its root (planar or free-flyer), end effector, satellite."""
 
-    urdf: str = "ffsm_planar4.urdf"
-    base: Literal[tuple(TASK_SIZE)] = "planar"
-    end_effector: str = "ee"
+    urdf: str = default(RobotSpec, "urdf")
+    base: Literal[tuple(TASK_SIZE)] = default(RobotSpec, "base")
+    end_effector: str = default(RobotSpec, "end_effector")
     locked_joints: dict[str, Num] = {}  # [rad or m], free-flyer only
     satellite: SatelliteModel | None = None  # free-flyer only
 
@@ -258,8 +278,9 @@ EE_KEYS = ("ee", "ee_file", "ee_samples", "ee_waypoints")
 class ReferenceModel(_Table):
     """``[reference]``: the task and its end-effector reference (one of the EE keys)."""
 
-    task: Literal[TASKS] = "pose"
-    origin: Literal[ORIGINS] = "absolute"  # "initial": c and base_attitude from the start pose
+    task: Literal[TASKS] = default(Reference, "task")
+    # origin "initial": c and base_attitude relative to the start pose
+    origin: Literal[ORIGINS] = default(Reference, "origin")
     base_attitude: Vec | None = None  # planar angle [rad], spatial MRP; default zeros
     ee: Annotated[list[HarmonicsModel], BeforeValidator(_tables)] | None = None
     ee_file: str | None = None  # CSV "t, <one column per component>", C2 spline
@@ -309,9 +330,9 @@ class FunnelModel(_Table):
 class EstimatesModel(_Table):
     """``[controller.estimates]``: how the initial parameter estimates are made."""
 
-    initial: Literal[ESTIMATE_KINDS] = "paper"
-    spread: Fraction = 0.3
-    seed: int = 0
+    initial: Literal[ESTIMATE_KINDS] = default(Estimates, "initial")
+    spread: Fraction = default(Estimates, "spread")
+    seed: int = default(Estimates, "seed")
     theta_z: Vec | None = None
     theta_d: Vec | None = None
     theta_b: Vec | None = None
@@ -365,9 +386,9 @@ _G = Gains()
 class ControllerModel(_Table):
     """``[controller]``: the controller type, its params, the paper's gains and funnels."""
 
-    type: Annotated[str, Field(min_length=1)] = "lu-jia"  # control.registry
+    type: Annotated[str, Field(min_length=1)] = default(ControllerSpec, "type")  # registry
     params: dict[str, Any] = {}  # free table for the controller (docs/controllers.md)
-    scheme: Literal[SCHEMES] = "ppc"
+    scheme: Literal[SCHEMES] = default(ControllerSpec, "scheme")
     k_b: Pos | None = None  # None: derived from the funnel and dt (gains.derived_gain)
     k_z: Pos | None = None
     k_de: Pos = _G.k_de
@@ -384,10 +405,10 @@ class ControllerModel(_Table):
 class SimModel(_Table):
     """``[sim]``: duration, step, integrator."""
 
-    duration: Pos = 30.0  # [s]
-    dt: Pos = 1e-3  # [s]
-    integrator: Literal[INTEGRATORS] = "semi-implicit"
-    substeps: Annotated[int, Field(ge=1)] = 1  # plant steps per control step
+    duration: Pos = default(Scenario, "duration")  # [s]
+    dt: Pos = default(Scenario, "dt")  # [s]
+    integrator: Literal[INTEGRATORS] = default(Scenario, "integrator")
+    substeps: Annotated[int, Field(ge=1)] = default(Scenario, "substeps")  # per control step
 
     @model_validator(mode="after")
     def dt_within_duration(self):
@@ -398,13 +419,15 @@ class SimModel(_Table):
 
 
 class ActuatorsModel(_Table):
-    """``[actuators]``, :class:`~ffsm_pin.sim.actuators.ActuatorSpec` (docs/controllers.md)."""
+    """``[actuators]``, :class:`~ffsm_pin.scenario.devices.ActuatorSpec` (docs/controllers.md)."""
 
-    torque_limit: Annotated[Any, BeforeValidator(_torque_limit)] = "none"
-    rate_limit: NonNegOrVec = 0.0  # [N m/s]
-    time_constant: NonNeg = 0.0  # [s]
-    torque_noise: NonNegOrVec = 0.0  # [N m]
-    seed: Annotated[int, Field(ge=0)] = 0
+    torque_limit: Annotated[Any, BeforeValidator(_torque_limit)] = default(
+        ActuatorSpec, "torque_limit"
+    )
+    rate_limit: NonNegOrVec = default(ActuatorSpec, "rate_limit")  # [N m/s]
+    time_constant: NonNeg = default(ActuatorSpec, "time_constant")  # [s]
+    torque_noise: NonNegOrVec = default(ActuatorSpec, "torque_noise")  # [N m]
+    seed: Annotated[int, Field(ge=0)] = default(ActuatorSpec, "seed")
 
 
 class NoiseModel(_Table):
@@ -419,11 +442,11 @@ class NoiseModel(_Table):
 
 
 class SensorsModel(_Table):
-    """``[sensors]``, :class:`~ffsm_pin.sim.sensors.SensorSpec` (docs/controllers.md)."""
+    """``[sensors]``, :class:`~ffsm_pin.scenario.devices.SensorSpec` (docs/controllers.md)."""
 
-    seed: Annotated[int, Field(ge=0)] = 0
-    delay: Annotated[int, Field(ge=0)] = 0  # [control periods]
-    noise: NoiseModel = NoiseModel()
+    seed: Annotated[int, Field(ge=0)] = default(SensorSpec, "seed")
+    delay: Annotated[int, Field(ge=0)] = default(SensorSpec, "delay")  # [control periods]
+    noise: NoiseModel = NoiseModel()  # per key 0: no noise (SensorSpec.noise lists the others)
 
 
 class ScenarioModel(_Table):
