@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from . import _numba_cache  # noqa: F401 - first: sets NUMBA_CACHE_DIR before numba loads
+from . import _numba_cache  # noqa: F401 - first: numba settings before numba loads
 from .errors import FfsmError
 from .model import State, make_model
 from .robot import FreeFloatingRobot, Robot, load_robot, shipped_urdfs
