@@ -8,7 +8,9 @@ Layers inside (imports run downwards only):
 * :mod:`~ffsm_pin.scenario.spec`: the scenario's dataclasses (:class:`Scenario`, its robot,
   initial condition, reference and controller) with their defaults;
 * :mod:`~ffsm_pin.scenario.schema`: the scenario file's pydantic models, which validate a
-  file once and turn the first problem into one ``ScenarioError`` line naming its TOML key;
+  file once and turn the first problem into one ``ScenarioError`` line naming its TOML key (a
+  scenario built in Python goes through the same models, :func:`check_scenario`); they read
+  their defaults from the dataclasses;
 * :mod:`~ffsm_pin.scenario.file`: TOML read and write and the built-in scenarios (the
   paper's cases and the spatial cases, shipped in ``ffsm_pin/scenario/builtin/``).
 
@@ -23,9 +25,11 @@ from .file import (
     BUILTIN,
     builtin_path,
     builtin_scenario,
+    check_scenario,
     load_any,
     load_scenario,
     read_reference_csv,
+    scenario_document,
     scenario_from_dict,
     scenario_from_toml,
     scenario_to_toml,
@@ -57,10 +61,12 @@ __all__ = [
     "SensorSpec",
     "builtin_path",
     "builtin_scenario",
+    "check_scenario",
     "load_any",
     "load_scenario",
     "read_reference_csv",
     "scenario_from_dict",
+    "scenario_document",
     "scenario_from_toml",
     "scenario_to_toml",
 ]

@@ -39,6 +39,7 @@ The paper's cases and the spatial cases ship as files in ``ffsm_pin/scenario/bui
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Mapping
 from importlib import resources
@@ -151,6 +152,28 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
         if src is not None and not str(exc).startswith(str(src)):
             raise ScenarioError(f"{src}: {exc}") from None
         raise
+
+
+def scenario_document(scenario: Scenario) -> dict[str, Any]:
+    """The scenario as the document of its file (nested tables, TOML values): what
+    :func:`scenario_to_toml` writes, read back; the form the schema validates."""
+    return tomllib.loads(scenario_to_toml(scenario))
+
+
+def check_scenario(scenario: Scenario) -> None:
+    """Check a scenario built in Python with the scenario file's schema: one validator for
+    files and Python alike (sizes for the robot's root and the task, ranges, funnels, MRP
+    branches, ...). ``[controller.params]`` is the controller's own table and is not read.
+
+    Raises
+    ------
+    ScenarioError
+        The schema's one-line message, starting with the key that is wrong.
+    """
+    bare = dataclasses.replace(
+        scenario, controller=dataclasses.replace(scenario.controller, params={})
+    )
+    schema.validate(scenario_document(bare))
 
 
 def scenario_to_toml(scenario: Scenario) -> str:
@@ -512,6 +535,8 @@ def _key(key: str) -> str:
 
 
 def _toml(value: Any) -> str:
+    if isinstance(value, np.ndarray):  # a Python-built scenario may hold arrays
+        value = value.tolist()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
@@ -543,10 +568,12 @@ __all__ = [
     "BUILTIN",
     "builtin_path",
     "builtin_scenario",
+    "check_scenario",
     "load_any",
     "load_scenario",
     "read_reference_csv",
     "scenario_from_dict",
+    "scenario_document",
     "scenario_from_toml",
     "scenario_to_toml",
 ]

@@ -165,7 +165,6 @@ def simulate(
     stop_cause = stop_funnel = None
     next_progress = 0.0
     m3, nt, n = model.m3, setup.n_task, model.n_joints
-    spatial = m3 > 1
     sensor.measure(0.0, q, v)  # compile / load the kernels before the clock starts
     # likewise F_r's after-run pass (true model, Eq. 7), on one row of zeros
     reaction = reaction_torques(model, setup.theta_d, numba_available())
@@ -173,7 +172,7 @@ def simulate(
              np.zeros((1, *shapes["dw_b"])))  # fmt: skip
     sensor._q_b_prev = None  # the run measures t = 0 again
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
-    n_lin = 3 if spatial else 2  # base linear velocity entries of v
+    n_lin = plant.n_linear  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
     names: dict[str, str] = {}  # controller signal -> recorded name
@@ -244,15 +243,8 @@ def simulate(
                     A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
                     A["meas_z_e"][i] = seen.z_e[:nt]
                     A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
-                mom = plant.momentum(q, v)
-                # dw_b/dt for F_r (Eq. 7, after the run): spatial in the inertial frame,
-                # R_0(q_b) of this measurement (docs/spatial.md 1)
-                if spatial:
-                    A["P"][i], A["L"][i] = mom[:3], mom[3:]
-                    A["dw_b"][i] = sensor.R0 @ a[3:6]
-                else:
-                    A["P"][i], A["L"][i] = mom[:2], mom[2]
-                    A["dw_b"][i] = a[2]
+                A["P"][i], A["L"][i] = plant.split_momentum(plant.momentum(q, v))
+                A["dw_b"][i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
                 rec.commit()
             if final:
                 break

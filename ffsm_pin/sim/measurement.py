@@ -35,6 +35,15 @@ class Sensor:
         self._q_b_prev: float | None = None
         self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
 
+    def base_angular_acceleration(self, a: np.ndarray):
+        """The paper's dw_b/dt from the plant's acceleration ``a`` (Pinocchio convention) at
+        the last measured state: planar a number [rad/s^2]; free-flyer the 3-vector in the
+        inertial frame, R_0(q_b) of the last measurement times the body-frame one
+        (docs/spatial.md 1)."""
+        if self.spatial:
+            return self.R0 @ a[3:6]
+        return a[2]
+
     def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
         """The exact measurement at time ``t`` [s] of the plant state (q, v)."""
         if self.spatial:

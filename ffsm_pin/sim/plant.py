@@ -32,10 +32,11 @@ from ..errors import ParameterError, choices_text
 from ..scenario.spec import INTEGRATORS
 from .integrators import chart_block, gauss_solve, rkmk4_step
 
-# root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept)
+# root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept,
+# linear entries of the base velocity (= entries of P))
 _ROOTS = {
-    "JointModelPlanar": (3, np.array([0, 1, 5])),  # P_x, P_y, L_z
-    "JointModelFreeFlyer": (6, np.arange(6)),  # P (inertial frame), L about the CoM
+    "JointModelPlanar": (3, np.array([0, 1, 5]), 2),  # P_x, P_y, L_z
+    "JointModelFreeFlyer": (6, np.arange(6), 3),  # P (inertial frame), L about the CoM
 }
 
 
@@ -127,7 +128,7 @@ class Plant:
         self.model = robot if isinstance(robot, pin.Model) else robot.model
         self.data = self.model.createData()
         self.root = root_kind(self.model)
-        self.n_base, self._rows = _ROOTS[self.root]
+        self.n_base, self._rows, self.n_linear = _ROOTS[self.root]
         self.integrator = integrator
         self.project_momentum = project_momentum
         self._tau = np.zeros(self.model.nv)
@@ -143,6 +144,12 @@ class Plant:
         if self.n_base == 3:
             return np.array([hg.linear[0], hg.linear[1], hg.angular[2]])
         return hg.np.copy()
+
+    def split_momentum(self, momentum: np.ndarray) -> tuple:
+        """(P, L) of :meth:`momentum`'s result: P [kg m/s] its first ``n_linear`` entries, L
+        [kg m^2/s] the rest (planar: the number L_z, free-flyer: a 3-vector; views)."""
+        m = self.n_linear
+        return momentum[:m], (momentum[m] if momentum.size == m + 1 else momentum[m:])
 
     def reset(self, q, v) -> None:
         """Set the momentum to be conserved from the initial state."""

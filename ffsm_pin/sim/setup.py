@@ -1,9 +1,10 @@
 """A scenario made concrete: :func:`prepare` builds everything a run needs and checks it.
 
-``prepare(scenario)`` does every check that can fail *before* simulating and needs the robot
-(the task's size, funnel and reference lengths for the robot's root, feasibility, initial
-errors inside the funnels, the reach horizon); the checks that need only the file are the
-scenario schema's (:mod:`ffsm_pin.scenario.schema`). Bad input raises
+``prepare(scenario)`` does every check that can fail *before* simulating: first the scenario
+schema's, which a scenario built in Python passes like a file
+(:func:`~ffsm_pin.scenario.file.check_scenario`: sizes for the robot's root and the task,
+ranges, funnels), then what needs the robot itself (its URDF, the controller's own checks,
+feasibility, initial errors inside the funnels, the reach horizon). Bad input raises
 :class:`~ffsm_pin.errors.FfsmError` subclasses. The loop that runs a :class:`Setup` is
 :mod:`ffsm_pin.sim.loop`.
 """
@@ -28,6 +29,7 @@ from ..control.registry import controller_class
 from ..errors import ControllerLoadError, FfsmError, ScenarioError
 from ..model import ReducedModel, State, make_model
 from ..robot import Robot, load_robot
+from ..scenario.file import check_scenario
 from ..scenario.spec import Scenario
 from .actuators import Actuators
 from .estimates import initial_estimates
@@ -66,6 +68,7 @@ class Setup:
 # ---------------------------------------------------------------------- prepare
 def prepare(scenario: Scenario) -> Setup:
     """Load, validate and build everything for ``scenario``; raise FfsmError on bad input."""
+    check_scenario(scenario)  # the file's schema, also for a scenario built in Python
     spec = scenario.robot
     spatial = spec.base == "free-flyer"
     options = {}
@@ -82,21 +85,6 @@ def prepare(scenario: Scenario) -> Setup:
     check_task = getattr(cls, "check_task", None)  # a controller's early refusal, if any
     if check_task is not None:
         check_task(scenario, robot.n_joints, n_task, m3)
-    for name, fp, size in (("b", ctrl.funnel_b, m3), ("z", ctrl.funnel_z, n_task)):
-        if fp.size != size:
-            raise ScenarioError(
-                f"controller.funnel ({name}) has {fp.size} components, the {ref.task!r} task "
-                f"of this robot needs {size}"
-            )
-    if ref.n_components != n_task:
-        raise ScenarioError(
-            f"reference.ee has {ref.n_components} components; the {ref.task!r} task of this "
-            f"robot needs {n_task}"
-        )
-    if len(ref.base_attitude) != m3:
-        raise ScenarioError(
-            f"reference.base_attitude has {len(ref.base_attitude)} values, this robot needs {m3}"
-        )
     check_gains = getattr(cls, "check_gains", None)  # a controller's discrete-time conditions
     for problem in check_gains(scenario, m3) if check_gains is not None else ():
         warnings.warn(problem, GainWarning, stacklevel=2)

@@ -1,0 +1,78 @@
+"""A scenario built in Python is checked by the same schema as a file (one validator): what a
+file may not say, a Python-built scenario may not either, with the same one-line message naming
+the key (ffsm_pin.scenario.file.check_scenario, called by prepare)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.errors import ScenarioError
+from ffsm_pin.scenario import builtin_scenario, scenario_to_toml
+from ffsm_pin.scenario.file import check_scenario, scenario_document, scenario_from_dict
+from ffsm_pin.sim.run import prepare
+
+
+def _planar_with(**changes):
+    sc = builtin_scenario("case1")
+    ctrl = changes.pop("controller", {})
+    ref = changes.pop("reference", {})
+    ini = changes.pop("initial", {})
+    return dataclasses.replace(
+        sc,
+        controller=dataclasses.replace(sc.controller, **ctrl),
+        reference=dataclasses.replace(sc.reference, **ref),
+        initial=dataclasses.replace(sc.initial, **ini),
+        **changes,
+    )
+
+
+BAD = {  # what a Python user can build but a file may not say -> start of the message
+    "funnel size": (
+        {"controller": {"funnel_b": FunnelParams((1.0, 1.0), (0.1, 0.1), (0.2,) * 2, (0.8,) * 2)}},
+        "controller.funnel.rho_b0",
+    ),
+    "base attitude size": (
+        {"reference": {"base_attitude": (0.0, 0.0, 0.0)}},
+        "reference.base_attitude",
+    ),
+    "reference size": (
+        {"reference": {"ee": builtin_scenario("case1").reference.ee[:2]}},
+        "reference.ee",
+    ),
+    "base twist size": (
+        {"initial": {"base_twist": (0.0, 0.0, 0.0, 0.0)}},
+        "initial.base_twist",
+    ),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("what", list(BAD))
+def test_a_python_scenario_gets_the_files_message(what):
+    changes, key = BAD[what]
+    sc = _planar_with(**changes)
+    with pytest.raises(ScenarioError) as from_python:
+        check_scenario(sc)
+    with pytest.raises(ScenarioError) as from_file:  # the same scenario written as a file
+        scenario_from_dict(scenario_document(sc))
+    assert str(from_python.value) == str(from_file.value)
+    assert str(from_python.value).startswith(key), str(from_python.value)
+    with pytest.raises(ScenarioError, match=key.replace(".", r"\.").replace("[", r"\[")):
+        prepare(sc)  # a run refuses it before loading anything
+
+
+@pytest.mark.parametrize("name", ["case1", "spatial", "spatial-pose", "planar5"])
+def test_valid_scenarios_pass_and_their_document_is_their_file(name):
+    sc = builtin_scenario(name)
+    check_scenario(sc)  # no error
+    again = scenario_from_dict(scenario_document(sc))
+    assert scenario_to_toml(again) == scenario_to_toml(sc)
+
+
+def test_controller_params_are_the_controllers_own():
+    """[controller.params] is a free table for the controller: any Python value a user hands to
+    their own controller passes the check (the schema does not read it)."""
+    sc = _planar_with(controller={"params": {"model": object(), "gain": 2}})
+    check_scenario(sc)
