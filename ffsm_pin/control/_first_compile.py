@@ -58,10 +58,25 @@ def restore_flags(item: tuple) -> Any:
     return x
 
 
+#: Modules whose ``_compile_first_run()`` the second process runs after the period's kernels:
+#: kernels a run needs after the controller's (the plant's), registered by their own module
+#: (:func:`also_compile`), so that this layer imports nothing above it.
+ALSO: list[str] = []
+
+
+def also_compile(module: str) -> None:
+    """Have the second process of a first run also call ``module._compile_first_run()``."""
+    if module not in ALSO:
+        ALSO.append(module)
+
+
 def _child_main() -> None:
-    """Entry point of the second process: ``(module name, arguments)`` on stdin."""
-    module, args = pickle.load(sys.stdin.buffer)
+    """Entry point of the second process: ``(module name, arguments, further modules)`` on
+    stdin."""
+    module, args, also = pickle.load(sys.stdin.buffer)
     importlib.import_module(module)._compile_real_kernels(*restore_flags(args))
+    for name in also:
+        importlib.import_module(name)._compile_first_run()
 
 
 def compile_in_parallel(
@@ -71,7 +86,8 @@ def compile_in_parallel(
     compile_here: Callable[[], object],
 ) -> None:
     """If every dispatcher in ``dispatchers`` is :func:`cold`, start a second process running
-    ``module._compile_real_kernels(*child_args)``, call ``compile_here()`` meanwhile (its
+    ``module._compile_real_kernels(*child_args)`` and then ``_compile_first_run()`` of every
+    module in :data:`ALSO`, call ``compile_here()`` meanwhile (its
     errors are ignored: only the compilation matters, the period reports errors), then wait
     for the second process (at most 10 minutes; the period compiles what is missing)."""
     if not all(cold(d) for d in dispatchers):
@@ -85,7 +101,7 @@ def compile_in_parallel(
             stderr=subprocess.DEVNULL, env=env,
         )  # fmt: skip
         assert child.stdin is not None  # stdin=PIPE
-        child.stdin.write(pickle.dumps((module, with_flags(child_args))))
+        child.stdin.write(pickle.dumps((module, with_flags(child_args), list(ALSO))))
         child.stdin.close()
     except OSError:
         return
@@ -104,4 +120,4 @@ def compile_in_parallel(
         child.wait()
 
 
-__all__ = ["cold", "compile_in_parallel", "restore_flags", "with_flags"]
+__all__ = ["ALSO", "also_compile", "cold", "compile_in_parallel", "restore_flags", "with_flags"]

@@ -460,10 +460,6 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
     second process of :func:`compile_in_parallel`)."""
     S, off, K, L, ee_row, collinear = consts[:6]
     nb, nd = S.shape[0], theta_d.size
-    # first the complex null-space gradient, which this process's _kinematic reaches late
-    c = 1j * _H
-    _null_space_gradient(S, off, K, L, ee_row, collinear, consts[17], q_b + c, q_m + c,
-                         theta_b + c, theta_z + c)  # fmt: skip
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
     theta_b_step(np.zeros(nd + 1), _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], 1.0, 1e-3)
     Yz = position_regressor(c, s, S, w, theta_z.size, collinear)

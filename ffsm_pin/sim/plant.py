@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 from numba import njit
 
+from ..control import _first_compile
 from ..errors import ParameterError, choices_text
 from ..scenario.spec import INTEGRATORS
 from .integrators import chart_block, gauss_solve, rkmk4_step
@@ -204,3 +205,24 @@ class Plant:
             self._rows,
         )
         return out
+
+
+def _compile_first_run() -> None:
+    """Compile the plant's kernels with the argument types a run passes them: one step and
+    one projection of a two-body chain on each root, made with the Pinocchio calls a run makes
+    (the second process of a first run, :mod:`ffsm_pin.control._first_compile`)."""
+    for root in (pin.JointModelPlanar(), pin.JointModelFreeFlyer()):
+        model = pin.Model()
+        base = model.addJoint(0, root, pin.SE3.Identity(), "base")
+        model.appendBodyToJoint(base, pin.Inertia.FromBox(1.0, 1.0, 1.0, 1.0), pin.SE3.Identity())
+        arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.ones(3)), "arm")
+        model.appendBodyToJoint(arm, pin.Inertia.FromBox(1.0, 1.0, 0.1, 0.1), pin.SE3.Identity())
+        model.gravity.setZero()
+        plant = Plant(model)
+        q, v = pin.neutral(model), np.zeros(model.nv)
+        plant.reset(q, v)
+        plant.project(q, v)
+        plant.advance(q, v, np.zeros(1), 1e-3)
+
+
+_first_compile.also_compile(__name__)  # a first run compiles the above in its second process

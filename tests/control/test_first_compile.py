@@ -87,11 +87,12 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", ["case1", "spatial"], ids=["planar", "spatial"])
-def test_the_second_process_runs_without_error(case, monkeypatch):
+def test_the_second_process_runs_without_error(case, monkeypatch, tmp_path):
     """What the second process runs (the geometry module's ``_compile_real_kernels``, with the
-    arguments a real controller passes, through the pickle) exits 0 and prints nothing: a
+    arguments a real controller passes, through the pickle, then the plant's kernels) exits 0
+    and prints nothing, and a run's plant then loads its kernels from the cache it wrote: a
     broken second process only makes a first run slower, which the run test above cannot
-    see (the period compiles whatever is missing itself)."""
+    see (the period and the plant compile whatever is missing themselves)."""
     import dataclasses
 
     from ffsm_pin.scenario.file import builtin_scenario
@@ -109,10 +110,34 @@ def test_the_second_process_runs_without_error(case, monkeypatch):
     assert module == (
         "ffsm_pin.control.fast" if case == "case1" else "ffsm_pin.control.fast_spatial"
     )
+    assert "ffsm_pin.sim.plant" in _first_compile.ALSO  # registered by the plant's module
+    env = {**os.environ, "PYTHONPATH": str(REPO), "NUMBA_CACHE_DIR": str(tmp_path)}
     proc = subprocess.run(
         [sys.executable, "-c", "from ffsm_pin.control._first_compile import _child_main as f; f()"],
-        input=pickle.dumps((module, _first_compile.with_flags(child_args))),
-        capture_output=True, env={**os.environ, "PYTHONPATH": str(REPO)}, timeout=600,
+        input=pickle.dumps((module, _first_compile.with_flags(child_args), _first_compile.ALSO)),
+        capture_output=True, env=env, timeout=600,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr.decode()[-3000:]
     assert proc.stdout == b"" and proc.stderr == b""
+    # a run's plant, on the real robot, finds every kernel it calls in that cache
+    probe = (
+        "import numpy as np\n"
+        "from ffsm_pin.robot import load_robot\n"
+        "from ffsm_pin.scenario import builtin_scenario\n"
+        "from ffsm_pin.sim import plant as P\n"
+        "from ffsm_pin.sim.initial import initial_state\n"
+        f"sc = builtin_scenario({case!r}); r = sc.robot\n"
+        "opts = {'satellite': r.satellite, 'locked_joints': dict(r.locked_joints) or None}\n"
+        "opts = opts if r.base == 'free-flyer' else {}\n"
+        "robot = load_robot(r.urdf, r.end_effector, base=r.base, **opts)\n"
+        "q, v = initial_state(robot, sc.initial)\n"
+        "plant = P.Plant(robot)\n"
+        "plant.reset(q, v); plant.project(q, v)\n"
+        "plant.advance(q, v, np.zeros(robot.n_joints), 1e-3)\n"
+        "print(sum(len(k.stats.cache_misses) for k in (P._project_base, P._euler_velocity)),\n"
+        "      sum(len(k.stats.cache_hits) for k in (P._project_base, P._euler_velocity)))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env,
+                         timeout=600, check=True)  # fmt: skip
+    misses, hits = map(int, out.stdout.split())
+    assert (misses, hits) == (0, 2), out.stdout
