@@ -77,11 +77,21 @@ def out_layout(n: int) -> dict[str, slice | int]:
 
 
 @njit(cache=True)
+def _put(dst, start, src):
+    """``dst[start : start + src.size] = src`` by a loop: the same values, but a slice
+    assignment from an array makes numba compile the code of its shape-mismatch message (about
+    1.7 s of a first run's critical path, on the complex kinematic law's side)."""
+    for i in range(src.size):
+        dst[start + i] = src[i]
+
+
+@njit(cache=True)
 def _trig(S, off, K, L, q_b, q_m):
     nb = S.shape[0]
     q = np.empty(nb, dtype=q_m.dtype)
     q[0] = q_b
-    q[1:] = q_m
+    for i in range(q_m.size):  # q[1:] = q_m (loops here and below: see _put)
+        q[1 + i] = q_m[i]
     phi = _mv(S, q) + off
     c = np.cos(phi)
     s = np.sin(phi)
@@ -125,7 +135,10 @@ def _jacobian(theta_z, c, s, S, ee_row, collinear):
             dp[0, k] = -s[k] * vx - c[k] * vy
             dp[1, k] = c[k] * vx - s[k] * vy
     J = np.empty((3, nb), dtype=dp.dtype)
-    J[:2] = _xm(dp, S)
+    Jp = _xm(dp, S)
+    for i in range(2):
+        for j in range(nb):
+            J[i, j] = Jp[i, j]
     for j in range(nb):
         J[2, j] = ee_row[j]
     return J
@@ -404,12 +417,12 @@ def period(S, off, K, L, ee_row, collinear, attitude, identity,
     if status != STATUS_OK:
         return status, -1
     wb_dot = w_hat_dot[0]
-    theta_b[:] = tb_new
-    theta_z[:] = tz_new
-    out[:n] = u_m
-    out[n : 2 * n] = w_mc
-    out[2 * n : 3 * n] = w_mc_dot + sens * wb_dot
-    out[3 * n + 4 : 3 * n + 4 + nb] = w_tilde
+    _put(theta_b, 0, tb_new)
+    _put(theta_z, 0, tz_new)
+    _put(out, 0, u_m)
+    _put(out, n, w_mc)
+    _put(out, 2 * n, w_mc_dot + sens * wb_dot)
+    _put(out, 3 * n + 4, w_tilde)
     return STATUS_OK, -1
 
 
