@@ -45,6 +45,15 @@ def pack_null_space(null_space, center, n: int) -> np.ndarray:
 
 
 @njit(cache=True)
+def _put(dst, start, src):
+    """``dst[start : start + src.size] = src`` for vectors, by a loop: the same values, but a
+    slice assignment from an array makes numba compile the code of its shape-mismatch message,
+    about a second of a first run's critical path per array rank."""
+    for i in range(src.size):
+        dst[start + i] = src[i]
+
+
+@njit(cache=True)
 def _mv(A, x):
     """A @ x for a real matrix A and a real or complex vector x (dtype of x)."""
     out = np.zeros(A.shape[0], dtype=x.dtype)

@@ -38,6 +38,7 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller an
     STATUS_NONFINITE,
     STATUS_OK,
     _mv,
+    _put,
     _reference,
     _spd_det,
     funnel_terms,
@@ -74,15 +75,6 @@ def out_layout(n: int) -> dict[str, slice | int]:
         "w_tilde": slice(3 * n + 4, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
         "exit_value": o + 3, "size": o + 4,
     }  # fmt: skip
-
-
-@njit(cache=True)
-def _put(dst, start, src):
-    """``dst[start : start + src.size] = src`` by a loop: the same values, but a slice
-    assignment from an array makes numba compile the code of its shape-mismatch message (about
-    1.7 s of a first run's critical path, on the complex kinematic law's side)."""
-    for i in range(src.size):
-        dst[start + i] = src[i]
 
 
 @njit(cache=True)

@@ -46,6 +46,7 @@ from ._shared_kernels import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
+    _put,
     _reference,
     _spd_det,
     funnel_terms,
@@ -375,8 +376,8 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
         return STATUS_BASE_ROW, -1
     wb_dot = np.linalg.solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
-    w_hat_dot[:3] = wb_dot
-    w_hat_dot[3:] = tgt + sens @ wb_dot
+    _put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see _put)
+    _put(w_hat_dot, 3, tgt + sens @ wb_dot)
     u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
     if not np.all(np.isfinite(u_m)):
         return STATUS_NONFINITE, -1
@@ -385,17 +386,20 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
         ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
         decay = np.exp(-g[G_KDE] * dt)
         gain = -np.expm1(-g[G_KDE] * dt) / g[G_KDE]
-        Y_df[:, :] = decay * Y_df + gain * (YM - YMdot + Yh)  # Eq. (50)
+        Y_new = decay * Y_df + gain * (YM - YMdot + Yh)  # Eq. (50)
+        for i in range(N):
+            for j in range(nd):
+                Y_df[i, j] = Y_new[i, j]
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
-        theta_b[:] = tb_new
-        theta_z[:] = tz_new
+        _put(theta_b, 0, tb_new)
+        _put(theta_z, 0, tz_new)
     else:
-        w_hat[:] = w + dt * w_hat_dot
-    out[:n] = u_m
-    out[n : 2 * n] = w_mc
-    out[2 * n : 3 * n] = w_mc_dot + sens @ wb_dot
-    out[e:o] = w_tilde
+        _put(w_hat, 0, w + dt * w_hat_dot)
+    _put(out, 0, u_m)
+    _put(out, n, w_mc)
+    _put(out, 2 * n, w_mc_dot + sens @ wb_dot)
+    _put(out, e, w_tilde)
     return STATUS_OK, -1
 
 
@@ -474,7 +478,9 @@ def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     Yb = np.empty((3, nd + 3))
     velocity_terms(R, z, w, w, w - w, YM, YMdot, Yh, Yb[:, 3:])
     subtract_dT(R, z, w, Yh)
-    y_z(R, z, w, np.empty((3, theta_z.size)))
+    Yz = np.empty((3, theta_z.size))
+    y_z(R, z, w, Yz)
+    theta_z_step(theta_z, Yz, w, 1.0, 1e-3)  # w: the type of the measured z_e_dot
     mass_matrix(R, z, theta_d, np.empty((N, N)))
     # period passes the constant False, which numba types as a literal
     ym.compile(tuple(typeof(x) for x in (R, z, w - w, YM)) + (types.literal(False),))

@@ -172,7 +172,8 @@ def mass_matrix(R, z, theta, M):
     for i in range(3):
         sc[i, i] = 1.0
     for j in range(nb - 1):
-        sc[3 + j] = z[j]
+        for i in range(3):  # sc[3 + j] = z[j]; a slice assignment from an array would compile
+            sc[3 + j, i] = z[j, i]  # numba's shape-mismatch message, a second of a first run
     x = np.empty(3, dtype=M.dtype)
     T1 = np.empty((3, 3), dtype=M.dtype)
     B = np.empty((3, 3), dtype=M.dtype)
