@@ -9,7 +9,7 @@ from pathlib import Path
 
 import ffsm_pin
 
-MESSAGE = "compiling the controller kernels (first run only, about 30-45 s)"
+MESSAGE = "compiling the controller kernels (first run only, about 15-30 s)"
 
 
 def cache_is_cold() -> bool:
