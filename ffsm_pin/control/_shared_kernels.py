@@ -54,6 +54,14 @@ def _put(dst, start, src):
 
 
 @njit(cache=True)
+def _put_rows(dst, src):
+    """``dst[: src.shape[0], : src.shape[1]] = src`` for matrices, by a loop (see :func:`_put`)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+@njit(cache=True)
 def _mv(A, x):
     """A @ x for a real matrix A and a real or complex vector x (dtype of x)."""
     out = np.zeros(A.shape[0], dtype=x.dtype)

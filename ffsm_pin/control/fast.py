@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from . import _first_compile
 from ._shared_kernels import (  # noqa: F401 - re-exported for the controller and tests
     F_A,
     F_B1,
@@ -39,6 +40,7 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller an
     STATUS_OK,
     _mv,
     _put,
+    _put_rows,
     _reference,
     _spd_det,
     funnel_terms,
@@ -82,8 +84,7 @@ def _trig(S, off, K, L, q_b, q_m):
     nb = S.shape[0]
     q = np.empty(nb, dtype=q_m.dtype)
     q[0] = q_b
-    for i in range(q_m.size):  # q[1:] = q_m (loops here and below: see _put)
-        q[1 + i] = q_m[i]
+    _put(q, 1, q_m)  # q[1:] = q_m (loops instead of slice assignments here and below: _put)
     phi = _mv(S, q) + off
     c = np.cos(phi)
     s = np.sin(phi)
@@ -127,10 +128,7 @@ def _jacobian(theta_z, c, s, S, ee_row, collinear):
             dp[0, k] = -s[k] * vx - c[k] * vy
             dp[1, k] = c[k] * vx - s[k] * vy
     J = np.empty((3, nb), dtype=dp.dtype)
-    Jp = _xm(dp, S)
-    for i in range(2):
-        for j in range(nb):
-            J[i, j] = Jp[i, j]
+    _put_rows(J, _xm(dp, S))  # J[:2]
     for j in range(nb):
         J[2, j] = ee_row[j]
     return J
@@ -355,14 +353,14 @@ def _dynamic_level(S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, sens,
     wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
     w_hat_dot = np.empty(nb)
     w_hat_dot[0] = wb_dot
-    w_hat_dot[1:] = tgt + sens * wb_dot
+    _put(w_hat_dot, 1, tgt + sens * wb_dot)
     u_m = M_hat[1:] @ w_hat_dot - rr[1:]
     if not np.all(np.isfinite(u_m)):
         return STATUS_NONFINITE, none, none, none
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
     decay = np.exp(-g[G_KDE] * dt)
-    Y_df[:, :] = decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc
+    _put_rows(Y_df, decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc)
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
     return STATUS_OK, u_m, w_hat_dot, w_tilde
@@ -486,8 +484,6 @@ def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) 
     :func:`reaction_rows` in a second process while this one compiles the complex kinematic
     law (:mod:`._first_compile`); :func:`period` then loads the former from the cache.
     Does nothing when the cache is warm."""
-    from . import _first_compile
-
     _first_compile.compile_in_parallel(
         __name__,
         (consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b),

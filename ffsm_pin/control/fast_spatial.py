@@ -47,6 +47,7 @@ from ._shared_kernels import (
     STATUS_NONFINITE,
     STATUS_OK,
     _put,
+    _put_rows,
     _reference,
     _spd_det,
     funnel_terms,
@@ -386,10 +387,7 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
         ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
         decay = np.exp(-g[G_KDE] * dt)
         gain = -np.expm1(-g[G_KDE] * dt) / g[G_KDE]
-        Y_new = decay * Y_df + gain * (YM - YMdot + Yh)  # Eq. (50)
-        for i in range(N):
-            for j in range(nd):
-                Y_df[i, j] = Y_new[i, j]
+        _put_rows(Y_df, decay * Y_df + gain * (YM - YMdot + Yh))  # Eq. (50)
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
         _put(theta_b, 0, tb_new)

@@ -170,7 +170,7 @@ def simulate(
     reaction = reaction_torques(model, setup.theta_d, numba_available())
     reaction(np.zeros((1, m3)), np.zeros((1, n)), np.zeros((1, n + m3)),
              np.zeros((1, *shapes["dw_b"])))  # fmt: skip
-    sensor._q_b_prev = None  # the run measures t = 0 again
+    sensor.reset()  # the run measures t = 0 again
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
     n_lin = plant.n_linear  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors

@@ -35,6 +35,11 @@ class Sensor:
         self._q_b_prev: float | None = None
         self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
 
+    def reset(self) -> None:
+        """Forget the last measurement: the next planar base angle is taken on (-pi, pi], not
+        continued from the previous one (a run measures t = 0 again after a warm-up)."""
+        self._q_b_prev = None
+
     def base_angular_acceleration(self, a: np.ndarray):
         """The paper's dw_b/dt from the plant's acceleration ``a`` (Pinocchio convention) at
         the last measured state: planar a number [rad/s^2]; free-flyer the 3-vector in the
