@@ -4,23 +4,29 @@ A first run (numba's on-disk cache holds nothing for the period yet) spends most
 compiling. The period's kernels are separate numba functions, cached one by one, so the work
 splits: a second Python process compiles the period's real-valued kernels (and the run's
 diagnostics) with the argument types the period passes, while this process compiles the
-complex-step kinematic law; the period then finds the former in the cache. Both processes
-compile the same source, so nothing changes in what is computed (a run from an empty cache
-is bitwise a run from a warm one: ``tests/control/test_first_compile.py``). When the cache is
-warm, or a second process cannot be started, nothing happens and the period compiles (or
-loads) everything itself. Measured in benchmarks/README.md ("First run").
+complex-step kinematic law; the period then finds the former in the cache. The second
+process says when the period's kernels are cached and goes on with those a run needs after
+the period (the residual of Eq. (54), the reaction torques, the plant's), while this process
+compiles the period itself; the run waits for it (:func:`finish`) before it loads those.
+Both processes compile the same source, so nothing changes in what is computed (a run from
+an empty cache is bitwise a run from a warm one: ``tests/control/test_first_compile.py``).
+When the cache is warm, or a second process cannot be started, nothing happens and the
+period compiles (or loads) everything itself. Measured in benchmarks/README.md ("First run").
 
 Each geometry's kernel module (:mod:`.fast`, :mod:`.fast_spatial`) provides
-``_compile_real_kernels(*args)``, what the second process runs.
+``_compile_real_kernels(*args)`` and ``_compile_run_kernels(*args)``, what the second process
+runs before and after it says the period's kernels are ready.
 """
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import os
 import pickle
 import subprocess
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -70,13 +76,60 @@ def also_compile(module: str) -> None:
         ALSO.append(module)
 
 
+#: What the second process writes on its stdout once the period's kernels are in the cache.
+READY = b"ready\n"
+
+#: Second processes still compiling a run's kernels (after the period's): see :func:`finish`.
+_PENDING: list[subprocess.Popen] = []
+
+
 def _child_main() -> None:
     """Entry point of the second process: ``(module name, arguments, further modules)`` on
-    stdin."""
+    stdin. It compiles the period's kernels (``_compile_real_kernels``), says :data:`READY`
+    on stdout, then compiles the kernels a run needs after the period (``_compile_run_kernels``
+    and each further module's ``_compile_first_run``) while the first process compiles the
+    period itself."""
     module, args, also = pickle.load(sys.stdin.buffer)
-    importlib.import_module(module)._compile_real_kernels(*restore_flags(args))
+    kernels = importlib.import_module(module)
+    args = restore_flags(args)
+    kernels._compile_real_kernels(*args)
+    sys.stdout.buffer.write(READY)
+    sys.stdout.buffer.flush()
+    kernels._compile_run_kernels(*args)
     for name in also:
         importlib.import_module(name)._compile_first_run()
+
+
+def _wait_ready(child: subprocess.Popen, timeout: float) -> None:
+    """Wait until ``child`` says :data:`READY` (or exits, or ``timeout`` [s] passes: then it
+    is stopped, and the period compiles what is missing itself)."""
+    assert child.stdout is not None  # stdout=PIPE
+    reader = threading.Thread(target=child.stdout.readline, daemon=True)
+    reader.start()
+    reader.join(timeout)
+    if reader.is_alive():
+        child.kill()
+        child.wait()
+
+
+def finish(timeout: float = 600.0) -> None:
+    """Wait for the second processes of first runs still compiling a run's kernels (the
+    controller's residual and reaction torques, the plant's), so that the run loads them from
+    the cache instead of compiling them again; at most ``timeout`` [s] each, then stopped.
+    Called by the run loop before it loads those kernels, and at exit. Does nothing when no
+    second process is running (every run but an installation's first)."""
+    while _PENDING:
+        child = _PENDING.pop()
+        try:
+            child.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+        if child.stdout is not None:
+            child.stdout.close()
+
+
+atexit.register(finish)
 
 
 def compile_in_parallel(
@@ -86,10 +139,13 @@ def compile_in_parallel(
     compile_here: Callable[[], object],
 ) -> None:
     """If every dispatcher in ``dispatchers`` is :func:`cold`, start a second process running
-    ``module._compile_real_kernels(*child_args)`` and then ``_compile_first_run()`` of every
-    module in :data:`ALSO`, call ``compile_here()`` meanwhile (its
-    errors are ignored: only the compilation matters, the period reports errors), then wait
-    for the second process (at most 10 minutes; the period compiles what is missing)."""
+    ``module._compile_real_kernels(*child_args)`` (the period's real kernels), then
+    ``module._compile_run_kernels(*child_args)`` and ``_compile_first_run()`` of every module
+    in :data:`ALSO` (kernels a run needs after the period); call ``compile_here()`` meanwhile
+    (its errors are ignored: only the compilation matters, the period reports errors), then
+    wait until the second process has the period's kernels in the cache (at most 10 minutes;
+    the period compiles what is missing) and return while it compiles the rest:
+    :func:`finish` waits for that."""
     if not all(cold(d) for d in dispatchers):
         return
     root = str(Path(__file__).resolve().parents[2])  # the folder that holds ffsm_pin/
@@ -97,7 +153,7 @@ def compile_in_parallel(
     code = "from ffsm_pin.control._first_compile import _child_main as f; f()"
     try:
         child = subprocess.Popen(
-            [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+            [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL, env=env,
         )  # fmt: skip
         assert child.stdin is not None  # stdin=PIPE
@@ -113,11 +169,17 @@ def compile_in_parallel(
         child.kill()
         child.wait()
         raise
-    try:
-        child.wait(timeout=600)
-    except subprocess.TimeoutExpired:  # the period compiles what is missing itself
-        child.kill()
-        child.wait()
+    _wait_ready(child, timeout=600)
+    _PENDING.append(child)  # still compiling the run's other kernels: finish() waits for it
 
 
-__all__ = ["ALSO", "also_compile", "cold", "compile_in_parallel", "restore_flags", "with_flags"]
+__all__ = [
+    "ALSO",
+    "READY",
+    "also_compile",
+    "cold",
+    "compile_in_parallel",
+    "finish",
+    "restore_flags",
+    "with_flags",
+]

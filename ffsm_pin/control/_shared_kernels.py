@@ -30,11 +30,16 @@ def pack_funnel(funnel) -> np.ndarray:
     return funnel.kernel_table()
 
 
-def pack_null_space(null_space, center, n: int) -> np.ndarray:
+def pack_null_space(null_space, center, n: int) -> np.ndarray | None:
     """(3 + n,) array of a :class:`~ffsm_pin.control.null_space.NullSpace`: objective code,
-    gain, gradient step, joint-centering centre (zeros when unused)."""
+    gain, gradient step, joint-centering centre (zeros when unused); None when the objective
+    is ``"none"``: the kernels test ``ns is not None``, which numba decides when it compiles,
+    so a run without the null-space term does not compile its gradient (a first run's
+    critical path, about 1-2 s)."""
     from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
 
+    if OBJECTIVE_CODE[null_space.objective] == 0:
+        return None
     out = np.zeros(3 + n)
     out[NS_CODE] = OBJECTIVE_CODE[null_space.objective]
     out[NS_GAIN] = null_space.gain
@@ -162,6 +167,15 @@ def _spd_det(G):
 
 
 @njit(cache=True)
+def _solve(A, b):
+    """``np.linalg.solve(A, b)`` as a cached kernel of its own: numba compiles its LAPACK
+    wrapper (about 2 s, its shape-message code included) into every function that calls it
+    directly, once per process; through this kernel a first run compiles it once, in its
+    second process, and the periods load it from the cache. The same values."""
+    return np.linalg.solve(A, b)
+
+
+@njit(cache=True)
 def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
     """Eq. (42) by backward Euler on the position rows ``Yz`` of Y_z (as
     :func:`ffsm_pin.control.adaptation.theta_z_step`); ``z_e_dot`` the measured rates."""
@@ -170,7 +184,7 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
     gram = Yz @ Yz.T
     for i in range(m):
         gram[i, i] += 1.0 / (gamma_2 * dt)
-    return theta_z + Yz.T @ np.linalg.solve(gram, r)
+    return theta_z + Yz.T @ _solve(gram, r)
 
 
 @njit(cache=True)

@@ -135,6 +135,17 @@ def _jacobian(theta_z, c, s, S, ee_row, collinear):
 
 
 @njit(cache=True)
+def _column_sums(A):
+    """``A.sum(axis=0)`` by a loop in numba's order (each row added in turn to zeros): the
+    same values, without the code of numba's axis-bounds message (a second of a first run)."""
+    out = np.zeros(A.shape[1], dtype=A.dtype)
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            out[j] += A[i, j]
+    return out
+
+
+@njit(cache=True)
 def _wrap(d):
     return d - _TWO_PI * np.rint(d.real / _TWO_PI)
 
@@ -184,7 +195,7 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
     if ib >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
     Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
-    row = _xm(Mphi.sum(axis=0).reshape(1, nb), S)[0]  # first row of S^T M_phi S: (H_bb, H_bm)
+    row = _xm(_column_sums(Mphi).reshape(1, nb), S)[0]  # first row of S^T M_phi S: (H_bb, H_bm)
     Hbm = row[1:].copy()
     hh = (Hbm * Hbm).sum()
     hnorm = np.sqrt(hh.real)
@@ -196,11 +207,12 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
     pinv, sigma, damping = _damped_pinv(Jm @ U, g[G_THR])
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
-    if ns[NS_CODE] != 0:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
-        A = Jm @ U
-        grad = _null_space_gradient(S, off, K, L, ee_row, collinear, ns,
-                                    q_b, q_m, theta_b, theta_z)  # fmt: skip
-        xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
+    if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
+        if ns[NS_CODE] != 0:  # (ns None: numba compiles nothing of this, pack_null_space)
+            A = Jm @ U
+            grad = _null_space_gradient(S, off, K, L, ee_row, collinear, ns,
+                                        q_b, q_m, theta_b, theta_z)  # fmt: skip
+            xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
 
@@ -213,7 +225,7 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
     J = _jacobian(theta_z, c, s, S, ee_row, collinear)
     Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
-    row = _xm(Mphi.sum(axis=0).reshape(1, nb), S)[0]
+    row = _xm(_column_sums(Mphi).reshape(1, nb), S)[0]
     Hbm = row[1:].copy()
     U = np.eye(n) - np.outer(Hbm / (Hbm * Hbm).sum(), Hbm)
     return np.ascontiguousarray(J[:, 1:]) @ U
@@ -301,7 +313,8 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
     fac = -np.expm1(-gamma_1 * dt * yy) / yy * yth
     tb_new = theta_b.copy()
     tb_new[0] += fac
-    tb_new[1:] -= fac * Yb
+    for i in range(Yb.size):  # tb_new[1:] -= fac * Yb, without numba's shape-message code
+        tb_new[1 + i] -= fac * Yb[i]
     return tb_new
 
 
@@ -458,8 +471,7 @@ def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
 
 
 def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """Compile the real kernels :func:`period` calls, with the argument types it passes, and
-    the run's :func:`residual_54` and :func:`reaction_rows` with those the run passes (the
+    """Compile the real kernels :func:`period` calls, with the argument types it passes (the
     second process of :func:`compile_in_parallel`)."""
     S, off, K, L, ee_row, collinear = consts[:6]
     nb, nd = S.shape[0], theta_d.size
@@ -472,6 +484,13 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
     n = nb - 1
     _dynamic_level(S, K, L, collinear, consts[10], 1e-3, pc, ps, w, np.zeros(n), np.zeros(n),
                    np.zeros(n), theta_d.copy(), np.zeros(nb), np.zeros((nb, nd)))  # fmt: skip
+
+
+def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+    """Compile the run's :func:`residual_54` and :func:`reaction_rows` with the argument types
+    the run passes (the second process, after :func:`_compile_real_kernels`)."""
+    S, off, K, L, ee_row, collinear = consts[:6]
+    nb, nd = S.shape[0], theta_d.size
     residual_54(S, off, K, L, collinear, q_b, q_m, np.zeros(nb), np.zeros((nb, nd)),
                 theta_d, theta_d)  # fmt: skip
     rows = np.zeros((1, w.size))  # reaction_rows compiles base_inertia with the row types

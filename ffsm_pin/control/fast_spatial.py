@@ -49,6 +49,7 @@ from ._shared_kernels import (
     _put,
     _put_rows,
     _reference,
+    _solve,
     _spd_det,
     funnel_terms,
     pack_funnel,
@@ -275,9 +276,10 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
     pinv, sigma, damping = _damped_pinv(A, g[G_THR])
     Hp_ab = _cmv(Hp, a_b)
     xi = _cmv(pinv, target - _cmv(Jm, Hp_ab))  # Eq. (36)
-    if ns[NS_CODE] != 0:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
-        grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
-        xi = xi + ns[NS_GAIN] * (grad - _cmv(pinv, _cmv(A, grad)))
+    if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
+        if ns[NS_CODE] != 0:  # (ns None: numba compiles nothing of this, pack_null_space)
+            grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
+            xi = xi + ns[NS_GAIN] * (grad - _cmv(pinv, _cmv(A, grad)))
     w_mc = Hp_ab + _cmv(U, xi)  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
 
@@ -356,7 +358,7 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
             return STATUS_M_NOT_PD, -1
         cg = g[G_G3] * dt
         d_theta_d = -cg * (
-            Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
+            Y_df.T @ _solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
         )  # Eq. (51), linearly implicit
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
         rr = (YMdot - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
@@ -375,7 +377,7 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
     if not smallest > 1e-12 * np.max(np.abs(Mbb)):
         out[o + 3] = smallest
         return STATUS_BASE_ROW, -1
-    wb_dot = np.linalg.solve(denom, rr[:3] - Mbm @ tgt)
+    wb_dot = _solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
     _put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see _put)
     _put(w_hat_dot, 3, tgt + sens @ wb_dot)
@@ -465,8 +467,8 @@ def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
 
 
 def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
-    """Compile the real kernels :func:`period` calls, with the argument types it passes, and
-    the run's :func:`residual_54` and :func:`reaction_rows` with those the run passes."""
+    """Compile the real kernels :func:`period` calls, with the argument types it passes (the
+    second process of :func:`compile_in_parallel`)."""
     jr, ax = consts[0], consts[1]
     n = q_m.size
     N, nd = n + 3, theta_d.size
@@ -483,6 +485,15 @@ def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
     # period passes the constant False, which numba types as a literal
     ym.compile(tuple(typeof(x) for x in (R, z, w - w, YM)) + (types.literal(False),))
     _l_matrix(q_b, R[0])
+    theta_b_step(np.zeros(nd + 3), Yb, 1.0, 1e-3)
+
+
+def _compile_run_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
+    """Compile the run's :func:`residual_54` and :func:`reaction_rows` with the argument types
+    the run passes (the second process, after :func:`_compile_real_kernels`)."""
+    jr, ax = consts[0], consts[1]
+    n = q_m.size
+    N, nd = n + 3, theta_d.size
     residual_54(jr, ax, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
     # reaction_rows compiles base_inertia with the row types
     reaction_rows(jr, ax, np.zeros((1, 3)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, 3)),

@@ -45,6 +45,35 @@ def test_a_warm_cache_starts_no_second_process(monkeypatch, kernels):
     assert started == []
 
 
+def test_the_period_goes_on_when_its_kernels_are_ready_and_the_run_waits_for_the_rest(
+    monkeypatch, tmp_path
+):
+    """The protocol with a stand-in kernel module: ``compile_in_parallel`` returns once the
+    second process has done ``_compile_real_kernels`` (the period's kernels), while it still
+    does ``_compile_run_kernels``; :func:`_first_compile.finish` waits for that."""
+    (tmp_path / "standin_kernels.py").write_text(
+        "import pathlib, time\n"
+        "def _compile_real_kernels(folder):\n"
+        "    pathlib.Path(folder, 'period').touch()\n"
+        "def _compile_run_kernels(folder):\n"
+        "    time.sleep(2.0)\n"
+        "    pathlib.Path(folder, 'run').touch()\n"
+    )
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))
+    monkeypatch.setattr(_first_compile, "cold", lambda dispatcher: True)
+    monkeypatch.setattr(_first_compile, "ALSO", [])
+    here = []
+    _first_compile.compile_in_parallel(
+        "standin_kernels", (str(tmp_path),), [object()], lambda: here.append(1)
+    )
+    assert here == [1]  # this process's share ran meanwhile
+    assert (tmp_path / "period").exists()  # returned after the period's kernels ...
+    assert not (tmp_path / "run").exists()  # ... while the run's were still compiling
+    assert len(_first_compile._PENDING) == 1
+    _first_compile.finish()
+    assert (tmp_path / "run").exists() and _first_compile._PENDING == []
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("case", "second_process_kernel"),
@@ -78,6 +107,9 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
     # the second process's kernels are cached
     assert any(cache.rglob(f"*{second_process_kernel}*.nbi"))
     assert any(cache.glob("control_*/*.nbi"))
+    # the built-in cases run without the null-space term: its gradient is not compiled
+    # (pack_null_space gives None, which numba's branch pruning sees)
+    assert not any(cache.rglob("*_null_space_gradient*.nbi"))
     second, warm_err = run("warm")  # another folder, the same cache
     assert MESSAGE not in warm_err
     assert first.keys() == second.keys()
@@ -118,7 +150,7 @@ def test_the_second_process_runs_without_error(case, monkeypatch, tmp_path):
         capture_output=True, env=env, timeout=600,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr.decode()[-3000:]
-    assert proc.stdout == b"" and proc.stderr == b""
+    assert proc.stdout == _first_compile.READY and proc.stderr == b""
     # a run's plant, on the real robot, finds every kernel it calls in that cache
     probe = (
         "import numpy as np\n"
