@@ -275,9 +275,10 @@ def extend(
     return Signals(constants, spool, shapes, signals._rows)
 
 
-def write_npz(path: str | Path, signals: Mapping[str, np.ndarray], compress: bool = True) -> None:
-    """Write ``signals`` as ``path`` (``numpy.savez_compressed`` format, readable by
-    ``numpy.load``), streaming spilled signals from their files a block at a time."""
+def write_npz(path: str | Path, signals: Mapping[str, np.ndarray], compress: bool = False) -> None:
+    """Write ``signals`` as ``path`` (``numpy.savez`` format, or ``numpy.savez_compressed``
+    with ``compress``; readable by ``numpy.load``), streaming spilled signals from their files
+    a block at a time."""
     if not isinstance(signals, Signals) or not signals.spilled:
         arrays: dict[str, Any] = dict(signals)
         (np.savez_compressed if compress else np.savez)(path, **arrays)

@@ -61,8 +61,8 @@ def check_storage(
         Folder whose file system holds the recording.
     copies:
         Raw copies of the rows that folder must hold at once: 1 for the recorder's spool,
-        2 for a spool beside the ``trajectory.npz`` packed from it (compressed, at most the
-        raw size).
+        2 for a spool beside the ``trajectory.npz`` packed from it (stored without
+        compression: the raw size and a header per signal).
     disk:
         Free disk [bytes]; read from the system when None.
     """

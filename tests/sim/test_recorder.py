@@ -114,6 +114,30 @@ def test_blocks_every_and_npz_of_a_spilled_recording(tmp_path):
         assert np.array_equal(B["y"], 2 * t[:, None])
 
 
+@pytest.mark.parametrize("spill", [False, True], ids=["in-memory", "spilled"])
+def test_npz_is_stored_unless_compression_is_asked_for(tmp_path, spill):
+    """trajectory.npz is stored (zip members uncompressed) by default and deflated with
+    ``compress=True``; both give back the same arrays."""
+    import zipfile
+
+    rec = _recorder(3 if spill else 100)
+    for k in range(17):
+        rec.arrays["t"][rec.i] = 0.1 * k
+        rec.arrays["x"][rec.i] = np.sin(k + np.arange(6)).reshape(2, 3)
+        rec.commit()
+    sig = rec.finish()
+    assert sig.spilled == spill
+    write_npz(tmp_path / "stored.npz", sig)
+    write_npz(tmp_path / "deflated.npz", sig, compress=True)
+    for name, method in (("stored", zipfile.ZIP_STORED), ("deflated", zipfile.ZIP_DEFLATED)):
+        with zipfile.ZipFile(tmp_path / f"{name}.npz") as zf:
+            assert {i.compress_type for i in zf.infolist()} == {method}, name
+    with np.load(tmp_path / "stored.npz") as A, np.load(tmp_path / "deflated.npz") as B:
+        assert A.files == B.files
+        for key in A.files:
+            assert np.array_equal(A[key], B[key]) and np.array_equal(A[key], np.array(sig[key]))
+
+
 def test_thinned_result_keeps_first_last_and_evenly_spaced_rows(monkeypatch):
     res = _run("case1", 0.5, 3000, monkeypatch)  # 501 rows, spilled
     thin = res.thinned(50)
