@@ -169,7 +169,12 @@ def compile_in_parallel(
         child.kill()
         child.wait()
         raise
-    _wait_ready(child, timeout=600)
+    try:
+        _wait_ready(child, timeout=600)
+    except BaseException:  # Ctrl-C while waiting: do not leave the second process compiling
+        child.kill()
+        child.wait()
+        raise
     _PENDING.append(child)  # still compiling the run's other kernels: finish() waits for it
 
 

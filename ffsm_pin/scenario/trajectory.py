@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import BPoly, CubicSpline, PPoly
 
 from ..errors import ParameterError, choices_text
 
@@ -81,6 +80,10 @@ class ReferenceData:
 
     def polynomial(self) -> PiecewisePolynomial:
         """The interpolant of the samples."""
+        # imported here: SciPy's interpolate takes a quarter of a second to import, and
+        # only a reference from data needs it
+        from scipy.interpolate import BPoly, CubicSpline, PPoly
+
         t = np.asarray(self.times, dtype=float)
         z = np.asarray(self.values, dtype=float)
         if self.interpolation == "spline":
