@@ -95,6 +95,9 @@ def _child_main() -> None:
     kernels._compile_real_kernels(*args)
     sys.stdout.buffer.write(READY)
     sys.stdout.buffer.flush()
+    # nothing reads the pipe any more: whatever might be written later goes nowhere (a full
+    # pipe would block this process, and the run waiting for it)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     kernels._compile_run_kernels(*args)
     for name in also:
         importlib.import_module(name)._compile_first_run()
