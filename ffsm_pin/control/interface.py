@@ -171,7 +171,11 @@ _NO_SIGNALS: Mapping[str, Any] = {}
 
 def split_reply(reply: Any) -> Reply:
     """``u_m`` or ``(u_m, signals)`` -> :class:`Reply` (no checks on u_m)."""
-    if isinstance(reply, tuple) and len(reply) == 2 and isinstance(reply[1], Mapping):
+    if (
+        isinstance(reply, tuple)
+        and len(reply) == 2
+        and (type(reply[1]) is dict or isinstance(reply[1], Mapping))  # dict: no ABC check
+    ):
         return Reply(reply[0], reply[1])
     return Reply(reply, _NO_SIGNALS)
 

@@ -25,7 +25,7 @@ from ..control.interface import recorded_name, split_reply
 from ..control.kinematic import error_terms
 from ..errors import SimulationError
 from .measurement import Sensor
-from .plant import Plant
+from .plant import STATE_BLOW_UP, STATE_NONFINITE, Plant
 from .recorder import Recorder, extend
 from .result import RunResult
 from .setup import Setup
@@ -40,13 +40,12 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     m3, nt = m.m3, setup.n_task
     planar = m3 == 1
     nw = n + m3
-    # per-step signals; the funnels, their bounds, the reference, the true task errors and the
-    # reaction torque are computed after the run (_after_run_signals)
+    # per-step signals; the funnels, their bounds, the reference, the true task errors, the
+    # momentum and the reaction torque are computed after the run (_after_run_signals)
     declared = getattr(setup.controller, "signal_shapes", None) or {}
     return {
         "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
-        "q_b": (m3,), "P": (m.m2,),
-        "L": () if planar else (3,), "dw_b": () if planar else (3,), "z_e_dot": (nt,),
+        "q_b": (m3,), "dw_b": () if planar else (3,), "z_e_dot": (nt,),
         "u_cmd": (n,),
         **({} if setup.sensors is None else {  # what the controller saw
             "meas_q_b": (m3,), "meas_q_m": (n,), "meas_w": (nw,), "meas_z_e": (nt,),
@@ -58,25 +57,33 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
 
 def recording_size(setup: Setup) -> tuple[int, int]:
     """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
-    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors, F_r)."""
+    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors, the
+    momentum P and L, F_r)."""
     sc = setup.scenario
     steps = int(round(sc.duration / sc.dt))
     per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
-    m3, nt = setup.model.m3, setup.n_task
-    return steps, 8 * (per_step + 5 * m3 + 6 * nt)
+    m2, m3, nt = setup.model.m2, setup.model.m3, setup.n_task
+    return steps, 8 * (per_step + m2 + m3 + 5 * m3 + 6 * nt)
 
 
 #: The recorded columns the signals computed after the run are functions of.
-AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "w", "dw_b")
+AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "v", "w", "dw_b")
 
 
-def _after_run_signals(setup: Setup, reaction: Callable[..., np.ndarray]):
+def _after_run_signals(
+    setup: Setup,
+    reaction: Callable[..., np.ndarray],
+    momentum: Callable[[np.ndarray, np.ndarray], tuple],
+):
     """The recorded signals computed after the run, a block of rows at a time, from the
     recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
     of Eqs. (16)-(17) (as :func:`~ffsm_pin.control.kinematic.task_errors`, on which the
-    specification's funnels are judged); from the recorded q_b, q, w and the base's angular
-    acceleration dw_b: the reaction torque F_r of Eq. (7) with the true model, one compiled
-    pass (``reaction``: :func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
+    specification's funnels are judged); from the recorded q and v: the conserved momentum
+    P, L (``momentum``: :meth:`~ffsm_pin.sim.plant.Plant.momentum_rows`, Pinocchio's
+    centroidal momentum, independent of the plant's projection); from the recorded q_b, q, w
+    and the base's angular acceleration dw_b: the reaction torque F_r of Eq. (7) with the true
+    model, one compiled pass (``reaction``:
+    :func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
     ref = setup.scenario.reference
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
@@ -95,6 +102,7 @@ def _after_run_signals(setup: Setup, reaction: Callable[..., np.ndarray]):
             out[f"bound_{name}_upper"] = funnel.upper * rho
         out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
         out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
+        out["P"], out["L"] = momentum(block["q"], block["v"])
         q_m = block["q"][:, nq_root:]
         out["F_r"] = reaction(block["q_b"], q_m, block["w"], block["dw_b"])
         return out
@@ -174,6 +182,7 @@ def simulate(
              np.zeros((1, *shapes["dw_b"])))  # fmt: skip
     sensor.reset()  # the run measures t = 0 again
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
+    plant.state_status(q, v, 1e4)  # and its state check
     n_lin = plant.n_linear  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
@@ -245,16 +254,16 @@ def simulate(
                     A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
                     A["meas_z_e"][i] = seen.z_e[:nt]
                     A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
-                A["P"][i], A["L"][i] = plant.split_momentum(plant.momentum(q, v))
                 A["dw_b"][i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
                 rec.commit()
             if final:
                 break
-            if not (np.isfinite(q_new).all() and np.isfinite(v_new).all()):
+            status = plant.state_status(q_new, v_new, 1e4)
+            if status == STATE_NONFINITE:
                 completed, stop_time, stop_cause = False, t + dt, "nonfinite"
                 stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
                 break
-            if np.abs(v_new[n_lin:]).max() > 1e4:
+            if status == STATE_BLOW_UP:
                 completed, stop_time, stop_cause = False, t + dt, "nonfinite"
                 stop_reason = (
                     f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
@@ -265,7 +274,7 @@ def simulate(
     except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
         completed, stop_time, stop_cause = False, k * dt, "interrupted"
         stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
-    per_row, truth = _after_run_signals(setup, reaction)
+    per_row, truth = _after_run_signals(setup, reaction, plant.momentum_rows)
     signals = extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:

@@ -62,8 +62,9 @@ class Sensor:
         vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
         q_m = q[4:].copy()
         ee_angle = self.model.ee_angle  # type: ignore[attr-defined]  # the planar model's
-        z_e = np.array([oMf.translation[0], oMf.translation[1], ee_angle(q_b, q_m)])
-        z_e_dot = np.array([vel.linear[0], vel.linear[1], vel.angular[2]])
+        p_e, v_e = oMf.translation, vel.linear  # (each access makes a new array)
+        z_e = np.array([p_e[0], p_e[1], ee_angle(q_b, q_m)])
+        z_e_dot = np.array([v_e[0], v_e[1], vel.angular[2]])
         M = h = None
         if self.state is not None:  # full_model
             self.state.update_dynamics(q, v)  # M, h only

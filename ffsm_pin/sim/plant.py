@@ -78,6 +78,27 @@ def _euler_velocity(v: np.ndarray, a: np.ndarray, dt: float, out: np.ndarray) ->
         out[2, i] = a[i]
 
 
+#: :meth:`Plant.state_status` codes
+STATE_OK, STATE_NONFINITE, STATE_BLOW_UP = range(3)
+
+
+@njit(cache=True)
+def _state_status(q: np.ndarray, v: np.ndarray, n_linear: int, rate_limit: float) -> int:
+    """STATE_NONFINITE if q or v holds a non-finite entry, else STATE_BLOW_UP if some rate
+    ``|v[i]|``, ``i >= n_linear``, exceeds ``rate_limit``, else STATE_OK: one compiled pass
+    instead of three numpy reductions a step."""
+    for x in q:
+        if not np.isfinite(x):
+            return STATE_NONFINITE
+    for x in v:
+        if not np.isfinite(x):
+            return STATE_NONFINITE
+    for i in range(n_linear, v.size):
+        if abs(v[i]) > rate_limit:
+            return STATE_BLOW_UP
+    return STATE_OK
+
+
 class StepResult(NamedTuple):
     """State after one step and the acceleration used for it."""
 
@@ -146,6 +167,19 @@ class Plant:
             return np.array([hg.linear[0], hg.linear[1], hg.angular[2]])
         return hg.np.copy()
 
+    def momentum_rows(self, q_rows: np.ndarray, v_rows: np.ndarray) -> tuple:
+        """(P, L) of :meth:`momentum` on N recorded states, q_rows (N, nq), v_rows (N, nv):
+        P (N, n_linear) [kg m/s], L (N,) planar or (N, 3) [kg m^2/s]; the same values, row
+        by row, without building a result per row (a run computes them after its loop)."""
+        model, data = self.model, self.data
+        rows = self._rows
+        out = np.empty((len(q_rows), rows.size))
+        for i in range(len(q_rows)):
+            pin.computeCentroidalMomentum(model, data, q_rows[i], v_rows[i])
+            out[i] = data.hg.np[rows]
+        m = self.n_linear
+        return out[:, :m], (out[:, m] if rows.size == m + 1 else out[:, m:])
+
     def split_momentum(self, momentum: np.ndarray) -> tuple:
         """(P, L) of :meth:`momentum`'s result: P [kg m/s] its first ``n_linear`` entries, L
         [kg m^2/s] the rest (planar: the number L_z, free-flyer: a 3-vector; views)."""
@@ -194,6 +228,13 @@ class Plant:
             res = self.step(res.q, res.v, u_m, dt / substeps)
         return StepResult(res.q, res.v, a)
 
+    def state_status(self, q, v, rate_limit: float) -> int:
+        """Whether a state can be stepped on: :data:`STATE_NONFINITE` when q or v [Pinocchio
+        convention] holds a non-finite entry, :data:`STATE_BLOW_UP` when an angular rate
+        (the entries of v after the ``n_linear`` linear base velocities) exceeds
+        ``rate_limit`` [rad/s], else :data:`STATE_OK`."""
+        return _state_status(q, v, self.n_linear, rate_limit)
+
     def project(self, q, v) -> np.ndarray:
         """Base twist that restores the conserved momentum at q, joint rates unchanged (a new
         array; v is not modified)."""
@@ -222,7 +263,8 @@ def _compile_first_run() -> None:
         q, v = pin.neutral(model), np.zeros(model.nv)
         plant.reset(q, v)
         plant.project(q, v)
-        plant.advance(q, v, np.zeros(1), 1e-3)
+        q, v, _ = plant.advance(q, v, np.zeros(1), 1e-3)
+        plant.state_status(q, v, 1e4)
 
 
 _first_compile.also_compile(__name__)  # a first run compiles the above in its second process

@@ -240,3 +240,67 @@ def test_bad_integrator_and_substeps(paper_robot, initial):
         Plant(paper_robot, integrator="RK4")
     with pytest.raises(ParameterError, match="substeps must be >= 1"):
         Plant(paper_robot).advance(*initial, np.zeros(4), 1e-3, 0)
+
+
+@pytest.mark.parametrize("root", ["planar", "free-flyer"])
+def test_state_status_is_the_three_numpy_checks(root, rng):
+    """Plant.state_status (one compiled pass) against what the loop checked with numpy: any
+    non-finite entry of q or v, then any angular rate (v after the linear base entries)
+    beyond the limit; the linear base velocity does not count."""
+    from ffsm_pin.sim.plant import STATE_BLOW_UP, STATE_NONFINITE, STATE_OK
+
+    model = pin.Model()
+    joint = pin.JointModelPlanar() if root == "planar" else pin.JointModelFreeFlyer()
+    base = model.addJoint(0, joint, pin.SE3.Identity(), "base")
+    model.appendBodyToJoint(base, pin.Inertia.FromBox(1.0, 1.0, 1.0, 1.0), pin.SE3.Identity())
+    arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.ones(3)), "arm")
+    model.appendBodyToJoint(arm, pin.Inertia.FromBox(1.0, 1.0, 0.1, 0.1), pin.SE3.Identity())
+    plant = Plant(model)
+
+    def numpy_checks(q, v):
+        if not (np.isfinite(q).all() and np.isfinite(v).all()):
+            return STATE_NONFINITE
+        return STATE_BLOW_UP if np.abs(v[plant.n_linear :]).max() > 1e4 else STATE_OK
+
+    seen = set()
+    for _ in range(400):
+        q, v = (
+            pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq)),
+            rng.normal(size=model.nv),
+        )
+        kind = rng.integers(5)
+        if kind == 1:
+            q[rng.integers(model.nq)] = rng.choice([np.nan, np.inf, -np.inf])
+        elif kind == 2:
+            v[rng.integers(model.nv)] = rng.choice([np.nan, np.inf, -np.inf])
+        elif kind == 3:  # a large entry anywhere in v, linear base entries included
+            v[rng.integers(model.nv)] = rng.choice([-1, 1]) * rng.uniform(0.5e4, 2e4)
+        elif kind == 4:
+            v[rng.integers(plant.n_linear, model.nv)] = 1e4  # at the limit: not beyond it
+        expected = numpy_checks(q, v)
+        assert plant.state_status(q, v, 1e4) == expected
+        seen.add(expected)
+    assert seen == {STATE_OK, STATE_NONFINITE, STATE_BLOW_UP}
+
+
+@pytest.mark.parametrize("root", ["planar", "free-flyer"])
+def test_momentum_rows_are_momentum_row_by_row(root, rng):
+    """The momentum a run computes after its loop (Plant.momentum_rows, on the recorded rows)
+    is bitwise Plant.momentum of each row, split as split_momentum splits it."""
+    model = pin.Model()
+    joint = pin.JointModelPlanar() if root == "planar" else pin.JointModelFreeFlyer()
+    base = model.addJoint(0, joint, pin.SE3.Identity(), "base")
+    model.appendBodyToJoint(base, pin.Inertia.FromBox(3.0, 1.0, 2.0, 0.5), pin.SE3.Identity())
+    arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.ones(3)), "arm")
+    model.appendBodyToJoint(arm, pin.Inertia.FromBox(1.0, 1.0, 0.1, 0.1), pin.SE3.Identity())
+    plant = Plant(model)
+    lo, hi = -np.ones(model.nq), np.ones(model.nq)
+    q_rows = np.array([pin.randomConfiguration(model, lo, hi) for _ in range(7)])
+    v_rows = rng.normal(size=(7, model.nv))
+    P, L = plant.momentum_rows(q_rows, v_rows)
+    assert P.shape == (7, plant.n_linear) and L.shape == ((7,) if root == "planar" else (7, 3))
+    for i in range(7):
+        P_i, L_i = plant.split_momentum(plant.momentum(q_rows[i], v_rows[i]))
+        assert np.array_equal(P[i], P_i) and np.array_equal(L[i], L_i)
+    P0, L0 = plant.momentum_rows(q_rows[:0], v_rows[:0])  # no rows (a run stopped at once)
+    assert P0.shape == (0, plant.n_linear) and L0.shape[0] == 0

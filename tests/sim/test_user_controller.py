@@ -162,6 +162,33 @@ def test_a_failing_controller_stops_the_run_cleanly(tmp_path, code, kind, words,
         assert len(data["t"]) == 0 or data["t"][-1] == pytest.approx(t_stop - 1e-3, abs=1e-9)
 
 
+HUGE = """
+import numpy as np
+class Huge:
+    def __init__(self, ctx):
+        self.n = ctx.n_joints
+    def step(self, meas):
+        return np.full(self.n, 1e9 if meas.t > 0.05 else 0.0)
+"""
+
+
+def test_a_plant_that_blows_up_stops_the_run_cleanly(tmp_path):
+    """A finite but absurd torque (1e9 N m) is the controller's right; the plant's rates then
+    exceed the loop's guard (1e4 rad/s) and the run stops with the plant's cause, the step
+    that crossed it named, every row before it kept."""
+    out = tmp_path / "out"
+    proc = _cli(_scenario_with(tmp_path, HUGE, "user.py:Huge"), out)
+    assert proc.returncode == 3, proc.stderr
+    s = json.loads((out / "summary.json").read_text())
+    assert s["completed"] is False and s["stop_cause"] == "nonfinite"
+    assert "numerical blow-up" in s["stop_reason"] and "1e4 rad/s" in s["stop_reason"]
+    with np.load(out / "trajectory.npz") as data:
+        n = round(s["stop_time"] / 1e-3)  # rows 0 .. stop - dt: the state at stop_time is not
+        assert len(data["t"]) == n and s["stop_time"] > 0.05
+        assert np.abs(data["v"][:, 2:]).max() <= 1e4  # every recorded state passed the guard
+        assert np.isfinite(data["q"]).all()
+
+
 BAD_INPUT = [
     (None, "lu-jai", ["'lu-jia'", "did you mean"]),
     (None, "missing.py:Nope", ["file not found", "missing.py"]),
