@@ -208,11 +208,10 @@ def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
-        if ns[NS_CODE] != 0:  # (ns None: numba compiles nothing of this, pack_null_space)
-            A = Jm @ U
-            grad = _null_space_gradient(S, off, K, L, ee_row, collinear, ns,
-                                        q_b, q_m, theta_b, theta_z)  # fmt: skip
-            xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
+        A = Jm @ U  # (ns None, no null-space term: numba compiles none of this)
+        grad = _null_space_gradient(S, off, K, L, ee_row, collinear, ns,
+                                    q_b, q_m, theta_b, theta_z)  # fmt: skip
+        xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
 

@@ -277,9 +277,9 @@ def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, r
     Hp_ab = _cmv(Hp, a_b)
     xi = _cmv(pinv, target - _cmv(Jm, Hp_ab))  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
-        if ns[NS_CODE] != 0:  # (ns None: numba compiles nothing of this, pack_null_space)
-            grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
-            xi = xi + ns[NS_GAIN] * (grad - _cmv(pinv, _cmv(A, grad)))
+        # (ns None, no null-space term: numba compiles none of this)
+        grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
+        xi = xi + ns[NS_GAIN] * (grad - _cmv(pinv, _cmv(A, grad)))
     w_mc = Hp_ab + _cmv(U, xi)  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
 

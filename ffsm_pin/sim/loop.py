@@ -111,6 +111,10 @@ def _after_run_signals(
     return per_row, truth
 
 
+#: [rad/s] the blow-up guard: a run stops when an angular rate of the plant exceeds it
+RATE_LIMIT = 1e4
+
+
 class _ControllerFault(Exception):
     """A controller broke the interface (a bad torque or signal); the run stops."""
 
@@ -182,7 +186,7 @@ def simulate(
              np.zeros((1, *shapes["dw_b"])))  # fmt: skip
     sensor.reset()  # the run measures t = 0 again
     plant.project(q, v)  # likewise the plant's compiled projection (result unused)
-    plant.state_status(q, v, 1e4)  # and its state check
+    plant.state_status(q, v, RATE_LIMIT)  # and its state check
     n_lin = plant.n_linear  # base linear velocity entries of v
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
@@ -258,14 +262,14 @@ def simulate(
                 rec.commit()
             if final:
                 break
-            status = plant.state_status(q_new, v_new, 1e4)
+            status = plant.state_status(q_new, v_new, RATE_LIMIT)
             if status == STATE_NONFINITE:
                 completed, stop_time, stop_cause = False, t + dt, "nonfinite"
                 stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
                 break
             if status == STATE_BLOW_UP:
                 completed, stop_time, stop_cause = False, t + dt, "nonfinite"
-                stop_reason = (
+                stop_reason = (  # (1e4: RATE_LIMIT)
                     f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
                     f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})"
                 )

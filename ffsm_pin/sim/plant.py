@@ -160,31 +160,26 @@ class Plant:
     def momentum(self, q, v) -> np.ndarray:
         """The conserved momentum: planar (P_x, P_y, L_z), free-flyer (P, L); P the linear
         momentum in the inertial frame [kg m/s], L the angular momentum about the system CoM in
-        the inertial frame [kg m^2/s]."""
+        the inertial frame [kg m^2/s] (the root table's rows of Pinocchio's h_g, a copy)."""
         pin.computeCentroidalMomentum(self.model, self.data, q, v)
-        hg = self.data.hg
-        if self.n_base == 3:
-            return np.array([hg.linear[0], hg.linear[1], hg.angular[2]])
-        return hg.np.copy()
+        return self.data.hg.np[self._rows]
 
     def momentum_rows(self, q_rows: np.ndarray, v_rows: np.ndarray) -> tuple:
         """(P, L) of :meth:`momentum` on N recorded states, q_rows (N, nq), v_rows (N, nv):
-        P (N, n_linear) [kg m/s], L (N,) planar or (N, 3) [kg m^2/s]; the same values, row
-        by row, without building a result per row (a run computes them after its loop)."""
-        model, data = self.model, self.data
-        rows = self._rows
-        out = np.empty((len(q_rows), rows.size))
+        P (N, n_linear) [kg m/s], L (N,) planar or (N, 3) [kg m^2/s] (a run computes them
+        after its loop)."""
+        out = np.empty((len(q_rows), self._rows.size))
         for i in range(len(q_rows)):
-            pin.computeCentroidalMomentum(model, data, q_rows[i], v_rows[i])
-            out[i] = data.hg.np[rows]
-        m = self.n_linear
-        return out[:, :m], (out[:, m] if rows.size == m + 1 else out[:, m:])
+            out[i] = self.momentum(q_rows[i], v_rows[i])
+        return self.split_momentum(out)
 
     def split_momentum(self, momentum: np.ndarray) -> tuple:
-        """(P, L) of :meth:`momentum`'s result: P [kg m/s] its first ``n_linear`` entries, L
-        [kg m^2/s] the rest (planar: the number L_z, free-flyer: a 3-vector; views)."""
+        """(P, L) of :meth:`momentum`'s result, or of rows of them (last axis): P [kg m/s] the
+        first ``n_linear`` entries, L [kg m^2/s] the rest (planar: the number L_z, free-flyer:
+        a 3-vector; views)."""
         m = self.n_linear
-        return momentum[:m], (momentum[m] if momentum.size == m + 1 else momentum[m:])
+        last = momentum.shape[-1]
+        return momentum[..., :m], (momentum[..., m] if last == m + 1 else momentum[..., m:])
 
     def reset(self, q, v) -> None:
         """Set the momentum to be conserved from the initial state."""

@@ -242,6 +242,17 @@ def test_bad_integrator_and_substeps(paper_robot, initial):
         Plant(paper_robot).advance(*initial, np.zeros(4), 1e-3, 0)
 
 
+def _two_body(root: str) -> pin.Model:
+    """A base (planar or free-flyer root, an asymmetric box) and one revolute link."""
+    model = pin.Model()
+    joint = pin.JointModelPlanar() if root == "planar" else pin.JointModelFreeFlyer()
+    base = model.addJoint(0, joint, pin.SE3.Identity(), "base")
+    model.appendBodyToJoint(base, pin.Inertia.FromBox(3.0, 1.0, 2.0, 0.5), pin.SE3.Identity())
+    arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.ones(3)), "arm")
+    model.appendBodyToJoint(arm, pin.Inertia.FromBox(1.0, 1.0, 0.1, 0.1), pin.SE3.Identity())
+    return model
+
+
 @pytest.mark.parametrize("root", ["planar", "free-flyer"])
 def test_state_status_is_the_three_numpy_checks(root, rng):
     """Plant.state_status (one compiled pass) against what the loop checked with numpy: any
@@ -249,12 +260,7 @@ def test_state_status_is_the_three_numpy_checks(root, rng):
     beyond the limit; the linear base velocity does not count."""
     from ffsm_pin.sim.plant import STATE_BLOW_UP, STATE_NONFINITE, STATE_OK
 
-    model = pin.Model()
-    joint = pin.JointModelPlanar() if root == "planar" else pin.JointModelFreeFlyer()
-    base = model.addJoint(0, joint, pin.SE3.Identity(), "base")
-    model.appendBodyToJoint(base, pin.Inertia.FromBox(1.0, 1.0, 1.0, 1.0), pin.SE3.Identity())
-    arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.ones(3)), "arm")
-    model.appendBodyToJoint(arm, pin.Inertia.FromBox(1.0, 1.0, 0.1, 0.1), pin.SE3.Identity())
+    model = _two_body(root)
     plant = Plant(model)
 
     def numpy_checks(q, v):
@@ -287,12 +293,7 @@ def test_state_status_is_the_three_numpy_checks(root, rng):
 def test_momentum_rows_are_momentum_row_by_row(root, rng):
     """The momentum a run computes after its loop (Plant.momentum_rows, on the recorded rows)
     is bitwise Plant.momentum of each row, split as split_momentum splits it."""
-    model = pin.Model()
-    joint = pin.JointModelPlanar() if root == "planar" else pin.JointModelFreeFlyer()
-    base = model.addJoint(0, joint, pin.SE3.Identity(), "base")
-    model.appendBodyToJoint(base, pin.Inertia.FromBox(3.0, 1.0, 2.0, 0.5), pin.SE3.Identity())
-    arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.ones(3)), "arm")
-    model.appendBodyToJoint(arm, pin.Inertia.FromBox(1.0, 1.0, 0.1, 0.1), pin.SE3.Identity())
+    model = _two_body(root)
     plant = Plant(model)
     lo, hi = -np.ones(model.nq), np.ones(model.nq)
     q_rows = np.array([pin.randomConfiguration(model, lo, hi) for _ in range(7)])
