@@ -9,17 +9,21 @@ while a sample runs (as in :mod:`timeit`), and one untimed call warms caches fir
 ``time_interleaved`` does the same for several callables, taking their samples in
 round-robin order, so a change of machine load during the run hits every item alike and
 the ratios between items stay meaningful on a busy machine.
+
+``checkout(root)`` names what a benchmark measured: ``HEAD <short hash>``, and
+``(+ the working tree)`` when tracked files differ from it.
 """
 
 from __future__ import annotations
 
 import gc
 import statistics
+import subprocess
 import time
 from collections.abc import Callable, Mapping
 from typing import NamedTuple
 
-__all__ = ["Timing", "time_call", "time_interleaved"]
+__all__ = ["Timing", "checkout", "time_call", "time_interleaved"]
 
 
 class Timing(NamedTuple):
@@ -118,3 +122,14 @@ def time_interleaved(
         for name, fn in fns.items():
             samples[name].append(_sample(fn, counts[name]))
     return {name: _summary(s) for name, s in samples.items()}
+
+
+def checkout(root) -> str:
+    """``HEAD <short hash>`` of the git checkout at ``root``, with ``(+ the working tree)``
+    when its tracked files differ from HEAD."""
+    git = ["git", "-C", str(root)]
+    head = subprocess.run([*git, "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True).stdout.strip()  # fmt: skip
+    return f"HEAD {head}{' (+ the working tree)' if dirty else ''}"

@@ -26,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _timing import checkout
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -50,13 +52,7 @@ def main() -> int:
     parser.add_argument("--baseline", default=None, help="a git revision to compare with")
     args = parser.parse_args()
     load = os.getloadavg()
-    git = ["git", "-C", str(ROOT)]
-    head = subprocess.run([*git, "rev-parse", "--short", "HEAD"],
-                          capture_output=True, text=True).stdout.strip()  # fmt: skip
-    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True).stdout.strip()  # fmt: skip
-    print(f"ffsm-pin first-run benchmark: HEAD {head}"
-          f"{' (+ the working tree)' if dirty else ''}, python "
+    print(f"ffsm-pin first-run benchmark: {checkout(ROOT)}, python "
           f"{sys.version.split()[0]}, {os.cpu_count()} CPU(s), load {load[0]:.2f} "
           f"{load[1]:.2f} {load[2]:.2f}", flush=True)  # fmt: skip
     with tempfile.TemporaryDirectory(prefix="ffsm-bench-first-") as tmp_name:

@@ -57,6 +57,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _timing import checkout
+
 ROOT = Path(__file__).resolve().parents[1]
 PLANAR_S, SPATIAL_S = 10.0, 4.0  # default simulated durations [s]
 # row -> (built-in scenario, spatial?, extra arguments of the run)
@@ -200,12 +202,7 @@ def main() -> int:
     import pinocchio
 
     load = os.getloadavg()
-    git = ["git", "-C", str(ROOT)]
-    head = subprocess.run([*git, "rev-parse", "--short", "HEAD"],
-                          capture_output=True, text=True).stdout.strip()  # fmt: skip
-    dirty = subprocess.run([*git, "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True).stdout.strip()  # fmt: skip
-    print(f"ffsm-pin run benchmark: HEAD {head}{' (+ the working tree)' if dirty else ''}, "
+    print(f"ffsm-pin run benchmark: {checkout(ROOT)}, "
           f"python {sys.version.split()[0]}, pinocchio {pinocchio.__version__}, numpy "
           f"{numpy.__version__}, numba {numba.__version__}, {os.cpu_count()} CPU(s), "
           f"load {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")  # fmt: skip
