@@ -13,9 +13,9 @@ an empty cache is bitwise a run from a warm one: ``tests/control/test_first_comp
 When the cache is warm, or a second process cannot be started, nothing happens and the
 period compiles (or loads) everything itself. Measured in benchmarks/README.md ("First run").
 
-Each geometry's kernel module (:mod:`.fast`, :mod:`.fast_spatial`) provides
-``_compile_real_kernels(*args)`` and ``_compile_run_kernels(*args)``, what the second process
-runs before and after it says the period's kernels are ready.
+The compiled period's module (:mod:`.period`) provides ``_compile_real_kernels(*args)`` and
+``_compile_run_kernels(*args)``, what the second process runs before and after it says the
+period's kernels are ready (the geometry's, chosen by the type of the model's constants).
 """
 
 from __future__ import annotations
@@ -41,26 +41,30 @@ def cold(dispatcher: Any) -> bool:
 
 
 def with_flags(x: Any) -> tuple:
-    """(kind, x, writeable), recursively through tuples: numba types a read-only array
-    differently, and pickling drops the flag."""
+    """(kind, x, extra), recursively through tuples: for an array ``extra`` is its writeable
+    flag (numba types a read-only array differently, and pickling drops the flag), for a
+    tuple its class when it is a named tuple (which numba types by its class, and which the
+    second process must see as such), else None."""
     import numpy as np
 
     if isinstance(x, np.ndarray):
         return ("array", x, bool(x.flags.writeable))
     if isinstance(x, tuple):
-        return ("tuple", tuple(with_flags(v) for v in x), None)
+        named = type(x) if hasattr(x, "_fields") else None
+        return ("tuple", tuple(with_flags(v) for v in x), named)
     return ("value", x, None)
 
 
 def restore_flags(item: tuple) -> Any:
     """The inverse of :func:`with_flags`."""
-    kind, x, writeable = item
+    kind, x, extra = item
     if kind == "array":
         x = x.copy()  # an unpickled array may sit on a read-only buffer
-        x.setflags(write=writeable)
+        x.setflags(write=extra)
         return x
     if kind == "tuple":
-        return tuple(restore_flags(v) for v in x)
+        items = tuple(restore_flags(v) for v in x)
+        return items if extra is None else extra(*items)
     return x
 
 

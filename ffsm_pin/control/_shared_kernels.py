@@ -1,7 +1,7 @@
 """Compiled pieces shared by the planar and the spatial control periods.
 
-The status codes a period returns, the packed layouts of a funnel and of the null-space
-option, and the kernels both geometries use the same way: the funnel transformation
+The status codes a period returns, the packed layouts of a funnel, of the gains and of the
+null-space option, and the kernels both geometries use the same way: the funnel transformation
 (Eqs. 18-22), the Fourier reference and the determinant of an SPD matrix. Each is checked
 against its numpy reference through the periods (``tests/control/test_fast*.py``).
 """
@@ -23,6 +23,17 @@ STATUS_NONFINITE = 6  # u_m not finite
 F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
 # entries of the packed null-space array (pack_null_space)
 NS_CODE, NS_GAIN, NS_STEP, NS_CENTER = range(4)
+# entries of the packed gains array (gains_array); q_bd has m3 entries
+G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
+
+
+def gains_array(gains, threshold: float, q_bd) -> np.ndarray:
+    """(8 + m3,) array: k_b, k_z, k_de, k_d, gamma_1..3, the singularity threshold [m], q_bd
+    (the desired base attitude: angle [rad] or MRP)."""
+    return np.array(
+        [gains.k_b, gains.k_z, gains.k_de, gains.k_d, gains.gamma_1, gains.gamma_2,
+         gains.gamma_3, threshold, *np.asarray(q_bd, dtype=float).reshape(-1)]
+    )  # fmt: skip
 
 
 def pack_funnel(funnel) -> np.ndarray:

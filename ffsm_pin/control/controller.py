@@ -21,7 +21,6 @@ becomes non-finite. Damping of the pseudo-inverse is announced by a
 
 from __future__ import annotations
 
-import importlib
 import warnings
 from typing import NamedTuple
 
@@ -204,11 +203,12 @@ class CoordinatedController:
         self.backend = self._choose_backend(backend)
 
     def _choose_backend(self, backend: str) -> str:
-        """'numba' (a compiled period) unless numba is missing or 'numpy' is asked.
+        """'numba' (the compiled period, :mod:`.period`) unless numba is missing or 'numpy'
+        is asked.
 
-        Planar robots: :mod:`.fast`, for the pose task of the adaptive schemes (the planar
-        known-model baseline and position task run the numpy reference). Spatial robots
-        (m3 = 3): :mod:`.fast_spatial`, every scheme, task and null-space option.
+        The compiled period serves spatial robots (m3 = 3) with every scheme, task and
+        null-space option, and planar robots with the pose task of the adaptive schemes
+        (the planar known-model baseline and position task run the numpy reference).
         """
         spatial = isinstance(self.model, SpatialBarycentricModel)
         planar_pose = isinstance(self.model, BarycentricModel) and self.n_task == TASK_SIZE
@@ -219,60 +219,34 @@ class CoordinatedController:
             )
         if backend == "numpy" or not (spatial or (self.adaptive and planar_pose)):
             return "numpy"
-        try:  # the compiled module of this geometry (imports numba)
-            kernels = importlib.import_module(".fast_spatial" if spatial else ".fast", __package__)
+        try:  # the compiled period (imports numba)
+            from . import period as compiled
         except ImportError:
             if backend == "numba":
                 raise
             return "numpy"
-        self._fast = kernels
-        if spatial:
-            self._setup_spatial(kernels)
-        else:
-            self._setup_planar(kernels)
+        self._setup_compiled(compiled)
         self._warm_up()
         return "numba"
 
-    def _setup_planar(self, fast) -> None:
+    def _setup_compiled(self, compiled) -> None:
+        """Pack the compiled period's constant arguments and bind the period to this
+        controller's states."""
         m = self.model
         consts = (
-            *m.kernel_constants(),
-            self.scheme != "no-attitude", self.scheme == "no-ppc",
-            fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
-            np.array([self.gains.k_b, self.gains.k_z, self.gains.k_de, self.gains.k_d,
-                      self.gains.gamma_1, self.gains.gamma_2, self.gains.gamma_3,
-                      self.policy.threshold, float(self.q_bd[0])]),
-            *self.reference.kernel_arrays(),
-            fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
-        )  # fmt: skip
-        self._fast_consts = consts  # the kernel's constant arguments (also used by tests)
-        self._parallel_compile = fast.compile_in_parallel
-        self._layout = fast.out_layout(m.n_joints)
-        period = fast.period
-
-        def call(meas: Measurement, dt: float, out: np.ndarray):
-            return period(
-                *consts, dt, meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
-                self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, out,
-            )  # fmt: skip
-
-        self._period = call
-
-    def _setup_spatial(self, fast) -> None:
-        m = self.model
-        consts = (
-            *m.kernel_constants(), self.n_task,
+            m.kernel_constants(), self.n_task,
             self.scheme != "no-attitude", self.scheme == "no-ppc", self.adaptive,
-            fast.pack_funnel(self.funnel_b), fast.pack_funnel(self.funnel_z),
-            fast.gains_array(self.gains, self.policy.threshold, self.q_bd),
+            compiled.pack_funnel(self.funnel_b), compiled.pack_funnel(self.funnel_z),
+            compiled.gains_array(self.gains, self.policy.threshold, self.q_bd),
             *self.reference.kernel_arrays(),
-            fast.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
+            compiled.pack_null_space(self.null_space, self.kinematic.center, m.n_joints),
         )  # fmt: skip
-        self._fast_consts = consts
-        self._parallel_compile = fast.compile_in_parallel
-        self._layout = fast.out_layout(m.n_joints, self.n_task)
-        period = fast.period
-        N = m.n_joints + 3
+        self._compiled = compiled
+        self._fast_consts = consts  # the period's constant arguments (also used by tests)
+        self._parallel_compile = compiled.compile_in_parallel
+        self._layout = compiled.out_layout(m.n_joints, self.m3, self.n_task)
+        period = compiled.period
+        N = m.n_joints + self.m3
         no_M, no_h = np.zeros((N, N)), np.zeros(N)
         adaptive = self.adaptive
 
@@ -314,27 +288,27 @@ class CoordinatedController:
         return self._step_numpy(meas, dt)
 
     def _step_numba(self, meas: Measurement, dt: float) -> ControlOutput:
-        fast, lay = self._fast, self._layout
+        compiled, lay = self._compiled, self._layout
         out = np.empty(lay["size"])  # fresh each period: the outputs below are views of it
         t = meas.t
         status, idx = self._period(meas, dt, out)
-        if status in (fast.STATUS_FUNNEL_Z, fast.STATUS_FUNNEL_B):
-            funnel = self.funnel_z if status == fast.STATUS_FUNNEL_Z else self.funnel_b
+        if status in (compiled.STATUS_FUNNEL_Z, compiled.STATUS_FUNNEL_B):
+            funnel = self.funnel_z if status == compiled.STATUS_FUNNEL_Z else self.funnel_b
             rho = float(funnel.rho(t)[idx])
             exc = FunnelExit(
                 idx, out[lay["exit_value"]], funnel.lower[idx] * rho, funnel.upper[idx] * rho
             )
             raise self._funnel_stop(meas, exc)
-        if status == fast.STATUS_H_COLLAPSE:
+        if status == compiled.STATUS_H_COLLAPSE:
             raise self._collapse_stop(t, out[lay["H_bm_norm"]])
         sigma, damping = float(out[lay["sigma_min"]]), float(out[lay["damping"]])
         self._singularity_bookkeeping(t, sigma, damping)
-        if status == fast.STATUS_M_NOT_PD:
+        if status == compiled.STATUS_M_NOT_PD:
             raise self._inertia_stop(t)
-        if status == fast.STATUS_BASE_ROW:
+        if status == compiled.STATUS_BASE_ROW:
             what = "base row of the filter is" if self.m3 == 1 else "base rows of the filter are"
             raise SimulationError(f"t = {t:.4f} s: {what} singular", time=t, cause="singular")
-        if status == fast.STATUS_NONFINITE:
+        if status == compiled.STATUS_NONFINITE:
             raise self._nonfinite_stop(t)
         return ControlOutput(
             u_m=out[lay["u_m"]],

@@ -1,15 +1,20 @@
-"""Compiled (numba) kernel of one control period: the same equations as the numpy modules.
+"""The planar geometry's compiled (numba) kernels of the control period.
 
-The readable reference is the numpy implementation (:mod:`ffsm_pin.model.planar`,
-:mod:`.funnel`, :mod:`.kinematic`, :mod:`.adaptation`, :mod:`.manifold`,
-:mod:`.controller`); this module fuses one period of it into a single compiled call,
-because a period is a few hundred operations on 5-vectors where interpreter overhead
-dominates (about 300 us in numpy, see ``benchmarks/bench_closed_loop.py``). The test
-suite checks that both give the same trajectory (``tests/control/test_fast.py``).
+:func:`ffsm_pin.control.period.period` is the one compiled period of both geometries; for a
+planar robot (:class:`~ffsm_pin.model.planar.PlanarKernelConstants`) it runs the three steps
+here: :func:`geometry_terms` (the body angles' trigonometry, Eqs. 28 and 42),
+:func:`kinematic_law` (Eqs. 25+36 or 81, complex-step safe) and :func:`dynamic_level`
+(Eqs. 46, 49-52, 60-64). The readable reference is the numpy implementation
+(:mod:`ffsm_pin.model.planar`, :mod:`.funnel`, :mod:`.kinematic`, :mod:`.adaptation`,
+:mod:`.manifold`, :mod:`.controller`); a period is a few hundred operations on 5-vectors where
+interpreter overhead dominates (about 300 us in numpy, see ``benchmarks/bench_closed_loop.py``).
+The test suite checks that both give the same trajectory (``tests/control/test_fast.py``).
+Also here: the run's diagnostics on the true model (:func:`residual_54`,
+:func:`reaction_rows`).
 
 Layout conventions are those of :class:`~ffsm_pin.model.planar.BarycentricModel`:
 theta_d = (Dc_kk, Dc_kl (k<l), [Ds_kl (k<l)]), theta_z = (v_0, V_0..V_n) with scalar or
-2-vector V_k. Status codes returned by :func:`period`: see ``STATUS_*``.
+2-vector V_k. Status codes: ``STATUS_*`` of :mod:`._shared_kernels`.
 """
 
 from __future__ import annotations
@@ -17,16 +22,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from . import _first_compile
-from ._shared_kernels import (  # noqa: F401 - re-exported for the controller and tests
-    F_A,
-    F_B1,
-    F_B2,
-    F_BETA,
-    F_LO,
-    F_R0,
-    F_RI,
-    F_UP,
+from ._shared_kernels import (
+    G_G1,
+    G_G2,
+    G_G3,
+    G_KB,
+    G_KD,
+    G_KDE,
+    G_KZ,
+    G_QBD,
+    G_THR,
     NS_CENTER,
     NS_CODE,
     NS_GAIN,
@@ -44,14 +49,9 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller an
     _reference,
     _spd_det,
     funnel_terms,
-    pack_funnel,
-    pack_null_space,
-    report_kinematic,
     theta_z_step,
 )
 
-# entries of the packed gains array
-G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
 _H = 1e-30
 _TWO_PI = 2.0 * np.pi
 
@@ -65,18 +65,6 @@ def _xm(X, A):
             for j in range(A.shape[1]):
                 out[i, j] += X[i, k] * A[k, j]
     return out
-
-
-def out_layout(n: int) -> dict[str, slice | int]:
-    """Where :func:`period` writes each output in ``out`` (size ``4 n + 9``)."""
-    nb = n + 1
-    o = 3 * n + 4 + nb
-    return {
-        "u_m": slice(0, n), "w_mc": slice(n, 2 * n), "w_mc_dot": slice(2 * n, 3 * n),
-        "err_b": slice(3 * n, 3 * n + 1), "err_z": slice(3 * n + 1, 3 * n + 4),
-        "w_tilde": slice(3 * n + 4, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
-        "exit_value": o + 3, "size": o + 4,
-    }  # fmt: skip
 
 
 @njit(cache=True)
@@ -164,10 +152,12 @@ def _damped_pinv(A, thr):
 
 
 @njit(cache=True)
-def _kinematic(S, off, K, L, ee_row, collinear, attitude, identity,
-               fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-               t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
-    """w_mc of Eqs. (25)+(36) or (81) (complex-step safe); ``ns`` = :func:`pack_null_space`."""
+def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
+                  t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+    """w_mc of Eqs. (25)+(36) or (81) (complex-step safe; :func:`.period.kinematic_law`);
+    ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``nt`` = 3
+    (the pose task), ``ns`` = :func:`pack_null_space`."""
+    S, off, K, L, ee_row, collinear = geo
     nb = S.shape[0]
     n = nb - 1
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
@@ -338,12 +328,28 @@ def position_regressor(c, s, S, w, nz, collinear):
 
 
 @njit(cache=True)
-def _dynamic_level(S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, sens,
-                   theta_d, w_hat, Y_df):  # fmt: skip
-    """The dynamic level of :func:`period` (Eqs. 46, 49-52, 60a, 64-65): returns (status,
-    u_m, dw-hat/dt, w~) and, when the status is ``STATUS_OK``, advances theta_d-hat, w-hat
-    and Y_df in place. A separate kernel so that a first run compiles it in the second
-    process (:func:`compile_in_parallel`)."""
+def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d):
+    """The body angles' trigonometry and Eqs. (28), (42) over the period
+    (:func:`.period.geometry_terms`); planar robots run the adaptive schemes only, so
+    ``adaptive`` and ``w_hat`` are not read."""
+    S, off, K, L, ee_row, collinear = geo
+    nd = theta_d.size
+    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    tb_new = theta_b_step(theta_b, _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
+    Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
+    tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
+    return (pc, ps), tb_new, tz_new, w[0], w[0]
+
+
+@njit(cache=True)
+def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
+                  theta_d, w_hat, Y_df):  # fmt: skip
+    """The dynamic level (Eqs. 46, 49-52, 60a, 64-65; :func:`.period.dynamic_level`): returns
+    (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~) and, when the status is
+    ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``terms`` those of
+    :func:`geometry_terms`; the adaptive schemes only (``M_true``, ``h_true`` not read)."""
+    S, off, K, L, ee_row, collinear = geo
+    pc, ps = terms
     nb = S.shape[0]
     nd = theta_d.size
     none = np.empty(0)
@@ -351,7 +357,7 @@ def _dynamic_level(S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, sens,
     Mphi = _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
     M_hat = S.T @ Mphi @ S
     if np.linalg.eigvalsh(M_hat)[0] <= 0:
-        return STATUS_M_NOT_PD, none, none, none
+        return STATUS_M_NOT_PD, 0.0, none, none, none
     Ymd, Yh = _velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g[G_G3] * dt
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
@@ -361,71 +367,21 @@ def _dynamic_level(S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, sens,
     tgt = w_mc_dot - g[G_KD] * (w_hat[1:] - w_mc)
     denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
     if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
-        return STATUS_BASE_ROW, none, none, none
+        return STATUS_BASE_ROW, abs(denom), none, none, none
     wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
     w_hat_dot = np.empty(nb)
     w_hat_dot[0] = wb_dot
     _put(w_hat_dot, 1, tgt + sens * wb_dot)
     u_m = M_hat[1:] @ w_hat_dot - rr[1:]
     if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, none, none, none
+        return STATUS_NONFINITE, 0.0, none, none, none
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
     decay = np.exp(-g[G_KDE] * dt)
     _put_rows(Y_df, decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc)
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
-    return STATUS_OK, u_m, w_hat_dot, w_tilde
-
-
-@njit(cache=True)
-def period(S, off, K, L, ee_row, collinear, attitude, identity,
-           fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
-           t, q_b, q_m, w, z_e, z_e_dot,
-           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
-    """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64); updates the
-    estimator states in place, writes ``out`` (see :func:`out_layout`) and returns
-    (status, exit index)."""
-    nb = S.shape[0]
-    n = nb - 1
-    nd = theta_d.size
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-
-    tb_new = theta_b_step(theta_b, _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
-    Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
-    tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
-
-    # kinematic level, value and exact derivative in one complex evaluation
-    hj = 1j * _H
-    qmc = q_m + hj * w[1:]
-    zec = z_e + hj * z_e_dot
-    tbc = theta_b + hj * (tb_new - theta_b) / dt
-    tzc = theta_z + hj * (tz_new - theta_z) / dt
-    w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
-        S, off, K, L, ee_row, collinear, attitude, identity,
-        fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-        t + hj, q_b + hj * w[0], qmc, zec, tbc, tzc, w[0] + 0j,
-    )  # fmt: skip
-    o = 3 * n + 4 + nb  # offset of the scalars in `out`, see out_layout()
-    report_kinematic(out, 3 * n, o, err_b, err_z, sigma, damping, hnorm, status, idx)
-    if status != STATUS_OK:
-        return status, idx
-    w_mc = w_mc_c.real.copy()
-    w_mc_dot = w_mc_c.imag / _H
-    status, u_m, w_hat_dot, w_tilde = _dynamic_level(
-        S, K, L, collinear, g, dt, pc, ps, w, w_mc, w_mc_dot, np.ascontiguousarray(sens),
-        theta_d, w_hat, Y_df,
-    )  # fmt: skip
-    if status != STATUS_OK:
-        return status, -1
-    wb_dot = w_hat_dot[0]
-    _put(theta_b, 0, tb_new)
-    _put(theta_z, 0, tz_new)
-    _put(out, 0, u_m)
-    _put(out, n, w_mc)
-    _put(out, 2 * n, w_mc_dot + sens * wb_dot)
-    _put(out, 3 * n + 4, w_tilde)
-    return STATUS_OK, -1
+    return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde
 
 
 @njit(cache=True)
@@ -462,49 +418,23 @@ def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
 
 
 # ---------------------------------------------------------------------- first compilation
-def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
-    """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex values
-    of the measurement's shapes); the values only need to be finite."""
+def kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
+    """Arguments of :func:`kinematic_law` with the types :func:`.period.period` passes
+    (complex values of the measurement's shapes; ``consts`` the period's constant arguments);
+    the values only need to be finite."""
     c = 1j * _H
-    return (*consts, t + c, q_b + c, q_m + c, z_e + c, theta_b + c, theta_z + c, w[0] + 0j)
-
-
-def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """Compile the real kernels :func:`period` calls, with the argument types it passes (the
-    second process of :func:`compile_in_parallel`)."""
-    S, off, K, L, ee_row, collinear = consts[:6]
-    nb, nd = S.shape[0], theta_d.size
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-    theta_b_step(np.zeros(nd + 1), _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], 1.0, 1e-3)
-    Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
-    theta_z_step(theta_z, Yz, z_e, 1.0, 1e-3)  # z_e: the type of the measured z_e_dot
-    _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
-    _velocity_regressors(pc, ps, K, L, S, w, w - w, nd, collinear)
-    n = nb - 1
-    _dynamic_level(S, K, L, collinear, consts[10], 1e-3, pc, ps, w, np.zeros(n), np.zeros(n),
-                   np.zeros(n), theta_d.copy(), np.zeros(nb), np.zeros((nb, nd)))  # fmt: skip
+    return (*consts[:4], *consts[5:], t + c, q_b + c, q_m + c, z_e + c, theta_b + c,
+            theta_z + c, w[0] + 0j)  # fmt: skip
 
 
 def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """Compile the run's :func:`residual_54` and :func:`reaction_rows` with the argument types
-    the run passes (the second process, after :func:`_compile_real_kernels`)."""
-    S, off, K, L, ee_row, collinear = consts[:6]
+    the run passes (the second process of :func:`.period.compile_in_parallel`, after the
+    period's kernels)."""
+    S, off, K, L, ee_row, collinear = consts[0]
     nb, nd = S.shape[0], theta_d.size
     residual_54(S, off, K, L, collinear, q_b, q_m, np.zeros(nb), np.zeros((nb, nd)),
                 theta_d, theta_d)  # fmt: skip
     rows = np.zeros((1, w.size))  # reaction_rows compiles base_inertia with the row types
     reaction_rows(S, off, K, L, collinear, np.zeros(1), np.zeros((1, q_m.size)), rows,
                   np.zeros(1), theta_d)  # fmt: skip
-
-
-def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """On a first run, compile the real kernels of :func:`period`, :func:`residual_54` and
-    :func:`reaction_rows` in a second process while this one compiles the complex kinematic
-    law (:mod:`._first_compile`); :func:`period` then loads the former from the cache.
-    Does nothing when the cache is warm."""
-    _first_compile.compile_in_parallel(
-        __name__,
-        (consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b),
-        (period, _kinematic),
-        lambda: _kinematic(*_kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b)),
-    )

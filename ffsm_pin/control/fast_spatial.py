@@ -1,27 +1,30 @@
-"""Compiled (numba) kernel of one spatial control period (m3 = 3, MRP attitudes).
+"""The spatial geometry's compiled (numba) kernels of the control period (m3 = 3, MRPs).
 
-The readable reference is the numpy implementation (:mod:`.controller`, :mod:`.kinematic`,
-:mod:`.adaptation`, :mod:`.manifold`, :mod:`.null_space` on
-:class:`~ffsm_pin.model.spatial.SpatialBarycentricModel`); this module fuses one period
-of it into a single compiled call, like :mod:`.fast` does for the planar model. The test suite
-checks that both give the same outputs and trajectories (``tests/control/test_fast_spatial.py``).
+:func:`ffsm_pin.control.period.period` is the one compiled period of both geometries; for a
+spatial robot (:class:`~ffsm_pin.model.spatial.SpatialKernelConstants`) it runs the three
+steps here: :func:`geometry_terms` (rotations, regressors, Eqs. 28 and 42), :func:`kinematic_law`
+(Eqs. 25+36 or 81, with the optional null-space term, at complex arguments) and
+:func:`dynamic_level` (Eqs. 46, 49-52, 60-64). The readable reference is the numpy
+implementation (:mod:`.controller`, :mod:`.kinematic`, :mod:`.adaptation`, :mod:`.manifold`,
+:mod:`.null_space` on :class:`~ffsm_pin.model.spatial.SpatialBarycentricModel`); the test
+suite checks that both give the same outputs and trajectories
+(``tests/control/test_fast_spatial.py``).
 
 * Regressors, M-hat and the Jacobians come from the compiled spatial kernels
-  (:mod:`ffsm_pin.model._spatial_kernels`); the kinematic law (Eqs. 25+36 or 81, with the optional
-  null-space term) is evaluated once with complex arguments ``x + i h dx/dt``
-  (the dtype-generic kinematics, Jacobian and mass-matrix kernels), so that
-  ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part over h.
+  (:mod:`ffsm_pin.model._spatial_kernels`); the kinematic law is evaluated once with complex
+  arguments ``x + i h dx/dt`` (the dtype-generic kinematics, Jacobian and mass-matrix kernels),
+  so that ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part over h.
 * Schemes ``ppc``, ``no-ppc``, ``no-attitude`` and ``known-model`` (``adaptive = False``:
   Pinocchio's M and C w passed in, no adaptation); tasks ``pose`` (6 rows) and
   ``position`` (3 rows); null-space objectives none, manipulability, joint-centering.
 
-Status codes and the packed funnel/null-space arrays are those of :mod:`.fast`.
+Status codes and the packed funnel, gains and null-space arrays: :mod:`._shared_kernels`.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import njit
 
 from ..model._spatial_kernels import (
     attitude_rows,
@@ -33,8 +36,16 @@ from ..model._spatial_kernels import (
     y_z,
     ym,
 )
-from . import _first_compile
 from ._shared_kernels import (
+    G_G1,
+    G_G2,
+    G_G3,
+    G_KB,
+    G_KD,
+    G_KDE,
+    G_KZ,
+    G_QBD,
+    G_THR,
     NS_CENTER,
     NS_CODE,
     NS_GAIN,
@@ -52,45 +63,18 @@ from ._shared_kernels import (
     _solve,
     _spd_det,
     funnel_terms,
-    pack_funnel,
-    pack_null_space,
-    report_kinematic,
     theta_z_step,
 )
 
 __all__ = [
-    "compile_in_parallel",
-    "gains_array",
-    "out_layout",
-    "pack_funnel",
-    "pack_null_space",
-    "period",
+    "dynamic_level",
+    "geometry_terms",
+    "kinematic_law",
+    "reaction_rows",
+    "residual_54",
 ]
 
-# entries of the packed gains array (gains_array)
-G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)  # q_bd: 3 entries
 _H = 1e-30  # complex step, as in control/kinematic.py
-
-
-def gains_array(gains, threshold: float, q_bd) -> np.ndarray:
-    """(11,) array: k_b, k_z, k_de, k_d, gamma_1..3, singularity threshold, q_bd (MRP)."""
-    return np.array(
-        [gains.k_b, gains.k_z, gains.k_de, gains.k_d, gains.gamma_1, gains.gamma_2,
-         gains.gamma_3, threshold, *np.asarray(q_bd, dtype=float).reshape(3)]
-    )  # fmt: skip
-
-
-def out_layout(n: int, n_task: int) -> dict[str, slice | int]:
-    """Where :func:`period` writes each output in ``out`` (n joints, n_task task rows)."""
-    N = n + 3
-    e = 3 * n + 3 + n_task
-    o = e + N
-    return {
-        "u_m": slice(0, n), "w_mc": slice(n, 2 * n), "w_mc_dot": slice(2 * n, 3 * n),
-        "err_b": slice(3 * n, 3 * n + 3), "err_z": slice(3 * n + 3, e),
-        "w_tilde": slice(e, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
-        "exit_value": o + 3, "size": o + 4,
-    }  # fmt: skip
 
 
 # ---------------------------------------------------------------------- complex helpers
@@ -236,10 +220,12 @@ def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
 
 
 @njit(cache=True)
-def _kinematic(jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase,
-               rpp, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
-    """w_mc of Eqs. (25)+(36) or (81) at complex arguments; returns (w_mc, d w_mc/d w_b,
-    sigma_min, damping, |H_bm|, err_b, err_z, status, exit index)."""
+def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
+                  t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+    """w_mc of Eqs. (25)+(36) or (81) at complex arguments (:func:`.period.kinematic_law`);
+    returns (w_mc, d w_mc/d w_b, sigma_min, damping, |H_bm|, err_b, err_z, status, exit index).
+    ``geo`` the model's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`."""
+    jr, ax, er, m = geo
     n = q_m.size
     ref = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
     err_z = np.empty(nt, dtype=np.complex128)
@@ -301,14 +287,11 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 
 
 @njit(cache=True)
-def period(jr, ax, er, m, nt, attitude, identity, adaptive,
-           fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns, dt,
-           t, q_b, q_m, w, z_e, z_e_dot, M_true, h_true,
-           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
-    """One control period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64) of the spatial
-    controller; updates the estimator states in place, writes ``out`` (see
-    :func:`out_layout`) and returns (status, exit index). ``M_true``, ``h_true``: Pinocchio's
-    reduced M and C w (known-model scheme, ``adaptive = False``; ignored otherwise)."""
+def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d):
+    """The body rotations and joint axes, the regressors of the dynamic level and Eqs. (28),
+    (42) over the period (:func:`.period.geometry_terms`; the estimates unchanged when
+    ``adaptive`` is False), and dq_b/dt of Eq. (1)."""
+    jr, ax, er, m = geo
     n = q_m.size
     nb = n + 1
     N = n + 3
@@ -332,30 +315,28 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
         Yz = np.empty((3, nz))
         y_z(R, z, w, Yz)
         tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
-
-    # kinematic level, value and exact derivative in one complex evaluation
-    hj = 1j * _H
     q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
-    w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = _kinematic(
-        jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-        t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:], z_e + hj * z_e_dot,
-        theta_b + hj * (tb_new - theta_b) / dt, theta_z + hj * (tz_new - theta_z) / dt,
-        w[:3] + 0j,
-    )  # fmt: skip
-    e = 3 * n + 3 + nt
-    o = e + N  # offset of the scalars in `out`, see out_layout()
-    report_kinematic(out, 3 * n, o, err_b, err_z, sigma, damping, hnorm, status, idx)
-    if status != STATUS_OK:
-        return status, idx
-    w_mc = w_mc_c.real.copy()
-    w_mc_dot = w_mc_c.imag / _H
+    return (R, z, YM, YMdot, Yh, w_tilde), tb_new, tz_new, q_b_rate, w[:3]
 
-    # dynamic level, Eqs. (46), (50)-(52), (60)-(64)
+
+@njit(cache=True)
+def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
+                  theta_d, w_hat, Y_df):  # fmt: skip
+    """Eqs. (46), (50)-(52), (60)-(64) with 3x3 base rows (:func:`.period.dynamic_level`):
+    returns (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~) and, when the status is
+    ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``M_true``, ``h_true``:
+    Pinocchio's reduced M and C w (known-model scheme, ``adaptive = False``; not read
+    otherwise)."""
+    R, z, YM, YMdot, Yh, w_tilde = terms
+    n = w_mc.size
+    N = n + 3
+    nd = theta_d.size
+    none = np.empty(0)
     if adaptive:
         M_hat = np.empty((N, N))
         mass_matrix(R, z, theta_d, M_hat)
         if np.linalg.eigvalsh(M_hat)[0] <= 0:
-            return STATUS_M_NOT_PD, -1
+            return STATUS_M_NOT_PD, 0.0, none, none, none
         cg = g[G_G3] * dt
         d_theta_d = -cg * (
             Y_df.T @ _solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
@@ -375,15 +356,14 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
     denom = Mbb + Mbm @ sens
     smallest = np.linalg.svd(denom)[1][2]
     if not smallest > 1e-12 * np.max(np.abs(Mbb)):
-        out[o + 3] = smallest
-        return STATUS_BASE_ROW, -1
+        return STATUS_BASE_ROW, smallest, none, none, none
     wb_dot = _solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
     _put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see _put)
     _put(w_hat_dot, 3, tgt + sens @ wb_dot)
     u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
     if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, -1
+        return STATUS_NONFINITE, 0.0, none, none, none
     # advance the controller's states to t + dt
     if adaptive:
         ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
@@ -392,15 +372,9 @@ def period(jr, ax, er, m, nt, attitude, identity, adaptive,
         _put_rows(Y_df, decay * Y_df + gain * (YM - YMdot + Yh))  # Eq. (50)
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
-        _put(theta_b, 0, tb_new)
-        _put(theta_z, 0, tz_new)
     else:
         _put(w_hat, 0, w + dt * w_hat_dot)
-    _put(out, 0, u_m)
-    _put(out, n, w_mc)
-    _put(out, 2 * n, w_mc_dot + sens @ wb_dot)
-    _put(out, e, w_tilde)
-    return STATUS_OK, -1
+    return STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde
 
 
 @njit(cache=True)
@@ -455,60 +429,23 @@ def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
 
 
 # ---------------------------------------------------------------------- first compilation
-def _kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
-    """Arguments of :func:`_kinematic` with the types :func:`period` passes (complex arrays
-    of the measurement's shapes); the values only need to be finite."""
-    jr, ax, er, m, nt, attitude, identity, _, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns = (
-        consts
-    )
+def kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
+    """Arguments of :func:`kinematic_law` with the types :func:`.period.period` passes
+    (complex arrays of the measurement's shapes; ``consts`` the period's constant arguments);
+    the values only need to be finite."""
     c = 1j * _H
-    return (jr, ax, er, m, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-            t + c, q_b + c, q_m + c, z_e + c, theta_b + c, theta_z + c, w[:3] + 0j)  # fmt: skip
+    return (*consts[:4], *consts[5:], t + c, q_b + c, q_m + c, z_e + c, theta_b + c,
+            theta_z + c, w[:3] + 0j)  # fmt: skip
 
 
-def _compile_real_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
-    """Compile the real kernels :func:`period` calls, with the argument types it passes (the
-    second process of :func:`compile_in_parallel`)."""
-    jr, ax = consts[0], consts[1]
-    n = q_m.size
-    N, nd = n + 3, theta_d.size
-    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kinematics(q_b, q_m, jr, ax, R, z)
-    YM, YMdot, Yh = np.empty((N, nd)), np.empty((N, nd)), np.empty((N, nd))
-    Yb = np.empty((3, nd + 3))
-    velocity_terms(R, z, w, w, w - w, YM, YMdot, Yh, Yb[:, 3:])
-    subtract_dT(R, z, w, Yh)
-    Yz = np.empty((3, theta_z.size))
-    y_z(R, z, w, Yz)
-    theta_z_step(theta_z, Yz, w, 1.0, 1e-3)  # w: the type of the measured z_e_dot
-    mass_matrix(R, z, theta_d, np.empty((N, N)))
-    # period passes the constant False, which numba types as a literal
-    ym.compile(tuple(typeof(x) for x in (R, z, w - w, YM)) + (types.literal(False),))
-    _l_matrix(q_b, R[0])
-    theta_b_step(np.zeros(nd + 3), Yb, 1.0, 1e-3)
-
-
-def _compile_run_kernels(consts, q_b, q_m, w, theta_z, theta_d) -> None:
+def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """Compile the run's :func:`residual_54` and :func:`reaction_rows` with the argument types
-    the run passes (the second process, after :func:`_compile_real_kernels`)."""
-    jr, ax = consts[0], consts[1]
+    the run passes (the second process of :func:`.period.compile_in_parallel`, after the
+    period's kernels)."""
+    jr, ax = consts[0][:2]
     n = q_m.size
     N, nd = n + 3, theta_d.size
     residual_54(jr, ax, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
     # reaction_rows compiles base_inertia with the row types
     reaction_rows(jr, ax, np.zeros((1, 3)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, 3)),
                   theta_d)  # fmt: skip
-
-
-def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """On a first run, compile the real kernels of :func:`period`, :func:`residual_54` and
-    :func:`reaction_rows` in a second process while this one compiles the complex kinematic
-    law (:mod:`._first_compile`); :func:`period` then loads the former from the cache. On two
-    cores this takes about a third off the first spatial run (benchmarks/README.md, "First
-    run"). Does nothing when the cache is warm."""
-    _first_compile.compile_in_parallel(
-        __name__,
-        (consts, q_b, q_m, w, theta_z, theta_d),
-        (period, _kinematic),
-        lambda: _kinematic(*_kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b)),
-    )

@@ -89,7 +89,8 @@ class ParameterLayout:
 
 
 class PlanarKernelConstants(NamedTuple):
-    """The arrays the compiled planar kernels take for a robot (``control/fast.py``)."""
+    """The arrays the compiled planar kernels take for a robot (``control/fast.py``); its type
+    selects the planar steps of the one compiled period (``control/period.py``)."""
 
     S: np.ndarray  # (n+1, n+1) body angle = S @ (q_b, q_m) + phi_offset
     phi_offset: np.ndarray  # (n+1,) [rad]

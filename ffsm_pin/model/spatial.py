@@ -147,7 +147,8 @@ def _skew_batch(v):
 
 
 class SpatialKernelConstants(NamedTuple):
-    """The arrays the compiled spatial kernels take for a robot (``control/fast_spatial.py``)."""
+    """The arrays the compiled spatial kernels take for a robot (``control/fast_spatial.py``);
+    its type selects the spatial steps of the one compiled period (``control/period.py``)."""
 
     joint_rot: np.ndarray  # (n, 3, 3) joint placements' rotations, contiguous
     axes: np.ndarray  # (n, 3) joint axes, contiguous

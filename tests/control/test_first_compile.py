@@ -1,5 +1,5 @@
-"""The first compilation of the compiled periods on two processes (control/_first_compile.py,
-``fast.compile_in_parallel``, ``fast_spatial.compile_in_parallel``): the argument types
+"""The first compilation of the compiled period on two processes (control/_first_compile.py,
+``period.compile_in_parallel`` for either geometry): the argument types
 survive the trip to the second process, a warm cache starts no process, and a run from an
 empty numba cache (kernels compiled in two processes) gives bitwise the trajectory of a run
 from a warm cache, planar and spatial."""
@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 from numba import typeof
 
-from ffsm_pin.control import _first_compile, fast, fast_spatial
+from ffsm_pin.control import _first_compile, period
+from ffsm_pin.model.planar import PlanarKernelConstants
+from ffsm_pin.model.spatial import SpatialKernelConstants
 from ffsm_pin.sim.compile_note import MESSAGE
 
 REPO = Path(__file__).resolve().parents[2]
@@ -34,14 +36,23 @@ def test_array_types_survive_the_trip_to_the_second_process():
     assert typeof(back[1]) == typeof(args[1]) and back[1].flags.writeable
     assert back[2][:2] == (7, True) and typeof(back[2][2]) == typeof(ro)
     np.testing.assert_array_equal(back[3], view)  # values kept (layout becomes 'C')
+    # a named tuple (the models' kernel constants) keeps its class, which numba types it by
+    geo = PlanarKernelConstants(ro, np.ones(2), np.zeros(1, dtype=np.int64), None, 3.0, True)
+    geo_back = _first_compile.restore_flags(
+        pickle.loads(pickle.dumps(_first_compile.with_flags(geo)))
+    )
+    assert type(geo_back) is PlanarKernelConstants and typeof(geo_back) == typeof(geo)
 
 
-@pytest.mark.parametrize("kernels", [fast, fast_spatial], ids=["planar", "spatial"])
-def test_a_warm_cache_starts_no_second_process(monkeypatch, kernels):
+@pytest.mark.parametrize(
+    "geo", [PlanarKernelConstants, SpatialKernelConstants], ids=["planar", "spatial"]
+)
+def test_a_warm_cache_starts_no_second_process(monkeypatch, geo):
     started = []
     monkeypatch.setattr(_first_compile, "cold", lambda dispatcher: False)
     monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: started.append(a))
-    kernels.compile_in_parallel(*([None] * 9))
+    consts = (geo(*([None] * len(geo._fields))),)
+    period.compile_in_parallel(consts, *([None] * 8))
     assert started == []
 
 
@@ -139,9 +150,9 @@ def test_the_second_process_runs_without_error(case, monkeypatch, tmp_path):
     monkeypatch.setattr(_first_compile, "cold", lambda dispatcher: True)
     prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
     module, child_args = captured["payload"]
-    assert module == (
-        "ffsm_pin.control.fast" if case == "case1" else "ffsm_pin.control.fast_spatial"
-    )
+    assert module == "ffsm_pin.control.period"  # one period; the geometry from the constants
+    geometry = PlanarKernelConstants if case == "case1" else SpatialKernelConstants
+    assert type(child_args[0][0]) is geometry
     assert "ffsm_pin.sim.plant" in _first_compile.ALSO  # registered by the plant's module
     env = {**os.environ, "PYTHONPATH": str(REPO), "NUMBA_CACHE_DIR": str(tmp_path)}
     proc = subprocess.run(

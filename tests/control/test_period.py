@@ -1,0 +1,85 @@
+"""The one compiled control period (control/period.py): each geometry's steps are registered,
+the output layout tiles its buffer, and a step the period compiled is callable from Python
+(the period and the geometry's own dispatcher share cache entries, so they must compile the
+same code). The period's values against the numpy reference: tests/control/test_fast.py and
+test_fast_spatial.py."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ffsm_pin.control import period
+from ffsm_pin.model.planar import PlanarKernelConstants
+from ffsm_pin.model.spatial import SpatialKernelConstants
+
+REPO = Path(__file__).resolve().parents[2]
+STEPS = ("geometry_terms", "kinematic_law", "dynamic_level")
+
+
+@pytest.mark.parametrize("cls", [PlanarKernelConstants, SpatialKernelConstants])
+def test_each_geometry_provides_the_three_steps_as_cached_kernels(cls):
+    kernels = period.GEOMETRIES[cls]
+    for name in STEPS:
+        kernel = getattr(kernels, name)
+        assert kernel.targetoptions.get("nopython") is True, name
+        assert kernel._cache.__class__.__name__ == "FunctionCache", name  # cache=True
+        # the period compiles the kernel's own Python function with the same options
+        assert period._JIT_OPTIONS == {"nopython": True, "cache": True, "no_cpython_wrapper": False}
+
+
+@pytest.mark.parametrize(("m3", "n_task"), [(1, 3), (3, 6), (3, 3)])
+@pytest.mark.parametrize("n", [2, 7])
+def test_out_layout_tiles_the_buffer_without_gaps(n, m3, n_task):
+    lay = period.out_layout(n, m3, n_task)
+    sizes = {"u_m": n, "w_mc": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task, "w_tilde": n + m3}
+    covered = np.zeros(lay["size"], dtype=int)
+    for key, size in sizes.items():
+        sl = lay[key]
+        assert sl.stop - sl.start == size, key
+        covered[sl] += 1
+    for key in ("sigma_min", "damping", "H_bm_norm", "exit_value"):
+        covered[lay[key]] += 1
+    assert (covered == 1).all()  # every entry written by exactly one output
+
+
+@pytest.mark.slow
+def test_a_step_the_period_compiled_is_callable_from_python(tmp_path):
+    """First process: the period compiles the geometry's steps itself (no second process), so
+    the cache entries of the three kernels are written through the period. Second process,
+    same cache: the kernels called from Python with the same argument types load those
+    entries and run. With numba's default options for an overload (no CPython wrapper) the
+    entry has no entry point for Python and the second process crashes."""
+    env = {**os.environ, "PYTHONPATH": str(REPO), "NUMBA_CACHE_DIR": str(tmp_path)}
+    head = (
+        "import dataclasses, importlib\n"
+        "from ffsm_pin.control import _first_compile as F, fast\n"
+        "from ffsm_pin.scenario import builtin_scenario\n"
+        "from ffsm_pin.sim.setup import prepare\n"
+    )
+    first = head + (
+        "F.compile_in_parallel = lambda *args: None\n"
+        "prepare(dataclasses.replace(builtin_scenario('case1'), duration=0.01))\n"
+    )
+    second = head + (
+        "def from_python(module, child_args, dispatchers, compile_here):\n"
+        "    compile_here()  # the kinematic law, from Python\n"
+        "    importlib.import_module(module)._compile_real_kernels(*child_args)  # the others\n"
+        "F.compile_in_parallel = from_python\n"
+        "F.cold = lambda dispatcher: True\n"
+        "prepare(dataclasses.replace(builtin_scenario('case1'), duration=0.01))\n"
+        "print(*(len(getattr(fast, k).stats.cache_hits) for k in "
+        "('geometry_terms', 'kinematic_law', 'dynamic_level')))\n"
+    )
+    for script in (first, second):
+        proc = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=900
+        )
+        assert proc.returncode == 0, (proc.returncode, proc.stderr[-3000:])
+    hits = [int(x) for x in proc.stdout.split()]
+    assert hits == [1, 1, 1], hits  # each loaded the entry the period wrote
