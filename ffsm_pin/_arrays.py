@@ -1,4 +1,4 @@
-"""Small array helpers shared by the model modules."""
+"""Small array helpers shared by the layers (model, control)."""
 
 from __future__ import annotations
 
@@ -10,3 +10,9 @@ def read_only(a) -> np.ndarray:
     a = np.asarray(a)
     a.flags.writeable = False
     return a
+
+
+def contiguous_rows(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """C-contiguous float copies (where needed) of a block of recorded rows (the arrays a
+    compiled kernel takes)."""
+    return tuple(np.ascontiguousarray(a, dtype=float) for a in arrays)

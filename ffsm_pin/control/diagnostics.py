@@ -9,14 +9,16 @@
   ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
   against Pinocchio).
 
-Each returns a function; ``compiled=True`` gives the numba kernels of :mod:`.fast` (planar) and
-:mod:`.fast_spatial`, ``False`` the numpy reference on the reduced model; the two are tested
-against each other (tests/control/test_diagnostics.py).
+Each returns a function; ``compiled=True`` gives the numba kernels of the model's geometry
+(``true_residual`` and ``true_reaction`` of :mod:`.fast` or :mod:`.fast_spatial`, chosen by the
+type of the model's kernel constants), ``False`` the numpy reference on the reduced model; the
+two are tested against each other (tests/control/test_diagnostics.py).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -27,25 +29,9 @@ def residual_54(
     model: ReducedModel, theta_d: np.ndarray, compiled: bool
 ) -> Callable[..., np.ndarray]:
     """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true M and ``theta_d``."""
-    if compiled and model.m3 == 3:
-        from . import fast_spatial
-
-        jr, ax = model.kernel_constants()[:2]  # joint rotations, axes
-
-        def spatial_kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
-            return fast_spatial.residual_54(jr, ax, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
-
-        return spatial_kernel
-    if compiled:
-        from . import fast
-
-        k = model.kernel_constants()
-        geo = (k.S, k.phi_offset, k.K, k.L, k.collinear)
-
-        def planar_kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
-            return fast.residual_54(*geo, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
-
-        return planar_kernel
+    if compiled:  # the geometry's kernel, chosen by the type of the model's constants
+        geo = model.kernel_constants()
+        return _geometry_kernels(geo).true_residual(geo, theta_d)
 
     def reference(q_b, q_m, w_tilde, Y_df, theta_d_hat):
         M = model.mass_matrix(theta_d, q_b, q_m)
@@ -60,26 +46,9 @@ def reaction_torques(
     """f(q_b, q_m, w, dw_b) -> F_r of Eq. (7) on N recorded rows with the true model: q_b
     (N, m3) [rad or MRP], q_m (N, n) [rad], w (N, n + m3) [rad/s], dw_b (N, m3) the base's
     angular acceleration (inertial frame) [rad/s^2]; planar (N,), spatial (N, 3) [N m]."""
-    if compiled and model.m3 == 3:
-        from . import fast_spatial
-
-        jr, ax = model.kernel_constants()[:2]
-
-        def spatial_kernel(q_b, q_m, w, dw_b):
-            return fast_spatial.reaction_rows(jr, ax, *_rows(q_b, q_m, w, dw_b), theta_d)
-
-        return spatial_kernel
     if compiled:
-        from . import fast
-
-        k = model.kernel_constants()
-        geo = (k.S, k.phi_offset, k.K, k.L, k.collinear)
-
-        def planar_kernel(q_b, q_m, w, dw_b):
-            q_b, q_m, w, dw_b = _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))
-            return fast.reaction_rows(*geo, q_b, q_m, w, dw_b, theta_d)
-
-        return planar_kernel
+        geo = model.kernel_constants()
+        return _geometry_kernels(geo).true_reaction(geo, theta_d)
     m3 = model.m3
 
     def reference(q_b, q_m, w, dw_b):  # the model's reaction_torque, row by row
@@ -94,6 +63,8 @@ def reaction_torques(
     return reference
 
 
-def _rows(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    """C-contiguous float copies (where needed) of a block of recorded rows."""
-    return tuple(np.ascontiguousarray(a, dtype=float) for a in arrays)
+def _geometry_kernels(geo: Any) -> Any:
+    """The compiled kernels of the geometry of ``geo`` (:data:`.period.GEOMETRIES`)."""
+    from .period import GEOMETRIES
+
+    return GEOMETRIES[type(geo)]

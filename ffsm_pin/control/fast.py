@@ -22,6 +22,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._arrays import contiguous_rows as _rows
+from ..model._planar_kernels import (
+    _Y_M,
+    _column_sums,
+    _jacobian,
+    _mass_phi,
+    _trig,
+    _velocity_regressors,
+    _xm,
+    position_regressor,
+)
 from ._shared_kernels import (
     G_G1,
     G_G2,
@@ -43,7 +54,6 @@ from ._shared_kernels import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _mv,
     _put,
     _put_rows,
     _reference,
@@ -54,83 +64,6 @@ from ._shared_kernels import (
 
 _H = 1e-30
 _TWO_PI = 2.0 * np.pi
-
-
-@njit(cache=True)
-def _xm(X, A):
-    """X @ A for a real or complex matrix X and a real matrix A (dtype of X)."""
-    out = np.zeros((X.shape[0], A.shape[1]), dtype=X.dtype)
-    for i in range(X.shape[0]):
-        for k in range(X.shape[1]):
-            for j in range(A.shape[1]):
-                out[i, j] += X[i, k] * A[k, j]
-    return out
-
-
-@njit(cache=True)
-def _trig(S, off, K, L, q_b, q_m):
-    nb = S.shape[0]
-    q = np.empty(nb, dtype=q_m.dtype)
-    q[0] = q_b
-    _put(q, 1, q_m)  # q[1:] = q_m (loops instead of slice assignments here and below: _put)
-    phi = _mv(S, q) + off
-    c = np.cos(phi)
-    s = np.sin(phi)
-    P = K.size
-    pc = np.empty(P, dtype=phi.dtype)
-    ps = np.empty(P, dtype=phi.dtype)
-    for p in range(P):
-        k, l = K[p], L[p]
-        pc[p] = c[l] * c[k] + s[l] * s[k]  # cos(phi_l - phi_k)
-        ps[p] = s[l] * c[k] - c[l] * s[k]  # sin(phi_l - phi_k)
-    return c, s, pc, ps
-
-
-@njit(cache=True)
-def _mass_phi(theta_d, pc, ps, K, L, nb, collinear):
-    Mphi = np.zeros((nb, nb), dtype=pc.dtype)
-    for k in range(nb):
-        Mphi[k, k] = theta_d[k]
-    P = K.size
-    for p in range(P):
-        v = theta_d[nb + p] * pc[p]
-        if not collinear:
-            v -= theta_d[nb + P + p] * ps[p]
-        Mphi[K[p], L[p]] = v
-        Mphi[L[p], K[p]] = v
-    return Mphi
-
-
-@njit(cache=True)
-def _jacobian(theta_z, c, s, S, ee_row, collinear):
-    """(3, nb) [J_b J_m] of Eq. (3)."""
-    nb = S.shape[0]
-    dp = np.zeros((2, nb), dtype=c.dtype)
-    for k in range(nb):
-        if collinear:
-            v = theta_z[2 + k]
-            dp[0, k] = -s[k] * v
-            dp[1, k] = c[k] * v
-        else:
-            vx, vy = theta_z[2 + 2 * k], theta_z[3 + 2 * k]
-            dp[0, k] = -s[k] * vx - c[k] * vy
-            dp[1, k] = c[k] * vx - s[k] * vy
-    J = np.empty((3, nb), dtype=dp.dtype)
-    _put_rows(J, _xm(dp, S))  # J[:2]
-    for j in range(nb):
-        J[2, j] = ee_row[j]
-    return J
-
-
-@njit(cache=True)
-def _column_sums(A):
-    """``A.sum(axis=0)`` by a loop in numba's order (each row added in turn to zeros): the
-    same values, without the code of numba's axis-bounds message (a second of a first run)."""
-    out = np.zeros(A.shape[1], dtype=A.dtype)
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            out[j] += A[i, j]
-    return out
 
 
 @njit(cache=True)
@@ -244,56 +177,6 @@ def _null_space_gradient(S, off, K, L, ee_row, collinear, ns, q_b, q_m, theta_b,
 
 
 @njit(cache=True)
-def _scatter_pair(Y, b, fc, fs, K, L, nb, collinear):
-    P = K.size
-    for p in range(P):
-        k, l = K[p], L[p]
-        Y[k, nb + p] += fc[p] * b[l]
-        Y[l, nb + p] += fc[p] * b[k]
-        if not collinear:
-            Y[k, nb + P + p] += fs[p] * b[l]
-            Y[l, nb + P + p] += fs[p] * b[k]
-
-
-@njit(cache=True)
-def _Y_M(pc, ps, K, L, S, a, nd, collinear):
-    nb = S.shape[0]
-    b = S @ a
-    Y = np.zeros((nb, nd))
-    for k in range(nb):
-        Y[k, k] = b[k]
-    _scatter_pair(Y, b, pc, -ps, K, L, nb, collinear)
-    return S.T @ Y
-
-
-@njit(cache=True)
-def _velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
-    nb = S.shape[0]
-    P = K.size
-    dphi = S @ w
-    b = S @ sv
-    Ymd = np.zeros((nb, nd))
-    Yh = np.zeros((nb, nd))
-    fc = np.empty(P)
-    fs = np.empty(P)
-    for p in range(P):
-        dd = dphi[L[p]] - dphi[K[p]]
-        fc[p] = -ps[p] * dd
-        fs[p] = -pc[p] * dd
-    _scatter_pair(Ymd, b, fc, fs, K, L, nb, collinear)
-    for p in range(P):
-        k, l = K[p], L[p]
-        dk2, dl2 = dphi[k] ** 2, dphi[l] ** 2
-        Yh[k, nb + p] = -ps[p] * dl2
-        Yh[l, nb + p] = ps[p] * dk2
-        if not collinear:
-            Yh[k, nb + P + p] = -pc[p] * dl2
-            Yh[l, nb + P + p] = pc[p] * dk2
-    ST = S.T
-    return ST @ Ymd, ST @ Yh
-
-
-@njit(cache=True)
 def theta_b_step(theta_b, Yb, gamma_1, dt):
     """Eq. (28) by its exact zero-order hold for the rank-one planar Y_b = [-1, Yb] (``Yb`` the
     base row of Y_M(w)), as :func:`ffsm_pin.control.adaptation.theta_b_step`."""
@@ -305,26 +188,6 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
     for i in range(Yb.size):  # tb_new[1:] -= fac * Yb, without numba's shape-message code
         tb_new[1 + i] -= fac * Yb[i]
     return tb_new
-
-
-@njit(cache=True)
-def position_regressor(c, s, S, w, nz, collinear):
-    """The position rows of Y_z (Eq. 4), (2, nz), at the body angles' cos ``c``, sin ``s``."""
-    nb = S.shape[0]
-    Yz = np.zeros((2, nz))
-    Yz[0, 0] = 1.0
-    Yz[1, 1] = 1.0
-    dphi = S @ w
-    for k in range(nb):
-        if collinear:
-            Yz[0, 2 + k] = -s[k] * dphi[k]
-            Yz[1, 2 + k] = c[k] * dphi[k]
-        else:
-            Yz[0, 2 + 2 * k] = -s[k] * dphi[k]
-            Yz[1, 2 + 2 * k] = c[k] * dphi[k]
-            Yz[0, 3 + 2 * k] = -c[k] * dphi[k]
-            Yz[1, 3 + 2 * k] = -s[k] * dphi[k]
-    return Yz
 
 
 @njit(cache=True)
@@ -415,6 +278,29 @@ def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
         Mbb, Mbb_dot = base_inertia(S, off, K, L, collinear, q_b[i], q_m[i], w[i], theta_d)
         out[i] = Mbb * dw_b[i] + 0.5 * Mbb_dot * w[i, 0]
     return out
+
+
+def true_residual(geo, theta_d):
+    """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true ``theta_d``
+    (:func:`ffsm_pin.control.diagnostics.residual_54`); ``geo`` the model's kernel constants."""
+    S, off, K, L, collinear = geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
+
+    def kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
+        return residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
+
+    return kernel
+
+
+def true_reaction(geo, theta_d):
+    """f(q_b (N, 1), q_m, w, dw_b (N, 1)) -> F_r (N,) of Eq. (7) on recorded rows
+    (:func:`ffsm_pin.control.diagnostics.reaction_torques`)."""
+    S, off, K, L, collinear = geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
+
+    def kernel(q_b, q_m, w, dw_b):
+        q_b, q_m, w, dw_b = _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))
+        return reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d)
+
+    return kernel
 
 
 # ---------------------------------------------------------------------- first compilation

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._arrays import contiguous_rows as _rows
 from ..model._spatial_kernels import (
     attitude_rows,
     kinematics,
@@ -426,6 +427,28 @@ def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
                        [-wb[1], wb[0], 0.0 * wb[0]]])  # fmt: skip
         out[i] = M @ dw_b[i].copy() + 0.5 * (Md @ wb) + 0.5 * (sk @ (M @ wb))
     return out
+
+
+def true_residual(geo, theta_d):
+    """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true ``theta_d``
+    (:func:`ffsm_pin.control.diagnostics.residual_54`); ``geo`` the model's kernel constants."""
+    jr, ax = geo.joint_rot, geo.axes
+
+    def kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
+        return residual_54(jr, ax, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
+
+    return kernel
+
+
+def true_reaction(geo, theta_d):
+    """f(q_b (N, 3), q_m, w, dw_b (N, 3)) -> F_r (N, 3) of Eq. (7) on recorded rows
+    (:func:`ffsm_pin.control.diagnostics.reaction_torques`)."""
+    jr, ax = geo.joint_rot, geo.axes
+
+    def kernel(q_b, q_m, w, dw_b):
+        return reaction_rows(jr, ax, *_rows(q_b, q_m, w, dw_b), theta_d)
+
+    return kernel
 
 
 # ---------------------------------------------------------------------- first compilation

@@ -1,14 +1,43 @@
-"""What the planar and the spatial barycentric models share: sizes of the parameter vectors,
-the true theta_z and theta_b of a state, and the check of a parameter vector's shape."""
+"""What the planar and the spatial barycentric models share: the chain's barycentric vectors,
+sizes of the parameter vectors, the true theta_z and theta_b of a state, and the check of a
+parameter vector's shape."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .._arrays import read_only
 from ..errors import ParameterError
+
+
+class BarycentricVectors(NamedTuple):
+    """A chain's vectors in body coordinates [m], ``dim`` = 2 (planar) or 3 per vector."""
+
+    child_joints: np.ndarray  # (nb, dim) a_k: body k's child joint, zero for the last body
+    W: np.ndarray  # (nb, nb, dim) W_ik = G_ik - sum_j mu_j G_jk (G_ik: body i's CoM along k)
+    V: np.ndarray  # (nb, dim) V_k = E_k - sum_j mu_j G_jk (E: the end-effector along the chain)
+
+
+def barycentric_vectors(g: Any, dim: int) -> BarycentricVectors:
+    """The barycentric vectors of a chain's geometry ``g`` (a planar or spatial geometry:
+    masses, CoMs, child joints and the end-effector in body coordinates), mu_j = m_j / m."""
+    n = g.n_joints
+    nb = n + 1
+    mu = g.masses / g.total_mass
+    a = np.zeros((nb, dim))
+    a[:n] = g.child_joints
+    G = np.zeros((nb, nb, dim))  # G[i, k]: body i's CoM written along the chain
+    for i in range(nb):
+        G[i, :i] = a[:i]
+        G[i, i] = g.coms[i]
+    Gbar = np.einsum("j,jkd->kd", mu, G)
+    E = np.zeros((nb, dim))
+    m = g.ee_body
+    E[:m] = a[:m]
+    E[m] = g.ee_position
+    return BarycentricVectors(a, G - Gbar[None], E - Gbar)
 
 
 class BarycentricCommon:

@@ -38,7 +38,7 @@ import numpy as np
 
 from .._arrays import read_only
 from ..robot import PlanarGeometry
-from ._common import BarycentricCommon
+from ._common import BarycentricCommon, barycentric_vectors
 
 _COLLINEAR_TOL = 1e-12
 
@@ -115,21 +115,8 @@ class BarycentricModel(BarycentricCommon):
         nb = n + 1
         self.geometry = g
         self.n_joints = n
-        mu = g.masses / g.total_mass
-        # a_k (child joint of body k), zero for the last body
-        a = np.zeros((nb, 2))
-        a[:n] = g.child_joints
-        # G[i, k]: body i's CoM written along the chain; W = G - sum_j mu_j G_j
-        G = np.zeros((nb, nb, 2))
-        for i in range(nb):
-            G[i, :i] = a[:i]
-            G[i, i] = g.coms[i]
-        W = G - np.einsum("j,jkd->kd", mu, G)[None]
-        E = np.zeros((nb, 2))
+        a, W, V = barycentric_vectors(g, 2)  # a_k: child joint of body k, zero for the last
         m = g.ee_body
-        E[:m] = a[:m]
-        E[m] = g.ee_position
-        V = E - np.einsum("j,jkd->kd", mu, G)
 
         # collinear: every body's vectors (c_k, a_k, e) span at most a line u_k
         scale = max(1.0, float(np.abs(np.concatenate([a.ravel(), g.coms.ravel()])).max()))

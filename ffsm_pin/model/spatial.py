@@ -49,7 +49,7 @@ from ..attitude import mrp
 from ..errors import ParameterError
 from ..robot import SpatialGeometry
 from . import _spatial_kernels as kern
-from ._common import BarycentricCommon
+from ._common import BarycentricCommon, barycentric_vectors
 from ._state_spatial import reaction_torque as _reaction_torque
 
 _H = 1e-20  # complex step (exact for the bilinear expressions here)
@@ -184,20 +184,7 @@ class SpatialBarycentricModel(BarycentricCommon):
         self.geometry = g
         self.n_joints = n
         self.layout = SpatialParameterLayout(n_bodies=nb)
-        mu = g.masses / g.total_mass
-        a = np.zeros((nb, 3))
-        a[:n] = g.child_joints
-        G = np.zeros((nb, nb, 3))
-        for i in range(nb):
-            G[i, :i] = a[:i]
-            G[i, i] = g.coms[i]
-        Gbar = np.einsum("j,jkd->kd", mu, G)
-        W = G - Gbar[None]
-        m = g.ee_body
-        E = np.zeros((nb, 3))
-        E[:m] = a[:m]
-        E[m] = g.ee_position
-        V = E - Gbar
+        _, W, V = barycentric_vectors(g, 3)
         D = np.einsum("i,ikx,ily->klxy", g.masses, W, W)  # D_kl = sum_i m_i W_ik W_il^T
         Jbar = (
             g.inertias

@@ -219,8 +219,10 @@ def scenario_to_toml(scenario: Scenario) -> str:
     if ref.origin != "absolute":  # a run saves the resolved (absolute) reference
         lines += [f"origin = {_toml(ref.origin)}"]
     lines += [f"base_attitude = {_toml(ref.base_attitude)}", *_ee_lines(ref)]
-    kind = resolved_type(c.type, scenario.source.parent if scenario.source else None)
-    lines += ["", "[controller]", f"type = {_toml(kind)}", f"scheme = {_toml(c.scheme)}"]
+    kind = c.type  # a registry name, or a file path resolved to an absolute one
+    if isinstance(kind, str):
+        kind = resolved_type(kind, scenario.source.parent if scenario.source else None)
+    lines += ["", "[controller]", f"type = {_param_toml(kind)}", f"scheme = {_toml(c.scheme)}"]
     lines += [f"{k} = {_toml(getattr(c.gains, k))}" for k in schema.GAIN_KEYS]
     lines += ["", "[controller.funnel]"]
     for fun, tag in ((c.funnel_b, "b"), (c.funnel_z, "z")):
@@ -236,7 +238,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         "[controller.estimates]",
         f"initial = {_toml(e.initial)}",
         f"spread = {_toml(e.spread)}",
-        f"seed = {e.seed}",
+        f"seed = {_int_toml(e.seed)}",
     ]
     for key in ("theta_z", "theta_d", "theta_b"):
         if getattr(e, key) is not None:
@@ -253,7 +255,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         f"duration = {_toml(scenario.duration)}",
         f"dt = {_toml(scenario.dt)}",
         f"integrator = {_toml(scenario.integrator)}",
-        f"substeps = {scenario.substeps}",
+        f"substeps = {_int_toml(scenario.substeps)}",
         "",
     ]
     act, sen = scenario.actuators, scenario.sensors
@@ -263,9 +265,14 @@ def scenario_to_toml(scenario: Scenario) -> str:
             f"{k} = {_toml(getattr(act, k))}"
             for k in ("torque_limit", "rate_limit", "time_constant", "torque_noise")
         ]
-        lines += [f"seed = {act.seed}", ""]
+        lines += [f"seed = {_int_toml(act.seed)}", ""]
     if sen != SensorSpec():
-        lines += ["[sensors]", f"seed = {sen.seed}", f"delay = {sen.delay}", ""]
+        lines += [
+            "[sensors]",
+            f"seed = {_int_toml(sen.seed)}",
+            f"delay = {_int_toml(sen.delay)}",
+            "",
+        ]
         if sen.noise:
             lines += ["[sensors.noise]"]
             lines += [f"{k} = {_toml(v)}" for k, v in sen.noise]
@@ -544,6 +551,15 @@ def _toml(value: Any) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml(v) for v in value) + "]"
     return repr(float(value))
+
+
+def _int_toml(value: Any) -> str:
+    """An integer key (seeds, substeps, delay) written as an integer; any other value as its
+    own TOML value, for the schema to refuse with the key's name (a scenario built in Python
+    is checked through its text, :func:`check_scenario`)."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return str(int(value))
+    return _param_toml(value)
 
 
 def _param_toml(value: Any) -> str:

@@ -3,6 +3,13 @@
 A :class:`Scenario` names a robot, an initial condition, a reference, a controller (scheme,
 gains, funnels, initial estimates, singularity policy) and the simulation horizon. The
 paper's cases are scenario files shipped in ``ffsm_pin/scenario/builtin/``.
+
+The dataclasses hold the defaults; the rules a value must follow (choices, ranges, sizes for
+the robot and the task) are checked once, by the scenario file's schema
+(:mod:`ffsm_pin.scenario.schema`): on loading a file, and for a scenario built in Python by
+:func:`~ffsm_pin.scenario.file.check_scenario`, which :func:`~ffsm_pin.sim.setup.prepare`
+calls first. Construction only refuses what would make the object itself inconsistent (a
+reference given twice, an initial velocity given two ways or not at all).
 """
 
 from __future__ import annotations
@@ -16,12 +23,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..attitude import mrp
-from ..control.controller import SCHEMES
 from ..control.funnel import FunnelParams
 from ..control.gains import Gains, SingularityPolicy
-from ..control.kinematic import TASKS
 from ..control.null_space import NullSpace
-from ..errors import ParameterError, choices_text
+from ..errors import ParameterError
 from .devices import ActuatorSpec, SensorSpec
 from .trajectory import PiecewisePolynomial, ReferenceData
 
@@ -104,14 +109,6 @@ class Reference:
             raise ParameterError(
                 "reference: give the end-effector reference once: harmonics (ee) or data "
                 "(ee_file, ee_samples or ee_waypoints), not both"
-            )
-        if self.task not in TASKS:
-            raise ParameterError(
-                f"reference.task {self.task!r} unknown; valid choices: {choices_text(TASKS)}"
-            )
-        if self.origin not in ORIGINS:
-            raise ParameterError(
-                f"reference.origin {self.origin!r} unknown; valid choices: {choices_text(ORIGINS)}"
             )
         # all harmonic terms flattened: value = c + A @ (amp * cos(freq t + phase))
         terms = [
@@ -283,17 +280,6 @@ class Estimates:
     theta_d: tuple[float, ...] | None = None
     theta_b: tuple[float, ...] | None = None
 
-    def __post_init__(self) -> None:
-        if self.initial not in ESTIMATE_KINDS:
-            raise ParameterError(
-                f"estimates.initial {self.initial!r} unknown; valid choices: "
-                f"{choices_text(ESTIMATE_KINDS)}"
-            )
-        if self.initial == "explicit" and None in (self.theta_z, self.theta_d, self.theta_b):
-            raise ParameterError("estimates.initial = 'explicit' needs theta_z, theta_d, theta_b")
-        if not 0 <= self.spread < 1:
-            raise ParameterError(f"estimates.spread must be in [0, 1), got {self.spread}")
-
 
 @dataclass(frozen=True)
 class ControllerSpec:
@@ -317,14 +303,6 @@ class ControllerSpec:
     type: str = "lu-jia"  # a built-in, installed or user controller (control.registry)
     params: Mapping[str, Any] = field(default_factory=dict)  # [controller.params]
 
-    def __post_init__(self) -> None:
-        if not isinstance(self.type, str) or not self.type:
-            raise ParameterError(f"controller.type must be a non-empty string, got {self.type!r}")
-        if self.scheme not in SCHEMES:
-            raise ParameterError(
-                f"controller.scheme {self.scheme!r} unknown; valid choices: {choices_text(SCHEMES)}"
-            )
-
 
 @dataclass(frozen=True)
 class Scenario:
@@ -343,22 +321,3 @@ class Scenario:
     substeps: int = 1  # plant steps per control step dt, joint torque held over dt
     actuators: ActuatorSpec = field(default_factory=ActuatorSpec)  # ideal by default
     sensors: SensorSpec = field(default_factory=SensorSpec)  # exact by default
-
-    def __post_init__(self) -> None:
-        if self.integrator not in INTEGRATORS:
-            raise ParameterError(
-                f"sim.integrator {self.integrator!r} unknown; valid choices: "
-                f"{choices_text(INTEGRATORS)}"
-            )
-        if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool):
-            raise ParameterError(f"sim.substeps must be an integer, got {self.substeps!r}")
-        if self.substeps < 1:
-            raise ParameterError(f"sim.substeps must be >= 1, got {self.substeps}")
-        if not (self.dt > 0 and np.isfinite(self.dt)):
-            raise ParameterError(f"sim.dt must be > 0, got {self.dt}")
-        if not (self.duration > 0 and np.isfinite(self.duration)):
-            raise ParameterError(f"sim.duration must be > 0, got {self.duration}")
-        if self.dt > self.duration:
-            raise ParameterError(
-                f"sim.dt = {self.dt} is longer than sim.duration = {self.duration}"
-            )

@@ -8,10 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ffsm_pin.errors import ParameterError, ScenarioError
+from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario.file import (
     builtin_path,
     builtin_scenario,
+    check_scenario,
     scenario_from_toml,
     scenario_to_toml,
 )
@@ -52,12 +53,14 @@ def test_bad_keys(extra, message):
 
 
 def test_scenario_validates():
+    """The schema checks a scenario built in Python (check_scenario, the first thing prepare
+    does) with the file's messages."""
     sc = builtin_scenario("case1")
-    with pytest.raises(ParameterError, match="valid choices: 'semi-implicit', 'rk4'"):
-        dataclasses.replace(sc, integrator="euler")
+    with pytest.raises(ScenarioError, match="valid choices: 'semi-implicit', 'rk4'"):
+        check_scenario(dataclasses.replace(sc, integrator="euler"))
     for bad in (0, -2, 2.0, True):
-        with pytest.raises(ParameterError, match="sim.substeps"):
-            dataclasses.replace(sc, substeps=bad)
+        with pytest.raises(ScenarioError, match="sim.substeps"):
+            check_scenario(dataclasses.replace(sc, substeps=bad))
 
 
 def test_closed_loop_uses_them():
