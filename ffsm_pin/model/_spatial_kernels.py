@@ -1,7 +1,7 @@
 """Compiled (numba) kernels of the spatial barycentric model.
 
 The same expressions as the numpy reference in :mod:`ffsm_pin.model.spatial` (checked
-against it in tests/spatial), written as loops over bodies and pairs that exploit the structure
+against it in tests/model), written as loops over bodies and pairs that exploit the structure
 of ``S_k = [E_3, z_1, ..., z_k, 0, ...]``: ``S_k^T x = (x, z_1 . x, ..., z_k . x, 0, ...)``.
 dM/dt s and the dM/dt w part of C w are taken by forward-mode (value, tangent) pairs with
 the closed-form tangents of R_k and z_j (exact for these bilinear expressions), fused with

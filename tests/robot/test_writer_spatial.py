@@ -1,6 +1,6 @@
 """The spatial URDF writer (ffsm_pin.robot.writer.spatial): the command line writes what the
 Python API writes, and bad tables are refused naming the key (the loaded geometry of a
-generated URDF is checked in tests/spatial/test_spatial_robot.py)."""
+generated URDF is checked in tests/robot/test_robot_spatial.py)."""
 
 from __future__ import annotations
 
