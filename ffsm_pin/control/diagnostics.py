@@ -10,7 +10,7 @@
   against Pinocchio).
 
 Each returns a function; ``compiled=True`` gives the numba kernels of the model's geometry
-(``true_residual`` and ``true_reaction`` of :mod:`.fast` or :mod:`.fast_spatial`, chosen by the
+(``residual_54`` and ``reaction_rows`` of :mod:`.fast` or :mod:`.fast_spatial`, chosen by the
 type of the model's kernel constants), ``False`` the numpy reference on the reduced model; the
 two are tested against each other (tests/control/test_diagnostics.py).
 """
@@ -30,8 +30,12 @@ def residual_54(
 ) -> Callable[..., np.ndarray]:
     """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true M and ``theta_d``."""
     if compiled:  # the geometry's kernel, chosen by the type of the model's constants
-        geo = model.kernel_constants()
-        return _geometry_kernels(geo).true_residual(geo, theta_d)
+        kernels, fixed = _geometry_kernels(model)
+
+        def kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
+            return kernels.residual_54(*fixed, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
+
+        return kernel
 
     def reference(q_b, q_m, w_tilde, Y_df, theta_d_hat):
         M = model.mass_matrix(theta_d, q_b, q_m)
@@ -47,8 +51,13 @@ def reaction_torques(
     (N, m3) [rad or MRP], q_m (N, n) [rad], w (N, n + m3) [rad/s], dw_b (N, m3) the base's
     angular acceleration (inertial frame) [rad/s^2]; planar (N,), spatial (N, 3) [N m]."""
     if compiled:
-        geo = model.kernel_constants()
-        return _geometry_kernels(geo).true_reaction(geo, theta_d)
+        kernels, fixed = _geometry_kernels(model)
+
+        def rows_kernel(q_b, q_m, w, dw_b):
+            rows = kernels.reaction_rows_of(q_b, q_m, w, dw_b)
+            return kernels.reaction_rows(*fixed, *rows, theta_d)
+
+        return rows_kernel
     m3 = model.m3
 
     def reference(q_b, q_m, w, dw_b):  # the model's reaction_torque, row by row
@@ -63,8 +72,11 @@ def reaction_torques(
     return reference
 
 
-def _geometry_kernels(geo: Any) -> Any:
-    """The compiled kernels of the geometry of ``geo`` (:data:`.period.GEOMETRIES`)."""
+def _geometry_kernels(model: ReducedModel) -> tuple[Any, tuple]:
+    """The compiled kernels of the model's geometry (:data:`.period.GEOMETRIES`, by the type of
+    its kernel constants) and the constant arguments their diagnostics take first."""
     from .period import GEOMETRIES
 
-    return GEOMETRIES[type(geo)]
+    geo = model.kernel_constants()
+    kernels = GEOMETRIES[type(geo)]
+    return kernels, kernels.true_model_constants(geo)

@@ -280,47 +280,17 @@ def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     return out
 
 
-def true_residual(geo, theta_d):
-    """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true ``theta_d``
-    (:func:`ffsm_pin.control.diagnostics.residual_54`); ``geo`` the model's kernel constants."""
-    S, off, K, L, collinear = geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
-
-    def kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
-        return residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
-
-    return kernel
+def base_velocity(w):
+    """w_b, the base's part of w = (w_b, w_m) as the period passes it: a number [rad/s]."""
+    return w[0]
 
 
-def true_reaction(geo, theta_d):
-    """f(q_b (N, 1), q_m, w, dw_b (N, 1)) -> F_r (N,) of Eq. (7) on recorded rows
-    (:func:`ffsm_pin.control.diagnostics.reaction_torques`)."""
-    S, off, K, L, collinear = geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
-
-    def kernel(q_b, q_m, w, dw_b):
-        q_b, q_m, w, dw_b = _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))
-        return reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d)
-
-    return kernel
+def true_model_constants(geo) -> tuple:
+    """The constant arguments :func:`residual_54` and :func:`reaction_rows` take first."""
+    return geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
 
 
-# ---------------------------------------------------------------------- first compilation
-def kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
-    """Arguments of :func:`kinematic_law` with the types :func:`.period.period` passes
-    (complex values of the measurement's shapes; ``consts`` the period's constant arguments);
-    the values only need to be finite."""
-    c = 1j * _H
-    return (*consts[:4], *consts[5:], t + c, q_b + c, q_m + c, z_e + c, theta_b + c,
-            theta_z + c, w[0] + 0j)  # fmt: skip
-
-
-def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """Compile the run's :func:`residual_54` and :func:`reaction_rows` with the argument types
-    the run passes (the second process of :func:`.period.compile_in_parallel`, after the
-    period's kernels)."""
-    S, off, K, L, ee_row, collinear = consts[0]
-    nb, nd = S.shape[0], theta_d.size
-    residual_54(S, off, K, L, collinear, q_b, q_m, np.zeros(nb), np.zeros((nb, nd)),
-                theta_d, theta_d)  # fmt: skip
-    rows = np.zeros((1, w.size))  # reaction_rows compiles base_inertia with the row types
-    reaction_rows(S, off, K, L, collinear, np.zeros(1), np.zeros((1, q_m.size)), rows,
-                  np.zeros(1), theta_d)  # fmt: skip
+def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
+    """The recorded rows q_b (N, 1), q_m, w, dw_b (N, 1) as :func:`reaction_rows` takes them
+    (contiguous; q_b and dw_b as (N,))."""
+    return _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))

@@ -429,46 +429,17 @@ def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
     return out
 
 
-def true_residual(geo, theta_d):
-    """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true ``theta_d``
-    (:func:`ffsm_pin.control.diagnostics.residual_54`); ``geo`` the model's kernel constants."""
-    jr, ax = geo.joint_rot, geo.axes
-
-    def kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
-        return residual_54(jr, ax, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
-
-    return kernel
+def base_velocity(w):
+    """w_b, the base's part of w = (w_b, w_m) as the period passes it: (3,) [rad/s]."""
+    return w[:3]
 
 
-def true_reaction(geo, theta_d):
-    """f(q_b (N, 3), q_m, w, dw_b (N, 3)) -> F_r (N, 3) of Eq. (7) on recorded rows
-    (:func:`ffsm_pin.control.diagnostics.reaction_torques`)."""
-    jr, ax = geo.joint_rot, geo.axes
-
-    def kernel(q_b, q_m, w, dw_b):
-        return reaction_rows(jr, ax, *_rows(q_b, q_m, w, dw_b), theta_d)
-
-    return kernel
+def true_model_constants(geo) -> tuple:
+    """The constant arguments :func:`residual_54` and :func:`reaction_rows` take first."""
+    return geo.joint_rot, geo.axes
 
 
-# ---------------------------------------------------------------------- first compilation
-def kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
-    """Arguments of :func:`kinematic_law` with the types :func:`.period.period` passes
-    (complex arrays of the measurement's shapes; ``consts`` the period's constant arguments);
-    the values only need to be finite."""
-    c = 1j * _H
-    return (*consts[:4], *consts[5:], t + c, q_b + c, q_m + c, z_e + c, theta_b + c,
-            theta_z + c, w[:3] + 0j)  # fmt: skip
-
-
-def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """Compile the run's :func:`residual_54` and :func:`reaction_rows` with the argument types
-    the run passes (the second process of :func:`.period.compile_in_parallel`, after the
-    period's kernels)."""
-    jr, ax = consts[0][:2]
-    n = q_m.size
-    N, nd = n + 3, theta_d.size
-    residual_54(jr, ax, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
-    # reaction_rows compiles base_inertia with the row types
-    reaction_rows(jr, ax, np.zeros((1, 3)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, 3)),
-                  theta_d)  # fmt: skip
+def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
+    """The recorded rows q_b (N, 3), q_m, w, dw_b (N, 3) as :func:`reaction_rows` takes them
+    (contiguous)."""
+    return _rows(q_b, q_m, w, dw_b)

@@ -212,9 +212,17 @@ def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) 
         (consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b),
         (kernels.kinematic_law,),
         lambda: kernels.kinematic_law(
-            *kernels.kinematic_args(consts, t, q_b, q_m, w, z_e, theta_z, theta_b)
+            *_kinematic_args(kernels, consts, t, q_b, q_m, w, z_e, theta_z, theta_b)
         ),
     )
+
+
+def _kinematic_args(kernels, consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
+    """Arguments of the geometry's ``kinematic_law`` with the types :func:`period` passes
+    (complex values of the measurement's shapes); the values only need to be finite."""
+    c = 1j * _H
+    return (*consts[:4], *consts[5:], t + c, q_b + c, q_m + c, z_e + c, theta_b + c,
+            theta_z + c, kernels.base_velocity(w) + 0j)  # fmt: skip
 
 
 def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
@@ -234,7 +242,15 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
     )  # fmt: skip
 
 
-def _compile_run_kernels(*args) -> None:
-    """The geometry's ``_compile_run_kernels`` (the second process, after
+def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+    """Compile the geometry's ``residual_54`` and ``reaction_rows`` (the run's diagnostics,
+    :mod:`.diagnostics`) with the argument types the run passes (the second process, after
     :func:`_compile_real_kernels`)."""
-    GEOMETRIES[type(args[0][0])]._compile_run_kernels(*args)
+    kernels = GEOMETRIES[type(consts[0])]
+    fixed = kernels.true_model_constants(consts[0])
+    n, N, nd = q_m.size, w.size, theta_d.size
+    kernels.residual_54(*fixed, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
+    rows = kernels.reaction_rows_of(  # one recorded row of each: base_inertia's types too
+        np.zeros((1, N - n)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, N - n))
+    )
+    kernels.reaction_rows(*fixed, *rows, theta_d)
