@@ -207,8 +207,11 @@ class CoordinatedController:
         is asked.
 
         The compiled period serves spatial robots (m3 = 3) with every scheme, task and
-        null-space option, and planar robots with the pose task of the adaptive schemes
-        (the planar known-model baseline and position task run the numpy reference).
+        null-space option, and planar robots with the pose task. The planar known-model
+        baseline runs the numpy reference unless ``backend = "numba"`` is asked: its built-in
+        case keeps the reference's trajectory, from which the compiled one departs by
+        rounding amplified along the loop (benchmarks/README.md). The planar position task
+        runs the numpy reference.
         """
         spatial = isinstance(self.model, SpatialBarycentricModel)
         planar_pose = isinstance(self.model, BarycentricModel) and self.n_task == TASK_SIZE
@@ -217,7 +220,8 @@ class CoordinatedController:
                 "backend 'numba' is the compiled period of the planar pose task and of spatial "
                 "robots; use 'numpy' or 'auto' for this robot and task"
             )
-        if backend == "numpy" or not (spatial or (self.adaptive and planar_pose)):
+        planar_compiled = planar_pose and (self.adaptive or backend == "numba")
+        if backend == "numpy" or not (spatial or planar_compiled):
             return "numpy"
         try:  # the compiled period (imports numba)
             from . import period as compiled

@@ -193,11 +193,13 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 @njit(cache=True)
 def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d):
     """The body angles' trigonometry and Eqs. (28), (42) over the period
-    (:func:`.period.geometry_terms`); planar robots run the adaptive schemes only, so
-    ``adaptive`` and ``w_hat`` are not read."""
+    (:func:`.period.geometry_terms`; the estimates unchanged when ``adaptive`` is False, the
+    known-model scheme). ``w_hat`` is not read."""
     S, off, K, L, ee_row, collinear = geo
     nd = theta_d.size
     c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    if not adaptive:  # known model: no adaptation
+        return (pc, ps), theta_b.copy(), theta_z.copy(), w[0], w[0]
     tb_new = theta_b_step(theta_b, _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
     Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
     tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
@@ -210,12 +212,21 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     """The dynamic level (Eqs. 46, 49-52, 60a, 64-65; :func:`.period.dynamic_level`): returns
     (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~) and, when the status is
     ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``terms`` those of
-    :func:`geometry_terms`; the adaptive schemes only (``M_true``, ``h_true`` not read)."""
+    :func:`geometry_terms`. ``M_true``, ``h_true``: Pinocchio's reduced M and C w (known-model
+    scheme, ``adaptive = False``: computed torque on the true dynamics; not read otherwise)."""
     S, off, K, L, ee_row, collinear = geo
     pc, ps = terms
     nb = S.shape[0]
     nd = theta_d.size
     none = np.empty(0)
+    if not adaptive:  # known model: no filter estimate, no adaptation
+        status, value, w_hat_dot, u_m = _manifold(
+            np.ascontiguousarray(M_true), -h_true, w, w_mc, w_mc_dot, sens, g[G_KD]
+        )
+        if status != STATUS_OK:
+            return status, value, none, none, none
+        _put(w_hat, 0, w + dt * w_hat_dot)
+        return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb)
     w_tilde = w - w_hat
     Mphi = _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
     M_hat = S.T @ Mphi @ S
@@ -226,18 +237,9 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
     eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
     rr = (Ymd - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
-    # Eqs. (60a), (64)-(65)
-    tgt = w_mc_dot - g[G_KD] * (w_hat[1:] - w_mc)
-    denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
-    if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
-        return STATUS_BASE_ROW, abs(denom), none, none, none
-    wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
-    w_hat_dot = np.empty(nb)
-    w_hat_dot[0] = wb_dot
-    _put(w_hat_dot, 1, tgt + sens * wb_dot)
-    u_m = M_hat[1:] @ w_hat_dot - rr[1:]
-    if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, 0.0, none, none, none
+    status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g[G_KD])
+    if status != STATUS_OK:
+        return status, value, none, none, none
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
     decay = np.exp(-g[G_KDE] * dt)
@@ -245,6 +247,27 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
     return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde
+
+
+@njit(cache=True)
+def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
+    """Eqs. (60a), (64)-(65) with the scalar base row (:func:`.manifold.manifold_input`):
+    (status, exit value, dw-hat/dt, u_m) for the filter's M-hat, right-hand side ``rr`` and
+    state ``wh`` (w-hat; the measured w for the known model)."""
+    nb = M_hat.shape[0]
+    none = np.empty(0)
+    tgt = w_mc_dot - k_d * (wh[1:] - w_mc)
+    denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
+    if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
+        return STATUS_BASE_ROW, abs(denom), none, none
+    wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
+    w_hat_dot = np.empty(nb)
+    w_hat_dot[0] = wb_dot
+    _put(w_hat_dot, 1, tgt + sens * wb_dot)
+    u_m = M_hat[1:] @ w_hat_dot - rr[1:]
+    if not np.all(np.isfinite(u_m)):
+        return STATUS_NONFINITE, 0.0, none, none
+    return STATUS_OK, 0.0, w_hat_dot, u_m
 
 
 @njit(cache=True)
