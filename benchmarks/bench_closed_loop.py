@@ -39,7 +39,7 @@ TARGET_US = 100.0  # issue 3: median closed-loop step on this machine
 
 def _state_after(setup, seconds: float):
     """Advance the closed loop ``seconds`` and return (q, v, t)."""
-    ctrl = setup.controller
+    ctrl = setup.controller.law  # the paper's law itself: step(meas, dt)
     sensor = Sensor(setup.robot, setup.model, full_model=False)
     plant = Plant(setup.robot)
     q, v = setup.q0.copy(), setup.v0.copy()
@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     for backend in ("numba", "numpy"):
         setup = prepare(builtin_scenario("case1"))
         if backend == "numpy":
-            setup.controller.backend = "numpy"
+            setup.controller.law.backend = "numpy"
         setups[backend] = setup
     q, v, t = _state_after(setups["numba"], 2.0)
     _state_after(setups["numpy"], 2.0)  # same estimator states (to 1e-12)
@@ -72,11 +72,11 @@ def main(argv: list[str] | None = None) -> int:
     plant.reset(setups["numba"].q0, setups["numba"].v0)
     sensor = Sensor(setups["numba"].robot, setups["numba"].model, full_model=False)
     meas = sensor.measure(t, q, v)
-    u0 = setups["numba"].controller.step(meas, dt).u_m
+    u0 = setups["numba"].controller.law.step(meas, dt).u_m
 
     fns = {"plant step (baseline)": lambda: plant.step(q, v, u0, dt)}
     for backend, setup in setups.items():
-        ctrl = setup.controller
+        ctrl = setup.controller.law
         saved = copy.deepcopy((ctrl.theta_z, ctrl.theta_d, ctrl.theta_b, ctrl.w_hat, ctrl.Y_df))
 
         def restore(ctrl=ctrl, saved=saved):
@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         for backend in ("numba", "numpy"):
             setup = prepare(builtin_scenario("case1"))
             if backend == "numpy":
-                setup.controller.backend = "numpy"
+                setup.controller.law.backend = "numpy"
             t0 = time.perf_counter()
             result = simulate(setup)
             wall = time.perf_counter() - t0

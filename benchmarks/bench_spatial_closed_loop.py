@@ -53,8 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     warnings.simplefilter("ignore")
 
     setup = prepare(builtin_scenario("spatial"))
-    ctrl, dt = setup.controller, setup.scenario.dt
-    ref = prepare(builtin_scenario("spatial")).controller
+    ctrl, dt = setup.controller.law, setup.scenario.dt  # the paper's law: step(meas, dt)
+    ref = prepare(builtin_scenario("spatial")).controller.law
     ref.backend = "numpy"
     sensor = Sensor(setup.robot, setup.model, full_model=False)
     plant = Plant(setup.robot)
