@@ -56,17 +56,18 @@ def main(argv: list[str] | None = None) -> int:
     plant = Plant(ref.robot)
     q, v = ref.q0.copy(), ref.v0.copy()
     plant.reset(q, v)
+    law = ref.controller.law  # the paper's law itself: step(meas, dt)
     for k in range(2000):  # 2 s of the paper's law: estimators mid-adaptation
-        q, v, _ = plant.step(q, v, ref.controller.step(sensor.measure(k * dt, q, v), dt).u_m, dt)
+        q, v, _ = plant.step(q, v, law.step(sensor.measure(k * dt, q, v), dt).u_m, dt)
     t = 2000 * dt
-    u0 = ref.controller.step(sensor.measure(t, q, v), dt).u_m
+    u0 = law.step(sensor.measure(t, q, v), dt).u_m
 
     fns = {"plant step (baseline)": lambda: plant.step(q, v, u0, dt)}
     for obj, setup in setups.items():
-        ctrl = setup.controller
+        ctrl = setup.controller.law  # the paper's law itself: step(meas, dt)
         assert ctrl.backend == "numba"
         for name in ("theta_z", "theta_d", "theta_b", "w_hat", "Y_df"):  # the same state
-            getattr(ctrl, name)[...] = getattr(ref.controller, name)
+            getattr(ctrl, name)[...] = getattr(law, name)
         saved = copy.deepcopy((ctrl.theta_z, ctrl.theta_d, ctrl.theta_b, ctrl.w_hat, ctrl.Y_df))
 
         def closed_loop(ctrl=ctrl, saved=saved):
