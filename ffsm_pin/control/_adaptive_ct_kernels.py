@@ -57,9 +57,9 @@ def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
     """One adaptive-ct period (planar); updates the estimates in place."""
     nb = S.shape[0]
     nd = theta_d.size
-    c, s, pc, ps = planar_kernels._trig(S, off, K, L, q_b, q_m)
+    c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
     tb_new = fast.theta_b_step(
-        theta_b, planar_kernels._Y_M(pc, ps, K, L, S, w, nd, collinear)[0], gamma_b, dt
+        theta_b, planar_kernels.y_m(pc, ps, K, L, S, w, nd, collinear)[0], gamma_b, dt
     )
     Yz = planar_kernels.position_regressor(c, s, S, w, theta_z.size, collinear)
     tz_new = theta_z_step(theta_z, Yz, z_e_dot, gamma_z, dt)
@@ -73,14 +73,14 @@ def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
     w_r_dot = np.empty(nb)
     w_r[0], w_r_dot[0] = w_bc.real, w_bc.imag / _H
     w_r[1:], w_r_dot[1:] = w_mc.real, w_mc.imag / _H
-    _, Yh_plus = planar_kernels._velocity_regressors(
+    _, Yh_plus = planar_kernels.velocity_regressors(
         pc, ps, K, L, S, w + w_r, w + w_r, nd, collinear
     )
-    _, Yh_minus = planar_kernels._velocity_regressors(
+    _, Yh_minus = planar_kernels.velocity_regressors(
         pc, ps, K, L, S, w - w_r, w - w_r, nd, collinear
     )
-    Y = planar_kernels._Y_M(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
-    M_hat = S.T @ planar_kernels._mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    Y = planar_kernels.y_m(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
+    M_hat = S.T @ planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
     u, finite = _torque_and_update(Y, w - w_r, M_hat, 1, k_s, gamma_d, dt,
                                    theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
     return u, w_r[1:].copy(), sigma, damping, finite

@@ -31,10 +31,10 @@ def _rates_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
                   k_z, thr, nt, t, q_b, q_m, z_e, theta_z, theta_b):  # fmt: skip
     """(w_md, w_b, sigma_min, damping) of resolved_rates at complex arguments (planar)."""
     nb = S.shape[0]
-    c, s, pc, ps = planar_kernels._trig(S, off, K, L, q_b, q_m)
-    J = planar_kernels._jacobian(theta_z, c, s, S, ee_row, collinear)
-    Mphi = planar_kernels._mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
-    row = planar_kernels._xm(Mphi.sum(axis=0).reshape(1, nb), S)[0]  # (H_bb, H_bm), Eq. (13)
+    c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
+    J = planar_kernels.jacobian(theta_z, c, s, S, ee_row, collinear)
+    Mphi = planar_kernels.mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
+    row = planar_kernels.xm(Mphi.sum(axis=0).reshape(1, nb), S)[0]  # (H_bb, H_bm), Eq. (13)
     G = row[1:] / row[0]  # H_bb^-1 H_bm
     g0 = theta_b[0] / row[0]  # H_bb^-1 A_0
     Js = np.empty((nt, nb - 1), dtype=J.dtype)  # the generalized Jacobian J*
@@ -69,9 +69,9 @@ def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
     w_md = w_c.real.copy()
     a_m = w_c.imag / _H + k_v * (w_md - w[1:])
     nb = S.shape[0]
-    c, s, pc, ps = planar_kernels._trig(S, off, K, L, q_b, q_m)
-    M = S.T @ planar_kernels._mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    _, Yh = planar_kernels._velocity_regressors(pc, ps, K, L, S, w, w, theta_d.size, collinear)
+    c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
+    M = S.T @ planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    _, Yh = planar_kernels.velocity_regressors(pc, ps, K, L, S, w, w, theta_d.size, collinear)
     h = Yh @ theta_d  # C w
     a_b = -((M[0, 1:] * a_m).sum() + h[0]) / M[0, 0]  # base rows unactuated, Eq. (9a)
     u = M[1:, 0] * a_b + np.ascontiguousarray(M[1:, 1:]) @ a_m + h[1:]

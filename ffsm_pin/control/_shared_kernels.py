@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import _mv, _put, _put_rows  # noqa: F401 - the periods' copies by loops
+from .._array_kernels import _mv
 
 STATUS_OK = 0
 STATUS_FUNNEL_Z = 1  # end-effector error left its funnel

@@ -22,16 +22,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._array_kernels import _put, _put_rows
 from .._arrays import contiguous_rows as _rows
 from ..model._planar_kernels import (
-    _Y_M,
-    _column_sums,
-    _jacobian,
-    _mass_phi,
-    _trig,
-    _velocity_regressors,
-    _xm,
+    column_sums,
+    jacobian,
+    mass_phi,
     position_regressor,
+    trig,
+    velocity_regressors,
+    xm,
+    y_m,
 )
 from ._shared_kernels import (
     G_G1,
@@ -54,8 +55,6 @@ from ._shared_kernels import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _put,
-    _put_rows,
     _reference,
     _spd_det,
     funnel_terms,
@@ -93,7 +92,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     S, off, K, L, ee_row, collinear = geo
     nb = S.shape[0]
     n = nb - 1
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
     err_z = z_e - _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
     err_z[2] = _wrap(err_z[2])
     err_b = np.empty(1, dtype=err_z.dtype)
@@ -103,7 +102,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     sens = np.zeros(n)
     if iz >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
-    J = _jacobian(theta_z, c, s, S, ee_row, collinear)
+    J = jacobian(theta_z, c, s, S, ee_row, collinear)
     Jm = np.ascontiguousarray(J[:, 1:])
     target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - g[G_KZ] * Phi_z * psi_z
     target[0] -= theta_z[0]
@@ -117,8 +116,8 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     psi_b, Phi_b, ib = funnel_terms(fb, t, err_b, identity)
     if ib >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
-    Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
-    row = _xm(_column_sums(Mphi).reshape(1, nb), S)[0]  # first row of S^T M_phi S: (H_bb, H_bm)
+    Mphi = mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
+    row = xm(column_sums(Mphi).reshape(1, nb), S)[0]  # first row of S^T M_phi S: (H_bb, H_bm)
     Hbm = row[1:].copy()
     hh = (Hbm * Hbm).sum()
     hnorm = np.sqrt(hh.real)
@@ -144,10 +143,10 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_
     """A = J_m-hat U-hat of Eq. (36) at (q_b, q_m) (complex-step safe)."""
     nb = S.shape[0]
     n = nb - 1
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-    J = _jacobian(theta_z, c, s, S, ee_row, collinear)
-    Mphi = _mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
-    row = _xm(_column_sums(Mphi).reshape(1, nb), S)[0]
+    c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
+    J = jacobian(theta_z, c, s, S, ee_row, collinear)
+    Mphi = mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
+    row = xm(column_sums(Mphi).reshape(1, nb), S)[0]
     Hbm = row[1:].copy()
     U = np.eye(n) - np.outer(Hbm / (Hbm * Hbm).sum(), Hbm)
     return np.ascontiguousarray(J[:, 1:]) @ U
@@ -197,10 +196,10 @@ def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, t
     known-model scheme). ``w_hat`` is not read."""
     S, off, K, L, ee_row, collinear = geo
     nd = theta_d.size
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
+    c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
     if not adaptive:  # known model: no adaptation
         return (pc, ps), theta_b.copy(), theta_z.copy(), w[0], w[0]
-    tb_new = theta_b_step(theta_b, _Y_M(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
+    tb_new = theta_b_step(theta_b, y_m(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
     Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
     tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
     return (pc, ps), tb_new, tz_new, w[0], w[0]
@@ -228,11 +227,11 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         _put(w_hat, 0, w + dt * w_hat_dot)
         return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb)
     w_tilde = w - w_hat
-    Mphi = _mass_phi(theta_d, pc, ps, K, L, nb, collinear)
+    Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
     M_hat = S.T @ Mphi @ S
     if np.linalg.eigvalsh(M_hat)[0] <= 0:
         return STATUS_M_NOT_PD, 0.0, none, none, none
-    Ymd, Yh = _velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
+    Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g[G_G3] * dt
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
     eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
@@ -241,7 +240,7 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     if status != STATUS_OK:
         return status, value, none, none, none
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
-    Y_dc = _Y_M(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
+    Y_dc = y_m(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
     decay = np.exp(-g[G_KDE] * dt)
     _put_rows(Y_df, decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc)
     theta_d += d_theta_d
@@ -274,8 +273,8 @@ def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
 def residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d):
     """e = M w~ + Y_df (theta_d - theta_d-hat) of Eq. (54), with the true M and theta_d."""
     nb = S.shape[0]
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-    M = S.T @ _mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
+    M = S.T @ mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
     return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
 
 
@@ -283,11 +282,11 @@ def residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, t
 def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     """(M_bb, dM_bb/dt) of the true model, for the reaction torque of Eq. (7)."""
     nb = S.shape[0]
-    c, s, pc, ps = _trig(S, off, K, L, q_b, q_m)
-    M = S.T @ _mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
+    M = S.T @ mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
     e0 = np.zeros(nb)
     e0[0] = 1.0
-    Ymd, _ = _velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
+    Ymd, _ = velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
     return M[0, 0], (Ymd @ theta_d)[0]
 
 

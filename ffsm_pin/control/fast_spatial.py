@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._array_kernels import _put, _put_rows
 from .._arrays import contiguous_rows as _rows
 from ..model._spatial_kernels import (
     attitude_rows,
@@ -58,8 +59,6 @@ from ._shared_kernels import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _put,
-    _put_rows,
     _reference,
     _solve,
     _spd_det,
@@ -68,11 +67,14 @@ from ._shared_kernels import (
 )
 
 __all__ = [
+    "base_velocity",
     "dynamic_level",
     "geometry_terms",
     "kinematic_law",
     "reaction_rows",
+    "reaction_rows_of",
     "residual_54",
+    "true_model_constants",
 ]
 
 _H = 1e-30  # complex step, as in control/kinematic.py

@@ -1,6 +1,6 @@
 """The paper's control period, compiled once for both geometries.
 
-One period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64; docs/controller.md) is the same
+One period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64; docs/model.md) is the same
 sequence of steps for a planar robot (m3 = 1) and a spatial one (m3 = 3): the geometry's terms
 at the measured state and the estimators' steps (Eqs. 28, 42), the kinematic law evaluated
 once with complex arguments ``x + i h dx/dt`` (its real part ``w_mc``, its imaginary part over
@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
+from .._array_kernels import _put
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
@@ -42,7 +43,6 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _put,
     gains_array,
     pack_funnel,
     pack_null_space,
@@ -59,7 +59,12 @@ __all__ = [
     "period",
 ]
 
-#: The compiled kernels of each geometry, by the type of the model's kernel constants.
+#: The compiled kernels of each geometry, by the type of the model's kernel constants. Each
+#: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
+#: ``dynamic_level``, with the signatures of the stubs below), the true-model diagnostics
+#: ``residual_54`` and ``reaction_rows`` (:mod:`.diagnostics`), and three small functions the
+#: first compilation and the diagnostics use: ``base_velocity(w)``,
+#: ``true_model_constants(geo)`` and ``reaction_rows_of(q_b, q_m, w, dw_b)``.
 GEOMETRIES: dict[type, Any] = {
     PlanarKernelConstants: fast,
     SpatialKernelConstants: fast_spatial,
@@ -153,11 +158,11 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
 
     ``geo`` the model's kernel constants (its type selects the geometry's kernels), ``nt``
     the task rows, ``attitude`` False for scheme no-attitude (Eq. 81), ``identity`` True for
-    no-ppc, ``adaptive`` False for known-model (spatial robots: Pinocchio's reduced M and
-    C w passed as ``M_true``, ``h_true``; ignored otherwise; planar robots run the adaptive
-    schemes only). ``fb``, ``fz`` the packed funnels, ``g`` :func:`gains_array`, ``rc`` ...
-    ``rpp`` the reference's arrays, ``ns`` the packed null-space option or None; the
-    measurement at ``t`` [s]; the controller's states, advanced to ``t + dt``.
+    no-ppc, ``adaptive`` False for known-model (Pinocchio's reduced M and C w passed as
+    ``M_true``, ``h_true``; not read otherwise). ``fb``, ``fz`` the packed funnels, ``g``
+    :func:`gains_array`, ``rc`` ... ``rpp`` the reference's arrays, ``ns`` the packed
+    null-space option or None; the measurement at ``t`` [s]; the controller's states,
+    advanced to ``t + dt``.
     """
     n = q_m.size
     terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(

@@ -19,7 +19,7 @@ from .._array_kernels import _mv, _put, _put_rows
 
 
 @njit(cache=True)
-def _xm(X, A):
+def xm(X, A):
     """X @ A for a real or complex matrix X and a real matrix A (dtype of X)."""
     out = np.zeros((X.shape[0], A.shape[1]), dtype=X.dtype)
     for i in range(X.shape[0]):
@@ -30,7 +30,9 @@ def _xm(X, A):
 
 
 @njit(cache=True)
-def _trig(S, off, K, L, q_b, q_m):
+def trig(S, off, K, L, q_b, q_m):
+    """(cos, sin) of the body angles phi = S (q_b, q_m) + offsets, and
+    (cos, sin) of phi_l - phi_k for each pair k < l (K, L); real or complex."""
     nb = S.shape[0]
     q = np.empty(nb, dtype=q_m.dtype)
     q[0] = q_b
@@ -49,7 +51,9 @@ def _trig(S, off, K, L, q_b, q_m):
 
 
 @njit(cache=True)
-def _mass_phi(theta_d, pc, ps, K, L, nb, collinear):
+def mass_phi(theta_d, pc, ps, K, L, nb, collinear):
+    """M_phi of Eq. (12) (M = S^T M_phi S): Dc_kk on the diagonal, Dc_kl cos - Ds_kl sin
+    (no Ds in the collinear layout) for each pair; the pair terms ``pc``, ``ps`` of :func:`trig`."""
     Mphi = np.zeros((nb, nb), dtype=pc.dtype)
     for k in range(nb):
         Mphi[k, k] = theta_d[k]
@@ -64,7 +68,7 @@ def _mass_phi(theta_d, pc, ps, K, L, nb, collinear):
 
 
 @njit(cache=True)
-def _jacobian(theta_z, c, s, S, ee_row, collinear):
+def jacobian(theta_z, c, s, S, ee_row, collinear):
     """(3, nb) [J_b J_m] of Eq. (3)."""
     nb = S.shape[0]
     dp = np.zeros((2, nb), dtype=c.dtype)
@@ -78,14 +82,14 @@ def _jacobian(theta_z, c, s, S, ee_row, collinear):
             dp[0, k] = -s[k] * vx - c[k] * vy
             dp[1, k] = c[k] * vx - s[k] * vy
     J = np.empty((3, nb), dtype=dp.dtype)
-    _put_rows(J, _xm(dp, S))  # J[:2]
+    _put_rows(J, xm(dp, S))  # J[:2]
     for j in range(nb):
         J[2, j] = ee_row[j]
     return J
 
 
 @njit(cache=True)
-def _column_sums(A):
+def column_sums(A):
     """``A.sum(axis=0)`` by a loop in numba's order (each row added in turn to zeros): the
     same values, without the code of numba's axis-bounds message (a second of a first run)."""
     out = np.zeros(A.shape[1], dtype=A.dtype)
@@ -97,6 +101,7 @@ def _column_sums(A):
 
 @njit(cache=True)
 def _scatter_pair(Y, b, fc, fs, K, L, nb, collinear):
+    """Add each pair's terms ``fc``, ``fs`` times ``b`` into the Dc_kl, Ds_kl columns of ``Y``."""
     P = K.size
     for p in range(P):
         k, l = K[p], L[p]
@@ -108,7 +113,8 @@ def _scatter_pair(Y, b, fc, fs, K, L, nb, collinear):
 
 
 @njit(cache=True)
-def _Y_M(pc, ps, K, L, S, a, nd, collinear):
+def y_m(pc, ps, K, L, S, a, nd, collinear):
+    """Y_M(a) with Y_M(a) theta_d = M a (Eq. 12), (nb, nd)."""
     nb = S.shape[0]
     b = S @ a
     Y = np.zeros((nb, nd))
@@ -119,7 +125,9 @@ def _Y_M(pc, ps, K, L, S, a, nd, collinear):
 
 
 @njit(cache=True)
-def _velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
+def velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
+    """(Y_Mdot, Y_h) at w: Y_Mdot(w, s) theta_d = dM/dt s (``sv`` = s) and
+    Y_h(w) theta_d = C w, each (nb, nd)."""
     nb = S.shape[0]
     P = K.size
     dphi = S @ w
@@ -163,3 +171,15 @@ def position_regressor(c, s, S, w, nz, collinear):
             Yz[0, 3 + 2 * k] = -c[k] * dphi[k]
             Yz[1, 3 + 2 * k] = -s[k] * dphi[k]
     return Yz
+
+
+__all__ = [
+    "column_sums",
+    "jacobian",
+    "mass_phi",
+    "position_regressor",
+    "trig",
+    "velocity_regressors",
+    "xm",
+    "y_m",
+]

@@ -88,7 +88,7 @@ def test_the_period_goes_on_when_its_kernels_are_ready_and_the_run_waits_for_the
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("case", "second_process_kernel"),
-    [("case1", "_velocity_regressors"), ("spatial", "velocity_terms")],
+    [("case1", "velocity_regressors"), ("spatial", "velocity_terms")],
     ids=["planar", "spatial"],
 )
 def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
