@@ -11,6 +11,7 @@ and the reason, and everything recorded so far.
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from collections.abc import Callable
@@ -126,7 +127,7 @@ def _checked_torque(u, n: int) -> np.ndarray:
             f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
             "joint [N m]"
         )
-    if not np.isfinite(u).all():
+    if not all(map(math.isfinite, u.tolist())):  # (np.isfinite(u).all(), three times dearer)
         raise _ControllerFault(
             f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
         )
