@@ -11,9 +11,14 @@ Usage::
     python tools/compare_runs.py compare /tmp/before /tmp/after   # bitwise; exit 1 on a difference
     python tools/compare_runs.py compare /tmp/before /tmp/after --rtol 1e-12
     python tools/compare_runs.py compare /tmp/before /tmp/after --allow-added  # new outputs
+    python tools/compare_runs.py compare /tmp/before /tmp/after --normwise --rtol 1e-12 --atol 1e-14
 
 ``compare`` checks every key of every ``trajectory.npz`` (same keys, shapes, dtypes; values equal,
-NaN equal to NaN) and every ``summary.json`` value except the wall-clock ones.
+NaN equal to NaN) and every ``summary.json`` value except the wall-clock ones. ``--rtol`` is
+elementwise by default (each entry against the larger of its two values); with ``--normwise``
+each signal's largest difference is taken against its largest magnitude (an entry crossing zero
+is then no failure) and ``--atol`` [the signal's unit] is allowed besides (for signals that are
+rounding noise around zero, as the conserved momentum P, L of a run that starts at rest).
 """
 
 from __future__ import annotations
@@ -70,7 +75,26 @@ def _max_rel(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.nanmax(diff / scale)) if diff.size else 0.0
 
 
-def compare(a: Path, b: Path, rtol: float, allow_added: bool = False) -> int:
+def _normwise(a: np.ndarray, b: np.ndarray, atol: float) -> float:
+    """max |a - b| beyond ``atol`` over max |a|, NaN equal to NaN."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    both_nan = np.isnan(a) & np.isnan(b)
+    diff = np.where(both_nan, 0.0, np.abs(a - b))
+    if not diff.size:
+        return 0.0
+    excess = max(float(np.nanmax(diff)) - atol, 0.0)
+    scale = float(np.nanmax(np.where(both_nan, 0.0, np.abs(a))))
+    return excess / scale if scale > 0 else (0.0 if excess == 0 else float("inf"))
+
+
+def compare(
+    a: Path,
+    b: Path,
+    rtol: float,
+    allow_added: bool = False,
+    normwise: bool = False,
+    atol: float = 0.0,
+) -> int:
     """Print one line per case; return 1 when anything differs beyond ``rtol``.
 
     With ``allow_added``, keys (trajectory or summary) only in ``b`` are listed, not failures:
@@ -84,7 +108,7 @@ def compare(a: Path, b: Path, rtol: float, allow_added: bool = False) -> int:
             bad = 1
             continue
         ta, tb = np.load(a / case / "trajectory.npz"), np.load(b / case / "trajectory.npz")
-        problems, worst, added = [], 0.0, []
+        problems, worst, added, identical = [], 0.0, [], True
         if allow_added:
             added = sorted(set(tb.files) - set(ta.files))
         if set(ta.files) | set(added) != set(tb.files):
@@ -94,7 +118,8 @@ def compare(a: Path, b: Path, rtol: float, allow_added: bool = False) -> int:
             if x.shape != y.shape or x.dtype != y.dtype:
                 problems.append(f"{key}: {x.shape} {x.dtype} vs {y.shape} {y.dtype}")
             elif not np.array_equal(x, y, equal_nan=x.dtype.kind == "f"):
-                rel = _max_rel(x, y)
+                identical = False
+                rel = _normwise(x, y, atol) if normwise else _max_rel(x, y)
                 worst = max(worst, rel)
                 if rel > rtol:
                     problems.append(f"{key}: max rel diff {rel:.3g}")
@@ -105,18 +130,22 @@ def compare(a: Path, b: Path, rtol: float, allow_added: bool = False) -> int:
                 added.append(f"summary.{key}")
             elif key not in sa or key not in sb:
                 problems.append(f"summary.{key} only in one")
-            elif sa[key] != sb[key] and not _close(sa[key], sb[key], rtol):
-                problems.append(f"summary.{key}: {sa[key]!r} vs {sb[key]!r}")
-        verdict = "bitwise equal" if not problems and worst == 0 else f"max rel {worst:.3g}"
+            elif sa[key] != sb[key]:
+                identical = False
+                if not _close(sa[key], sb[key], rtol, normwise, atol):
+                    problems.append(f"summary.{key}: {sa[key]!r} vs {sb[key]!r}")
+        verdict = "bitwise equal" if identical else f"within tolerance, max rel {worst:.3g}"
         verdict += f" (added: {', '.join(added)})" if added else ""
         print(f"{case:22s} {'DIFFERS: ' + '; '.join(problems) if problems else verdict}")
         bad |= bool(problems)
     return int(bad)
 
 
-def _close(x, y, rtol: float) -> bool:
+def _close(x, y, rtol: float, normwise: bool = False, atol: float = 0.0) -> bool:
     try:
-        return rtol > 0 and _max_rel(np.asarray(x, float), np.asarray(y, float)) <= rtol
+        x, y = np.asarray(x, float), np.asarray(y, float)
+        rel = _normwise(x, y, atol) if normwise else _max_rel(x, y)
+        return (rtol > 0 or atol > 0) and rel <= rtol
     except (TypeError, ValueError):
         return False
 
@@ -134,10 +163,17 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("b", type=Path)
     c.add_argument("--rtol", type=float, default=0.0, help="0 = bitwise (default)")
     c.add_argument("--allow-added", action="store_true", help="keys only in b are no failure")
+    c.add_argument(
+        "--normwise",
+        action="store_true",
+        help="each signal's largest difference against its largest magnitude",
+    )
+    c.add_argument("--atol", type=float, default=0.0,
+                   help="with --normwise: an absolute difference allowed besides")  # fmt: skip
     args = p.parse_args(argv)
     if args.cmd == "record":
         return record(args.out, args.cases, args.record_every, args.duration)
-    return compare(args.a, args.b, args.rtol, args.allow_added)
+    return compare(args.a, args.b, args.rtol, args.allow_added, args.normwise, args.atol)
 
 
 if __name__ == "__main__":

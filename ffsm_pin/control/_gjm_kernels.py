@@ -21,7 +21,7 @@ from numba import njit
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms
 from . import fast, fast_spatial
-from ._shared_kernels import _reference
+from ._shared_kernels import _reference, damped_pinv
 from .fast import _H  # the complex step (control.kinematic.COMPLEX_STEP)
 
 
@@ -48,7 +48,7 @@ def _rates_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
     err = z_e[:nt] - _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
     if nt > 2:
         err[2] = fast._wrap(err[2])
-    pinv, sigma, damping = fast._damped_pinv(Js, thr)
+    pinv, sigma, damping = damped_pinv(Js, thr)
     rate = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True)
     w_m = pinv @ (rate - drift - k_z * err)
     w_b = g0 - (G * w_m).sum()  # momentum conservation, Eq. (13)
@@ -96,7 +96,7 @@ def _rates_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp, k_z, thr, nt
     for i in range(3):
         drift[i] += theta_z[i]  # + v_0
     err = z_e[:nt] - _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
-    pinv, sigma, damping = fast_spatial._damped_pinv(Js, thr)
+    pinv, sigma, damping = damped_pinv(Js, thr)
     target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - drift - k_z * err
     w_m = fast_spatial._cmv(pinv, target)
     w_b = np.ascontiguousarray(G[:, n]) - fast_spatial._cmv(np.ascontiguousarray(G[:, :n]), w_m)

@@ -136,6 +136,26 @@ def _piecewise(table, t, order):
 
 
 @njit(cache=True)
+def damped_pinv(A, thr):
+    """Damped right pseudo-inverse ``A^T (A A^T + lambda^2 E)^-1`` of a wide matrix (real or
+    complex, complex-step safe), with the damping of
+    :func:`ffsm_pin.control.linalg.damped_row_pinv`: lambda^2 = thr^2 - sigma^2 when the
+    smallest singular value sigma of Re A is below ``thr``, else 0.
+
+    Returns ``(pinv, sigma, lambda^2)``. One kernel for both geometries and the baselines.
+    """
+    gram = A @ A.T
+    eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
+    sigma = np.sqrt(max(eig[0], 0.0))
+    damping = 0.0
+    if sigma < thr:
+        damping = thr * thr - sigma * sigma
+        for i in range(gram.shape[0]):
+            gram[i, i] += damping
+    return A.T @ np.linalg.inv(gram), sigma, damping
+
+
+@njit(cache=True)
 def _spd_det(G):
     """det of an SPD matrix by elimination without pivoting (complex-step safe; as
     ffsm_pin.control.null_space.spd_det)."""

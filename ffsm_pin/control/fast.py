@@ -57,6 +57,7 @@ from ._shared_kernels import (
     STATUS_OK,
     _reference,
     _spd_det,
+    damped_pinv,
     funnel_terms,
     theta_z_step,
 )
@@ -68,19 +69,6 @@ _TWO_PI = 2.0 * np.pi
 @njit(cache=True)
 def _wrap(d):
     return d - _TWO_PI * np.rint(d.real / _TWO_PI)
-
-
-@njit(cache=True)
-def _damped_pinv(A, thr):
-    gram = A @ A.T
-    eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
-    sigma = np.sqrt(max(eig[0], 0.0))
-    damping = 0.0
-    if sigma < thr:
-        damping = thr * thr - sigma * sigma
-        for i in range(gram.shape[0]):
-            gram[i, i] += damping
-    return A.T @ np.linalg.inv(gram), sigma, damping
 
 
 @njit(cache=True)
@@ -108,7 +96,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     target[0] -= theta_z[0]
     target[1] -= theta_z[1]
     if not attitude:  # Eq. (81)
-        pinv, sigma, damping = _damped_pinv(Jm, g[G_THR])
+        pinv, sigma, damping = damped_pinv(Jm, g[G_THR])
         Jb = J[:, 0].copy()
         w_mc = pinv @ (target - Jb * w_b)
         sens = -(pinv @ Jb).real
@@ -126,7 +114,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     a_b = theta_b[0] + g[G_KB] * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
     Hp = Hbm / hh  # pseudo-inverse of the row H_bm
     U = np.eye(n) - np.outer(Hp, Hbm)
-    pinv, sigma, damping = _damped_pinv(Jm @ U, g[G_THR])
+    pinv, sigma, damping = damped_pinv(Jm @ U, g[G_THR])
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)

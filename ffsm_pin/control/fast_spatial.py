@@ -62,6 +62,7 @@ from ._shared_kernels import (
     _reference,
     _solve,
     _spd_det,
+    damped_pinv,
     funnel_terms,
     theta_z_step,
 )
@@ -130,20 +131,6 @@ def _cmtv(A, x):
         for j in range(A.shape[1]):
             out[j] += A[i, j] * x[i]
     return out
-
-
-@njit(cache=True)
-def _damped_pinv(A, thr):
-    """A^T (A A^T + lambda^2 E)^-1 with the damping of control/linalg.damped_row_pinv."""
-    gram = _cmmt(A, A)
-    eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
-    sigma = np.sqrt(max(eig[0], 0.0))
-    damping = 0.0
-    if sigma < thr:
-        damping = thr * thr - sigma * sigma
-        for i in range(gram.shape[0]):
-            gram[i, i] += damping
-    return _cmm(A.T, np.linalg.inv(gram)), sigma, damping
 
 
 @njit(cache=True)
@@ -249,7 +236,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     for i in range(3):
         target[i] -= theta_z[i]  # -v0bar-hat
     if not attitude:  # Eq. (81)
-        pinv, sigma, damping = _damped_pinv(Jm, g[G_THR])
+        pinv, sigma, damping = damped_pinv(Jm, g[G_THR])
         w_mc = _cmv(pinv, target - _cmv(Jb, w_b))
         sens = np.ascontiguousarray(-_cmm(pinv, Jb).real)
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
@@ -262,7 +249,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     L_b = _l_matrix(q_b, R0)
     a_b = theta_b[:3] + g[G_KB] * _cmv(Hbb, _cmtv(L_b, Phi_b * psi_b))  # Eq. (25)
     A = _cmm(Jm, U)
-    pinv, sigma, damping = _damped_pinv(A, g[G_THR])
+    pinv, sigma, damping = damped_pinv(A, g[G_THR])
     Hp_ab = _cmv(Hp, a_b)
     xi = _cmv(pinv, target - _cmv(Jm, Hp_ab))  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu

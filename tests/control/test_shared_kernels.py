@@ -1,13 +1,15 @@
-"""The compiled funnel transformation shared by the planar and spatial periods equals the numpy
-reference (control/funnel.py): psi, Phi inside, and the same exit index outside."""
+"""The compiled kernels shared by the planar and spatial periods equal their numpy references:
+the funnel transformation (control/funnel.py: psi, Phi inside, and the same exit index
+outside) and the damped right pseudo-inverse (control/linalg.py: damped_row_pinv)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ffsm_pin.control._shared_kernels import funnel_terms, pack_funnel
+from ffsm_pin.control._shared_kernels import damped_pinv, funnel_terms, pack_funnel
 from ffsm_pin.control.funnel import Funnel, FunnelExit, FunnelParams
+from ffsm_pin.control.linalg import damped_row_pinv
 
 PARAMS = FunnelParams((2.0, 0.5, 0.3), (0.1, 0.2, 0.01), (1.5, 0.05, 0.7), (1.0, 0.3, 0.55))
 
@@ -49,3 +51,33 @@ def test_identity_passes_the_error_through():
     assert idx == -1
     np.testing.assert_array_equal(psi, e)
     np.testing.assert_array_equal(Phi, np.ones(3))
+
+
+# ------------------------------------------------------------------ damped pseudo-inverse
+def _with_singular_values(rng, singular_values, n_cols):
+    m = len(singular_values)
+    U, _ = np.linalg.qr(rng.normal(size=(m, m)))
+    V, _ = np.linalg.qr(rng.normal(size=(n_cols, n_cols)))
+    return U @ np.diag(singular_values) @ V[:m]
+
+
+@pytest.mark.parametrize(("rows", "cols"), [(3, 3), (3, 4), (6, 7), (6, 9)])  # planar, spatial
+@pytest.mark.parametrize("smallest", [0.4, 0.01], ids=["undamped", "damped"])
+def test_damped_pinv_equals_the_numpy_reference(rng, rows, cols, smallest):
+    """One compiled kernel for both geometries and the baselines: value, sigma_min and
+    damping of control/linalg.damped_row_pinv, and at a complex step the same derivative (the
+    kinematic law differentiates through it)."""
+    thr = 0.05
+    for _ in range(5):
+        a = _with_singular_values(rng, np.linspace(1.5, smallest, rows), cols)
+        da = rng.normal(size=a.shape)
+        ref = damped_row_pinv(a, thr)
+        pinv, sigma, damping = damped_pinv(a.astype(complex), thr)
+        assert (damping > 0) == (smallest < thr) == (ref.damping > 0)
+        np.testing.assert_allclose(sigma, ref.sigma_min, rtol=1e-10)
+        np.testing.assert_allclose(damping, ref.damping, rtol=1e-10, atol=1e-18)
+        np.testing.assert_allclose(pinv.real, ref.pinv, rtol=1e-10, atol=1e-12)
+        h = 1e-30  # the complex step (damping held at its real value, as the reference)
+        step = damped_pinv(a + 1j * h * da, thr)[0].imag / h
+        np.testing.assert_allclose(step, damped_row_pinv(a + 1j * h * da, thr).pinv.imag / h,
+                                   rtol=1e-9, atol=1e-10)  # fmt: skip
