@@ -25,6 +25,8 @@ STATUS_NONFINITE = 6  # u_m not finite
 F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
 # entries of the packed null-space array (pack_null_space)
 NS_CODE, NS_GAIN, NS_STEP, NS_CENTER = range(4)
+#: the code of the joint-centering objective (control/null_space.py: OBJECTIVE_CODE)
+NS_JOINT_CENTERING = 2
 # entries of the packed gains array (gains_array); q_bd has m3 entries
 G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
 
@@ -170,6 +172,49 @@ def _spd_det(G):
             for j in range(k + 1, m):
                 G[i, j] -= f * G[k, j]
     return det
+
+
+@njit(cache=True)
+def joint_centering_gradient(ns, q_m):
+    """grad_{q_m} mu of the joint-centering objective mu = -1/2 |q_m - center|^2: center - q_m
+    (``ns`` :func:`pack_null_space`; as :func:`ffsm_pin.control.null_space.null_space_gradient`)."""
+    grad = np.empty(q_m.size, dtype=q_m.dtype)
+    for j in range(q_m.size):
+        grad[j] = ns[NS_CENTER + j] - q_m[j]
+    return grad
+
+
+@njit(cache=True)
+def manipulability(A):
+    """mu = sqrt(det(A A^T)) with the plain transpose, complex-step safe (as
+    :func:`ffsm_pin.control.null_space.manipulability`); A = J_m-hat U-hat of Eq. (36)."""
+    return np.sqrt(_spd_det(A @ A.T))
+
+
+@njit(cache=True)
+def perturbed_joints(q_m, h):
+    """(2n, n): q_m + h e_j in row 2j, q_m - h e_j in row 2j + 1 (the central difference of
+    :func:`manipulability_gradient`; ``h`` real [rad])."""
+    n = q_m.size
+    Q = np.empty((2 * n, n), dtype=q_m.dtype)
+    for j in range(n):
+        for k in range(n):
+            Q[2 * j, k] = q_m[k]
+            Q[2 * j + 1, k] = q_m[k]
+        Q[2 * j, j] += h
+        Q[2 * j + 1, j] -= h
+    return Q
+
+
+@njit(cache=True)
+def manipulability_gradient(A, h):
+    """grad_{q_m} mu by central differences: ``A[i]`` the geometry's J_m-hat U-hat at row i of
+    :func:`perturbed_joints` (as :func:`ffsm_pin.control.null_space.null_space_gradient`)."""
+    n = A.shape[0] // 2
+    grad = np.empty(n, dtype=A.dtype)
+    for j in range(n):
+        grad[j] = (manipulability(A[2 * j]) - manipulability(A[2 * j + 1])) / (2.0 * h)
+    return grad
 
 
 @njit(cache=True)

@@ -44,9 +44,9 @@ from ._shared_kernels import (
     G_KZ,
     G_QBD,
     G_THR,
-    NS_CENTER,
     NS_CODE,
     NS_GAIN,
+    NS_JOINT_CENTERING,
     NS_STEP,
     STATUS_BASE_ROW,
     STATUS_FUNNEL_B,
@@ -56,9 +56,11 @@ from ._shared_kernels import (
     STATUS_NONFINITE,
     STATUS_OK,
     _reference,
-    _spd_det,
     damped_pinv,
     funnel_terms,
+    joint_centering_gradient,
+    manipulability_gradient,
+    perturbed_joints,
     theta_z_step,
 )
 
@@ -142,25 +144,15 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_
 
 @njit(cache=True)
 def _null_space_gradient(S, off, K, L, ee_row, collinear, ns, q_b, q_m, theta_b, theta_z):
-    """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space)."""
-    n = q_m.size
-    grad = np.empty(n, dtype=q_m.dtype)
-    if ns[NS_CODE] == 2:  # joint-centering: mu = -1/2 |q_m - center|^2
-        for j in range(n):
-            grad[j] = ns[NS_CENTER + j] - q_m[j]
-        return grad
-    h = ns[NS_STEP]  # manipulability: central difference of real perturbations of q_m
-    for j in range(n):
-        qp = q_m.copy()
-        qm = q_m.copy()
-        qp[j] += h
-        qm[j] -= h
-        Ap = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, qp, theta_b, theta_z)
-        Am = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, qm, theta_b, theta_z)
-        mu_p = np.sqrt(_spd_det(Ap @ Ap.T))
-        mu_m = np.sqrt(_spd_det(Am @ Am.T))
-        grad[j] = (mu_p - mu_m) / (2.0 * h)
-    return grad
+    """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space): the shared
+    objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
+    if ns[NS_CODE] == NS_JOINT_CENTERING:
+        return joint_centering_gradient(ns, q_m)
+    Q = perturbed_joints(q_m, ns[NS_STEP])  # manipulability: central differences
+    A = np.empty((Q.shape[0], 3, q_m.size), dtype=np.complex128)
+    for i in range(Q.shape[0]):
+        A[i] = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, Q[i], theta_b, theta_z)
+    return manipulability_gradient(A, ns[NS_STEP])
 
 
 @njit(cache=True)

@@ -48,9 +48,9 @@ from ._shared_kernels import (
     G_KZ,
     G_QBD,
     G_THR,
-    NS_CENTER,
     NS_CODE,
     NS_GAIN,
+    NS_JOINT_CENTERING,
     NS_STEP,
     STATUS_BASE_ROW,
     STATUS_FUNNEL_B,
@@ -61,9 +61,11 @@ from ._shared_kernels import (
     STATUS_OK,
     _reference,
     _solve,
-    _spd_det,
     damped_pinv,
     funnel_terms,
+    joint_centering_gradient,
+    manipulability_gradient,
+    perturbed_joints,
     theta_z_step,
 )
 
@@ -186,27 +188,24 @@ def _projector(Hbm):
 
 
 @njit(cache=True)
+def _reduced_jacobian(jr, ax, er, m, nt, q_b, q_m, theta_b, theta_z):
+    """A = J_m-hat U-hat of Eq. (36) at (q_b, q_m), complex."""
+    J, _, Hbm, _ = _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
+    _, U, _ = _projector(Hbm)
+    return _cmm(np.ascontiguousarray(J[:, 3:]), U)
+
+
+@njit(cache=True)
 def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
-    """grad_{q_m} mu of the null-space objective (control/null_space.py), complex."""
-    n = q_m.size
-    grad = np.empty(n, dtype=np.complex128)
-    if ns[NS_CODE] == 2:  # joint-centering: mu = -1/2 |q_m - center|^2
-        for j in range(n):
-            grad[j] = ns[NS_CENTER + j] - q_m[j]
-        return grad
-    h = ns[NS_STEP]  # manipulability: central difference of real perturbations of q_m
-    td = theta_b[3:]
-    for j in range(n):
-        mu = np.empty(2, dtype=np.complex128)
-        for side in range(2):
-            qq = q_m.copy()
-            qq[j] += h if side == 0 else -h
-            J, _, Hbm, _ = _geometry(jr, ax, er, m, nt, q_b, qq, theta_z, td)
-            _, U, _ = _projector(Hbm)
-            A = _cmm(np.ascontiguousarray(J[:, 3:]), U)
-            mu[side] = np.sqrt(_spd_det(_cmmt(A, A)))
-        grad[j] = (mu[0] - mu[1]) / (2.0 * h)
-    return grad
+    """grad_{q_m} mu of the null-space objective (control/null_space.py), complex: the shared
+    objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
+    if ns[NS_CODE] == NS_JOINT_CENTERING:
+        return joint_centering_gradient(ns, q_m)
+    Q = perturbed_joints(q_m, ns[NS_STEP])  # manipulability: central differences
+    A = np.empty((Q.shape[0], nt, q_m.size), dtype=np.complex128)
+    for i in range(Q.shape[0]):
+        A[i] = _reduced_jacobian(jr, ax, er, m, nt, q_b, Q[i], theta_b, theta_z)
+    return manipulability_gradient(A, ns[NS_STEP])
 
 
 @njit(cache=True)

@@ -81,3 +81,41 @@ def test_damped_pinv_equals_the_numpy_reference(rng, rows, cols, smallest):
         step = damped_pinv(a + 1j * h * da, thr)[0].imag / h
         np.testing.assert_allclose(step, damped_row_pinv(a + 1j * h * da, thr).pinv.imag / h,
                                    rtol=1e-9, atol=1e-10)  # fmt: skip
+
+
+# ------------------------------------------------------------------ null-space objective
+def test_null_space_objective_kernels_equal_the_numpy_reference(rng):
+    """The objective's compiled pieces (joint centering; mu and its central difference over
+    the rows of perturbed_joints) against control/null_space.py on a smooth made-up
+    A(q_m) = J_m U of the right shape, at complex arguments as in the kinematic law."""
+    from ffsm_pin.control import null_space as ref
+    from ffsm_pin.control._shared_kernels import (
+        NS_JOINT_CENTERING,
+        joint_centering_gradient,
+        manipulability_gradient,
+        pack_null_space,
+        perturbed_joints,
+    )
+
+    assert ref.OBJECTIVE_CODE["joint-centering"] == NS_JOINT_CENTERING
+    n, rows = 7, 6
+    B, C = rng.normal(size=(rows, n)), rng.normal(size=(rows, n))
+
+    def reduced_jacobian(q):  # analytic in q, so complex steps pass through
+        return B * np.cos(q)[None, :] + C * np.sin(2 * q)[None, :]
+
+    q_m = rng.normal(size=n) + 1e-20j * rng.normal(size=n)
+    center = rng.normal(size=n)
+    for objective in ("manipulability", "joint-centering"):
+        spec = ref.NullSpace(objective=objective, gain=0.5)
+        ns = pack_null_space(spec, center, n)
+        expected = ref.null_space_gradient(spec, center, q_m, reduced_jacobian)
+        if objective == "joint-centering":
+            got = joint_centering_gradient(ns, q_m)
+        else:
+            Q = perturbed_joints(q_m, ns[2])
+            got = manipulability_gradient(np.array([reduced_jacobian(q) for q in Q]), ns[2])
+        # the central difference divides mu's rounding (~1e-16 mu, the products' order
+        # differs) by the step (null_space.GRADIENT_STEP): ~1e-10 relative; 1e-8 allowed
+        np.testing.assert_allclose(got.real, expected.real, rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(got.imag, expected.imag, rtol=1e-8, atol=1e-40)
