@@ -20,8 +20,10 @@ def is_spatial(robot) -> bool:
 
 def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.ndarray]:
     """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
-    if is_spatial(robot):
-        return _initial_state_spatial(robot, init)
+    return _INITIAL_STATE[robot.base](robot, init)
+
+
+def _initial_state_planar(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.ndarray]:
     model = robot.model
     data = model.createData()
     _check_joint_lists(robot, init)
@@ -105,3 +107,7 @@ def _initial_state_spatial(robot: Robot, init: InitialCondition):
         h = np.concatenate((mass * vcom, _sized(init.angular_momentum, 3, "angular_momentum")))
         v[:6] = np.linalg.solve(Ag[:, :6], h - Ag[:, 6:] @ v[6:])
     return q, v
+
+
+# root joint (``robot.base``) -> how its initial state is built
+_INITIAL_STATE = {"planar": _initial_state_planar, "free-flyer": _initial_state_spatial}

@@ -11,7 +11,6 @@ import pinocchio as pin
 from ..attitude import mrp
 from ..control.interface import Measurement
 from ..model import ReducedModel, State
-from .initial import is_spatial
 
 
 class Sensor:
@@ -30,7 +29,7 @@ class Sensor:
         self.model = model
         self.fid = robot.ee_frame_id
         self.full_model = full_model
-        self.spatial = is_spatial(robot)
+        self._measure, self._base_acceleration = _SENSING[robot.base]
         self.state = State(robot) if full_model else None
         self._q_b_prev: float | None = None
         self.R0: np.ndarray | None = None  # spatial: base rotation of the last measurement
@@ -45,14 +44,20 @@ class Sensor:
         the last measured state: planar a number [rad/s^2]; free-flyer the 3-vector in the
         inertial frame, R_0(q_b) of the last measurement times the body-frame one
         (docs/spatial.md 1)."""
-        if self.spatial:
-            return self.R0 @ a[3:6]
+        return self._base_acceleration(self, a)
+
+    def _base_acceleration_planar(self, a: np.ndarray) -> float:
         return a[2]
+
+    def _base_acceleration_spatial(self, a: np.ndarray) -> np.ndarray:
+        assert self.R0 is not None  # set by the measurement
+        return self.R0 @ a[3:6]
 
     def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
         """The exact measurement at time ``t`` [s] of the plant state (q, v)."""
-        if self.spatial:
-            return self._measure_spatial(t, q, v)
+        return self._measure(self, t, q, v)
+
+    def _measure_planar(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
         q_b = math.atan2(q[3], q[2])
         if self._q_b_prev is not None:  # continuous attitude
             q_b += 2 * math.pi * round((self._q_b_prev - q_b) / (2 * math.pi))
@@ -87,3 +92,11 @@ class Sensor:
             self.state.update_dynamics(q, v)  # M, h only
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)
+
+
+# root joint (``robot.base``) -> (its measurement, its base angular acceleration): what the
+# sensor does differently per geometry (the plant's table: ``sim/plant.py``)
+_SENSING = {
+    "planar": (Sensor._measure_planar, Sensor._base_acceleration_planar),
+    "free-flyer": (Sensor._measure_spatial, Sensor._base_acceleration_spatial),
+}
