@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from ..attitude import mrp
 from ..control.interface import Measurement
 from ..model import ReducedModel, State
+from ._sensor_kernels import spatial_measurement
 
 
 class Sensor:
@@ -77,16 +77,13 @@ class Sensor:
         return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
 
     def _measure_spatial(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
-        q_b = mrp.from_quaternion(q[3:7])
-        self.R0 = R0 = mrp.to_rotation(q_b)  # kept for the recorder (one evaluation a step)
         pin.forwardKinematics(self.pmodel, self.data, q, v)
         oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
         vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
-        R_e = oMf.rotation
-        q_e = mrp.from_rotation(R_e)
-        z_e = np.concatenate((oMf.translation, q_e))
-        z_e_dot = np.concatenate((vel.linear, mrp.L_matrix(q_e, R_e) @ vel.angular))
-        w = np.concatenate((R0 @ v[3:6], v[6:]))
+        q_b, R0, z_e, z_e_dot, w = spatial_measurement(  # the MRP arithmetic, compiled
+            q, v, oMf.translation, oMf.rotation, vel.linear, vel.angular
+        )
+        self.R0 = R0  # kept for the recorder (one evaluation a step)
         M = h = None
         if self.state is not None:  # full_model
             self.state.update_dynamics(q, v)  # M, h only
