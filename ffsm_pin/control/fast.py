@@ -270,7 +270,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     return M[0, 0], (Ymd @ theta_d)[0]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # rows in threads: control/diagnostics.reaction_torques
 def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` with
     (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N,), q_m (N, n), w (N, n + 1), dw_b (N,)."""

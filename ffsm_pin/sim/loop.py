@@ -15,6 +15,7 @@ import math
 import tempfile
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +97,15 @@ def _after_run_signals(
     def per_row(block) -> dict[str, np.ndarray]:
         t = block["t"]
         out = {}
+        q_m = block["q"][:, nq_root:]
+        with ThreadPoolExecutor(1) as pool:  # F_r beside the rest (its kernel releases the GIL)
+            f_r = pool.submit(reaction, block["q_b"], q_m, block["w"], block["dw_b"])
+            out.update(_row_signals(block, t))
+            out["F_r"] = f_r.result()
+        return out
+
+    def _row_signals(block, t) -> dict[str, np.ndarray]:
+        out = {}
         for name, funnel in funnels:
             rho = funnel.rho(t[:, None])  # (samples, components)
             out[f"rho_{name}"] = rho
@@ -104,8 +114,6 @@ def _after_run_signals(
         out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
         out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
         out["P"], out["L"] = momentum(block["q"], block["v"])
-        q_m = block["q"][:, nq_root:]
-        out["F_r"] = reaction(block["q_b"], q_m, block["w"], block["dw_b"])
         return out
 
     truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}

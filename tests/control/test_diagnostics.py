@@ -96,3 +96,23 @@ def test_reaction_torques_after_the_run_equal_the_model_row_by_row(geometry, red
         Mbb, Mbb_dot = per_row(qb, q_m[i], w[i])
         if m3 == 1:
             np.testing.assert_array_equal(fast[i], Mbb * dw_b[i] + 0.5 * Mbb_dot * w[i, 0])
+
+
+@pytest.mark.parametrize("geometry", ["planar", "spatial"])
+def test_reaction_torques_in_two_threads_equal_one_pass(geometry, reduced_model_of, monkeypatch):
+    """Long recordings are split over two threads (the kernel releases the GIL): the rows are
+    independent, so the result is bitwise the single pass's, odd row counts included."""
+    from ffsm_pin.control import diagnostics
+
+    model = reduced_model_of(geometry)
+    m3, nb, n = model.m3, model.n_joints + model.m3, model.n_joints
+    theta_d = np.array(model.theta_d)
+    rng = np.random.default_rng(3)
+    rows = 7
+    q_b = rng.uniform(-3, 3, (rows, 1)) if m3 == 1 else rng.uniform(-0.4, 0.4, (rows, 3))
+    q_m, w = rng.uniform(-2, 2, (rows, n)), rng.normal(size=(rows, nb))
+    dw_b = rng.normal(size=rows) if m3 == 1 else rng.normal(size=(rows, 3))
+    f = reaction_torques(model, theta_d, True)
+    one_pass = f(q_b, q_m, w, dw_b)
+    monkeypatch.setattr(diagnostics, "THREAD_ROWS", 2)
+    np.testing.assert_array_equal(f(q_b, q_m, w, dw_b), one_pass)
