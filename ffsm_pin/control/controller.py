@@ -206,21 +206,20 @@ class CoordinatedController:
         """'numba' (the compiled period, :mod:`.period`) unless numba is missing or 'numpy'
         is asked.
 
-        The compiled period serves spatial robots (m3 = 3) with every scheme, task and
-        null-space option, and planar robots with the pose task. The planar known-model
-        baseline runs the numpy reference unless ``backend = "numba"`` is asked: its built-in
-        case keeps the reference's trajectory, from which the compiled one departs by
-        rounding amplified along the loop (benchmarks/README.md). The planar position task
-        runs the numpy reference.
+        The compiled period serves planar and spatial robots with every scheme, task and
+        null-space option. The planar known-model baseline runs the numpy reference unless
+        ``backend = "numba"`` is asked: its built-in case keeps the reference's trajectory,
+        from which the compiled one departs by rounding amplified along the loop near a
+        singularity (benchmarks/README.md).
         """
         spatial = isinstance(self.model, SpatialBarycentricModel)
-        planar_pose = isinstance(self.model, BarycentricModel) and self.n_task == TASK_SIZE
-        if backend == "numba" and not (planar_pose or spatial):
+        planar = isinstance(self.model, BarycentricModel)
+        if backend == "numba" and not (planar or spatial):
             raise ParameterError(
-                "backend 'numba' is the compiled period of the planar pose task and of spatial "
-                "robots; use 'numpy' or 'auto' for this robot and task"
+                "backend 'numba' is the compiled period of the package's planar and spatial "
+                f"models, not of {type(self.model).__name__}; use 'numpy' or 'auto'"
             )
-        planar_compiled = planar_pose and (self.adaptive or backend == "numba")
+        planar_compiled = planar and (self.adaptive or backend == "numba")
         if backend == "numpy" or not (spatial or planar_compiled):
             return "numpy"
         try:  # the compiled period (imports numba)

@@ -77,14 +77,18 @@ def _wrap(d):
 def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
                   t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
     """w_mc of Eqs. (25)+(36) or (81) (complex-step safe; :func:`.period.kinematic_law`);
-    ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``nt`` = 3
-    (the pose task), ``ns`` = :func:`pack_null_space`."""
+    ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``nt`` the task
+    rows (3 the pose task, 2 the position task), ``ns`` = :func:`pack_null_space`."""
     S, off, K, L, ee_row, collinear = geo
     nb = S.shape[0]
     n = nb - 1
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
-    err_z = z_e - _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
-    err_z[2] = _wrap(err_z[2])
+    ref = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
+    err_z = np.empty(nt, dtype=z_e.dtype)
+    for i in range(nt):
+        err_z[i] = z_e[i] - ref[i]  # Eq. (17): the task's components of z_e
+    if nt > 2:  # the end-effector angle
+        err_z[2] = _wrap(err_z[2])
     err_b = np.empty(1, dtype=err_z.dtype)
     err_b[0] = _wrap(q_b - g[G_QBD])
     psi_z, Phi_z, iz = funnel_terms(fz, t, err_z, identity)
@@ -92,7 +96,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     sens = np.zeros(n)
     if iz >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
-    J = jacobian(theta_z, c, s, S, ee_row, collinear)
+    J = jacobian(theta_z, c, s, S, ee_row, collinear)[:nt]  # the task's rows
     Jm = np.ascontiguousarray(J[:, 1:])
     target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - g[G_KZ] * Phi_z * psi_z
     target[0] -= theta_z[0]
@@ -121,7 +125,7 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
         A = Jm @ U  # (ns None, no null-space term: numba compiles none of this)
-        grad = _null_space_gradient(S, off, K, L, ee_row, collinear, ns,
+        grad = _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns,
                                     q_b, q_m, theta_b, theta_z)  # fmt: skip
         xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
@@ -129,12 +133,12 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
 
 
 @njit(cache=True)
-def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_z):
+def _reduced_jacobian(S, off, K, L, ee_row, collinear, nt, q_b, q_m, theta_b, theta_z):
     """A = J_m-hat U-hat of Eq. (36) at (q_b, q_m) (complex-step safe)."""
     nb = S.shape[0]
     n = nb - 1
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
-    J = jacobian(theta_z, c, s, S, ee_row, collinear)
+    J = jacobian(theta_z, c, s, S, ee_row, collinear)[:nt]
     Mphi = mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
     row = xm(column_sums(Mphi).reshape(1, nb), S)[0]
     Hbm = row[1:].copy()
@@ -143,15 +147,15 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, q_m, theta_b, theta_
 
 
 @njit(cache=True)
-def _null_space_gradient(S, off, K, L, ee_row, collinear, ns, q_b, q_m, theta_b, theta_z):
+def _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns, q_b, q_m, theta_b, theta_z):
     """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space): the shared
     objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
     if ns[NS_CODE] == NS_JOINT_CENTERING:
         return joint_centering_gradient(ns, q_m)
     Q = perturbed_joints(q_m, ns[NS_STEP])  # manipulability: central differences
-    A = np.empty((Q.shape[0], 3, q_m.size), dtype=np.complex128)
+    A = np.empty((Q.shape[0], nt, q_m.size), dtype=np.complex128)
     for i in range(Q.shape[0]):
-        A[i] = _reduced_jacobian(S, off, K, L, ee_row, collinear, q_b, Q[i], theta_b, theta_z)
+        A[i] = _reduced_jacobian(S, off, K, L, ee_row, collinear, nt, q_b, Q[i], theta_b, theta_z)
     return manipulability_gradient(A, ns[NS_STEP])
 
 

@@ -116,6 +116,30 @@ def test_numba_period_reproduces_numpy_reference(make, scheme):
     assert np.max(np.abs(fast_states - ref_states) / np.maximum(np.abs(ref_states), 1.0)) < 1e-9
 
 
+def _offaxis_position(scheme: str, null_space: NullSpace | None = None) -> Scenario:
+    """The 5-link robot of :func:`_offaxis` with the position task (x, y: two task rows)."""
+    sc = _offaxis(scheme, null_space)
+    ref = dataclasses.replace(sc.reference, ee=sc.reference.ee[:2], task="position")
+    fz = sc.controller.funnel_z  # the paper's end-effector funnels, x and y
+    funnel_z = FunnelParams(*(tuple(getattr(fz, f.name)[:2]) for f in dataclasses.fields(fz)))
+    ctrl = dataclasses.replace(sc.controller, funnel_z=funnel_z)
+    return dataclasses.replace(sc, reference=ref, controller=ctrl)
+
+
+@pytest.mark.parametrize("scheme", ["ppc", "no-ppc", "no-attitude"])
+def test_numba_period_reproduces_numpy_reference_on_the_position_task(scheme):
+    """The planar position task (two task rows) runs the compiled period too, with the
+    reference's values (bound and reason as above)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fast, fast_states, setup = _trajectory(_offaxis_position(scheme), "numba")
+        ref, ref_states, _ = _trajectory(_offaxis_position(scheme), "numpy")
+    assert setup.n_task == 2
+    scale = np.maximum(np.abs(ref).max(axis=0), 1e-6)
+    assert np.max(np.abs(fast - ref) / scale) < 1e-9
+    assert np.max(np.abs(fast_states - ref_states) / np.maximum(np.abs(ref_states), 1.0)) < 1e-9
+
+
 @pytest.mark.parametrize(
     "null_space",
     [NullSpace("manipulability", 1.0), NullSpace("joint-centering", 1.0, (0.5,) * 5)],
