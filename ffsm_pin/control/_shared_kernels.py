@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from .._array_kernels import _mv
+from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
 
 STATUS_OK = 0
 STATUS_FUNNEL_Z = 1  # end-effector error left its funnel
@@ -25,8 +26,8 @@ STATUS_NONFINITE = 6  # u_m not finite
 F_R0, F_RI, F_BETA, F_A, F_B1, F_B2, F_UP, F_LO = range(8)
 # entries of the packed null-space array (pack_null_space)
 NS_CODE, NS_GAIN, NS_STEP, NS_CENTER = range(4)
-#: the code of the joint-centering objective (control/null_space.py: OBJECTIVE_CODE)
-NS_JOINT_CENTERING = 2
+#: the code of the joint-centering objective
+NS_JOINT_CENTERING = OBJECTIVE_CODE["joint-centering"]
 # entries of the packed gains array (gains_array); q_bd has m3 entries
 G_KB, G_KZ, G_KDE, G_KD, G_G1, G_G2, G_G3, G_THR, G_QBD = range(9)
 
@@ -51,8 +52,6 @@ def pack_null_space(null_space, center, n: int) -> np.ndarray | None:
     is ``"none"``: the kernels test ``ns is not None``, which numba decides when it compiles,
     so a run without the null-space term does not compile its gradient (a first run's
     critical path, about 1-2 s)."""
-    from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
-
     if OBJECTIVE_CODE[null_space.objective] == 0:
         return None
     out = np.zeros(3 + n)

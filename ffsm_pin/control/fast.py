@@ -120,11 +120,12 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     a_b = theta_b[0] + g[G_KB] * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
     Hp = Hbm / hh  # pseudo-inverse of the row H_bm
     U = np.eye(n) - np.outer(Hp, Hbm)
-    pinv, sigma, damping = damped_pinv(Jm @ U, g[G_THR])
+    A = Jm @ U
+    pinv, sigma, damping = damped_pinv(A, g[G_THR])
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
-        A = Jm @ U  # (ns None, no null-space term: numba compiles none of this)
+        # (ns None, no null-space term: numba compiles none of this)
         grad = _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns,
                                     q_b, q_m, theta_b, theta_z)  # fmt: skip
         xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))

@@ -13,11 +13,6 @@ from ..robot import Robot
 from ..scenario.spec import InitialCondition
 
 
-def is_spatial(robot) -> bool:
-    """True for a free-flyer root (``robot.base == "free-flyer"``)."""
-    return robot.base == "free-flyer"
-
-
 def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.ndarray]:
     """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
     return _INITIAL_STATE[robot.base](robot, init)

@@ -35,6 +35,17 @@ def _reference_base_inertia(model, theta_d, q_b, q_m, w):
     return M[:m3, :m3], Mbb_dot
 
 
+def _recorded_rows(model, rng, rows: int) -> tuple:
+    """Random recorded rows as a run stores them: q_b (N, m3), q_m, w, dw/dt (N, n + m3) and
+    dw_b, the base's part of dw/dt, (N,) planar or (N, 3) spatial."""
+    m3, nb, n = model.m3, model.n_joints + model.m3, model.n_joints
+    q_b = rng.uniform(-3, 3, (rows, 1)) if m3 == 1 else rng.uniform(-0.4, 0.4, (rows, 3))
+    q_m = rng.uniform(-2, 2, (rows, n))
+    w = rng.normal(size=(rows, nb))
+    w_dot = rng.normal(size=(rows, nb))
+    return q_b, q_m, w, w_dot, (w_dot[:, 0] if m3 == 1 else w_dot[:, :3])
+
+
 @pytest.mark.parametrize("geometry", ["planar", "spatial"])
 def test_compiled_equals_reference_and_definition(geometry, reduced_model_of):
     model = reduced_model_of(geometry)
@@ -76,15 +87,10 @@ def test_reaction_torques_after_the_run_equal_the_model_row_by_row(geometry, red
     bitwise the per-row formula the run loop used (the spatial one was checked bitwise on the
     built-in cases with tools/compare_runs.py, its matrix products are BLAS calls)."""
     model = reduced_model_of(geometry)
-    m3, nb, n = model.m3, model.n_joints + model.m3, model.n_joints
+    m3 = model.m3
     theta_d = np.array(model.theta_d)
-    rng = np.random.default_rng(7)
     rows = 5
-    q_b = rng.uniform(-3, 3, (rows, 1)) if m3 == 1 else rng.uniform(-0.4, 0.4, (rows, 3))
-    q_m = rng.uniform(-2, 2, (rows, n))
-    w = rng.normal(size=(rows, nb))
-    w_dot = rng.normal(size=(rows, nb))
-    dw_b = w_dot[:, 0] if m3 == 1 else w_dot[:, :3]  # recorded as (N,) planar, (N, 3) spatial
+    q_b, q_m, w, w_dot, dw_b = _recorded_rows(model, np.random.default_rng(7), rows)
     fast, ref = (reaction_torques(model, theta_d, c)(q_b, q_m, w, dw_b) for c in (True, False))
     assert fast.shape == ref.shape == ((rows,) if m3 == 1 else (rows, 3))
     per_row = _compiled_base_inertia(model, theta_d)
@@ -105,13 +111,8 @@ def test_reaction_torques_in_two_threads_equal_one_pass(geometry, reduced_model_
     from ffsm_pin.control import diagnostics
 
     model = reduced_model_of(geometry)
-    m3, nb, n = model.m3, model.n_joints + model.m3, model.n_joints
     theta_d = np.array(model.theta_d)
-    rng = np.random.default_rng(3)
-    rows = 7
-    q_b = rng.uniform(-3, 3, (rows, 1)) if m3 == 1 else rng.uniform(-0.4, 0.4, (rows, 3))
-    q_m, w = rng.uniform(-2, 2, (rows, n)), rng.normal(size=(rows, nb))
-    dw_b = rng.normal(size=rows) if m3 == 1 else rng.normal(size=(rows, 3))
+    q_b, q_m, w, _, dw_b = _recorded_rows(model, np.random.default_rng(3), 7)
     f = reaction_torques(model, theta_d, True)
     one_pass = f(q_b, q_m, w, dw_b)
     monkeypatch.setattr(diagnostics, "THREAD_ROWS", 2)
