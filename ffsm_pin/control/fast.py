@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import _put, _put_rows
+from .._array_kernels import _put
 from .._arrays import contiguous_rows as _rows
 from ..model._planar_kernels import (
     column_sums,
@@ -57,10 +57,13 @@ from ._shared_kernels import (
     STATUS_OK,
     _reference,
     damped_pinv,
+    difference,
+    filter_regressor_update,
     funnel_terms,
     joint_centering_gradient,
     manipulability_gradient,
     perturbed_joints,
+    positive_definite,
     theta_z_step,
 )
 
@@ -214,20 +217,20 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     w_tilde = w - w_hat
     Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
     M_hat = S.T @ Mphi @ S
-    if np.linalg.eigvalsh(M_hat)[0] <= 0:
+    if not positive_definite(M_hat):
         return STATUS_M_NOT_PD, 0.0, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g[G_G3] * dt
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
     eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-    rr = (Ymd - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
+    rr = difference(Ymd, Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
     status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g[G_KD])
     if status != STATUS_OK:
         return status, value, none, none, none
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
-    Y_dc = y_m(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear) - Ymd + Yh
+    YM = y_m(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear)
     decay = np.exp(-g[G_KDE] * dt)
-    _put_rows(Y_df, decay * Y_df + (-np.expm1(-g[G_KDE] * dt) / g[G_KDE]) * Y_dc)
+    filter_regressor_update(Y_df, decay, -np.expm1(-g[G_KDE] * dt) / g[G_KDE], YM, Ymd, Yh)
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
     return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde

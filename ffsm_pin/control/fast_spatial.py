@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import _put, _put_rows
+from .._array_kernels import _put
 from .._arrays import contiguous_rows as _rows
 from ..model._spatial_kernels import (
     attitude_rows,
@@ -62,10 +62,14 @@ from ._shared_kernels import (
     _reference,
     _solve,
     damped_pinv,
+    difference,
+    filter_regressor_update,
     funnel_terms,
     joint_centering_gradient,
     manipulability_gradient,
     perturbed_joints,
+    positive_definite,
+    smallest_singular_value_above,
     theta_z_step,
 )
 
@@ -324,14 +328,14 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     if adaptive:
         M_hat = np.empty((N, N))
         mass_matrix(R, z, theta_d, M_hat)
-        if np.linalg.eigvalsh(M_hat)[0] <= 0:
+        if not positive_definite(M_hat):
             return STATUS_M_NOT_PD, 0.0, none, none, none
         cg = g[G_G3] * dt
         d_theta_d = -cg * (
             Y_df.T @ _solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
         )  # Eq. (51), linearly implicit
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-        rr = (YMdot - Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
+        rr = difference(YMdot, Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
         wh = w_hat
     else:  # known model: computed torque on the true reduced dynamics
         M_hat = np.ascontiguousarray(M_true)
@@ -343,8 +347,8 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     Mbb = np.ascontiguousarray(M_hat[:3, :3])
     Mbm = np.ascontiguousarray(M_hat[:3, 3:])
     denom = Mbb + Mbm @ sens
-    smallest = np.linalg.svd(denom)[1][2]
-    if not smallest > 1e-12 * np.max(np.abs(Mbb)):
+    regular, smallest = smallest_singular_value_above(denom, 1e-12 * np.max(np.abs(Mbb)))
+    if not regular:
         return STATUS_BASE_ROW, smallest, none, none, none
     wb_dot = _solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
@@ -358,7 +362,7 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
         decay = np.exp(-g[G_KDE] * dt)
         gain = -np.expm1(-g[G_KDE] * dt) / g[G_KDE]
-        _put_rows(Y_df, decay * Y_df + gain * (YM - YMdot + Yh))  # Eq. (50)
+        filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)  # Eq. (50)
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
     else:

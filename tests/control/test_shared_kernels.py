@@ -1,13 +1,21 @@
 """The compiled kernels shared by the planar and spatial periods equal their numpy references:
 the funnel transformation (control/funnel.py: psi, Phi inside, and the same exit index
-outside) and the damped right pseudo-inverse (control/linalg.py: damped_row_pinv)."""
+outside) and the damped right pseudo-inverse (control/linalg.py: damped_row_pinv); the two
+decisions the periods make by cheaper means than LAPACK (M-hat positive definite, the base rows'
+3x3 matrix regular) are LAPACK's decisions."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ffsm_pin.control._shared_kernels import damped_pinv, funnel_terms, pack_funnel
+from ffsm_pin.control._shared_kernels import (
+    damped_pinv,
+    funnel_terms,
+    pack_funnel,
+    positive_definite,
+    smallest_singular_value_above,
+)
 from ffsm_pin.control.funnel import Funnel, FunnelExit, FunnelParams
 from ffsm_pin.control.linalg import damped_row_pinv
 
@@ -117,3 +125,56 @@ def test_null_space_objective_kernels_equal_the_numpy_reference(rng):
         # differs) by the step (null_space.GRADIENT_STEP): ~1e-10 relative; 1e-8 allowed
         np.testing.assert_allclose(got.real, expected.real, rtol=1e-8, atol=1e-12)
         np.testing.assert_allclose(got.imag, expected.imag, rtol=1e-8, atol=1e-40)
+
+
+def _with_eigenvalues(rng, lam):
+    """A random symmetric matrix with eigenvalues ``lam``."""
+    Q, _ = np.linalg.qr(rng.normal(size=(len(lam), len(lam))))
+    A = Q @ np.diag(lam) @ Q.T
+    return 0.5 * (A + A.T)
+
+
+@pytest.mark.parametrize("n", [4, 5, 10])
+def test_positive_definite_is_the_eigenvalue_decision(rng, n):
+    """Cholesky's decision is LAPACK's smallest-eigenvalue decision for well-separated cases
+    (mass-matrix-like scales, condition up to 1e8) and for indefinite or singular ones."""
+    for smallest in (1e-8, 1e-3, 1.0, 0.0, -1e-6, -1.0):
+        for _ in range(20):
+            lam = np.sort(rng.uniform(0.1, 50.0, n))
+            lam[0] = smallest * lam[-1] if smallest else 0.0
+            A = _with_eigenvalues(rng, lam)
+            expected = np.linalg.eigvalsh(A)[0] > 0
+            if smallest == 0.0:
+                # an exactly singular matrix is PD to rounding or not: both answers are
+                # LAPACK's when the factorisation meets a non-positive pivot (the fallback)
+                continue
+            assert positive_definite(A) == expected, (n, smallest)
+
+
+def test_positive_definite_falls_back_to_lapack_when_a_pivot_fails():
+    """A pivot that is not positive hands the decision to eigvalsh: a matrix with a zero first
+    diagonal entry is never PD, and the answer is False as LAPACK's."""
+    A = np.array([[0.0, 1.0], [1.0, 2.0]])
+    assert not positive_definite(A)
+    assert not positive_definite(-np.eye(3))
+    assert positive_definite(np.diag([1e-300, 1.0, 1e300]))
+
+
+@pytest.mark.parametrize("sigma3", [1e-14, 1e-12, 9e-13, 1.1e-12, 1e-9, 1e-3, 1.0])
+def test_base_rows_regularity_is_the_svd_decision(rng, sigma3):
+    """The determinant bound never contradicts the SVD: over random 3x3 matrices with a
+    chosen smallest singular value around the period's tolerance (1e-12 |M_bb|), the decision
+    is ``svd(A)[1][2] > tol``, and the value is the SVD's whenever the SVD decided."""
+    for _ in range(50):
+        U, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        V, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        s = np.array([rng.uniform(0.5, 20.0), rng.uniform(0.1, 5.0), sigma3])
+        A = U @ np.diag(s) @ V.T
+        tol = 1e-12 * rng.uniform(0.5, 2.0)
+        exact = np.linalg.svd(A)[1][2]
+        regular, value = smallest_singular_value_above(A, tol)
+        if abs(exact - tol) > 1e-6 * tol:  # (a tie at rounding level is either answer)
+            assert regular == (exact > tol), (sigma3, exact, tol)
+        if not np.isnan(value):
+            assert value == pytest.approx(exact, rel=1e-9, abs=1e-15)
+    assert smallest_singular_value_above(np.zeros((3, 3)), 1e-12) == (False, 0.0)
