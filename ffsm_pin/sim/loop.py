@@ -120,6 +120,11 @@ def _after_run_signals(
     return per_row, truth
 
 
+#: The columns the loop writes at every recorded step (as recorder_shapes), and those of what
+#: the controller saw when there are sensors.
+_LOOP_COLUMNS = ("t", "q", "v", "w", "u_m", "u_cmd", "z_e", "z_e_dot", "q_b", "dw_b")
+_SEEN_COLUMNS = ("meas_q_b", "meas_q_m", "meas_w", "meas_z_e", "meas_z_e_dot")
+
 #: [rad/s] the blow-up guard: a run stops when an angular rate of the plant exceeds it
 RATE_LIMIT = 1e4
 
@@ -225,6 +230,13 @@ def simulate(
                         shapes = {**shapes, **new}
                         rec = Recorder(shapes, n_rows, spool_dir)
                         A = rec.arrays
+                    # the recorder's columns, looked up once (its arrays outlive every spill)
+                    signal_columns = [(key, A[names[key]]) for key in signals]
+                    A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
+                        A[key] for key in _LOOP_COLUMNS
+                    )
+                    if sensors is not None:
+                        A_mq_b, A_mq_m, A_mw, A_mz_e, A_mz_e_dot = (A[key] for key in _SEEN_COLUMNS)
             except SimulationError as exc:
                 completed, stop_reason, stop_time = False, str(exc), exc.time
                 stop_cause, stop_funnel = exc.cause, exc.funnel
@@ -248,8 +260,10 @@ def simulate(
             if record:
                 i = rec.i
                 try:
-                    for key, val in signals.items():
-                        A[names[key]][i] = val
+                    if len(signals) != len(signal_columns):
+                        raise KeyError(sorted(set(signals).symmetric_difference(names)))
+                    for key, column in signal_columns:
+                        column[i] = signals[key]
                 except (KeyError, ValueError) as exc:
                     completed, stop_time, stop_cause = False, t, "controller"
                     stop_reason = (
@@ -258,16 +272,14 @@ def simulate(
                         "name and shape every period"
                     )
                     break
-                A["t"][i] = t
-                A["q"][i], A["v"][i], A["w"][i], A["u_m"][i] = q, v, meas.w, u_m
-                A["u_cmd"][i] = u_cmd
-                A["z_e"][i], A["z_e_dot"][i] = meas.z_e[:nt], meas.z_e_dot[:nt]
-                A["q_b"][i] = meas.q_b
+                A_t[i], A_q[i], A_v[i], A_w[i], A_u_m[i] = t, q, v, meas.w, u_m
+                A_u_cmd[i] = u_cmd
+                A_z_e[i], A_z_e_dot[i] = meas.z_e[:nt], meas.z_e_dot[:nt]
+                A_q_b[i] = meas.q_b
                 if sensors is not None:  # what the controller saw
-                    A["meas_q_b"][i], A["meas_q_m"][i], A["meas_w"][i] = seen.q_b, seen.q_m, seen.w
-                    A["meas_z_e"][i] = seen.z_e[:nt]
-                    A["meas_z_e_dot"][i] = seen.z_e_dot[:nt]
-                A["dw_b"][i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
+                    A_mq_b[i], A_mq_m[i], A_mw[i] = seen.q_b, seen.q_m, seen.w
+                    A_mz_e[i], A_mz_e_dot[i] = seen.z_e[:nt], seen.z_e_dot[:nt]
+                A_dw_b[i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
                 rec.commit()
             if final:
                 break

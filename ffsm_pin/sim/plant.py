@@ -168,10 +168,11 @@ class Plant:
         """(P, L) of :meth:`momentum` on N recorded states, q_rows (N, nq), v_rows (N, nv):
         P (N, n_linear) [kg m/s], L (N,) planar or (N, 3) [kg m^2/s] (a run computes them
         after its loop)."""
-        out = np.empty((len(q_rows), self._rows.size))
-        for i in range(len(q_rows)):
-            out[i] = self.momentum(q_rows[i], v_rows[i])
-        return self.split_momentum(out)
+        out = np.empty((len(q_rows), 6))  # h_g, its rows taken once at the end
+        centroidal, model, data = pin.computeCentroidalMomentum, self.model, self.data
+        for i, (q, v) in enumerate(zip(q_rows, v_rows, strict=True)):
+            out[i] = centroidal(model, data, q, v).vector
+        return self.split_momentum(out[:, self._rows])
 
     def split_momentum(self, momentum: np.ndarray) -> tuple:
         """(P, L) of :meth:`momentum`'s result, or of rows of them (last axis): P [kg m/s] the

@@ -138,11 +138,33 @@ class Nan:
         return np.full(self.n, np.nan) if meas.t > 0.1 else np.zeros(self.n)
 """
 
+NEW_SIGNAL = """
+import numpy as np
+class Late:
+    def __init__(self, ctx):
+        self.n = ctx.n_joints
+    def step(self, meas):
+        signals = {"gain": 1.0}
+        if meas.t > 0.02:
+            signals["extra"] = 2.0
+        return np.zeros(self.n), signals
+"""
+RESHAPED = """
+import numpy as np
+class Grows:
+    def __init__(self, ctx):
+        self.n = ctx.n_joints
+    def step(self, meas):
+        return np.zeros(self.n), {"gain": np.zeros(2 if meas.t > 0.03 else 1)}
+"""
+
 
 @pytest.mark.parametrize(
     "code, kind, words, t_stop",
     [
         (RAISES, "user.py:Boom", ["RuntimeError", "gain schedule exhausted"], 0.05),
+        (NEW_SIGNAL, "user.py:Late", ["signals changed", "extra"], 0.021),
+        (RESHAPED, "user.py:Grows", ["signals changed", "ValueError"], 0.031),
         (WRONG_SHAPE, "user.py:Wide", ["shape (5,)", "expected (4,)"], 0.0),
         (NOT_FINITE, "user.py:Nan", ["non-finite", "(4,)"], 0.101),
     ],
