@@ -388,20 +388,19 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     motion (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step."""
     n = q_m.size
     nb = n + 1
-    N = n + 3
     R = np.empty((nb, 3, 3))
     z = np.empty((n, 3))
     kinematics(q_b, q_m, jr, ax, R, z)
-    M = np.empty((N, 3))
+    M = np.empty((3, 3))  # M_bb alone (mass_matrix skips the joint rows)
     mass_matrix(R, z, theta_d, M)
     hj = 1j * _H
     q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     Rc = np.empty((nb, 3, 3), dtype=np.complex128)
     zc = np.empty((n, 3), dtype=np.complex128)
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
-    Mc = np.empty((N, 3), dtype=np.complex128)
+    Mc = np.empty((3, 3), dtype=np.complex128)
     mass_matrix(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
-    return M[:3, :3].copy(), Mc[:3, :3].imag / _H
+    return M, Mc.imag / _H
 
 
 @njit(cache=True, nogil=True)  # rows in threads: control/diagnostics.reaction_torques

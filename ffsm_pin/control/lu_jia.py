@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .backend import numba_available
 from .controller import CoordinatedController, check_feasibility
 from .diagnostics import residual_54
 from .gains import step_problems
@@ -85,7 +86,14 @@ class LuJiaController:
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
-        self._residual = residual_54(ctx.model, ctx.truth[1], law.backend == "numba")
+        # e of Eq. (54) is recorded, never fed back: compiled whenever numba is there (as the
+        # after-run F_r), also when the law runs its numpy reference by default (the planar
+        # known-model scheme: w~ = 0 and Y_df = 0, so e = 0 either way); the numpy residual
+        # only with backend = "numpy" (a reference run throughout)
+        compiled = backend != "numpy" and numba_available()
+        self._residual = residual_54(ctx.model, ctx.truth[1], compiled)
+        if compiled and law.backend != "numba":  # load or compile it now, not in the loop
+            self._residual(ctx.initial.q_b, ctx.initial.q_m, ctx.initial.w, law.Y_df, law.theta_d)
         m = ctx.model
         nb = m.n_joints + m.m3
         self._zero = np.zeros(nb)

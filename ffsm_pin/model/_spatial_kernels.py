@@ -162,11 +162,14 @@ def ym(R, z, a, Y, base_only):
 def mass_matrix(R, z, theta, M):
     """M(q, theta_d) (Eq. 9a), or its first columns when M has fewer columns than rows:
     with M (N, 3), the base columns, i.e. the transposed momentum rows (H_bb H_bm) of
-    Eq. (13). Real or complex (dtype of M: the complex-step evaluation of the kinematic law in
-    :mod:`ffsm_pin.control.fast_spatial` passes complex arguments)."""
+    Eq. (13); with M (3, 3), the base block M_bb alone (the same values as those rows of the
+    larger forms: the joint rows are skipped, not reordered). Real or complex (dtype of M: the
+    complex-step evaluation of the kinematic law in :mod:`ffsm_pin.control.fast_spatial` passes
+    complex arguments)."""
     nb = R.shape[0]
     M[:] = 0.0
-    N, ncols = M.shape
+    N, ncols = z.shape[0] + 3, M.shape[1]
+    base_only = M.shape[0] == 3
     J = np.empty((3, 3), dtype=M.dtype)
     sc = np.zeros((N, 3), dtype=M.dtype)  # columns of S: e_0, e_1, e_2, z_1, ..., z_n
     for i in range(3):
@@ -187,7 +190,7 @@ def mass_matrix(R, z, theta, M):
         for c in range(min(3 + k, ncols)):
             for i in range(3):
                 x[i] = B[i, 0] * sc[c, 0] + B[i, 1] * sc[c, 1] + B[i, 2] * sc[c, 2]
-            _add_st(M, c, k, z, x[0], x[1], x[2], False)
+            _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
     p = 6 * nb
     D = np.empty((3, 3), dtype=M.dtype)
     X = np.empty((3, 3), dtype=M.dtype)
@@ -208,11 +211,11 @@ def mass_matrix(R, z, theta, M):
             for c in range(min(3 + l, ncols)):  # S_k^T K S_l
                 for i in range(3):
                     x[i] = Km[i, 0] * sc[c, 0] + Km[i, 1] * sc[c, 1] + Km[i, 2] * sc[c, 2]
-                _add_st(M, c, k, z, x[0], x[1], x[2], False)
+                _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
             for c in range(min(3 + k, ncols)):  # S_l^T K^T S_k
                 for i in range(3):
                     x[i] = Km[0, i] * sc[c, 0] + Km[1, i] * sc[c, 1] + Km[2, i] * sc[c, 2]
-                _add_st(M, c, l, z, x[0], x[1], x[2], False)
+                _add_st(M, c, l, z, x[0], x[1], x[2], base_only)
 
 
 @njit(cache=True)

@@ -269,7 +269,8 @@ def test_example_robot_data_arms_on_a_satellite(spatial_state, rng, name, ee, lo
 @PROPERTY
 @given(seed=SEEDS, n=st.integers(1, 8))
 def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial_state, seed, n):
-    """The compiled M kernel with a 3-column output gives M's base columns, and with complex
+    """The compiled M kernel with a 3-column output gives M's base columns (with a 3x3 output
+    the same bits of M_bb, the block F_r after a run needs), and with complex
     arguments x + i h dx its imaginary part over h is the exact rate: the parameter
     direction plus dM/dt along the motion, i.e. M(theta') + sum_j (Y_Mdot(w, e_j) theta)
     columns (the same kernel serves the complex-step kinematic law of fast_spatial)."""
@@ -288,6 +289,9 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     cols = np.empty((n + 3, 3))
     kern.mass_matrix(R, z, th, cols)
     assert np.array_equal(cols, full[:, :3])
+    block = np.empty((3, 3))  # M_bb alone: the same bits as the base rows of the larger forms
+    kern.mass_matrix(R, z, th, block)
+    assert block.tobytes() == full[:3, :3].tobytes()
     h = 1e-30
     qb_rate = mrp.L_matrix(qb) @ w[:3]
     Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
@@ -298,5 +302,8 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     rate = bm.mass_matrix(dth, qb, qm)[:, :3] + np.column_stack(
         [bm.Y_Mdot(qb, qm, w, e) @ th for e in np.eye(n + 3)[:3]]
     )
+    blockc = np.empty((3, 3), complex)
+    kern.mass_matrix(Rc, zc, th + 1j * h * dth, blockc)
+    assert blockc.tobytes() == colsc[:3].tobytes()
     assert rel(colsc.real, full[:, :3]) < 1e-14
     assert rel(colsc.imag / h, rate) < 1e-12
