@@ -13,12 +13,14 @@ Usage::
     python tools/compare_runs.py compare /tmp/before /tmp/after --allow-added  # new outputs
     python tools/compare_runs.py compare /tmp/before /tmp/after --normwise --rtol 1e-12 --atol 1e-14
 
-``compare`` checks every key of every ``trajectory.npz`` (same keys, shapes, dtypes; values equal,
-NaN equal to NaN) and every ``summary.json`` value except the wall-clock ones. ``--rtol`` is
-elementwise by default (each entry against the larger of its two values); with ``--normwise``
-each signal's largest difference is taken against its largest magnitude (an entry crossing zero
-is then no failure) and ``--atol`` [the signal's unit] is allowed besides (for signals that are
-rounding noise around zero, as the conserved momentum P, L of a run that starts at rest).
+``compare`` checks every key of every ``trajectory.npz`` (same keys, shapes, dtypes; the same
+bytes: equal values that differ only in a zero's sign or a NaN's payload are reported apart)
+and every ``summary.json`` value except the wall-clock ones. ``--rtol`` is elementwise by
+default (each entry against the larger of its two values); with ``--normwise`` each signal's
+largest difference is taken against its largest magnitude (an entry crossing zero is then no
+failure) and ``--atol`` [the signal's unit] is allowed besides (for signals that are rounding
+noise around zero, as the conserved momentum P, L of a run that starts at rest). What tolerance
+a case can be held to at all: ``tools/rounding_sensitivity.py``.
 """
 
 from __future__ import annotations
@@ -108,7 +110,7 @@ def compare(
             bad = 1
             continue
         ta, tb = np.load(a / case / "trajectory.npz"), np.load(b / case / "trajectory.npz")
-        problems, worst, added, identical = [], 0.0, [], True
+        problems, worst, added, identical, zeros = [], 0.0, [], True, []
         if allow_added:
             added = sorted(set(tb.files) - set(ta.files))
         if set(ta.files) | set(added) != set(tb.files):
@@ -123,6 +125,9 @@ def compare(
                 worst = max(worst, rel)
                 if rel > rtol:
                     problems.append(f"{key}: max rel diff {rel:.3g}")
+            elif x.tobytes() != y.tobytes():  # equal values, other bits: -0.0, NaN payloads
+                identical = False
+                zeros.append(key)
         sa = json.loads((a / case / "summary.json").read_text())
         sb = json.loads((b / case / "summary.json").read_text())
         for key in sorted((set(sa) | set(sb)) - WALL_CLOCK):
@@ -135,6 +140,8 @@ def compare(
                 if not _close(sa[key], sb[key], rtol, normwise, atol):
                     problems.append(f"summary.{key}: {sa[key]!r} vs {sb[key]!r}")
         verdict = "bitwise equal" if identical else f"within tolerance, max rel {worst:.3g}"
+        if not identical and worst == 0.0 and zeros:
+            verdict = f"equal values; bits differ only in signed zeros / NaN payloads of {zeros}"
         verdict += f" (added: {', '.join(added)})" if added else ""
         print(f"{case:22s} {'DIFFERS: ' + '; '.join(problems) if problems else verdict}")
         bad |= bool(problems)

@@ -1,0 +1,37 @@
+"""The developer tools under ``tools/`` run: ``rounding_sensitivity`` moves exactly one joint
+angle of the plant's initial state by one unit in the last place, and reports the runs."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+from ffsm_pin import prepare
+from ffsm_pin.scenario.file import builtin_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _tool(name: str):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_rounding_sensitivity_moves_one_joint_by_one_ulp(capsys):
+    tool = _tool("rounding_sensitivity")
+    scenario = dataclasses.replace(builtin_scenario("case1"), duration=0.02)
+    ref, moved = tool._run(scenario), tool._run(scenario, joint=1)
+    q_ref, q_moved = np.asarray(ref.signals["q"])[0], np.asarray(moved.signals["q"])[0]
+    changed = np.flatnonzero(q_ref != q_moved)
+    nq_root = prepare(scenario).robot.root.nq  # q = (root, q_m)
+    assert changed.tolist() == [nq_root + 1]
+    assert q_moved[changed[0]] == np.nextafter(q_ref[changed[0]], np.inf)
+    assert tool.main(["1", "--duration", "0.02", "--joints", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "as shipped: completed" in out and "joint 0 + 1 ulp" in out
