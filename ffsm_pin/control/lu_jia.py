@@ -11,12 +11,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from .backend import numba_available
+from ..errors import ParameterError, choices_text
+from .backend import BACKENDS, numba_available
 from .controller import CoordinatedController, check_feasibility
 from .diagnostics import residual_54
 from .gains import step_problems
 from .interface import ControllerContext, Measurement
 from .kinematic import KinematicInputs
+
+
+def backend_from(ctx: ControllerContext, backend: str = "auto") -> str:
+    """The backend a run asks for: ``backend`` unless it is ``"auto"``, else
+    ``[controller.params] backend`` (default ``"auto"``), checked against
+    :data:`~.backend.BACKENDS`. The table's other keys are not the paper's controller's (its
+    gains, funnels and estimates have tables of their own): they are left for other controllers,
+    as a campaign that varies ``controller.type`` shares one table (docs/controllers.md)."""
+    value = ctx.params.get("backend", "auto")
+    if value not in BACKENDS:
+        raise ParameterError(
+            f"controller.params.backend = {value!r}: valid choices: {choices_text(BACKENDS)}"
+        )
+    return backend if backend != "auto" else value
 
 
 class LuJiaController:
@@ -29,7 +44,8 @@ class LuJiaController:
         The run's context; the law's keys are read from ``ctx.scenario.controller``.
     backend:
         ``"auto"`` (the compiled period where there is one), ``"numba"`` or ``"numpy"`` (the
-        readable reference); see :class:`~.controller.CoordinatedController`.
+        readable reference); see :class:`~.controller.CoordinatedController`. When ``"auto"``,
+        the scenario's ``[controller.params] backend`` decides (:func:`backend_from`).
 
     Attributes
     ----------
@@ -59,6 +75,7 @@ class LuJiaController:
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.context = ctx
+        backend = backend_from(ctx, backend)
         sc = ctx.scenario
         c = sc.controller
         estimates = ctx.required_estimates()

@@ -16,7 +16,7 @@ import pytest
 
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.control.null_space import NullSpace
-from ffsm_pin.errors import SimulationError
+from ffsm_pin.errors import ParameterError, SimulationError
 from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.scenario.spec import (
@@ -196,6 +196,31 @@ def _known_model_run(backend: str, duration: float = 0.5):
         setup = dataclasses.replace(setup, controller=compiled)
     assert setup.controller.law.backend == backend
     return loop.simulate(setup)
+
+
+def _with_params(name: str, **params):
+    sc = builtin_scenario(name)
+    return dataclasses.replace(sc, controller=dataclasses.replace(sc.controller, params=params))
+
+
+def test_scenario_params_choose_the_backend():
+    """``[controller.params] backend`` picks the law's backend from a scenario file: the
+    planar known-model baseline on its compiled period, case 1 on the numpy reference."""
+    assert prepare(_with_params("known-model", backend="numba")).controller.law.backend == "numba"
+    assert prepare(_with_params("known-model")).controller.law.backend == "numpy"
+    assert prepare(_with_params("case1", backend="numpy")).controller.law.backend == "numpy"
+    assert prepare(_with_params("case1", backend="auto")).controller.law.backend == "numba"
+
+
+def test_a_backend_outside_the_choices_is_refused():
+    """``[controller.params] backend`` is checked: a value outside the choices is an error
+    naming them (the table's other keys are left for other controllers, see
+    tests/sweep/test_campaign.py::test_controller_type_and_params_can_be_varied)."""
+    with pytest.raises(ParameterError) as err:
+        prepare(_with_params("case1", backend="fast"))
+    message = str(err.value)
+    assert "controller.params.backend = 'fast'" in message
+    assert "'auto', 'numba', 'numpy'" in message
 
 
 def test_planar_known_model_keeps_the_reference_unless_numba_is_asked():
