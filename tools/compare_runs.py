@@ -68,10 +68,17 @@ def record(out: Path, cases: list[str], record_every: int, duration: float | Non
     return 0
 
 
+def _diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a - b| entrywise: 0 where both are NaN, inf where only one is (a NaN against a number
+    is a difference, which nanmax would otherwise skip)."""
+    nan_a, nan_b = np.isnan(a), np.isnan(b)
+    diff = np.where(nan_a & nan_b, 0.0, np.abs(a - b))
+    return np.where(nan_a ^ nan_b, np.inf, diff)
+
+
 def _max_rel(a: np.ndarray, b: np.ndarray) -> float:
     a, b = np.asarray(a, float), np.asarray(b, float)
-    both_nan = np.isnan(a) & np.isnan(b)
-    diff = np.where(both_nan, 0.0, np.abs(a - b))
+    diff = _diff(a, b)
     scale = np.maximum(np.abs(a), np.abs(b))
     scale = np.where(scale > 0, scale, 1.0)
     return float(np.nanmax(diff / scale)) if diff.size else 0.0
@@ -81,7 +88,7 @@ def _normwise(a: np.ndarray, b: np.ndarray, atol: float) -> float:
     """max |a - b| beyond ``atol`` over max |a|, NaN equal to NaN."""
     a, b = np.asarray(a, float), np.asarray(b, float)
     both_nan = np.isnan(a) & np.isnan(b)
-    diff = np.where(both_nan, 0.0, np.abs(a - b))
+    diff = _diff(a, b)
     if not diff.size:
         return 0.0
     excess = max(float(np.nanmax(diff)) - atol, 0.0)

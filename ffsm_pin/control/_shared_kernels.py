@@ -285,7 +285,7 @@ def smallest_singular_value_above(A, tol):
     for i in range(3):
         for j in range(3):
             fro2 += A[i, j] * A[i, j]
-    if fro2 > 0.0:
+    if fro2 > 0.0 and np.isfinite(det):  # (entries near 1e100: det overflows, SVD decides)
         # the determinant's rounding is below ~20 eps |A|^3, the bound's below ~20 eps |A|
         if 2.0 * abs(det) / fro2 - 64.0 * 2.220446049250313e-16 * np.sqrt(fro2) > tol:
             return True, np.nan

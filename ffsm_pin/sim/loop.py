@@ -261,7 +261,7 @@ def simulate(
                 i = rec.i
                 try:
                     if len(signals) != len(signal_columns):
-                        raise KeyError(sorted(set(signals).symmetric_difference(names)))
+                        raise KeyError(sorted(map(repr, set(signals).symmetric_difference(names))))
                     for key, column in signal_columns:
                         column[i] = signals[key]
                 except (KeyError, ValueError) as exc:

@@ -11,6 +11,8 @@ import pytest
 
 from ffsm_pin.control._shared_kernels import (
     damped_pinv,
+    difference,
+    filter_regressor_update,
     funnel_terms,
     pack_funnel,
     positive_definite,
@@ -138,17 +140,12 @@ def _with_eigenvalues(rng, lam):
 def test_positive_definite_is_the_eigenvalue_decision(rng, n):
     """Cholesky's decision is LAPACK's smallest-eigenvalue decision for well-separated cases
     (mass-matrix-like scales, condition up to 1e8) and for indefinite or singular ones."""
-    for smallest in (1e-8, 1e-3, 1.0, 0.0, -1e-6, -1.0):
+    for smallest in (1e-8, 1e-3, 1.0, -1e-6, -1.0):
         for _ in range(20):
             lam = np.sort(rng.uniform(0.1, 50.0, n))
-            lam[0] = smallest * lam[-1] if smallest else 0.0
+            lam[0] = smallest * lam[-1]
             A = _with_eigenvalues(rng, lam)
-            expected = np.linalg.eigvalsh(A)[0] > 0
-            if smallest == 0.0:
-                # an exactly singular matrix is PD to rounding or not: both answers are
-                # LAPACK's when the factorisation meets a non-positive pivot (the fallback)
-                continue
-            assert positive_definite(A) == expected, (n, smallest)
+            assert positive_definite(A) == (np.linalg.eigvalsh(A)[0] > 0), (n, smallest)
 
 
 def test_positive_definite_falls_back_to_lapack_when_a_pivot_fails():
@@ -178,3 +175,42 @@ def test_base_rows_regularity_is_the_svd_decision(rng, sigma3):
         if not np.isnan(value):
             assert value == pytest.approx(exact, rel=1e-9, abs=1e-15)
     assert smallest_singular_value_above(np.zeros((3, 3)), 1e-12) == (False, 0.0)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e6])
+def test_the_determinant_bound_decides_clear_cases_and_is_never_wrong(rng, scale):
+    """Clearly regular matrices are decided by the bound (no SVD: the value is NaN); at
+    sigma_3 just above the tolerance, with sigma_1 = sigma_2 (where the bound is tightest) and
+    at large and small scales, a True from the bound is always the SVD's True."""
+    bound_decided = 0
+    for _ in range(200):
+        U, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        V, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        tol = 1e-12 * scale
+        s1 = scale * rng.uniform(0.5, 2.0)
+        s3 = tol * (1.0 + rng.choice([1e-14, 1e-10, 1e-6, 1e-2, 1.0, 1e6]))
+        A = U @ np.diag([s1, s1, s3]) @ V.T
+        regular, value = smallest_singular_value_above(A, tol)
+        if np.isnan(value):
+            bound_decided += 1
+            assert regular and np.linalg.svd(A)[1][2] > tol
+    assert bound_decided > 0
+    A = U @ np.diag([scale, scale, scale]) @ V.T  # well conditioned: the bound decides
+    regular, value = smallest_singular_value_above(A, tol)
+    assert regular and np.isnan(value)
+
+
+def test_loops_give_the_bits_of_the_array_expressions(rng):
+    """difference and filter_regressor_update (Eq. 50) equal the numpy expressions they replace
+    byte for byte, signed zeros included."""
+    shape = (10, 33)
+    Y_df, YM, YMdot, Yh = (rng.normal(size=shape) for _ in range(4))
+    for arr in (Y_df, YM, YMdot, Yh):  # signed zeros where the sums cancel
+        arr[rng.random(shape) < 0.2] = 0.0
+        arr[rng.random(shape) < 0.1] = -0.0
+    YMdot[:, :3] = YM[:, :3]  # exact cancellations
+    assert difference(YMdot, Yh).tobytes() == (YMdot - Yh).tobytes()
+    decay, gain = np.exp(-0.3e-3), -np.expm1(-0.3e-3) / 0.3
+    expected = decay * Y_df + gain * (YM - YMdot + Yh)
+    filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)
+    assert Y_df.tobytes() == expected.tobytes()

@@ -149,6 +149,17 @@ class Late:
             signals["extra"] = 2.0
         return np.zeros(self.n), signals
 """
+DROPPED = """
+import numpy as np
+class Drops:
+    def __init__(self, ctx):
+        self.n = ctx.n_joints
+    def step(self, meas):
+        signals = {"gain": 1.0}
+        if meas.t < 0.02:
+            signals["early"] = 2.0
+        return np.zeros(self.n), signals
+"""
 RESHAPED = """
 import numpy as np
 class Grows:
@@ -165,6 +176,7 @@ class Grows:
         (RAISES, "user.py:Boom", ["RuntimeError", "gain schedule exhausted"], 0.05),
         (NEW_SIGNAL, "user.py:Late", ["signals changed", "extra"], 0.021),
         (RESHAPED, "user.py:Grows", ["signals changed", "ValueError"], 0.031),
+        (DROPPED, "user.py:Drops", ["signals changed", "early"], 0.02),
         (WRONG_SHAPE, "user.py:Wide", ["shape (5,)", "expected (4,)"], 0.0),
         (NOT_FINITE, "user.py:Nan", ["non-finite", "(4,)"], 0.101),
     ],
