@@ -28,7 +28,10 @@ Rows (``--cases``):
 * ``planar-every100``: the same with ``--record-every 100``;
 * ``spatial``: the Panda on a satellite (``--case spatial``);
 * ``spatial-pose``: the 9-joint arm with full pose tracking (``--case spatial-pose``);
-* ``known-model``, ``spatial-known-model``: the true-parameter baselines of case 1 and spatial.
+* ``known-model``, ``spatial-known-model``: the true-parameter baselines of case 1 and spatial;
+* ``known-model-numba``: the planar one with ``[controller.params] backend = "numba"`` (its
+  compiled period; the default runs the numpy reference, docs/controllers.md), as a scenario
+  file written next to the run.
 
 Samples are taken round-robin: each round runs, for every row in turn, the run and then its
 bare loop, so a change of machine load hits both sides of a row alike and every row alike. The
@@ -68,8 +71,11 @@ ROWS = {
     "spatial": ("spatial", True, []),
     "spatial-pose": ("spatial-pose", True, []),
     "known-model": ("known-model", False, []),
+    "known-model-numba": ("known-model", False, []),
     "spatial-known-model": ("spatial-known-model", True, []),
 }
+# rows whose run sets [controller.params] (written as a scenario file next to the run)
+PARAMS = {"known-model-numba": {"backend": "numba"}}
 # rows of the centroidal momentum h_g = (P, L) the projection keeps, per root joint
 MOMENTUM_ROWS = {"JointModelPlanar": [0, 1, 5], "JointModelFreeFlyer": [0, 1, 2, 3, 4, 5]}
 # (label, numerator row, denominator: "py" the row's bare Python loop (the performance
@@ -82,6 +88,7 @@ TARGETS = [
     ("spatial-pose run / spatial run", "spatial-pose", "spatial", 1.5),
     ("spatial-known-model run / spatial run", "spatial-known-model", "spatial", 1.5),
     ("known-model run / planar run", "known-model", "planar", 1.5),
+    ("known-model (backend numba) / planar run", "known-model-numba", "planar", 1.5),
     ("every step / --record-every 100", "planar", "planar-every100", 1.15),
 ]
 
@@ -91,9 +98,28 @@ def env() -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-def run_step_time(scenario: str, duration: float, extra: list[str], out: Path) -> tuple:
-    """(seconds per step, steps, completed) of one ``python -m ffsm_pin.sim`` run's loop."""
-    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--case", scenario, "--duration", str(duration)]
+def scenario_file(scenario: str, params: dict, folder: Path) -> Path:
+    """The built-in ``scenario`` with ``[controller.params]`` set to ``params``, as a file."""
+    import dataclasses
+
+    from ffsm_pin.scenario.file import builtin_scenario, scenario_to_toml
+
+    sc = builtin_scenario(scenario)
+    sc = dataclasses.replace(sc, controller=dataclasses.replace(sc.controller, params=params))
+    path = folder / f"{scenario}-{'-'.join(map(str, params.values()))}.toml"
+    path.write_text(scenario_to_toml(sc))
+    return path
+
+
+def run_step_time(
+    scenario: str, duration: float, extra: list[str], out: Path, params: dict | None = None
+) -> tuple:
+    """(seconds per step, steps, completed) of one ``python -m ffsm_pin.sim`` run's loop;
+    with ``params``, the built-in scenario's ``[controller.params]`` replaced."""
+    source = ["--case", scenario]
+    if params:
+        source = ["--scenario", str(scenario_file(scenario, params, out.parent))]
+    cmd = [sys.executable, "-m", "ffsm_pin.sim", *source, "--duration", str(duration)]
     cmd += [*extra, "--no-plots", "--no-html", "--quiet", "--out", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env(), check=False)
     if proc.returncode not in (0, 3):
@@ -229,7 +255,9 @@ def main() -> int:
         tmp = Path(tmp_name)
         for k in range(args.repeat + 1):
             for name, (scenario, duration, extra) in rows.items():
-                tr, n, completed = run_step_time(scenario, duration, extra, tmp / name)
+                tr, n, completed = run_step_time(
+                    scenario, duration, extra, tmp / name, PARAMS.get(name)
+                )
                 bare = bare_step_time(scenario, duration)
                 if not completed:
                     stopped.add(name)
