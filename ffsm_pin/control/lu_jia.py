@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError, choices_text
-from .backend import BACKENDS, numba_available
+from .backend import BACKENDS
 from .controller import CoordinatedController, check_feasibility
 from .diagnostics import residual_54
 from .gains import step_problems
@@ -103,14 +103,7 @@ class LuJiaController:
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
-        # e of Eq. (54) is recorded, never fed back: compiled whenever numba is there (as the
-        # after-run F_r), also when the law runs its numpy reference by default (the planar
-        # known-model scheme: w~ = 0 and Y_df = 0, so e = 0 either way); the numpy residual
-        # only with backend = "numpy" (a reference run throughout)
-        compiled = backend != "numpy" and numba_available()
-        self._residual = residual_54(ctx.model, ctx.truth[1], compiled)
-        if compiled and law.backend != "numba":  # load or compile it now, not in the loop
-            self._residual(ctx.initial.q_b, ctx.initial.q_m, ctx.initial.w, law.Y_df, law.theta_d)
+        self._residual = residual_54(ctx.model, ctx.truth[1], law.backend == "numba")
         m = ctx.model
         nb = m.n_joints + m.m3
         self._zero = np.zeros(nb)
@@ -131,8 +124,11 @@ class LuJiaController:
     def step(self, meas: Measurement):
         """u_m for the period [t, t + dt) and the signals at t (before the update)."""
         law = self.law
-        w_tilde = meas.w - law.w_hat if law.adaptive else self._zero
-        e = self._residual(meas.q_b, meas.q_m, w_tilde, law.Y_df, law.theta_d)  # Eq. (54)
+        if law.adaptive:
+            w_tilde = meas.w - law.w_hat
+            e = self._residual(meas.q_b, meas.q_m, w_tilde, law.Y_df, law.theta_d)  # Eq. (54)
+        else:  # the known model: w~ = 0, Y_df = 0 and theta_d-hat = theta_d, so e = 0
+            w_tilde = e = self._zero
         before = {  # the period updates these in place: copies at t
             "theta_z_hat": law.theta_z.copy(),
             "theta_d_hat": law.theta_d.copy(),
