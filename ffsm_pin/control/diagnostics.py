@@ -17,16 +17,19 @@ two are tested against each other (tests/control/test_diagnostics.py).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..model.interface import ReducedModel
 
-#: recorded rows from which :func:`reaction_torques` splits its compiled pass over two threads
-THREAD_ROWS = 2000
+#: rows per piece of work :func:`rows_beside` hands out (a piece costs 0.2-2 ms of a kernel)
+ROWS_PER_PIECE = 256
+
+T = TypeVar("T")
 
 
 def residual_54(
@@ -53,24 +56,14 @@ def reaction_torques(
 ) -> Callable[..., np.ndarray]:
     """f(q_b, q_m, w, dw_b) -> F_r of Eq. (7) on N recorded rows with the true model: q_b
     (N, m3) [rad or MRP], q_m (N, n) [rad], w (N, n + m3) [rad/s], dw_b (N, m3) the base's
-    angular acceleration (inertial frame) [rad/s^2]; planar (N,), spatial (N, 3) [N m]."""
+    angular acceleration (inertial frame) [rad/s^2]; planar (N,), spatial (N, 3) [N m].
+    The compiled pass releases the GIL: :func:`rows_beside` runs it beside other work."""
     if compiled:
         kernels, fixed = _geometry_kernels(model)
 
         def rows_kernel(q_b, q_m, w, dw_b):
-            rows = kernels.reaction_rows_of(q_b, q_m, w, dw_b)
-            n = len(rows[0])
-            if n < THREAD_ROWS:
-                return kernels.reaction_rows(*fixed, *rows, theta_d)
-            # rows are independent and the kernel releases the GIL: the first half in a
-            # thread, the second here (the same values, row by row)
-            cut = n // 2
-            with ThreadPoolExecutor(1) as pool:
-                first = pool.submit(
-                    kernels.reaction_rows, *fixed, *(r[:cut] for r in rows), theta_d
-                )
-                second = kernels.reaction_rows(*fixed, *(r[cut:] for r in rows), theta_d)
-                return np.concatenate((first.result(), second))
+            return kernels.reaction_rows(*fixed, *kernels.reaction_rows_of(q_b, q_m, w, dw_b),
+                                         theta_d)  # fmt: skip
 
         return rows_kernel
     m3 = model.m3
@@ -95,3 +88,43 @@ def _geometry_kernels(model: ReducedModel) -> tuple[Any, tuple]:
     geo = model.kernel_constants()
     kernels = GEOMETRIES[type(geo)]
     return kernels, kernels.true_model_constants(geo)
+
+
+def rows_beside(
+    kernel: Callable[..., np.ndarray], rows: tuple[np.ndarray, ...], beside: Callable[[], T]
+) -> tuple[np.ndarray, T]:
+    """(kernel(*rows), beside()): the row-wise ``kernel`` on pieces of ``rows`` (arrays of
+    equal length), taken in turn by a second thread and, once ``beside`` has returned, by
+    this one; the pieces joined in order. Rows are independent, so the values are the single
+    pass's, bit for bit. Each piece is half of the rows left (at least
+    :data:`ROWS_PER_PIECE`): the second thread needs the GIL only between pieces, which a
+    ``beside`` that holds it (Pinocchio's momentum after a run) yields every 5 ms, and the
+    last pieces are small, so the two threads end together when the kernel releases the GIL
+    (numba's ``nogil``: the reaction torque after a run)."""
+    n = len(rows[0])
+    lock = threading.Lock()
+    nxt = [0]
+    done: dict[int, np.ndarray] = {}
+    started = threading.Event()  # the second thread is inside its first piece
+
+    def work() -> None:
+        while True:
+            with lock:
+                a = nxt[0]
+                if a >= n and done:
+                    break
+                b = min(n, a + max(ROWS_PER_PIECE, (n - a) // 2))
+                nxt[0] = b
+            started.set()
+            done[a] = kernel(*(r[a:b] for r in rows))
+            if b >= n:
+                break
+        started.set()
+
+    with ThreadPoolExecutor(1) as pool:
+        helper = pool.submit(work)
+        started.wait()  # (else the second thread waits for the GIL that beside holds)
+        other = beside()
+        work()
+        helper.result()
+    return np.concatenate([done[a] for a in sorted(done)]), other

@@ -268,14 +268,39 @@ def residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, t
 
 @njit(cache=True)
 def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
-    """(M_bb, dM_bb/dt) of the true model, for the reaction torque of Eq. (7)."""
+    """(M_bb, dM_bb/dt) of the true model, for the reaction torque of Eq. (7).
+
+    The base entries alone of M = S^T M_phi S (Eq. 12) and of dM/dt e_0 = Y_Mdot(w, e_0)
+    theta_d, with the values of the whole products (``(S.T @ M_phi @ S)[0, 0]`` and
+    ``(velocity_regressors(..., e_0)[0] @ theta_d)[0]``), about twice as fast (no C w
+    regressor, three BLAS calls fewer). S's entries are 0 and +-1 and its base column is ones:
+    M_bb below adds the terms of the two products in ascending order (the same bits as
+    OpenBLAS's products here; tested to rounding, since a BLAS picks its own order);
+    S^T Y_Mdot_phi has at most two terms per entry (the same bits in any order), and its
+    product with theta_d is the same BLAS call on the same matrix (tested bit for bit)."""
     nb = S.shape[0]
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
-    M = S.T @ mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    e0 = np.zeros(nb)
-    e0[0] = 1.0
-    Ymd, _ = velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
-    return M[0, 0], (Ymd @ theta_d)[0]
+    Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
+    M_bb = 0.0
+    for k in range(nb):  # (S^T M_phi S)[0, 0], row 0 of S^T M_phi first
+        row = 0.0
+        for j in range(nb):
+            row += S[j, 0] * Mphi[j, k]
+        M_bb += row * S[k, 0]
+    P = K.size
+    dphi = S @ w
+    Y = np.zeros((nb, theta_d.size))  # S^T Y_Mdot_phi(w, e_0): only the pair columns
+    for p in range(P):
+        k, l = K[p], L[p]
+        dd = dphi[l] - dphi[k]
+        fc = -ps[p] * dd  # as velocity_regressors' fc, fs with b = S e_0 = ones
+        fs = -pc[p] * dd
+        bk, bl = S[k, 0], S[l, 0]
+        for i in range(nb):
+            Y[i, nb + p] = S[k, i] * (fc * bl) + S[l, i] * (fc * bk)
+            if not collinear:
+                Y[i, nb + P + p] = S[k, i] * (fs * bl) + S[l, i] * (fs * bk)
+    return M_bb, (Y @ theta_d)[0]
 
 
 @njit(cache=True, nogil=True)  # rows in threads: control/diagnostics.reaction_torques

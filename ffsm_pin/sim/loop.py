@@ -15,14 +15,13 @@ import math
 import tempfile
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from ..control import _first_compile
 from ..control.backend import numba_available
-from ..control.diagnostics import reaction_torques
+from ..control.diagnostics import reaction_torques, rows_beside
 from ..control.interface import recorded_name, split_reply
 from ..control.kinematic import error_terms
 from ..errors import SimulationError
@@ -96,12 +95,11 @@ def _after_run_signals(
 
     def per_row(block) -> dict[str, np.ndarray]:
         t = block["t"]
-        out = {}
         q_m = block["q"][:, nq_root:]
-        with ThreadPoolExecutor(1) as pool:  # F_r beside the rest (its kernel releases the GIL)
-            f_r = pool.submit(reaction, block["q_b"], q_m, block["w"], block["dw_b"])
-            out.update(_row_signals(block, t))
-            out["F_r"] = f_r.result()
+        # F_r beside the rest (its kernel releases the GIL; Pinocchio's momentum holds it)
+        rows = (block["q_b"], q_m, block["w"], block["dw_b"])
+        f_r, out = rows_beside(reaction, rows, lambda: _row_signals(block, t))
+        out["F_r"] = f_r
         return out
 
     def _row_signals(block, t) -> dict[str, np.ndarray]:

@@ -80,6 +80,50 @@ def test_compiled_equals_reference_and_definition(geometry, reduced_model_of):
         np.testing.assert_allclose(mine, F_r, rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.parametrize("urdf", ["paper", "planar5_collinear.urdf", "planar5_offaxis.urdf"])
+def test_planar_base_inertia_equals_the_whole_products(urdf, data_dir):
+    """The planar kernel forms M_bb and dM_bb/dt from the base entries alone; they equal the
+    base entries of the whole products it once formed, S^T M_phi S and Y_Mdot(w, e_0) theta_d
+    (compiled here as they were): dM_bb/dt bit for bit (the same BLAS call on the same
+    matrix), M_bb to the rounding of its sum (the loop adds the terms in ascending order, a
+    BLAS in its own; on the development machine the bits agree too). Both layouts (collinear,
+    off-axis) and a joint turning about -z (planar5: link 3)."""
+    from numba import njit
+
+    from ffsm_pin.model import make_model
+    from ffsm_pin.model._planar_kernels import mass_phi, trig, velocity_regressors
+    from ffsm_pin.robot import load_robot
+
+    @njit
+    def whole(S, off, K, L, collinear, q_b, q_m, w, theta_d):
+        nb = S.shape[0]
+        c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
+        Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
+        M = S.T @ Mphi @ S
+        e0 = np.zeros(nb)
+        e0[0] = 1.0
+        Ymd, _ = velocity_regressors(pc, ps, K, L, S, w, e0, theta_d.size, collinear)
+        return M[0, 0], (Ymd @ theta_d)[0], np.abs(S.T) @ np.abs(Mphi) @ np.abs(S)
+
+    model = make_model(load_robot("ffsm_planar4.urdf" if urdf == "paper" else data_dir / urdf))
+    k = model.kernel_constants()
+    geo = (k.S, k.phi_offset, k.K, k.L, k.collinear)
+    theta_d = np.array(model.theta_d)
+    rng = np.random.default_rng(11)
+    exact = 0
+    for _ in range(200):
+        q_b, q_m = rng.uniform(-3, 3), rng.uniform(-3, 3, model.n_joints)
+        w = rng.normal(0, 2, model.n_joints + 1)
+        M_bb, M_bb_dot = fast.base_inertia(*geo, q_b, q_m, w, theta_d)
+        M_whole, M_dot_whole, size = whole(*geo, q_b, q_m, w, theta_d)
+        assert M_bb_dot == M_dot_whole
+        # the sum's rounding: one ulp of each of its nb^2 partial sums, of at most sum |terms|
+        nb = len(q_m) + 1
+        assert abs(M_bb - M_whole) <= nb**2 * np.finfo(float).eps * size[0, 0]
+        exact += M_bb == M_whole
+    print(f"M_bb bit for bit in {exact} of 200")  # (pytest -s)
+
+
 @pytest.mark.parametrize("geometry", ["planar", "spatial"])
 def test_reaction_torques_after_the_run_equal_the_model_row_by_row(geometry, reduced_model_of):
     """F_r computed after a run on a block of recorded rows (one compiled pass, and the numpy
@@ -105,15 +149,25 @@ def test_reaction_torques_after_the_run_equal_the_model_row_by_row(geometry, red
 
 
 @pytest.mark.parametrize("geometry", ["planar", "spatial"])
-def test_reaction_torques_in_two_threads_equal_one_pass(geometry, reduced_model_of, monkeypatch):
-    """Long recordings are split over two threads (the kernel releases the GIL): the rows are
-    independent, so the result is bitwise the single pass's, odd row counts included."""
+@pytest.mark.parametrize("rows", [0, 1, 7])
+def test_rows_beside_other_work_equal_one_pass(geometry, rows, reduced_model_of, monkeypatch):
+    """After a run, F_r's pass is cut into pieces that a second thread and this one take in
+    turn while this one computes the rest (rows_beside): the rows are independent, so the
+    result is bitwise the single pass's, for every cut (pieces of 2 rows, odd counts, no row),
+    and the other work's result comes back unchanged."""
     from ffsm_pin.control import diagnostics
+    from ffsm_pin.control.diagnostics import rows_beside
 
     model = reduced_model_of(geometry)
     theta_d = np.array(model.theta_d)
-    q_b, q_m, w, _, dw_b = _recorded_rows(model, np.random.default_rng(3), 7)
+    q_b, q_m, w, _, dw_b = _recorded_rows(model, np.random.default_rng(3), rows)
     f = reaction_torques(model, theta_d, True)
     one_pass = f(q_b, q_m, w, dw_b)
-    monkeypatch.setattr(diagnostics, "THREAD_ROWS", 2)
-    np.testing.assert_array_equal(f(q_b, q_m, w, dw_b), one_pass)
+    assert len(one_pass) == rows
+    for piece in (2, 3, 256):
+        monkeypatch.setattr(diagnostics, "ROWS_PER_PIECE", piece)
+        beside = []
+        result, other = rows_beside(f, (q_b, q_m, w, dw_b), lambda: beside.append(1) or "rest")
+        np.testing.assert_array_equal(result, one_pass)
+        assert result.shape == one_pass.shape
+        assert other == "rest" and beside == [1]
