@@ -166,8 +166,13 @@ def test_rows_beside_other_work_equal_one_pass(geometry, rows, reduced_model_of,
     assert len(one_pass) == rows
     for piece in (2, 3, 256):
         monkeypatch.setattr(diagnostics, "ROWS_PER_PIECE", piece)
-        beside = []
-        result, other = rows_beside(f, (q_b, q_m, w, dw_b), lambda: beside.append(1) or "rest")
+        calls: list[int] = []
+
+        def rest(calls=calls) -> str:
+            calls.append(1)
+            return "rest"
+
+        result, other = rows_beside(f, (q_b, q_m, w, dw_b), rest)
         np.testing.assert_array_equal(result, one_pass)
         assert result.shape == one_pass.shape
-        assert other == "rest" and beside == [1]
+        assert other == "rest" and calls == [1]
