@@ -105,7 +105,7 @@ def rows_beside(
     lock = threading.Lock()
     nxt = [0]
     done: dict[int, np.ndarray] = {}
-    started = threading.Event()  # the second thread is inside its first piece
+    started = threading.Event()  # the second thread is about to enter its first piece
 
     def work() -> None:
         while True:
@@ -121,10 +121,18 @@ def rows_beside(
                 break
         started.set()
 
+    def give_up() -> None:  # on an error here: the second thread takes no further piece
+        with lock:
+            nxt[0] = n
+
     with ThreadPoolExecutor(1) as pool:
         helper = pool.submit(work)
         started.wait()  # (else the second thread waits for the GIL that beside holds)
-        other = beside()
-        work()
+        try:
+            other = beside()
+            work()
+        except BaseException:
+            give_up()
+            raise
         helper.result()
     return np.concatenate([done[a] for a in sorted(done)]), other

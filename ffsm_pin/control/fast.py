@@ -273,9 +273,9 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     The base entries alone of M = S^T M_phi S (Eq. 12) and of dM/dt e_0 = Y_Mdot(w, e_0)
     theta_d, with the values of the whole products (``(S.T @ M_phi @ S)[0, 0]`` and
     ``(velocity_regressors(..., e_0)[0] @ theta_d)[0]``), about twice as fast (no C w
-    regressor, three BLAS calls fewer). S's entries are 0 and +-1 and its base column is ones:
-    M_bb below adds the terms of the two products in ascending order (the same bits as
-    OpenBLAS's products here; tested to rounding, since a BLAS picks its own order);
+    regressor; two BLAS calls instead of seven). S's entries are 0 and +-1 and its base
+    column is ones: M_bb below adds the terms of the two products in ascending order (the
+    same bits as OpenBLAS's products here; tested to rounding, since a BLAS picks its order);
     S^T Y_Mdot_phi has at most two terms per entry (the same bits in any order), and its
     product with theta_d is the same BLAS call on the same matrix (tested bit for bit)."""
     nb = S.shape[0]
@@ -303,7 +303,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     return M_bb, (Y @ theta_d)[0]
 
 
-@njit(cache=True, nogil=True)  # rows in threads: control/diagnostics.reaction_torques
+@njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside
 def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` with
     (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N,), q_m (N, n), w (N, n + 1), dw_b (N,)."""

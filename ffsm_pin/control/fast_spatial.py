@@ -403,7 +403,7 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     return M, Mc.imag / _H
 
 
-@njit(cache=True, nogil=True)  # rows in threads: control/diagnostics.reaction_torques
+@njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside
 def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b +
     1/2 w_b x (M_bb w_b)`` (as :func:`ffsm_pin.model._state_spatial.reaction_torque`) with

@@ -83,8 +83,8 @@ def _after_run_signals(
     P, L (``momentum``: :meth:`~ffsm_pin.sim.plant.Plant.momentum_rows`, Pinocchio's
     centroidal momentum, independent of the plant's projection); from the recorded q_b, q, w
     and the base's angular acceleration dw_b: the reaction torque F_r of Eq. (7) with the true
-    model, one compiled pass (``reaction``:
-    :func:`~ffsm_pin.control.diagnostics.reaction_torques`)."""
+    model (``reaction``: :func:`~ffsm_pin.control.diagnostics.reaction_torques`, on pieces of
+    the rows beside the rest, :func:`~ffsm_pin.control.diagnostics.rows_beside`)."""
     ref = setup.scenario.reference
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)

@@ -176,3 +176,39 @@ def test_rows_beside_other_work_equal_one_pass(geometry, rows, reduced_model_of,
         np.testing.assert_array_equal(result, one_pass)
         assert result.shape == one_pass.shape
         assert other == "rest" and calls == [1]
+
+
+def test_rows_beside_stops_the_second_thread_when_the_other_work_fails(monkeypatch):
+    """An error in the other work (or Ctrl-C) reaches the caller, and the second thread takes
+    no piece after it: a slow kernel over many pieces is not waited for to the end."""
+    import threading
+    import time
+
+    from ffsm_pin.control import diagnostics
+    from ffsm_pin.control.diagnostics import rows_beside
+
+    monkeypatch.setattr(diagnostics, "ROWS_PER_PIECE", 1)
+    pieces: list[int] = []
+    first_piece = threading.Event()
+
+    def slow_kernel(x):
+        pieces.append(len(x))
+        first_piece.set()
+        time.sleep(0.02)
+        return x
+
+    def failing() -> None:
+        first_piece.wait(5)
+        raise KeyboardInterrupt
+
+    rows = (np.arange(1000.0),)
+    with pytest.raises(KeyboardInterrupt):
+        rows_beside(slow_kernel, rows, failing)
+    # pieces halve (500, 250, ...): without the stop the second thread would go on to the end
+    assert sum(pieces) < len(rows[0])
+
+    def kernel_fails(x):
+        raise ValueError("bad row")
+
+    with pytest.raises(ValueError, match="bad row"):
+        rows_beside(kernel_fails, rows, lambda: None)
