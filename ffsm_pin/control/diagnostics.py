@@ -7,12 +7,15 @@
   ``base_inertia``), computed after the run for every controller:
   ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` (planar), plus the gyroscopic
   ``1/2 w_b x (M_bb w_b)`` for spatial robots, as the models' ``reaction_torque`` (tested
-  against Pinocchio).
+  against Pinocchio);
+* :func:`rows_beside`: such a row-wise pass in pieces on a second thread and this one, beside
+  other work (the run's after-run signals: F_r beside the momentum).
 
-Each returns a function; ``compiled=True`` gives the numba kernels of the model's geometry
-(``residual_54`` and ``reaction_rows`` of :mod:`.fast` or :mod:`.fast_spatial`, chosen by the
-type of the model's kernel constants), ``False`` the numpy reference on the reduced model; the
-two are tested against each other (tests/control/test_diagnostics.py).
+The first two each return a function; ``compiled=True`` gives the numba kernels of the
+model's geometry (``residual_54`` and ``reaction_rows`` of :mod:`.fast` or
+:mod:`.fast_spatial`, chosen by the type of the model's kernel constants), ``False`` the numpy
+reference on the reduced model; the two are tested against each other
+(tests/control/test_diagnostics.py).
 """
 
 from __future__ import annotations
@@ -127,8 +130,8 @@ def rows_beside(
 
     with ThreadPoolExecutor(1) as pool:
         helper = pool.submit(work)
-        started.wait()  # (else the second thread waits for the GIL that beside holds)
         try:
+            started.wait()  # (else the second thread waits for the GIL that beside holds)
             other = beside()
             work()
         except BaseException:
