@@ -35,3 +35,16 @@ def test_rounding_sensitivity_moves_one_joint_by_one_ulp(capsys):
     assert tool.main(["1", "--duration", "0.02", "--joints", "0"]) == 0
     out = capsys.readouterr().out
     assert "as shipped: completed" in out and "joint 0 + 1 ulp" in out
+
+
+def test_rounding_sensitivity_reruns_the_case_on_another_openblas_kernel(capsys):
+    """``--blas`` reruns the case unchanged in a new process with OpenBLAS forced to another
+    kernel: the saved run is the case's (same rows), and over 0.05 s it stays within rounding
+    of this process's run (what another CPU does to the shipped trajectory)."""
+    tool = _tool("rounding_sensitivity")
+    assert tool.main(["1", "--duration", "0.05", "--joints", "--blas", "Sandybridge"]) == 0
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "OpenBLAS Sandybridge" in ln]
+    assert len(line) == 1 and line[0].endswith("completed")
+    parting = dict(zip(*[iter(line[0].split()[2:-1])] * 2, strict=True))
+    assert set(parting) == set(tool.SIGNALS)
+    assert all(float(v) < 1e-12 for v in parting.values())

@@ -12,11 +12,16 @@ comparison is then against this envelope.
 ``--backend numba`` adds, for the paper's controller, a run on the compiled period (the planar
 known-model scheme runs its numpy reference unless asked), so the two can be set side by side.
 
+``--blas CORETYPE ...`` adds the same run, unchanged, with OpenBLAS forced to other kernels of
+this machine (``OPENBLAS_CORETYPE``, each in a new process; the wheels' OpenBLAS picks its
+kernel at run time): what the shipped trajectory is on another CPU with the same code.
+
 Usage::
 
     python tools/rounding_sensitivity.py known-model --backend numba
     python tools/rounding_sensitivity.py 1-paper --joints 0 1 2 3   # (case1-paper)
     python tools/rounding_sensitivity.py spatial --duration 10
+    python tools/rounding_sensitivity.py 1 --joints --blas Haswell Sandybridge
 
 Measured numbers and what they mean: benchmarks/README.md ("Rounding sensitivity").
 """
@@ -25,7 +30,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
+import subprocess
+import sys
+import tempfile
 import warnings
+from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -48,6 +59,33 @@ def _run(scenario, joint: int | None = None, backend: str | None = None):
         q0[i] = np.nextafter(q0[i], np.inf)
         setup = dataclasses.replace(setup, q0=q0)
     return loop.simulate(setup)
+
+
+def _saved(path: Path, run) -> None:
+    """The signals :func:`_parting` and :func:`_ending` read, to a file (``--save``)."""
+    np.savez(path, **{k: np.asarray(run.signals[k]) for k in SIGNALS},
+             completed=run.completed, stop_time=np.nan if run.stop_time is None else run.stop_time,
+             stop_cause=str(run.stop_cause))  # fmt: skip
+
+
+def _loaded(path: Path):
+    with np.load(path) as f:
+        return SimpleNamespace(
+            signals={k: f[k] for k in SIGNALS}, completed=bool(f["completed"]),
+            stop_time=float(f["stop_time"]), stop_cause=str(f["stop_cause"]),
+        )  # fmt: skip
+
+
+def _with_blas_kernel(args, coretype: str):
+    """The run as shipped, in a new process with OpenBLAS forced to ``coretype``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.npz"
+        cmd = [sys.executable, __file__, args.case, "--joints", "--save", str(out)]
+        if args.duration is not None:
+            cmd += ["--duration", str(args.duration)]
+        env = {**os.environ, "OPENBLAS_CORETYPE": coretype}
+        subprocess.run(cmd, env=env, check=True)
+        return _loaded(out)
 
 
 def _parting(ref, run) -> str:
@@ -73,12 +111,23 @@ def main(argv=None) -> int:
     p.add_argument("--joints", type=int, nargs="*", default=[0, 1], help="joints to move")
     p.add_argument("--duration", type=float, help="[s]; the case's own when omitted")
     p.add_argument("--backend", choices=("numba", "numpy"), help="also run the paper's law on it")
+    p.add_argument(
+        "--blas",
+        nargs="*",
+        default=[],
+        metavar="CORETYPE",
+        help="also run it with OpenBLAS forced to these kernels (e.g. Haswell)",
+    )
+    p.add_argument("--save", help=argparse.SUPPRESS)  # (the --blas runs' own processes)
     args = p.parse_args(argv)
     scenario = builtin_scenario(f"case{args.case}" if args.case[:1].isdigit() else args.case)
     if args.duration is not None:
         scenario = dataclasses.replace(scenario, duration=args.duration)
     warnings.simplefilter("ignore")  # the runs' singularity notices
     ref = _run(scenario)
+    if args.save:
+        _saved(Path(args.save), ref)
+        return 0
     print(f"{args.case}, {scenario.duration:g} s, as shipped: {_ending(ref)}")
     for joint in args.joints:
         run = _run(scenario, joint=joint)
@@ -86,6 +135,9 @@ def main(argv=None) -> int:
     if args.backend is not None:
         run = _run(scenario, backend=args.backend)
         print(f"  backend {args.backend:6s}  {_parting(ref, run)}   {_ending(run)}")
+    for coretype in args.blas:
+        run = _with_blas_kernel(args, coretype)
+        print(f"  OpenBLAS {coretype:11s} {_parting(ref, run)}   {_ending(run)}")
     return 0
 
 
