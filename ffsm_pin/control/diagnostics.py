@@ -114,15 +114,14 @@ def rows_beside(
         while True:
             with lock:
                 a = nxt[0]
-                if a >= n and done:
+                if a >= n and done:  # (no rows: one empty piece, for the kernel's shape)
                     break
                 b = min(n, a + max(ROWS_PER_PIECE, (n - a) // 2))
                 nxt[0] = b
-            started.set()
+            started.set()  # (the second thread always takes the first piece)
             done[a] = kernel(*(r[a:b] for r in rows))
             if b >= n:
                 break
-        started.set()
 
     def give_up() -> None:  # on an error here: the second thread takes no further piece
         with lock:
