@@ -73,6 +73,8 @@ class ControlOutput(NamedTuple):
     damping: float
     funnel_b: FunnelEval | None = None  # numpy backend only (None for Eq. 81)
     funnel_z: FunnelEval | None = None  # numpy backend only
+    # e of Eq. (54) with the true M and theta_d [N m s] (a diagnostic); None without theta_d_true
+    e: np.ndarray | None = None
 
 
 def check_feasibility(
@@ -117,6 +119,9 @@ class CoordinatedController:
         :mod:`.null_space`); None = the paper's law.
     task:
         ``"pose"`` (m2 + m3 components) or ``"position"`` (m2).
+    theta_d_true:
+        The true theta_d, for the diagnostic e of Eq. (54) (:attr:`ControlOutput.e`, with the
+        true M); never read by the law. None: e is not computed.
     """
 
     def __init__(
@@ -137,6 +142,7 @@ class CoordinatedController:
         backend: str = "auto",
         null_space: NullSpace | None = None,
         task: str = "pose",
+        theta_d_true=None,
     ):
         self.m2, self.m3 = model.m2, model.m3
         self.task = task
@@ -192,6 +198,12 @@ class CoordinatedController:
                 raise ParameterError(
                     f"{name} estimate has {vec.size} entries, the robot's layout needs {size}"
                 )
+        self.theta_d_true = None if theta_d_true is None else np.array(theta_d_true, dtype=float)
+        if self.theta_d_true is not None and self.theta_d_true.shape != (model.n_d,):
+            raise ParameterError(
+                f"theta_d_true has {self.theta_d_true.size} entries, the robot's layout needs "
+                f"{model.n_d}"
+            )
         nb = model.n_joints + self.m3
         self.w_hat = np.zeros(nb)  # Table 2: w-hat(0) = 0
         self.Y_df = np.zeros((nb, model.n_d))  # Table 2: Y_df(0) = 0
@@ -252,12 +264,14 @@ class CoordinatedController:
         N = m.n_joints + self.m3
         no_M, no_h = np.zeros((N, N)), np.zeros(N)
         adaptive = self.adaptive
+        # Eq. (54)'s e in the period when the truth is given (an empty array: not computed)
+        truth = np.empty(0) if self.theta_d_true is None else self.theta_d_true
 
         def call(meas: Measurement, dt: float, out: np.ndarray):
             M, h = (no_M, no_h) if adaptive else (meas.M, meas.h)
             return period(
                 *consts, dt, meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h,
-                self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, out,
+                self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, truth, out,
             )  # fmt: skip
 
         self._period = call
@@ -322,6 +336,7 @@ class CoordinatedController:
             w_tilde=out[lay["w_tilde"]],
             sigma_min=sigma,
             damping=damping,
+            e=None if self.theta_d_true is None else out[lay["e"]],
         )
 
     def _step_numpy(self, meas: Measurement, dt: float) -> ControlOutput:
@@ -371,6 +386,13 @@ class CoordinatedController:
         mi = manifold_input(M_hat, r, w_hat, kc.w_mc, kc.w_mc_dot, kc.dwmc_dwb, g.k_d, t)
         if not np.all(np.isfinite(mi.u_m)):
             raise self._nonfinite_stop(t)
+        e = None  # Eq. (54) with the true M and theta_d, before the estimates advance
+        if self.theta_d_true is not None:
+            if self.adaptive:
+                M_true = m.mass_matrix(self.theta_d_true, q_b, q_m)
+                e = M_true @ w_tilde + self.Y_df @ (self.theta_d_true - self.theta_d)
+            else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
+                e = np.zeros_like(w)
 
         # advance the controller's states to t + dt
         if self.adaptive:
@@ -392,6 +414,7 @@ class CoordinatedController:
             damping=kc.damping,
             funnel_b=kc.funnel_b,
             funnel_z=kc.funnel_z,
+            e=e,
         )
 
     # ------------------------------------------------------------------ stops

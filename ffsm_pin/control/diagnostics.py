@@ -1,7 +1,5 @@
 """Quantities evaluated with the *true* model, for recording and analysis (never for control).
 
-* :func:`residual_54`: the paper's Eq. (54) residual ``e = M w~ + Y_df (theta_d - theta_d-hat)``
-  (the paper's controller reports it, :mod:`.lu_jia`);
 * :func:`reaction_torques`: the reaction torque of Eq. (7) on a run's recorded rows, from the
   base block of the inertia M_bb and its time derivative along the motion (the kernels'
   ``base_inertia``), computed after the run for every controller:
@@ -11,11 +9,15 @@
 * :func:`rows_beside`: such a row-wise pass in pieces on a second thread and this one, beside
   other work (the run's after-run signals: F_r beside the momentum).
 
-The first two each return a function; ``compiled=True`` gives the numba kernels of the
-model's geometry (``residual_54`` and ``reaction_rows`` of :mod:`.fast` or
-:mod:`.fast_spatial`, chosen by the type of the model's kernel constants), ``False`` the numpy
-reference on the reduced model; the two are tested against each other
-(tests/control/test_diagnostics.py).
+:func:`reaction_torques` returns a function; ``compiled=True`` gives the numba kernel of the
+model's geometry (``reaction_rows`` of :mod:`.fast` or :mod:`.fast_spatial`, chosen by the
+type of the model's kernel constants), ``False`` the numpy reference on the reduced model; the
+two are tested against each other (tests/control/test_diagnostics.py).
+
+The paper's Eq. (54) residual ``e = M w~ + Y_df (theta_d - theta_d-hat)`` with the true M and
+theta_d, which the paper's controller reports (:mod:`.lu_jia`), is computed by the control
+period itself (:class:`~.controller.CoordinatedController`, ``theta_d_true``), at the measured
+state the period has already evaluated its terms at.
 """
 
 from __future__ import annotations
@@ -33,25 +35,6 @@ from ..model.interface import ReducedModel
 ROWS_PER_PIECE = 256
 
 T = TypeVar("T")
-
-
-def residual_54(
-    model: ReducedModel, theta_d: np.ndarray, compiled: bool
-) -> Callable[..., np.ndarray]:
-    """f(q_b, q_m, w~, Y_df, theta_d-hat) -> e of Eq. (54) with the true M and ``theta_d``."""
-    if compiled:  # the geometry's kernel, chosen by the type of the model's constants
-        kernels, fixed = _geometry_kernels(model)
-
-        def kernel(q_b, q_m, w_tilde, Y_df, theta_d_hat):
-            return kernels.residual_54(*fixed, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d)
-
-        return kernel
-
-    def reference(q_b, q_m, w_tilde, Y_df, theta_d_hat):
-        M = model.mass_matrix(theta_d, q_b, q_m)
-        return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
-
-    return reference
 
 
 def reaction_torques(

@@ -9,8 +9,8 @@ here: :func:`geometry_terms` (the body angles' trigonometry, Eqs. 28 and 42),
 :mod:`.manifold`, :mod:`.controller`); a period is a few hundred operations on 5-vectors where
 interpreter overhead dominates (about 300 us in numpy, see ``benchmarks/bench_closed_loop.py``).
 The test suite checks that both give the same trajectory (``tests/control/test_fast.py``).
-Also here: the run's diagnostics on the true model (:func:`residual_54`,
-:func:`reaction_rows`).
+Also here: the run's reaction torque on the true model (:func:`reaction_rows`); the
+diagnostic e of Eq. (54) is computed in :func:`dynamic_level`.
 
 Layout conventions are those of :class:`~ffsm_pin.model.planar.BarycentricModel`:
 theta_d = (Dc_kk, Dc_kl (k<l), [Ds_kl (k<l)]), theta_z = (v_0, V_0..V_n) with scalar or
@@ -195,12 +195,14 @@ def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, t
 
 @njit(cache=True)
 def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
-                  theta_d, w_hat, Y_df):  # fmt: skip
+                  theta_d, w_hat, Y_df, theta_d_true):  # fmt: skip
     """The dynamic level (Eqs. 46, 49-52, 60a, 64-65; :func:`.period.dynamic_level`): returns
-    (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~) and, when the status is
+    (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~, e) and, when the status is
     ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``terms`` those of
     :func:`geometry_terms`. ``M_true``, ``h_true``: Pinocchio's reduced M and C w (known-model
-    scheme, ``adaptive = False``: computed torque on the true dynamics; not read otherwise)."""
+    scheme, ``adaptive = False``: computed torque on the true dynamics; not read otherwise).
+    ``theta_d_true``: the true theta_d for the diagnostic e of Eq. (54), never read by the
+    law; empty: e is not computed (an empty ``e``)."""
     S, off, K, L, ee_row, collinear = geo
     pc, ps = terms
     nb = S.shape[0]
@@ -211,14 +213,15 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
             np.ascontiguousarray(M_true), -h_true, w, w_mc, w_mc_dot, sens, g[G_KD]
         )
         if status != STATUS_OK:
-            return status, value, none, none, none
+            return status, value, none, none, none, none
         _put(w_hat, 0, w + dt * w_hat_dot)
-        return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb)
+        e = np.zeros(nb if theta_d_true.size else 0)  # w~ = 0, Y_df = 0, theta_d-hat = theta_d
+        return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb), e
     w_tilde = w - w_hat
     Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
     M_hat = S.T @ Mphi @ S
     if not positive_definite(M_hat):
-        return STATUS_M_NOT_PD, 0.0, none, none, none
+        return STATUS_M_NOT_PD, 0.0, none, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g[G_G3] * dt
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
@@ -226,14 +229,18 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     rr = difference(Ymd, Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
     status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g[G_KD])
     if status != STATUS_OK:
-        return status, value, none, none, none
+        return status, value, none, none, none, none
+    e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
+    if theta_d_true.size:
+        M = S.T @ mass_phi(theta_d_true, pc, ps, K, L, nb, collinear) @ S
+        e = M @ w_tilde + Y_df @ (theta_d_true - theta_d)
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     YM = y_m(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear)
     decay = np.exp(-g[G_KDE] * dt)
     filter_regressor_update(Y_df, decay, -np.expm1(-g[G_KDE] * dt) / g[G_KDE], YM, Ymd, Yh)
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
-    return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde
+    return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde, e
 
 
 @njit(cache=True)
@@ -255,15 +262,6 @@ def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
     if not np.all(np.isfinite(u_m)):
         return STATUS_NONFINITE, 0.0, none, none
     return STATUS_OK, 0.0, w_hat_dot, u_m
-
-
-@njit(cache=True)
-def residual_54(S, off, K, L, collinear, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d):
-    """e = M w~ + Y_df (theta_d - theta_d-hat) of Eq. (54), with the true M and theta_d."""
-    nb = S.shape[0]
-    c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
-    M = S.T @ mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
 
 
 @njit(cache=True)
@@ -321,7 +319,7 @@ def base_velocity(w):
 
 
 def true_model_constants(geo) -> tuple:
-    """The constant arguments :func:`residual_54` and :func:`reaction_rows` take first."""
+    """The constant arguments :func:`reaction_rows` takes first."""
     return geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
 
 

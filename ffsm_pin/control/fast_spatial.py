@@ -80,7 +80,6 @@ __all__ = [
     "kinematic_law",
     "reaction_rows",
     "reaction_rows_of",
-    "residual_54",
     "true_model_constants",
 ]
 
@@ -314,12 +313,13 @@ def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, t
 
 @njit(cache=True)
 def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
-                  theta_d, w_hat, Y_df):  # fmt: skip
+                  theta_d, w_hat, Y_df, theta_d_true):  # fmt: skip
     """Eqs. (46), (50)-(52), (60)-(64) with 3x3 base rows (:func:`.period.dynamic_level`):
-    returns (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~) and, when the status is
+    returns (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~, e) and, when the status is
     ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``M_true``, ``h_true``:
     Pinocchio's reduced M and C w (known-model scheme, ``adaptive = False``; not read
-    otherwise)."""
+    otherwise). ``theta_d_true``: the true theta_d for the diagnostic e of Eq. (54), never read
+    by the law; empty: e is not computed (an empty ``e``)."""
     R, z, YM, YMdot, Yh, w_tilde = terms
     n = w_mc.size
     N = n + 3
@@ -329,7 +329,7 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         M_hat = np.empty((N, N))
         mass_matrix(R, z, theta_d, M_hat)
         if not positive_definite(M_hat):
-            return STATUS_M_NOT_PD, 0.0, none, none, none
+            return STATUS_M_NOT_PD, 0.0, none, none, none, none
         cg = g[G_G3] * dt
         d_theta_d = -cg * (
             Y_df.T @ _solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
@@ -349,14 +349,22 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     denom = Mbb + Mbm @ sens
     regular, smallest = smallest_singular_value_above(denom, 1e-12 * np.max(np.abs(Mbb)))
     if not regular:
-        return STATUS_BASE_ROW, smallest, none, none, none
+        return STATUS_BASE_ROW, smallest, none, none, none, none
     wb_dot = _solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
     _put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see _put)
     _put(w_hat_dot, 3, tgt + sens @ wb_dot)
     u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
     if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, 0.0, none, none, none
+        return STATUS_NONFINITE, 0.0, none, none, none, none
+    e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
+    if theta_d_true.size:
+        if adaptive:
+            M = np.empty((N, N))
+            mass_matrix(R, z, theta_d_true, M)
+            e = M @ w_tilde + Y_df @ (theta_d_true - theta_d)
+        else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
+            e = np.zeros(N)
     # advance the controller's states to t + dt
     if adaptive:
         ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
@@ -367,19 +375,7 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         w_hat += dt * w_hat_dot  # Eq. (46)
     else:
         _put(w_hat, 0, w + dt * w_hat_dot)
-    return STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde
-
-
-@njit(cache=True)
-def residual_54(jr, ax, q_b, q_m, w_tilde, Y_df, theta_d_hat, theta_d):
-    """e = M w~ + Y_df (theta_d - theta_d-hat) of Eq. (54), with the true M and theta_d."""
-    n = q_m.size
-    R = np.empty((n + 1, 3, 3))
-    z = np.empty((n, 3))
-    kinematics(q_b, q_m, jr, ax, R, z)
-    M = np.empty((n + 3, n + 3))
-    mass_matrix(R, z, theta_d, M)
-    return M @ w_tilde + Y_df @ (theta_d - theta_d_hat)
+    return STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde, e
 
 
 @njit(cache=True)
@@ -426,7 +422,7 @@ def base_velocity(w):
 
 
 def true_model_constants(geo) -> tuple:
-    """The constant arguments :func:`residual_54` and :func:`reaction_rows` take first."""
+    """The constant arguments :func:`reaction_rows` takes first."""
     return geo.joint_rot, geo.axes
 
 

@@ -9,12 +9,9 @@ the start of each period, before the period advances the estimates.
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..errors import ParameterError, choices_text
 from .backend import BACKENDS
 from .controller import CoordinatedController, check_feasibility
-from .diagnostics import residual_54
 from .gains import step_problems
 from .interface import ControllerContext, Measurement
 from .kinematic import KinematicInputs
@@ -97,16 +94,15 @@ class LuJiaController:
             null_space=c.null_space,
             task=ctx.task,
             backend=backend,
+            theta_d_true=ctx.truth[1],  # for Eq. (54)'s e alone
         )
         law = self.law
         self.scheme = c.scheme
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
-        self._residual = residual_54(ctx.model, ctx.truth[1], law.backend == "numba")
         m = ctx.model
         nb = m.n_joints + m.m3
-        self._zero = np.zeros(nb)
         self.signal_shapes = {
             "w_tilde": (nb,), "e": (nb,), "theta_z_hat": (m.n_z,), "theta_d_hat": (m.n_d,),
             "theta_b_hat": (m.n_b,), "w_hat": (nb,), "w_mc": (m.n_joints,), "sigma_min": (),
@@ -124,11 +120,6 @@ class LuJiaController:
     def step(self, meas: Measurement):
         """u_m for the period [t, t + dt) and the signals at t (before the update)."""
         law = self.law
-        if law.adaptive:
-            w_tilde = meas.w - law.w_hat
-            e = self._residual(meas.q_b, meas.q_m, w_tilde, law.Y_df, law.theta_d)  # Eq. (54)
-        else:  # the known model: w~ = 0, Y_df = 0 and theta_d-hat = theta_d, so e = 0
-            w_tilde = e = self._zero
         before = {  # the period updates these in place: copies at t
             "theta_z_hat": law.theta_z.copy(),
             "theta_d_hat": law.theta_d.copy(),
@@ -137,8 +128,8 @@ class LuJiaController:
         }
         out = law.step(meas, self._dt)
         return out.u_m, {
-            "e": e,  # Eq. (54) with the true M and theta_d
-            "w_tilde": w_tilde,
+            "e": out.e,  # Eq. (54) with the true M and theta_d, at t (before the update)
+            "w_tilde": out.w_tilde,
             **before,
             "w_mc": out.w_mc,
             "sigma_min": out.sigma_min,

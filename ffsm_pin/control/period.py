@@ -61,9 +61,10 @@ __all__ = [
 
 #: The compiled kernels of each geometry, by the type of the model's kernel constants. Each
 #: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
-#: ``dynamic_level``, with the signatures of the stubs below), the true-model diagnostics
-#: ``residual_54`` and ``reaction_rows`` (:mod:`.diagnostics`), and three small functions the
-#: first compilation and the diagnostics use: ``base_velocity(w)``,
+#: ``dynamic_level``, with the signatures of the stubs below; the last also gives the
+#: diagnostic e of Eq. 54), the true-model reaction torque ``reaction_rows``
+#: (:mod:`.diagnostics`), and three small functions the first compilation and the
+#: diagnostics use: ``base_velocity(w)``,
 #: ``true_model_constants(geo)`` and ``reaction_rows_of(q_b, q_m, w, dw_b)``.
 GEOMETRIES: dict[type, Any] = {
     PlanarKernelConstants: fast,
@@ -83,7 +84,7 @@ def out_layout(n: int, m3: int, n_task: int) -> dict[str, slice | int]:
         "u_m": slice(0, n), "w_mc": slice(n, 2 * n), "w_mc_dot": slice(2 * n, 3 * n),
         "err_b": slice(3 * n, 3 * n + m3), "err_z": slice(3 * n + m3, e),
         "w_tilde": slice(e, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
-        "exit_value": o + 3, "size": o + 4,
+        "exit_value": o + 3, "e": slice(o + 4, o + 4 + N), "size": o + 4 + N,
     }  # fmt: skip
 
 
@@ -107,10 +108,11 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
 
 
 def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
-                  theta_d, w_hat, Y_df):  # fmt: skip
+                  theta_d, w_hat, Y_df, theta_d_true):  # fmt: skip
     """Eqs. (46), (49)-(52), (60)-(64): (status, exit value, u_m, w_mc_dot fed with the
-    base's acceleration, w~); advances theta_d-hat, w-hat and Y_df in place when the status
-    is ``STATUS_OK``. Compiled per geometry."""
+    base's acceleration, w~, e); advances theta_d-hat, w-hat and Y_df in place when the status
+    is ``STATUS_OK``. ``e`` the diagnostic e of Eq. (54) with the true M and ``theta_d_true``
+    (empty when ``theta_d_true`` is). Compiled per geometry."""
     raise NotImplementedError
 
 
@@ -152,7 +154,7 @@ for _cls, _kernels in GEOMETRIES.items():
 @njit(cache=True)
 def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp,
            ns, dt, t, q_b, q_m, w, z_e, z_e_dot, M_true, h_true,
-           theta_z, theta_d, theta_b, w_hat, Y_df, out):  # fmt: skip
+           theta_z, theta_d, theta_b, w_hat, Y_df, theta_d_true, out):  # fmt: skip
     """One control period; updates the estimator states in place, writes ``out`` (see
     :func:`out_layout`) and returns (status, exit index).
 
@@ -162,7 +164,9 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
     ``M_true``, ``h_true``; not read otherwise). ``fb``, ``fz`` the packed funnels, ``g``
     :func:`gains_array`, ``rc`` ... ``rpp`` the reference's arrays, ``ns`` the packed
     null-space option or None; the measurement at ``t`` [s]; the controller's states,
-    advanced to ``t + dt``.
+    advanced to ``t + dt``. ``theta_d_true``: the true theta_d, for the diagnostic e of
+    Eq. (54) alone (written to ``out``; never read by the law), or empty (e not computed,
+    its slot of ``out`` not written).
     """
     n = q_m.size
     terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(
@@ -185,9 +189,9 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
     w_mc = w_mc_c.real.copy()
     w_mc_dot = w_mc_c.imag / _H
 
-    status, value, u_m, w_mc_dot_fed, w_tilde = dynamic_level(
+    status, value, u_m, w_mc_dot_fed, w_tilde, e_54 = dynamic_level(
         geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, np.ascontiguousarray(sens), M_true,
-        h_true, theta_d, w_hat, Y_df,
+        h_true, theta_d, w_hat, Y_df, theta_d_true,
     )  # fmt: skip
     if status != STATUS_OK:
         if status == STATUS_BASE_ROW:
@@ -200,13 +204,14 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
     _put(out, n, w_mc)
     _put(out, 2 * n, w_mc_dot_fed)
     _put(out, e, w_tilde)
+    _put(out, o + 4, e_54)  # (nothing when not computed)
     return STATUS_OK, -1
 
 
 # ---------------------------------------------------------------------- first compilation
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """On a first run, compile the geometry's real kernels (those :func:`period` calls, then
-    the run's residual of Eq. (54) and reaction torques) in a second process while this one
+    the run's reaction torques) in a second process while this one
     compiles the geometry's complex kinematic law (:mod:`._first_compile`); :func:`period`
     then loads the former from the cache. ``consts`` the constant arguments of :func:`period`
     (the model's kernel constants first), the others the controller's initial measurement
@@ -243,18 +248,17 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
     sens = np.zeros((n, *np.shape(w_b)))  # d w_mc / d w_b: (n,) planar, (n, 3) spatial
     kernels.dynamic_level(
         geo, terms, adaptive, g, 1e-3, w, np.zeros(n), np.zeros(n), sens, np.zeros((N, N)),
-        np.zeros(N), theta_d.copy(), np.zeros(N), np.zeros((N, theta_d.size)),
+        np.zeros(N), theta_d.copy(), np.zeros(N), np.zeros((N, theta_d.size)), theta_d,
     )  # fmt: skip
 
 
 def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
-    """Compile the geometry's ``residual_54`` and ``reaction_rows`` (the run's diagnostics,
+    """Compile the geometry's ``reaction_rows`` (the run's reaction torque,
     :mod:`.diagnostics`) with the argument types the run passes (the second process, after
     :func:`_compile_real_kernels`)."""
     kernels = GEOMETRIES[type(consts[0])]
     fixed = kernels.true_model_constants(consts[0])
-    n, N, nd = q_m.size, w.size, theta_d.size
-    kernels.residual_54(*fixed, q_b, q_m, np.zeros(N), np.zeros((N, nd)), theta_d, theta_d)
+    n, N = q_m.size, w.size
     rows = kernels.reaction_rows_of(  # one recorded row of each: base_inertia's types too
         np.zeros((1, N - n)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, N - n))
     )

@@ -42,7 +42,8 @@ def test_each_geometry_provides_the_three_steps_as_cached_kernels(cls):
 @pytest.mark.parametrize("n", [2, 7])
 def test_out_layout_tiles_the_buffer_without_gaps(n, m3, n_task):
     lay = period.out_layout(n, m3, n_task)
-    sizes = {"u_m": n, "w_mc": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task, "w_tilde": n + m3}
+    sizes = {"u_m": n, "w_mc": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task, "w_tilde": n + m3,
+             "e": n + m3}  # fmt: skip
     covered = np.zeros(lay["size"], dtype=int)
     for key, size in sizes.items():
         sl = lay[key]
