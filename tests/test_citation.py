@@ -35,5 +35,7 @@ def test_pyproject_reads_the_version_from_the_package():
     assert "version" not in meta["project"] and "version" in meta["project"]["dynamic"]
     attr = meta["tool"]["setuptools"]["dynamic"]["version"]["attr"]
     assert attr == "ffsm_pin.__version__"
-    assert meta["project"]["license"]["text"] == "BSD-3-Clause"
+    # an SPDX expression and the file it names (PEP 639; the old table form is deprecated)
+    assert meta["project"]["license"] == "BSD-3-Clause"
+    assert meta["project"]["license-files"] == ["LICENSE"]
     assert "BSD 3-Clause" in (ROOT / "LICENSE").read_text()

@@ -6,8 +6,8 @@ splits: a second Python process compiles the period's real-valued kernels (and t
 diagnostics) with the argument types the period passes, while this process compiles the
 complex-step kinematic law; the period then finds the former in the cache. The second
 process says when the period's kernels are cached and goes on with those a run needs after
-the period (the residual of Eq. (54), the reaction torques, the plant's), while this process
-compiles the period itself; the run waits for it (:func:`finish`) before it loads those.
+the period (the reaction torques, the plant's), while this process compiles the period
+itself; the run waits for it (:func:`finish`) before it loads those.
 Both processes compile the same source, so nothing changes in what is computed (a run from
 an empty cache is bitwise a run from a warm one: ``tests/control/test_first_compile.py``).
 When the cache is warm, or a second process cannot be started, nothing happens and the
@@ -121,7 +121,7 @@ def _wait_ready(child: subprocess.Popen, timeout: float) -> None:
 
 def finish(timeout: float = 600.0) -> None:
     """Wait for the second processes of first runs still compiling a run's kernels (the
-    controller's residual and reaction torques, the plant's), so that the run loads them from
+    reaction torques, the plant's), so that the run loads them from
     the cache instead of compiling them again; at most ``timeout`` [s] each, then stopped.
     Called by the run loop before it loads those kernels, and at exit. Does nothing when no
     second process is running (every run but an installation's first)."""

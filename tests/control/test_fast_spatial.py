@@ -174,6 +174,7 @@ def test_one_period_equals_numpy(robots, robot_name, task, scheme):
         if b.sigma_min < SIGMA_WELL:
             continue
         assert a.damping == b.damping == 0.0
+        assert a.e is None and b.e is None  # no theta_d_true given: no e of Eq. (54)
         for name in OUTPUTS:
             assert _rel(getattr(a, name), getattr(b, name)) < RTOL, (name, seed)
         for name in STATES:  # the estimator states after the period
