@@ -46,8 +46,9 @@ def fill_dynamics(st, q: np.ndarray, v: np.ndarray) -> None:
     ``st.nonlinear_effects`` for the plant state (q, v): what a controller that is given the
     true model needs each period (:meth:`ffsm_pin.model.state.State.update_dynamics`)."""
     model, data = st.model, st.data
-    M = pin.crba(model, data, q).copy()
-    M = np.triu(M) + np.triu(M, 1).T
+    M = pin.crba(model, data, q).copy()  # upper triangle filled
+    M[st.lower_triangle] = M.T[st.lower_triangle]
+    M += 0.0  # the bits of triu(M) + triu(M, 1).T, zeros' signs included: x + 0.0 == 0.0 + x
     h = pin.rnea(model, data, q, v, np.zeros(model.nv)).copy()
     Mtt_inv_Mtr = np.linalg.solve(M[_T, _T], np.column_stack((M[_T, _R], h[_T])))
     st.mass_matrix = read_only(M)  # full CRBA matrix (nv x nv)

@@ -108,3 +108,28 @@ def test_update_dynamics_gives_the_numbers_of_update(robot, rng):
             np.testing.assert_array_equal(getattr(lean, key), getattr(full, key), err_msg=key)
     with pytest.raises(ValueError, match="state shapes"):
         State(robot).update_dynamics(q[:-1], v)
+
+
+def test_planar_mass_matrix_keeps_the_bits_of_the_triu_sum():
+    """The planar M mirrors CRBA's upper triangle by an index assignment plus 0.0 instead of
+    ``np.triu(M) + np.triu(M, 1).T`` (7 us of a known-model period): the same bytes, the
+    signs of zeros included (the sum turns a -0.0 into +0.0; so does x + 0.0), at random
+    states and at the neutral configuration at rest, where couplings vanish."""
+    robot = load_robot("ffsm_planar4.urdf")
+    model, data = robot.model, robot.model.createData()
+    rng = np.random.default_rng(5)
+    states = [(pin.neutral(model), np.zeros(model.nv))]
+    states += [_state(robot, rng)[:2] for _ in range(5)]
+    for q, v in states:
+        crba = pin.crba(model, data, q).copy()
+        crba[np.tril_indices(model.nv, -1)] = -0.0  # whatever CRBA leaves there is not read
+        crba[0, 1] = -0.0  # a vanishing coupling with the sign a product can give it
+        expected = np.triu(crba) + np.triu(crba, 1).T
+        mirrored = crba.copy()
+        lower = np.tril_indices(model.nv, -1)
+        mirrored[lower] = mirrored.T[lower]
+        mirrored += 0.0
+        assert mirrored.tobytes() == expected.tobytes()
+        got = State(robot).update_dynamics(q, v).mass_matrix
+        reference = pin.crba(model, data, q).copy()
+        assert got.tobytes() == (np.triu(reference) + np.triu(reference, 1).T).tobytes()
