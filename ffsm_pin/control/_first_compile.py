@@ -121,8 +121,8 @@ def _wait_ready(child: subprocess.Popen, timeout: float) -> None:
 
 def finish(timeout: float = 600.0) -> None:
     """Wait for the second processes of first runs still compiling a run's kernels (the
-    reaction torques, the plant's), so that the run loads them from
-    the cache instead of compiling them again; at most ``timeout`` [s] each, then stopped.
+    reaction torques, the plant's), so that the run loads them from the cache instead of
+    compiling them again; at most ``timeout`` [s] each, then stopped.
     Called by the run loop before it loads those kernels, and at exit. Does nothing when no
     second process is running (every run but an installation's first)."""
     while _PENDING:

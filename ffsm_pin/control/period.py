@@ -211,11 +211,11 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
 # ---------------------------------------------------------------------- first compilation
 def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
     """On a first run, compile the geometry's real kernels (those :func:`period` calls, then
-    the run's reaction torques) in a second process while this one
-    compiles the geometry's complex kinematic law (:mod:`._first_compile`); :func:`period`
-    then loads the former from the cache. ``consts`` the constant arguments of :func:`period`
-    (the model's kernel constants first), the others the controller's initial measurement
-    and estimates. Does nothing when the cache is warm."""
+    the run's reaction torques) in a second process while this one compiles the geometry's
+    complex kinematic law (:mod:`._first_compile`); :func:`period` then loads the former from
+    the cache. ``consts`` the constant arguments of :func:`period` (the model's kernel
+    constants first), the others the controller's initial measurement and estimates. Does
+    nothing when the cache is warm."""
     kernels = GEOMETRIES[type(consts[0])]
     _first_compile.compile_in_parallel(
         __name__,
