@@ -315,16 +315,18 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
 
 
 @njit(cache=True)
-def report_kinematic(out, start, o, err_b, err_z, sigma, damping, hnorm, status, idx):
+def report_kinematic(out, start, at_h, at_sigma, err_b, err_z, sigma, damping, hnorm, status,
+                     idx):  # fmt: skip
     """Write what a period's kinematic level reports into ``out`` (the periods' ``out_layout``):
-    the real parts of err_b then err_z from ``start``; sigma_min, the damping and |H_bm| at
-    ``o``; on a funnel exit (``idx`` >= 0) the exiting error component at ``o + 3``."""
+    the real parts of err_b then err_z from ``start``; |H_bm| at ``at_h`` and, on a funnel
+    exit (``idx`` >= 0), the exiting error component at ``at_h + 1``; sigma_min and the
+    damping at ``at_sigma``."""
     for i in range(err_b.size):
         out[start + i] = err_b[i].real
     for i in range(err_z.size):
         out[start + err_b.size + i] = err_z[i].real
-    out[o] = sigma
-    out[o + 1] = damping
-    out[o + 2] = hnorm
+    out[at_sigma] = sigma
+    out[at_sigma + 1] = damping
+    out[at_h] = hnorm
     if status != STATUS_OK and idx >= 0:
-        out[o + 3] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real
+        out[at_h + 1] = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real

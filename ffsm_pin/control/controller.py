@@ -39,7 +39,7 @@ from .adaptation import (
 from .backend import BACKENDS
 from .funnel import Funnel, FunnelEval, FunnelExit, FunnelParams, IdentityFunnel
 from .gains import Gains, SingularityPolicy
-from .interface import Measurement
+from .interface import Measurement, SignalLayout
 from .kinematic import KinematicInputs, KinematicLaw, attitude_matrix, task_errors, task_size
 from .manifold import manifold_input
 from .null_space import NullSpace
@@ -75,6 +75,10 @@ class ControlOutput(NamedTuple):
     funnel_z: FunnelEval | None = None  # numpy backend only
     # e of Eq. (54) with the true M and theta_d [N m s] (a diagnostic); None without theta_d_true
     e: np.ndarray | None = None
+    # the period's signals at t as one row of CoordinatedController.signal_layout (w~, e, the
+    # estimates and w-hat before the period advances them, w_mc, sigma_min, damping); None
+    # without theta_d_true
+    signals: np.ndarray | None = None
 
 
 def check_feasibility(
@@ -205,6 +209,12 @@ class CoordinatedController:
                 f"{model.n_d}"
             )
         nb = model.n_joints + self.m3
+        #: the signals a period reports at t, as one row (:attr:`ControlOutput.signals`)
+        self.signal_layout = SignalLayout({
+            "w_tilde": (nb,), "e": (nb,), "theta_z_hat": (model.n_z,),
+            "theta_d_hat": (model.n_d,), "theta_b_hat": (model.n_b,), "w_hat": (nb,),
+            "w_mc": (model.n_joints,), "sigma_min": (), "damping": (),
+        })  # fmt: skip
         self.w_hat = np.zeros(nb)  # Table 2: w-hat(0) = 0
         self.Y_df = np.zeros((nb, model.n_d))  # Table 2: Y_df(0) = 0
         self.adaptive = scheme != "known-model"
@@ -259,7 +269,9 @@ class CoordinatedController:
         self._compiled = compiled
         self._fast_consts = consts  # the period's constant arguments (also used by tests)
         self._parallel_compile = compiled.compile_in_parallel
-        self._layout = compiled.out_layout(m.n_joints, self.m3, self.n_task)
+        self._layout = compiled.out_layout(
+            m.n_joints, self.m3, self.n_task, self.signal_layout.shapes
+        )
         period = compiled.period
         N = m.n_joints + self.m3
         no_M, no_h = np.zeros((N, N)), np.zeros(N)
@@ -337,10 +349,13 @@ class CoordinatedController:
             sigma_min=sigma,
             damping=damping,
             e=None if self.theta_d_true is None else out[lay["e"]],
+            signals=None if self.theta_d_true is None else out[lay["signals"]],
         )
 
     def _step_numpy(self, meas: Measurement, dt: float) -> ControlOutput:
         m, g, m3 = self.model, self.gains, self.m3
+        # the estimates and w-hat at t (the period replaces them, never writes into them)
+        at_t = (self.theta_z, self.theta_d, self.theta_b, self.w_hat)
         t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
         w_b = w[:m3]
 
@@ -394,6 +409,10 @@ class CoordinatedController:
             else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
                 e = np.zeros_like(w)
 
+        signals = None  # one row of signal_layout
+        if e is not None:
+            signals = np.concatenate((w_tilde, e, *at_t, kc.w_mc, [kc.sigma_min, kc.damping]))
+
         # advance the controller's states to t + dt
         if self.adaptive:
             Y_dc = m.Y_M(q_b, q_m, mi.w_hat_dot - g.k_de * w_tilde) - Y_Mdot + Y_h  # Eq. (49)
@@ -415,6 +434,7 @@ class CoordinatedController:
             funnel_b=kc.funnel_b,
             funnel_z=kc.funnel_z,
             e=e,
+            signals=signals,
         )
 
     # ------------------------------------------------------------------ stops

@@ -28,14 +28,19 @@ and optionally the attributes
 * ``signal_shapes`` (dict name -> shape): the shapes of the signals ``step`` returns, used to
   size the recording before the run; signals not listed are found at the first step.
 
+The signals may also be returned as one flat row, a :class:`SignalRow` over a fixed
+:class:`SignalLayout`: the recorder then copies the row in one piece instead of a signal at a
+time (the paper's controller does, :class:`~ffsm_pin.control.lu_jia.LuJiaController`).
+
 Signals named in :data:`STANDARD_SIGNALS` keep their names in ``trajectory.npz`` (the figures
 and the summary know them); any other name is saved as ``ctrl_<name>``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+import math
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
@@ -159,6 +164,77 @@ class Controller(Protocol):
         ...
 
 
+@dataclass(frozen=True, eq=False)
+class SignalLayout:
+    """Where each signal of a :class:`SignalRow` lies in its flat row: the signals in the
+    order of ``shapes``, each taking ``prod(shape)`` consecutive entries (a number one).
+
+    A controller makes its layout once; the run loop compares layouts by identity (a row of
+    the same layout object is copied whole into the recording).
+
+    Attributes
+    ----------
+    shapes:
+        Name -> shape of every signal, in row order.
+    slots:
+        Name -> (start, stop, shape) of its entries in the row.
+    size:
+        Entries of a row.
+    """
+
+    shapes: Mapping[str, tuple[int, ...]]
+    slots: Mapping[str, tuple[int, int, tuple[int, ...]]] = field(init=False, repr=False)
+    size: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        shapes = {str(k): tuple(int(d) for d in s) for k, s in self.shapes.items()}
+        slots, start = {}, 0
+        for key, shape in shapes.items():
+            stop = start + math.prod(shape)
+            slots[key] = (start, stop, shape)
+            start = stop
+        object.__setattr__(self, "shapes", shapes)
+        object.__setattr__(self, "slots", slots)
+        object.__setattr__(self, "size", start)
+
+    def index(self, key: str) -> int | slice:
+        """The entries of signal ``key`` in a row: an index for a number, else a slice."""
+        start, stop, shape = self.slots[key]
+        return start if shape == () else slice(start, stop)
+
+
+class SignalRow(Mapping[str, Any]):
+    """A controller's signals as one flat float row laid out by a :class:`SignalLayout`.
+
+    Reads as the mapping name -> value (a view of the row reshaped to the signal's shape, a
+    number for shape ``()``), so it is returned where a dict of signals would be.
+
+    Parameters
+    ----------
+    row:
+        The values, shape ``(layout.size,)``; the row is not copied, so a controller makes a
+        new one every period.
+    layout:
+        Its layout.
+    """
+
+    __slots__ = ("layout", "row")
+
+    def __init__(self, row: np.ndarray, layout: SignalLayout):
+        self.row = row
+        self.layout = layout
+
+    def __getitem__(self, key: str) -> Any:
+        start, stop, shape = self.layout.slots[key]
+        return self.row[start] if shape == () else self.row[start:stop].reshape(shape)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.layout.slots)
+
+    def __len__(self) -> int:
+        return len(self.layout.slots)
+
+
 class Reply(NamedTuple):
     """A controller's answer for one period, normalised by :func:`split_reply`."""
 
@@ -174,7 +250,8 @@ def split_reply(reply: Any) -> Reply:
     if (
         isinstance(reply, tuple)
         and len(reply) == 2
-        and (type(reply[1]) is dict or isinstance(reply[1], Mapping))  # dict: no ABC check
+        # (a dict or a row: no ABC check)
+        and (type(reply[1]) in (dict, SignalRow) or isinstance(reply[1], Mapping))
     ):
         return Reply(reply[0], reply[1])
     return Reply(reply, _NO_SIGNALS)

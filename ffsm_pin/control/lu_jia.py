@@ -13,7 +13,7 @@ from ..errors import ParameterError, choices_text
 from .backend import BACKENDS
 from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
-from .interface import ControllerContext, Measurement
+from .interface import ControllerContext, Measurement, SignalRow
 from .kinematic import KinematicInputs
 
 
@@ -101,13 +101,9 @@ class LuJiaController:
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
-        m = ctx.model
-        nb = m.n_joints + m.m3
-        self.signal_shapes = {
-            "w_tilde": (nb,), "e": (nb,), "theta_z_hat": (m.n_z,), "theta_d_hat": (m.n_d,),
-            "theta_b_hat": (m.n_b,), "w_hat": (nb,), "w_mc": (m.n_joints,), "sigma_min": (),
-            "damping": (),
-        }  # fmt: skip
+        # the period's signals at t, returned as its row (SignalRow: recorded in one copy)
+        self.signal_layout = law.signal_layout
+        self.signal_shapes = dict(law.signal_layout.shapes)
 
     def singular_value(self, meas: Measurement) -> float:
         """sigma_min of the inverted task Jacobian (J_m-hat U-hat, or J_m-hat for Eq. 81) at
@@ -118,20 +114,10 @@ class LuJiaController:
         return float(law.kinematic.evaluate(x)[3])
 
     def step(self, meas: Measurement):
-        """u_m for the period [t, t + dt) and the signals at t (before the update)."""
-        law = self.law
-        before = {  # the period updates these in place: copies at t
-            "theta_z_hat": law.theta_z.copy(),
-            "theta_d_hat": law.theta_d.copy(),
-            "theta_b_hat": law.theta_b.copy(),
-            "w_hat": law.w_hat.copy(),
-        }
-        out = law.step(meas, self._dt)
-        return out.u_m, {
-            "e": out.e,  # Eq. (54) with the true M and theta_d, at t (before the update)
-            "w_tilde": out.w_tilde,
-            **before,
-            "w_mc": out.w_mc,
-            "sigma_min": out.sigma_min,
-            "damping": out.damping,
-        }
+        """u_m for the period [t, t + dt) and the signals at t (before the update), a
+        :class:`~ffsm_pin.control.interface.SignalRow` of :attr:`signal_layout`: w~ and e
+        of Eq. (54) with the true M and theta_d, the estimates and w-hat, w_mc, sigma_min
+        and the damping."""
+        out = self.law.step(meas, self._dt)
+        assert out.signals is not None  # theta_d_true is given
+        return out.u_m, SignalRow(out.signals, self.signal_layout)

@@ -25,6 +25,7 @@ Outputs: :func:`period` returns (status, exit index) with the ``STATUS_*`` codes
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -74,18 +75,28 @@ GEOMETRIES: dict[type, Any] = {
 _H = 1e-30  # the complex step, as in control/kinematic.py
 
 
-def out_layout(n: int, m3: int, n_task: int) -> dict[str, slice | int]:
-    """Where :func:`period` writes each output in ``out``: n joints, m3 attitude coordinates
-    (1 planar, 3 spatial), n_task task rows."""
-    N = n + m3
-    e = 3 * n + m3 + n_task
-    o = e + N
-    return {
-        "u_m": slice(0, n), "w_mc": slice(n, 2 * n), "w_mc_dot": slice(2 * n, 3 * n),
-        "err_b": slice(3 * n, 3 * n + m3), "err_z": slice(3 * n + m3, e),
-        "w_tilde": slice(e, o), "sigma_min": o, "damping": o + 1, "H_bm_norm": o + 2,
-        "exit_value": o + 3, "e": slice(o + 4, o + 4 + N), "size": o + 4 + N,
+def out_layout(
+    n: int, m3: int, n_task: int, signals: Mapping[str, tuple[int, ...]]
+) -> dict[str, Any]:
+    """Where :func:`period` writes each output in ``out``: u_m, dw_mc/dt, err_b, err_z,
+    |H_bm|, the exiting error component, then the block ``signals`` (each signal also by
+    name): n joints, m3 attitude coordinates (1 planar, 3 spatial), n_task task rows, and
+    the shapes of the signals the period reports, in the order it writes them (w~, e, the
+    estimates and w-hat at t, w_mc, sigma_min, damping:
+    :attr:`~.controller.CoordinatedController.signal_layout`)."""
+    h = 2 * n + m3 + n_task
+    lay: dict[str, Any] = {
+        "u_m": slice(0, n), "w_mc_dot": slice(n, 2 * n), "err_b": slice(2 * n, 2 * n + m3),
+        "err_z": slice(2 * n + m3, h), "H_bm_norm": h, "exit_value": h + 1,
     }  # fmt: skip
+    start = h + 2
+    for key, shape in signals.items():
+        stop = start + (shape[0] if shape else 1)
+        lay[key] = slice(start, stop) if shape else start
+        start = stop
+    lay["signals"] = slice(h + 2, start)
+    lay["size"] = start
+    return lay
 
 
 # ---------------------------------------------------------------------- the geometry's steps
@@ -168,7 +179,17 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
     Eq. (54) alone (written to ``out``; never read by the law), or empty (e not computed,
     its slot of ``out`` not written).
     """
-    n = q_m.size
+    n, N = q_m.size, w.size
+    # the signal block of `out` (out_layout): w~, e, the estimates and w-hat at t, w_mc,
+    # sigma_min, damping; the estimates and w-hat written now, before they advance
+    s = n + N + nt + 2
+    at_est = s + 2 * N
+    _put(out, at_est, theta_z)
+    _put(out, at_est + theta_z.size, theta_d)
+    _put(out, at_est + theta_z.size + theta_d.size, theta_b)
+    at_w_mc = at_est + theta_z.size + theta_d.size + theta_b.size
+    _put(out, at_w_mc, w_hat)
+    at_w_mc += N
     terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(
         geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d
     )  # Eqs. (28), (42)
@@ -181,9 +202,8 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
         theta_b + hj * (tb_new - theta_b) / dt, theta_z + hj * (tz_new - theta_z) / dt,
         w_b + 0j,
     )  # fmt: skip
-    e = 3 * n + err_b.size + err_z.size
-    o = e + w.size  # offset of the scalars in `out`, see out_layout()
-    report_kinematic(out, 3 * n, o, err_b, err_z, sigma, damping, hnorm, status, idx)
+    report_kinematic(out, 2 * n, s - 2, at_w_mc + n, err_b, err_z, sigma, damping, hnorm,
+                     status, idx)  # fmt: skip
     if status != STATUS_OK:
         return status, idx
     w_mc = w_mc_c.real.copy()
@@ -195,16 +215,16 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
     )  # fmt: skip
     if status != STATUS_OK:
         if status == STATUS_BASE_ROW:
-            out[o + 3] = value  # the smallest singular value of the base rows' matrix
+            out[s - 1] = value  # the smallest singular value of the base rows' matrix
         return status, -1
     if adaptive:
         _put(theta_b, 0, tb_new)
         _put(theta_z, 0, tz_new)
     _put(out, 0, u_m)
-    _put(out, n, w_mc)
-    _put(out, 2 * n, w_mc_dot_fed)
-    _put(out, e, w_tilde)
-    _put(out, o + 4, e_54)  # (nothing when not computed)
+    _put(out, n, w_mc_dot_fed)
+    _put(out, s, w_tilde)
+    _put(out, s + N, e_54)  # (nothing when not computed)
+    _put(out, at_w_mc, w_mc)
     return STATUS_OK, -1
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from ..control import _first_compile
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques, rows_beside
-from ..control.interface import recorded_name, split_reply
+from ..control.interface import SignalLayout, SignalRow, recorded_name, split_reply
 from ..control.kinematic import error_terms
 from ..errors import SimulationError
 from .measurement import Sensor
@@ -203,6 +203,8 @@ def simulate(
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
     names: dict[str, str] = {}  # controller signal -> recorded name
+    layout: SignalLayout | None = None  # of the controller's SignalRow, if it returns one
+    A_signals = np.empty((0, 0))  # the recorder's columns of that row, side by side
     wall0 = time.perf_counter()
     k = 0
     try:
@@ -228,6 +230,10 @@ def simulate(
                         shapes = {**shapes, **new}
                         rec = Recorder(shapes, n_rows, spool_dir)
                         A = rec.arrays
+                    # a SignalRow: its layout's columns side by side, a row copied whole
+                    layout = signals.layout if type(signals) is SignalRow else None
+                    if layout is not None:
+                        A_signals = rec.pack([names[key] for key in layout.shapes])
                     # the recorder's columns, looked up once (its arrays outlive every spill)
                     signal_columns = [(key, A[names[key]]) for key in signals]
                     A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
@@ -258,10 +264,15 @@ def simulate(
             if record:
                 i = rec.i
                 try:
-                    if len(signals) != len(signal_columns):
-                        raise KeyError(sorted(map(repr, set(signals).symmetric_difference(names))))
-                    for key, column in signal_columns:
-                        column[i] = signals[key]
+                    if type(signals) is SignalRow and signals.layout is layout:
+                        A_signals[i] = signals.row
+                    else:
+                        if len(signals) != len(signal_columns):
+                            raise KeyError(
+                                sorted(map(repr, set(signals).symmetric_difference(names)))
+                            )
+                        for key, column in signal_columns:
+                            column[i] = signals[key]
                 except (KeyError, ValueError) as exc:
                     completed, stop_time, stop_cause = False, t, "controller"
                     stop_reason = (

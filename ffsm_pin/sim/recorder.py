@@ -195,6 +195,22 @@ class Recorder:
         self._spool_dir = spool_dir
         self._spool: Path | None = None
 
+    def pack(self, keys: list[str]) -> np.ndarray:
+        """Hold the signals ``keys`` side by side, in this order, in one ``chunk_rows x width``
+        array and return it: row :attr:`i` of it is their row, written in one copy (a
+        controller's :class:`~ffsm_pin.control.interface.SignalRow`). :attr:`arrays` of those
+        keys become views of it (NaN until written, as every column). Before any row."""
+        if self.rows:
+            raise RuntimeError("Recorder.pack: rows were already written")
+        widths = [int(np.prod(self.shapes[key])) for key in keys]
+        block = np.full((self.chunk_rows, sum(widths)), np.nan)
+        start = 0
+        for key, width in zip(keys, widths, strict=True):
+            view = block[:, start : start + width]
+            self.arrays[key] = view.reshape(self.chunk_rows, *self.shapes[key])  # (a view)
+            start += width
+        return block
+
     @property
     def rows(self) -> int:
         """Rows committed so far."""
@@ -223,8 +239,8 @@ class Recorder:
 
     def finish(self) -> Signals:
         """The recorded rows: in-memory arrays if they never left the chunk, else memory maps."""
-        if self._spool is None:
-            return Signals({k: a[: self.i] for k, a in self.arrays.items()})
+        if self._spool is None:  # (packed columns: each copied to its own array)
+            return Signals({k: np.ascontiguousarray(a[: self.i]) for k, a in self.arrays.items()})
         self._spill()
         self.arrays = {}  # the chunk's memory is no longer needed
         return Signals({}, self._spool, self.shapes, self.on_disk)

@@ -10,6 +10,7 @@ import pytest
 
 from ffsm_pin.control import fast, fast_spatial
 from ffsm_pin.control.diagnostics import reaction_torques
+from ffsm_pin.control.interface import SignalRow
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.measurement import Sensor
@@ -214,6 +215,25 @@ def test_rows_beside_stops_the_second_thread_when_the_other_work_fails(monkeypat
         rows_beside(kernel_fails, rows, lambda: None)
 
 
+class _ClosedLoop:
+    """The plant of ``setup`` from its initial state, measured exactly at each period's start
+    (:meth:`measure`) and advanced over the period by the torque a controller gave."""
+
+    def __init__(self, setup, full_model: bool):
+        self.sensor = Sensor(setup.robot, setup.model, full_model=full_model)
+        self.plant = Plant(setup.robot)
+        self.q, self.v = setup.q0.copy(), setup.v0.copy()
+        self.plant.reset(self.q, self.v)
+        self.dt, self.k = setup.scenario.dt, 0
+
+    def measure(self):
+        return self.sensor.measure(self.k * self.dt, self.q, self.v)
+
+    def advance(self, u_m) -> None:
+        self.q, self.v, _ = self.plant.step(self.q, self.v, u_m, self.dt)
+        self.k += 1
+
+
 @pytest.mark.parametrize("backend", ["numba", "numpy"])
 @pytest.mark.parametrize("case", ["case1", "spatial"])
 def test_the_period_reports_e_of_eq_54_by_its_definition(case, backend):
@@ -228,13 +248,9 @@ def test_the_period_reports_e_of_eq_54_by_its_definition(case, backend):
     law = ctrl.law
     assert law.backend == "numba"
     law.backend = backend
-    sensor = Sensor(setup.robot, model, full_model=False)
-    plant = Plant(setup.robot)
-    q, v = setup.q0.copy(), setup.v0.copy()
-    plant.reset(q, v)
-    dt = setup.scenario.dt
+    loop = _ClosedLoop(setup, full_model=False)
     for k in range(40):
-        meas = sensor.measure(k * dt, q, v)
+        meas = loop.measure()
         w_hat, Y_df, theta_hat = law.w_hat.copy(), law.Y_df.copy(), law.theta_d.copy()
         u_m, signals = ctrl.step(meas)
         w_tilde = meas.w - w_hat
@@ -248,7 +264,7 @@ def test_the_period_reports_e_of_eq_54_by_its_definition(case, backend):
             np.testing.assert_allclose(signals["e"], e, rtol=0, atol=1e-13 * scale)
         if k > 1:
             assert np.abs(Y_df @ (theta_d - theta_hat)).max() > 1e-9  # the term is exercised
-        q, v, _ = plant.step(q, v, u_m, dt)
+        loop.advance(u_m)
     assert not np.array_equal(law.theta_d, setup.theta_d)  # the estimates moved
 
 
@@ -270,3 +286,45 @@ def test_the_known_model_reports_e_and_w_tilde_zero(case, backend):
     for key in ("e", "w_tilde"):
         assert signals[key].shape == (setup.model.n_joints + setup.model.m3,)
         assert np.all(signals[key] == 0) and not np.any(np.signbit(signals[key]))
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("case", ["case1", "spatial", "known-model"])
+def test_the_period_reports_its_signals_as_one_row_of_its_layout(case, backend):
+    """``ControlOutput.signals`` is the row of the controller's ``signal_layout``: w~, e, the
+    estimates and w-hat at t (copies taken *before* the period, which advances them), w_mc,
+    sigma_min and the damping, each bit for bit the period's own output; and the paper's
+    controller returns that row (a SignalRow), along 30 closed-loop periods."""
+    setup = prepare(builtin_scenario(case))
+    ctrl = setup.controller
+    law = ctrl.law
+    if backend == "numba" and law.backend == "numpy":  # the planar known-model default
+        ctrl = LuJiaController(ctrl.context, backend="numba")
+        law = ctrl.law
+    law.backend = backend
+    layout = law.signal_layout
+    assert ctrl.signal_layout is layout and ctrl.signal_shapes == dict(layout.shapes)
+    loop = _ClosedLoop(setup, full_model=not law.adaptive)
+    for k in range(30):
+        meas = loop.measure()
+        before = {
+            "theta_z_hat": law.theta_z.copy(), "theta_d_hat": law.theta_d.copy(),
+            "theta_b_hat": law.theta_b.copy(), "w_hat": law.w_hat.copy(),
+        }  # fmt: skip
+        if k % 2:  # through the controller: the reply carries the row itself
+            u_m, signals = ctrl.step(meas)
+            assert isinstance(signals, SignalRow) and signals.layout is layout
+            row = signals.row
+        else:  # the law's output: the row beside the named outputs it repeats
+            out = law.step(meas, loop.dt)
+            u_m, row = out.u_m, out.signals
+            assert row is not None and row.shape == (layout.size,)
+            named = {"w_tilde": out.w_tilde, "e": out.e, "w_mc": out.w_mc,
+                     "sigma_min": out.sigma_min, "damping": out.damping}  # fmt: skip
+            for key, value in named.items():
+                assert np.array_equal(row[layout.index(key)], value), key
+        for key, value in before.items():
+            assert np.array_equal(row[layout.index(key)], value), key
+        loop.advance(u_m)
+    if law.adaptive:
+        assert not np.array_equal(law.theta_d, setup.theta_d)  # the estimates moved

@@ -41,17 +41,26 @@ def test_each_geometry_provides_the_three_steps_as_cached_kernels(cls):
 @pytest.mark.parametrize(("m3", "n_task"), [(1, 3), (3, 6), (3, 3)])
 @pytest.mark.parametrize("n", [2, 7])
 def test_out_layout_tiles_the_buffer_without_gaps(n, m3, n_task):
-    lay = period.out_layout(n, m3, n_task)
-    sizes = {"u_m": n, "w_mc": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task, "w_tilde": n + m3,
-             "e": n + m3}  # fmt: skip
+    """Every entry of ``out`` belongs to exactly one output, and the signals' block is the
+    signals side by side in the order given (the row a run records in one copy)."""
+    N, n_z, n_d, n_b = n + m3, 5, 11, 4
+    signals = {"w_tilde": (N,), "e": (N,), "theta_z_hat": (n_z,), "theta_d_hat": (n_d,),
+               "theta_b_hat": (n_b,), "w_hat": (N,), "w_mc": (n,), "sigma_min": (),
+               "damping": ()}  # fmt: skip
+    lay = period.out_layout(n, m3, n_task, signals)
+    sizes = {"u_m": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task,
+             **{k: int(np.prod(s)) for k, s in signals.items()}}  # fmt: skip
     covered = np.zeros(lay["size"], dtype=int)
     for key, size in sizes.items():
-        sl = lay[key]
-        assert sl.stop - sl.start == size, key
-        covered[sl] += 1
-    for key in ("sigma_min", "damping", "H_bm_norm", "exit_value"):
+        entries = np.arange(lay["size"])[lay[key]]
+        assert entries.size == size, key
+        covered[entries] += 1
+    for key in ("H_bm_norm", "exit_value"):
         covered[lay[key]] += 1
     assert (covered == 1).all()  # every entry written by exactly one output
+    block = np.arange(lay["size"])[lay["signals"]]
+    in_order = np.concatenate([np.atleast_1d(np.arange(lay["size"])[lay[k]]) for k in signals])
+    np.testing.assert_array_equal(block, in_order)
 
 
 @pytest.mark.slow

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ffsm_pin.control.interface import SignalLayout, SignalRow
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim import recorder
 from ffsm_pin.sim.recorder import Recorder, Signals, write_npz
@@ -112,6 +113,39 @@ def test_blocks_every_and_npz_of_a_spilled_recording(tmp_path):
         for key in A.files:
             assert np.array_equal(A[key], B[key])
         assert np.array_equal(B["y"], 2 * t[:, None])
+
+
+@pytest.mark.parametrize("chunk_rows", [3, 100], ids=["spilled", "in-memory"])
+def test_packed_columns_record_a_row_in_one_copy_as_column_by_column(tmp_path, chunk_rows):
+    """Keys packed side by side (a controller's SignalRow) record, in memory and spilled, the
+    same rows as the same keys written one by one; the signals come back as separate
+    contiguous arrays, and a recorder that already holds rows refuses to pack."""
+    shapes = {"t": (), "x": (2, 3), "s": (), "y": (4,)}
+    width = 8 * (1 + 6 + 1 + 4)
+    packed = Recorder(shapes, 20, spool_dir=tmp_path, chunk_bytes=chunk_rows * width)
+    plain = Recorder(shapes, 20, spool_dir=tmp_path, chunk_bytes=chunk_rows * width)
+    block = packed.pack(["s", "x", "y"])  # an order of its own, not the recorder's
+    assert block.shape == (packed.chunk_rows, 11)
+    assert list(packed.arrays) == list(shapes)  # the recorder's key order is kept
+    for k in range(17):
+        x, s, y = np.sin(k + np.arange(6)).reshape(2, 3), 0.5 * k, np.cos(k + np.arange(4))
+        for rec in (packed, plain):
+            rec.arrays["t"][rec.i] = 0.1 * k
+        block[packed.i] = np.concatenate(([s], x.ravel(), y))
+        plain.arrays["x"][plain.i], plain.arrays["s"][plain.i], plain.arrays["y"][plain.i] = x, s, y
+        packed.commit()
+        plain.commit()
+    a, b = packed.finish(), plain.finish()
+    assert a.spilled is b.spilled is (chunk_rows == 3)
+    assert list(a) == list(b) == list(shapes)
+    for key in shapes:
+        x, y = np.asarray(a[key]), np.asarray(b[key])
+        assert x.shape == y.shape == (17, *shapes[key]) and x.flags.c_contiguous, key
+        assert x.tobytes() == y.tobytes(), key
+    rec = Recorder(shapes, 17)
+    rec.commit()
+    with pytest.raises(RuntimeError, match="already"):
+        rec.pack(["x"])
 
 
 @pytest.mark.parametrize("spill", [False, True], ids=["in-memory", "spilled"])
@@ -244,3 +278,46 @@ def test_reaction_torque_after_the_run_is_the_models_on_every_row(case):
     fd = (w[1:, :m3] - w[:-1, :m3]) / dt
     acc = dw_b.reshape(len(q), -1)[:-1]
     np.testing.assert_allclose(fd, acc, rtol=0, atol=1e-2 * np.max(np.abs(acc)))
+
+
+class _Wrapped:
+    """The paper's controller with its signals handed back another way (``how``)."""
+
+    def __init__(self, inner, how: str):
+        self.inner, self.how = inner, how
+        self.signal_shapes = inner.signal_shapes
+
+    def step(self, meas):
+        u_m, signals = self.inner.step(meas)
+        assert isinstance(signals, SignalRow)
+        if self.how == "dict":
+            return u_m, {key: np.copy(value) for key, value in signals.items()}
+        if self.how == "new-layout":  # equal, but not the first period's layout object
+            return u_m, SignalRow(signals.row, SignalLayout(signals.layout.shapes))
+        # "short": from t = 0.05 s a row one entry short of its layout
+        return u_m, SignalRow(signals.row[:-1] if meas.t > 0.05 else signals.row, signals.layout)
+
+
+def test_a_signal_row_records_as_the_same_signals_in_a_dict():
+    """The run records a controller's SignalRow in one copy: every recorded signal equals, bit
+    for bit, the run in which the same controller hands the same values back as a dict (each
+    signal written on its own), and the run in which each period's row has a layout of its
+    own (written signal by signal). A row that stops fitting its layout stops the run."""
+    sc = dataclasses.replace(builtin_scenario("case1"), duration=0.2)
+    runs = {"row": simulate(prepare(sc))}
+    for how in ("dict", "new-layout"):
+        setup = prepare(sc)
+        setup.controller = _Wrapped(setup.controller, how)
+        runs[how] = simulate(setup)
+    ref = runs["row"]
+    assert ref.completed and "theta_d_hat" in ref.signals
+    for how in ("dict", "new-layout"):
+        assert runs[how].completed and list(runs[how].signals) == list(ref.signals), how
+        for key in ref.signals:
+            assert np.asarray(runs[how][key]).tobytes() == np.asarray(ref[key]).tobytes(), key
+    setup = prepare(sc)
+    setup.controller = _Wrapped(setup.controller, "short")
+    short = simulate(setup)
+    assert not short.completed and short.stop_cause == "controller"
+    assert "signals changed" in short.stop_reason
+    assert short.stop_time == pytest.approx(0.051, abs=1e-9)
