@@ -25,6 +25,7 @@ Outputs: :func:`period` returns (status, exit index) with the ``STATUS_*`` codes
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -91,7 +92,7 @@ def out_layout(
     }  # fmt: skip
     start = h + 2
     for key, shape in signals.items():
-        stop = start + (shape[0] if shape else 1)
+        stop = start + math.prod(shape)
         lay[key] = slice(start, stop) if shape else start
         start = stop
     lay["signals"] = slice(h + 2, start)
@@ -187,9 +188,9 @@ def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq
     _put(out, at_est, theta_z)
     _put(out, at_est + theta_z.size, theta_d)
     _put(out, at_est + theta_z.size + theta_d.size, theta_b)
-    at_w_mc = at_est + theta_z.size + theta_d.size + theta_b.size
-    _put(out, at_w_mc, w_hat)
-    at_w_mc += N
+    at_w_hat = at_est + theta_z.size + theta_d.size + theta_b.size
+    _put(out, at_w_hat, w_hat)
+    at_w_mc = at_w_hat + N  # then sigma_min and the damping
     terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(
         geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d
     )  # Eqs. (28), (42)
