@@ -206,8 +206,10 @@ class SignalLayout:
 class SignalRow(Mapping[str, Any]):
     """A controller's signals as one flat float row laid out by a :class:`SignalLayout`.
 
-    Reads as the mapping name -> value (a view of the row reshaped to the signal's shape, a
-    number for shape ``()``), so it is returned where a dict of signals would be.
+    Reads as the mapping name -> value (a view of the row reshaped to the signal's shape; a
+    numpy number, a copy, for shape ``()``), so it is returned where a dict of signals
+    would be. The run loop records a row of the first period's layout object whole, after
+    checking its length; a row that does not fit its layout stops the run.
 
     Parameters
     ----------

@@ -53,6 +53,7 @@ from ._shared_kernels import (  # noqa: F401 - re-exported for the controller
 
 __all__ = [
     "GEOMETRIES",
+    "SIGNALS",
     "compile_in_parallel",
     "gains_array",
     "out_layout",
@@ -76,6 +77,11 @@ GEOMETRIES: dict[type, Any] = {
 _H = 1e-30  # the complex step, as in control/kinematic.py
 
 
+#: The signals :func:`period` writes side by side at the end of ``out``, in this order.
+SIGNALS = ("w_tilde", "e", "theta_z_hat", "theta_d_hat", "theta_b_hat", "w_hat", "w_mc",
+           "sigma_min", "damping")  # fmt: skip
+
+
 def out_layout(
     n: int, m3: int, n_task: int, signals: Mapping[str, tuple[int, ...]]
 ) -> dict[str, Any]:
@@ -85,6 +91,8 @@ def out_layout(
     the shapes of the signals the period reports, in the order it writes them (w~, e, the
     estimates and w-hat at t, w_mc, sigma_min, damping:
     :attr:`~.controller.CoordinatedController.signal_layout`)."""
+    if tuple(signals) != SIGNALS:  # the order `period` writes them in
+        raise ValueError(f"out_layout: the signals must be {SIGNALS}, in this order")
     h = 2 * n + m3 + n_task
     lay: dict[str, Any] = {
         "u_m": slice(0, n), "w_mc_dot": slice(n, 2 * n), "err_b": slice(2 * n, 2 * n + m3),

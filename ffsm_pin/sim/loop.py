@@ -265,6 +265,11 @@ def simulate(
                 i = rec.i
                 try:
                     if type(signals) is SignalRow and signals.layout is layout:
+                        if len(signals.row) != A_signals.shape[1]:  # (not broadcast)
+                            raise ValueError(
+                                f"a row of {len(signals.row)} entries for a layout of "
+                                f"{A_signals.shape[1]}"
+                            )
                         A_signals[i] = signals.row
                     else:
                         if len(signals) != len(signal_columns):
@@ -273,7 +278,7 @@ def simulate(
                             )
                         for key, column in signal_columns:
                             column[i] = signals[key]
-                except (KeyError, ValueError) as exc:
+                except (KeyError, ValueError, IndexError) as exc:
                     completed, stop_time, stop_cause = False, t, "controller"
                     stop_reason = (
                         f"t = {t:.4f} s: the controller's signals changed after the first "

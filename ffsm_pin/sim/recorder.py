@@ -203,6 +203,8 @@ class Recorder:
         if self.rows:
             raise RuntimeError("Recorder.pack: rows were already written")
         widths = [int(np.prod(self.shapes[key])) for key in keys]
+        for key in keys:  # their own columns freed first, the keys kept in place
+            self.arrays[key] = np.empty(0)
         block = np.full((self.chunk_rows, sum(widths)), np.nan)
         start = 0
         for key, width in zip(keys, widths, strict=True):
@@ -238,9 +240,13 @@ class Recorder:
         self.i = 0
 
     def finish(self) -> Signals:
-        """The recorded rows: in-memory arrays if they never left the chunk, else memory maps."""
-        if self._spool is None:  # (packed columns stay views of their block: a copy of a
-            # spatial run's estimates cost ~3 us a row, more than recording them)
+        """The recorded rows: in-memory arrays if they never left the chunk, else memory maps.
+
+        In memory, packed columns (:meth:`pack`) stay views of their block, so any one of them
+        keeps the block's memory (copying them out cost a spatial run ~3 us a row,
+        benchmarks/README.md).
+        """
+        if self._spool is None:
             return Signals({k: a[: self.i] for k, a in self.arrays.items()})
         self._spill()
         self.arrays = {}  # the chunk's memory is no longer needed

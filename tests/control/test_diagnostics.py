@@ -291,10 +291,13 @@ def test_the_known_model_reports_e_and_w_tilde_zero(case, backend):
 @pytest.mark.parametrize("backend", ["numba", "numpy"])
 @pytest.mark.parametrize("case", ["case1", "spatial", "known-model"])
 def test_the_period_reports_its_signals_as_one_row_of_its_layout(case, backend):
-    """``ControlOutput.signals`` is the row of the controller's ``signal_layout``: w~, e, the
-    estimates and w-hat at t (copies taken *before* the period, which advances them), w_mc,
-    sigma_min and the damping, each bit for bit the period's own output; and the paper's
-    controller returns that row (a SignalRow), along 30 closed-loop periods."""
+    """``ControlOutput.signals`` is the row of the controller's ``signal_layout``: the
+    estimates and w-hat at t, bit for bit the copies taken *before* the period (which
+    advances them in place on the compiled backend), w~ = w - w-hat bit for bit, and w_mc,
+    sigma_min and the damping the law's named outputs (on the numpy backend separate arrays;
+    compiled, views of the same buffer, whose values against the numpy reference
+    test_fast*.py check); the paper's controller returns that row (a SignalRow), along 30
+    closed-loop periods. e's slot: the Eq. (54) test above, which reads it from this row."""
     setup = prepare(builtin_scenario(case))
     ctrl = setup.controller
     law = ctrl.law
@@ -325,6 +328,8 @@ def test_the_period_reports_its_signals_as_one_row_of_its_layout(case, backend):
                 assert np.array_equal(row[layout.index(key)], value), key
         for key, value in before.items():
             assert np.array_equal(row[layout.index(key)], value), key
+        w_tilde = meas.w - before["w_hat"] if law.adaptive else np.zeros_like(meas.w)
+        assert np.array_equal(row[layout.index("w_tilde")], w_tilde)
         loop.advance(u_m)
     if law.adaptive:
         assert not np.array_equal(law.theta_d, setup.theta_d)  # the estimates moved

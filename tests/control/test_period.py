@@ -61,6 +61,10 @@ def test_out_layout_tiles_the_buffer_without_gaps(n, m3, n_task):
     block = np.arange(lay["size"])[lay["signals"]]
     in_order = np.concatenate([np.atleast_1d(np.arange(lay["size"])[lay[k]]) for k in signals])
     np.testing.assert_array_equal(block, in_order)
+    # the period writes them in its own order: another one is refused
+    swapped = {"e": signals["e"], **signals}
+    with pytest.raises(ValueError, match="in this order"):
+        period.out_layout(n, m3, n_task, swapped)
 
 
 @pytest.mark.slow

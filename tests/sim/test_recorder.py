@@ -137,6 +137,8 @@ def test_packed_columns_record_a_row_in_one_copy_as_column_by_column(tmp_path, c
         plain.commit()
     a, b = packed.finish(), plain.finish()
     assert a.spilled is b.spilled is (chunk_rows == 3)
+    if not a.spilled:  # views of the one block
+        assert all(np.shares_memory(a[key], block) for key in ("s", "x", "y"))
     assert list(a) == list(b) == list(shapes)
     for key in shapes:
         x, y = np.asarray(a[key]), np.asarray(b[key])
@@ -292,17 +294,25 @@ class _Wrapped:
         assert isinstance(signals, SignalRow)
         if self.how == "dict":
             return u_m, {key: np.copy(value) for key, value in signals.items()}
+        layout, late = signals.layout, meas.t > 0.05
         if self.how == "new-layout":  # equal, but not the first period's layout object
-            return u_m, SignalRow(signals.row, SignalLayout(signals.layout.shapes))
-        # "short": from t = 0.05 s a row one entry short of its layout
-        return u_m, SignalRow(signals.row[:-1] if meas.t > 0.05 else signals.row, signals.layout)
+            return u_m, SignalRow(signals.row, SignalLayout(layout.shapes))
+        if self.how == "short":  # from t = 0.05 s a row one entry short of its layout
+            return u_m, SignalRow(signals.row[:-1] if late else signals.row, layout)
+        if self.how == "short-new-layout":  # the same, and another layout object
+            row = signals.row[:-1] if late else signals.row
+            return u_m, SignalRow(row, SignalLayout(layout.shapes) if late else layout)
+        # "one-entry": a row that numpy would broadcast over the whole layout
+        return u_m, SignalRow(signals.row[:1] if late else signals.row, layout)
 
 
 def test_a_signal_row_records_as_the_same_signals_in_a_dict():
     """The run records a controller's SignalRow in one copy: every recorded signal equals, bit
     for bit, the run in which the same controller hands the same values back as a dict (each
     signal written on its own), and the run in which each period's row has a layout of its
-    own (written signal by signal). A row that stops fitting its layout stops the run."""
+    own (written signal by signal). A row that stops fitting its layout stops the run, with
+    the first period's layout object or another, one entry short or a single entry (which
+    numpy would broadcast)."""
     sc = dataclasses.replace(builtin_scenario("case1"), duration=0.2)
     runs = {"row": simulate(prepare(sc))}
     for how in ("dict", "new-layout"):
@@ -315,9 +325,11 @@ def test_a_signal_row_records_as_the_same_signals_in_a_dict():
         assert runs[how].completed and list(runs[how].signals) == list(ref.signals), how
         for key in ref.signals:
             assert np.asarray(runs[how][key]).tobytes() == np.asarray(ref[key]).tobytes(), key
-    setup = prepare(sc)
-    setup.controller = _Wrapped(setup.controller, "short")
-    short = simulate(setup)
-    assert not short.completed and short.stop_cause == "controller"
-    assert "signals changed" in short.stop_reason
-    assert short.stop_time == pytest.approx(0.051, abs=1e-9)
+    for how in ("short", "short-new-layout", "one-entry"):
+        setup = prepare(sc)
+        setup.controller = _Wrapped(setup.controller, how)
+        bad = simulate(setup)
+        assert not bad.completed and bad.stop_cause == "controller", how
+        assert "signals changed" in bad.stop_reason, how
+        assert bad.stop_time == pytest.approx(0.051, abs=1e-9), how
+        assert len(bad["t"]) == 51  # the periods before the stop
