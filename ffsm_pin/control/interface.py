@@ -27,10 +27,10 @@ and optionally the attributes
 * ``singular_value(meas)``: the distance to a kinematic singularity [m], for ``--check``;
 * ``signal_shapes`` (dict name -> shape): the shapes of the signals ``step`` returns, used to
   size the recording before the run; signals not listed are found at the first step.
-
-The signals may also be returned as one flat row, a :class:`SignalRow` over a fixed
-:class:`SignalLayout`: the recorder then copies the row in one piece instead of a signal at a
-time (the paper's controller does, :class:`~ffsm_pin.control.lu_jia.LuJiaController`).
+* ``signal_layout`` (:class:`SignalLayout`): the signals ``step`` returns as rows of it
+  (:class:`SignalRow`); the recorder holds their columns side by side and copies each such
+  row in one piece instead of a signal at a time (the paper's controller does,
+  :class:`~ffsm_pin.control.lu_jia.LuJiaController`). Its shapes count as declared.
 
 Signals named in :data:`STANDARD_SIGNALS` keep their names in ``trajectory.npz`` (the figures
 and the summary know them); any other name is saved as ``ctrl_<name>``.
@@ -169,8 +169,9 @@ class SignalLayout:
     """Where each signal of a :class:`SignalRow` lies in its flat row: the signals in the
     order of ``shapes``, each taking ``prod(shape)`` consecutive entries (a number one).
 
-    A controller makes its layout once; the run loop compares layouts by identity (a row of
-    the same layout object is copied whole into the recording).
+    A controller makes its layout once and declares it as ``signal_layout``; the run loop
+    compares layouts by identity (a row of that layout object is copied whole into the
+    recording).
 
     Attributes
     ----------
@@ -208,8 +209,9 @@ class SignalRow(Mapping[str, Any]):
 
     Reads as the mapping name -> value (a view of the row reshaped to the signal's shape; a
     numpy number, a copy, for shape ``()``), so it is returned where a dict of signals
-    would be. The run loop records a row of the first period's layout object whole, after
-    checking its length; a row that does not fit its layout stops the run.
+    would be. The run loop records a row of the controller's declared ``signal_layout``
+    whole, after checking its length, and any other row signal by signal; a row that does
+    not fit its layout stops the run.
 
     Parameters
     ----------

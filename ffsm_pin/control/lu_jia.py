@@ -101,9 +101,10 @@ class LuJiaController:
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
-        # the period's signals at t, returned as its row (SignalRow: recorded in one copy)
+        # the period's signals at t, returned as its row (a SignalRow of this declared
+        # layout: recorded in one copy)
         self.signal_layout = law.signal_layout
-        self.signal_shapes = dict(law.signal_layout.shapes)
+        self.signal_shapes = dict(law.signal_layout.shapes)  # (as before the layout)
 
     def singular_value(self, meas: Measurement) -> float:
         """sigma_min of the inverted task Jacobian (J_m-hat U-hat, or J_m-hat for Eq. 81) at

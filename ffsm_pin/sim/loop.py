@@ -35,7 +35,8 @@ from .storage import check_storage, rows_recorded
 
 def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     """Shape of one recorded row of every per-step signal the loop itself records, and of
-    the controller's signals it declares (``signal_shapes``, under their recorded names)."""
+    the controller's signals it declares (``signal_layout``'s and ``signal_shapes``, under
+    their recorded names)."""
     m = setup.model
     nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
     m3, nt = m.m3, setup.n_task
@@ -43,7 +44,9 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     nw = n + m3
     # per-step signals; the funnels, their bounds, the reference, the true task errors, the
     # momentum and the reaction torque are computed after the run (_after_run_signals)
-    declared = getattr(setup.controller, "signal_shapes", None) or {}
+    layout = getattr(setup.controller, "signal_layout", None)
+    declared = {**(layout.shapes if layout else {}),
+                **(getattr(setup.controller, "signal_shapes", None) or {})}  # fmt: skip
     return {
         "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
         "q_b": (m3,), "dw_b": () if planar else (3,), "z_e_dot": (nt,),
@@ -182,8 +185,11 @@ def simulate(
     sensor = Sensor(setup.robot, model, full_model=needs_dynamics)  # Pinocchio M, C w
     shapes = recorder_shapes(setup)
     n_rows = rows_recorded(n_steps, record_every)
-    rec = Recorder(shapes, n_rows, spool_dir)
-    A = rec.arrays
+    # a controller's declared SignalLayout: its columns side by side, a row copied whole
+    layout: SignalLayout | None = getattr(controller, "signal_layout", None)
+    packed = [recorded_name(key) for key in layout.shapes] if layout else []
+    rec = Recorder(shapes, n_rows, spool_dir, packed=packed)
+    A, A_signals = rec.arrays, rec.block
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
     completed, stop_reason, stop_time = True, None, None
@@ -203,8 +209,6 @@ def simulate(
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
     names: dict[str, str] = {}  # controller signal -> recorded name
-    layout: SignalLayout | None = None  # of the controller's SignalRow, if it returns one
-    A_signals = np.empty((0, 0))  # the recorder's columns of that row, side by side
     wall0 = time.perf_counter()
     k = 0
     try:
@@ -228,12 +232,8 @@ def simulate(
                         )
                     if set(new) - set(shapes):
                         shapes = {**shapes, **new}
-                        rec = Recorder(shapes, n_rows, spool_dir)
-                        A = rec.arrays
-                    # a SignalRow: its layout's columns side by side, a row copied whole
-                    layout = signals.layout if type(signals) is SignalRow else None
-                    if layout is not None:
-                        A_signals = rec.pack([names[key] for key in layout.shapes])
+                        rec = Recorder(shapes, n_rows, spool_dir, packed=packed)
+                        A, A_signals = rec.arrays, rec.block
                     # the recorder's columns, looked up once (its arrays outlive every spill)
                     signal_columns = [(key, A[names[key]]) for key in signals]
                     A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (

@@ -18,7 +18,7 @@ import shutil
 import tempfile
 import weakref
 import zipfile
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -176,6 +176,10 @@ class Recorder:
         system's temporary folder when None). Removed when the signals are no longer used.
     chunk_bytes:
         Memory for the rows held at once [bytes]; :data:`CHUNK_BYTES` when None.
+    packed:
+        Keys of ``shapes`` held side by side, in this order, in :attr:`block` (``chunk_rows x
+        width``): row :attr:`i` of it is their row, written in one copy (a controller's
+        :class:`~ffsm_pin.control.interface.SignalRow`); their :attr:`arrays` are views of it.
     """
 
     def __init__(
@@ -184,34 +188,28 @@ class Recorder:
         capacity: int,
         spool_dir: str | Path | None = None,
         chunk_bytes: int | None = None,
+        packed: Sequence[str] = (),
     ):
         chunk_bytes = CHUNK_BYTES if chunk_bytes is None else chunk_bytes
         self.shapes = dict(shapes)
         row = sum(8 * int(np.prod(s)) for s in self.shapes.values())
         self.chunk_rows = int(max(1, min(capacity, chunk_bytes // max(1, row))))
-        self.arrays = {k: np.full((self.chunk_rows, *s), np.nan) for k, s in self.shapes.items()}
+        widths = [int(np.prod(self.shapes[key])) for key in packed]
+        self.block = np.full((self.chunk_rows, sum(widths)), np.nan)
+        views, start = {}, 0
+        for key, width in zip(packed, widths, strict=True):
+            views[key] = self.block[:, start : start + width].reshape(
+                self.chunk_rows, *self.shapes[key]
+            )
+            start += width
+        self.arrays = {
+            k: views[k] if k in views else np.full((self.chunk_rows, *s), np.nan)
+            for k, s in self.shapes.items()
+        }
         self.i = 0  # row of the chunk being written
         self.on_disk = 0  # rows already spilled
         self._spool_dir = spool_dir
         self._spool: Path | None = None
-
-    def pack(self, keys: list[str]) -> np.ndarray:
-        """Hold the signals ``keys`` side by side, in this order, in one ``chunk_rows x width``
-        array and return it: row :attr:`i` of it is their row, written in one copy (a
-        controller's :class:`~ffsm_pin.control.interface.SignalRow`). :attr:`arrays` of those
-        keys become views of it (NaN until written, as every column). Before any row."""
-        if self.rows:
-            raise RuntimeError("Recorder.pack: rows were already written")
-        widths = [int(np.prod(self.shapes[key])) for key in keys]
-        for key in keys:  # their own columns freed first, the keys kept in place
-            self.arrays[key] = np.empty(0)
-        block = np.full((self.chunk_rows, sum(widths)), np.nan)
-        start = 0
-        for key, width in zip(keys, widths, strict=True):
-            view = block[:, start : start + width]
-            self.arrays[key] = view.reshape(self.chunk_rows, *self.shapes[key])  # (a view)
-            start += width
-        return block
 
     @property
     def rows(self) -> int:
@@ -242,14 +240,14 @@ class Recorder:
     def finish(self) -> Signals:
         """The recorded rows: in-memory arrays if they never left the chunk, else memory maps.
 
-        In memory, packed columns (:meth:`pack`) stay views of their block, so any one of them
+        In memory, packed columns (``packed``) stay views of their block, so any one of them
         keeps the block's memory (copying them out cost a spatial run ~3 us a row,
         benchmarks/README.md).
         """
         if self._spool is None:
             return Signals({k: a[: self.i] for k, a in self.arrays.items()})
         self._spill()
-        self.arrays = {}  # the chunk's memory is no longer needed
+        self.arrays, self.block = {}, np.empty((0, 0))  # the chunk's memory is no longer needed
         return Signals({}, self._spool, self.shapes, self.on_disk)
 
 
