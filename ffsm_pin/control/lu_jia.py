@@ -119,6 +119,5 @@ class LuJiaController:
         :class:`~ffsm_pin.control.interface.SignalRow` of :attr:`signal_layout`: w~ and e
         of Eq. (54) with the true M and theta_d, the estimates and w-hat, w_mc, sigma_min
         and the damping."""
-        out = self.law.step(meas, self._dt)
-        assert out.signals is not None  # theta_d_true is given
+        out = self.law.step_row(meas, self._dt)
         return out.u_m, SignalRow(out.signals, self.signal_layout)

@@ -259,3 +259,15 @@ def test_arm_held_at_a_fold_stops_cleanly():
     assert np.all(sigma[t >= damped_from] < policy.threshold)
     for key, value in result.signals.items():
         assert np.all(np.isfinite(value)), key
+
+
+def test_step_row_without_the_true_theta_d_names_what_it_needs(make_chain):
+    """``step_row`` returns the signals' row, whose e of Eq. (54) needs the true theta_d: a
+    controller made without it refuses the call by name, rather than a row of None."""
+    robot = make_chain(4)
+    ctrl = controller_for(robot, "ppc")
+    assert ctrl.theta_d_true is None
+    q = robot.configuration((0.0, 0.0, 0.1), 0.7 * (-1.0) ** np.arange(robot.n_joints))
+    meas = Sensor(robot, ctrl.model, full_model=False).measure(0.0, q, np.zeros(robot.model.nv))
+    with pytest.raises(FfsmError, match="step_row needs theta_d_true"):
+        ctrl.step_row(meas, 1e-3)

@@ -5,13 +5,17 @@ period reports (compiled and numpy, equal to its definition at the states before
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
 from ffsm_pin.control import fast, fast_spatial
+from ffsm_pin.control.controller import SingularityWarning
 from ffsm_pin.control.diagnostics import reaction_torques
 from ffsm_pin.control.interface import SignalRow
 from ffsm_pin.control.lu_jia import LuJiaController
+from ffsm_pin.errors import SimulationError
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.measurement import Sensor
 from ffsm_pin.sim.plant import Plant
@@ -333,3 +337,50 @@ def test_the_period_reports_its_signals_as_one_row_of_its_layout(case, backend):
         loop.advance(u_m)
     if law.adaptive:
         assert not np.array_equal(law.theta_d, setup.theta_d)  # the estimates moved
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+@pytest.mark.parametrize("case", ["case1", "case2", "spatial"])
+def test_step_row_runs_the_same_period_as_step(case, backend):
+    """:meth:`CoordinatedController.step_row` (what the paper's controller calls) is the
+    period of :meth:`~CoordinatedController.step` without the other named outputs: two
+    controllers built alike, fed the same measurements of one closed loop, give the same
+    u_m and signals' row bit for bit and keep the same estimates, through the periods where
+    damped least squares is active (case 2 enters them at about 1.41 s; both book them as
+    an event), and at a funnel exit (case 1 and spatial; case 2 enforces no
+    funnel), which both raise with the same message."""
+    setup = prepare(builtin_scenario(case))
+    other = prepare(builtin_scenario(case))
+    by_step, by_row = setup.controller.law, other.controller.law
+    by_step.backend = by_row.backend = backend
+    loop = _ClosedLoop(setup, full_model=False)
+    periods = 1500 if case == "case2" else 30
+    damped = 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SingularityWarning)
+        for _ in range(periods):
+            meas = loop.measure()
+            out, row = by_step.step(meas, loop.dt), by_row.step_row(meas, loop.dt)
+            assert np.array_equal(out.u_m, row.u_m)
+            assert np.array_equal(out.signals, row.signals)
+            damped += out.damping > 0
+            loop.advance(out.u_m)
+        for name in ("theta_z", "theta_d", "theta_b", "w_hat"):
+            assert np.array_equal(getattr(by_step, name), getattr(by_row, name)), name
+        assert by_step._damped_since == by_row._damped_since
+        assert (damped > 0) == (case == "case2")
+        # the bookkeeping saw the damped periods (its event), not only the shared path
+        for law in (by_step, by_row):
+            assert any("near a singularity" in e for e in law.events) == (damped > 0)
+    if case == "case2":
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SingularityWarning)
+        outside = loop.measure()._replace(z_e=loop.measure().z_e + 100.0)  # far outside
+        stops = []
+        for call in (lambda: by_step.step(outside, loop.dt),
+                     lambda: by_row.step_row(outside, loop.dt)):  # fmt: skip
+            with pytest.raises(SimulationError) as caught:
+                call()
+            stops.append(str(caught.value))
+    assert stops[0] == stops[1] and "funnel" in stops[0]
