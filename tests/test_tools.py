@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import os
 import platform
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -53,3 +55,47 @@ def test_rounding_sensitivity_reruns_the_case_on_another_openblas_kernel(capsys)
     parting = dict(zip(*[iter(line[0].split()[2:-1])] * 2, strict=True))
     assert set(parting) == set(tool.SIGNALS)
     assert all(float(v) < 1e-12 for v in parting.values())
+
+
+def _fake_package(folder: Path, marker: str) -> Path:
+    """A folder holding an ``ffsm_pin`` package that is only ``marker``."""
+    (folder / "ffsm_pin").mkdir(parents=True)
+    (folder / "ffsm_pin" / "__init__.py").write_text(f"MARKER = {marker!r}\n")
+    return folder
+
+
+def test_compare_runs_records_the_package_it_was_asked_for(tmp_path):
+    """``python -m`` puts the current folder first: run from a checkout's root, a PYTHONPATH
+    naming another checkout is shadowed, and a "before" recording would silently be the
+    "after" one. ``record`` finds the package its runs import, refuses the shadowed
+    PYTHONPATH with what to use instead, and ``--source`` runs the folder asked for."""
+    tool = _tool("compare_runs")
+    other = _fake_package(tmp_path / "other", "other").resolve()
+    env = {**os.environ, "PYTHONPATH": str(other)}
+    here = _fake_package(tmp_path / "here", "here").resolve()  # the folder the command runs in
+    shadowed = tool.imported_package(here, env)
+    assert shadowed == here / "ffsm_pin"
+    with pytest.raises(tool.SourceError, match=r"--source .*other") as info:
+        tool.check_not_shadowed(shadowed, env)
+    assert str(other / "ffsm_pin") in str(info.value) and str(shadowed) in str(info.value)
+    cwd, env = tool.run_environment(other)
+    assert tool.imported_package(cwd, env) == other / "ffsm_pin"
+    tool.check_not_shadowed(other / "ffsm_pin", env)  # what was asked for: no error
+
+
+def test_compare_runs_exports_a_revision_and_refuses_an_unknown_one(tmp_path, capsys):
+    """``--rev`` runs ``git archive`` of the revision: its files as committed; an unknown
+    revision is one ``error:`` line and exit 2, nothing recorded."""
+    tool = _tool("compare_runs")
+    head = subprocess.run(["git", "-C", str(ROOT), "show", "HEAD:ffsm_pin/__init__.py"],
+                          capture_output=True, check=False)  # fmt: skip
+    if head.returncode != 0:
+        pytest.skip("not a git checkout")
+    source = tool.export_revision("HEAD", tmp_path / "head")
+    assert (source / "ffsm_pin" / "__init__.py").read_bytes() == head.stdout
+    assert len(tool.resolve_revision("HEAD")) == 40
+    out = tmp_path / "rec"
+    assert tool.main(["record", str(out), "--rev", "no-such-revision", "--cases", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: git archive no-such-revision")
+    assert not out.exists()

@@ -6,12 +6,25 @@ user-facing contract), so the tool works across any internal restructuring.
 
 Usage::
 
-    python tools/compare_runs.py record /tmp/before              # every built-in case, short runs
+    python tools/compare_runs.py record /tmp/before --rev main   # a revision, exported by git
+    python tools/compare_runs.py record /tmp/after               # the package this Python runs
     python tools/compare_runs.py record /tmp/after --cases case1 spatial --record-every 7
+    python tools/compare_runs.py record /tmp/old --source ../old-checkout   # any source folder
     python tools/compare_runs.py compare /tmp/before /tmp/after   # bitwise; exit 1 on a difference
     python tools/compare_runs.py compare /tmp/before /tmp/after --rtol 1e-12
     python tools/compare_runs.py compare /tmp/before /tmp/after --allow-added  # new outputs
     python tools/compare_runs.py compare /tmp/before /tmp/after --normwise --rtol 1e-12 --atol 1e-14
+
+``record`` first finds which ``ffsm_pin`` its runs will import, prints it and writes it to
+``<out>/source.txt`` (``compare`` prints both), because ``python -m`` puts the current folder
+first on the import path: a ``PYTHONPATH`` naming another checkout is shadowed when the
+command runs from a checkout's root, and the "before" recording would silently be the
+"after" one. ``--source DIR`` runs DIR's package (from DIR), ``--rev REV`` exports the
+revision with ``git archive`` to a temporary folder and runs that; a ``PYTHONPATH`` whose
+package is shadowed is refused (exit 2) with what to use instead. numba's cache folder is
+named by a digest of the package's kernel sources: two revisions share compiled kernels only
+when those sources are the same (set ``NUMBA_CACHE_DIR`` to an empty folder for a recording
+from an empty cache).
 
 ``compare`` checks every key of every ``trajectory.npz`` (same keys, shapes, dtypes; the same
 bytes: equal values that differ only in a zero's sign or a NaN's payload are reported apart)
@@ -27,8 +40,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
+import tarfile
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -49,11 +65,99 @@ DEFAULT_CASES = {
     "spatial-realistic": 1.0,
 }
 WALL_CLOCK = {"wall_time_s", "steps_per_s"}
+ROOT = Path(__file__).resolve().parents[1]
 
 
-def record(out: Path, cases: list[str], record_every: int, duration: float | None) -> int:
-    """Run each case into ``out/<case>``; return the number of runs that exited with 3 or less."""
+class SourceError(Exception):
+    """The package a recording would run is not the one asked for."""
+
+
+def export_revision(rev: str, dest: Path, repo: Path = ROOT) -> Path:
+    """``git archive`` of ``rev`` of ``repo``, extracted into ``dest``; returns ``dest``."""
+    archive = subprocess.run(
+        ["git", "-C", str(repo), "archive", "--format=tar", rev], capture_output=True, check=False
+    )
+    if archive.returncode != 0:
+        raise SourceError(f"git archive {rev}: {archive.stderr.decode().strip()}")
+    dest.mkdir(parents=True, exist_ok=True)
+    tar = dest / "source.tar"
+    tar.write_bytes(archive.stdout)
+    with tarfile.open(tar) as t:
+        t.extractall(dest, filter="data")
+    tar.unlink()
+    return dest
+
+
+def resolve_revision(rev: str, repo: Path = ROOT) -> str:
+    """The full commit hash of ``rev``."""
+    found = subprocess.run(
+        ["git", "-C", str(repo), "rev-parse", "--verify", f"{rev}^{{commit}}"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if found.returncode != 0:
+        raise SourceError(f"git rev-parse {rev}: {found.stderr.strip()}")
+    return found.stdout.strip()
+
+
+def run_environment(source: Path | None) -> tuple[Path, dict[str, str]]:
+    """(folder, environment) the runs start from: ``source`` first on the import path, run
+    from ``source`` itself; else this process's folder and environment."""
+    env = dict(os.environ)
+    if source is None:
+        return Path.cwd(), env
+    source = source.resolve()
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(source), *filter(None, [os.environ.get("PYTHONPATH")])]
+    )
+    return source, env
+
+
+def imported_package(cwd: Path, env: dict[str, str]) -> Path:
+    """The folder of the ``ffsm_pin`` that ``python -m ffsm_pin.sim`` would import when run
+    from ``cwd`` with ``env`` (``-c``, like ``-m``, puts ``cwd`` first on the path)."""
+    code = "import os, ffsm_pin; print(os.path.dirname(os.path.abspath(ffsm_pin.__file__)))"
+    found = subprocess.run(
+        [sys.executable, "-c", code], cwd=cwd, env=env, capture_output=True, text=True,
+        check=False,
+    )  # fmt: skip
+    if found.returncode != 0:
+        raise SourceError(f"no ffsm_pin to import from {cwd}: {found.stderr.strip()[-300:]}")
+    return Path(found.stdout.strip()).resolve()
+
+
+def check_not_shadowed(package: Path, env: dict[str, str]) -> None:
+    """Refuse a ``PYTHONPATH`` whose first ``ffsm_pin`` is not the one the runs import."""
+    for entry in filter(None, env.get("PYTHONPATH", "").split(os.pathsep)):
+        wanted = (Path(entry) / "ffsm_pin").resolve()
+        if (wanted / "__init__.py").exists():
+            if wanted != package:
+                raise SourceError(
+                    f"PYTHONPATH names {wanted}, but the runs would import {package} (the "
+                    f"current folder comes first for python -m); record it with --source "
+                    f"{wanted.parent} (or --rev REV)"
+                )
+            return
+
+
+def record(
+    out: Path,
+    cases: list[str],
+    record_every: int,
+    duration: float | None,
+    source: Path | None = None,
+    label: str = "",
+) -> int:
+    """Run each case into ``out/<case>`` with the package of ``source`` (None: the one this
+    Python's runs import, see the module docstring); ``label`` is added to its name in
+    ``source.txt`` (the revision). Returns 1 if a run failed (an exit above 3), else 0."""
+    out = out.resolve()
+    cwd, env = run_environment(source)
+    package = imported_package(cwd, env)
+    check_not_shadowed(package, env)
     out.mkdir(parents=True, exist_ok=True)
+    what = f"{package}{label}"
+    (out / "source.txt").write_text(f"{what}\n")
+    print(f"recording ffsm_pin from {what}")
     for case in cases:
         dur = duration if duration is not None else DEFAULT_CASES.get(case, 1.0)
         cmd = [
@@ -61,7 +165,7 @@ def record(out: Path, cases: list[str], record_every: int, duration: float | Non
             "--record-every", str(record_every), "--no-plots", "--no-html", "--quiet",
             "--out", str(out / case),
         ]  # fmt: skip
-        rc = subprocess.run(cmd, check=False).returncode
+        rc = subprocess.run(cmd, cwd=cwd, env=env, check=False).returncode
         print(f"{case:22s} {dur:5.1f} s  exit {rc}")
         if rc not in (0, 3):  # 3: a run that stops early is a result too
             return 1
@@ -110,6 +214,9 @@ def compare(
     a change that adds outputs keeps every existing one.
     """
     bad = 0
+    for folder in (a, b):
+        if (folder / "source.txt").exists():
+            print(f"{folder}: ffsm_pin from {(folder / 'source.txt').read_text().strip()}")
     cases = sorted(p.name for p in a.iterdir() if (p / "trajectory.npz").exists())
     for case in cases:
         if not (b / case / "trajectory.npz").exists():
@@ -172,6 +279,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--cases", nargs="+", default=list(DEFAULT_CASES))
     r.add_argument("--record-every", type=int, default=1)
     r.add_argument("--duration", type=float, help="one duration for every case [s]")
+    where = r.add_mutually_exclusive_group()
+    where.add_argument("--source", type=Path, help="a folder holding the ffsm_pin to run")
+    where.add_argument("--rev", help="a git revision of this repository to run (git archive)")
     c = sub.add_parser("compare", help="compare two recordings")
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
@@ -186,7 +296,16 @@ def main(argv: list[str] | None = None) -> int:
                    help="with --normwise: an absolute difference allowed besides")  # fmt: skip
     args = p.parse_args(argv)
     if args.cmd == "record":
-        return record(args.out, args.cases, args.record_every, args.duration)
+        try:
+            if args.rev is None:
+                return record(args.out, args.cases, args.record_every, args.duration, args.source)
+            with tempfile.TemporaryDirectory(prefix="compare-runs-") as tmp:
+                source = export_revision(args.rev, Path(tmp))
+                label = f" (git {args.rev} = {resolve_revision(args.rev)})"
+                return record(args.out, args.cases, args.record_every, args.duration, source, label)
+        except SourceError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
     return compare(args.a, args.b, args.rtol, args.allow_added, args.normwise, args.atol)
 
 
