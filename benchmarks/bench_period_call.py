@@ -34,6 +34,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _timing import checkout  # noqa: E402
 
+import ffsm_pin  # noqa: E402
 from ffsm_pin.control.interface import split_reply  # noqa: E402
 from ffsm_pin.scenario.file import builtin_scenario  # noqa: E402
 from ffsm_pin.sim.loop import simulate  # noqa: E402
@@ -72,7 +73,10 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=2.0, help="replayed seconds")
     parser.add_argument("--repeat", type=int, default=9, help="timed rounds (default 9)")
     args = parser.parse_args()
-    print(f"ffsm-pin period-call benchmark: {checkout(ROOT)}, python {sys.version.split()[0]}")
+    package = Path(ffsm_pin.__file__).resolve().parent  # what is timed (PYTHONPATH may differ)
+    here = f"{checkout(ROOT)}, " if package.parent == ROOT else ""
+    print(f"ffsm-pin period-call benchmark: {here}ffsm_pin from {package}, "
+          f"python {sys.version.split()[0]}")  # fmt: skip
     print("us per period: median over rounds; ratio = controller.step / law.step "
           "(per-round q1 .. q3)")  # fmt: skip
     rows = ("law.step", "controller.step")

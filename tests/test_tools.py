@@ -97,5 +97,35 @@ def test_compare_runs_exports_a_revision_and_refuses_an_unknown_one(tmp_path, ca
     out = tmp_path / "rec"
     assert tool.main(["record", str(out), "--rev", "no-such-revision", "--cases", "1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("error: git archive no-such-revision")
+    assert len(err) == 1 and err[0].startswith("error: git rev-parse no-such-revision")
     assert not out.exists()
+
+
+def test_compare_runs_record_runs_the_source_it_names(tmp_path, monkeypatch):
+    """``record --source DIR`` runs DIR's package (a stand-in whose ``python -m
+    ffsm_pin.sim`` notes which package ran it and exits as told), names it in
+    ``source.txt``, keeps a run that stopped early (exit 3) and fails on any other exit; a
+    folder without a package is refused before anything runs."""
+    tool = _tool("compare_runs")
+    fake = _fake_package(tmp_path / "fake", "fake")
+    (fake / "ffsm_pin" / "sim").mkdir()
+    (fake / "ffsm_pin" / "sim" / "__init__.py").write_text("")
+    (fake / "ffsm_pin" / "sim" / "__main__.py").write_text(
+        "import os, pathlib, sys, ffsm_pin\n"
+        "out = pathlib.Path(sys.argv[sys.argv.index('--out') + 1])\n"
+        "out.mkdir(parents=True)\n"
+        "(out / 'ran.txt').write_text(ffsm_pin.MARKER)\n"
+        "sys.exit(int(os.environ.get('FAKE_EXIT', '0')))\n"
+    )
+    out = tmp_path / "rec"
+    assert tool.record(out, ["1", "spatial"], 1, 0.1, source=fake) == 0
+    assert (out / "source.txt").read_text().strip() == str((fake / "ffsm_pin").resolve())
+    assert [(out / c / "ran.txt").read_text() for c in ("1", "spatial")] == ["fake", "fake"]
+    monkeypatch.setenv("FAKE_EXIT", "3")  # a run that stops early is a result
+    assert tool.record(tmp_path / "stopped", ["1"], 1, 0.1, source=fake) == 0
+    monkeypatch.setenv("FAKE_EXIT", "1")
+    assert tool.record(tmp_path / "failed", ["1"], 1, 0.1, source=fake) == 1
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(tool.SourceError, match="ffsm_pin"):
+        tool.record(tmp_path / "none", ["1"], 1, 0.1, source=tmp_path / "empty")
+    assert not (tmp_path / "none").exists()

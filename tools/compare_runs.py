@@ -21,10 +21,11 @@ first on the import path: a ``PYTHONPATH`` naming another checkout is shadowed w
 command runs from a checkout's root, and the "before" recording would silently be the
 "after" one. ``--source DIR`` runs DIR's package (from DIR), ``--rev REV`` exports the
 revision with ``git archive`` to a temporary folder and runs that; a ``PYTHONPATH`` whose
-package is shadowed is refused (exit 2) with what to use instead. numba's cache folder is
-named by a digest of the package's kernel sources: two revisions share compiled kernels only
-when those sources are the same (set ``NUMBA_CACHE_DIR`` to an empty folder for a recording
-from an empty cache).
+package is shadowed is refused (exit 2) with what to use instead, as is a ``--source`` folder
+that holds no package. A ``--rev`` recording compiles its kernels into its temporary folder
+(unless ``NUMBA_CACHE_DIR`` is set), so it starts from an empty cache and leaves none behind;
+otherwise the runs use the package's own cache (set ``NUMBA_CACHE_DIR`` to an empty folder for
+a recording from an empty cache).
 
 ``compare`` checks every key of every ``trajectory.npz`` (same keys, shapes, dtypes; the same
 bytes: equal values that differ only in a zero's sign or a NaN's payload are reported apart)
@@ -39,6 +40,7 @@ a case can be held to at all: ``tools/rounding_sensitivity.py``.
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import os
 import subprocess
@@ -80,11 +82,14 @@ def export_revision(rev: str, dest: Path, repo: Path = ROOT) -> Path:
     if archive.returncode != 0:
         raise SourceError(f"git archive {rev}: {archive.stderr.decode().strip()}")
     dest.mkdir(parents=True, exist_ok=True)
-    tar = dest / "source.tar"
-    tar.write_bytes(archive.stdout)
-    with tarfile.open(tar) as t:
-        t.extractall(dest, filter="data")
-    tar.unlink()
+    # the "data" filter (no links out of dest, no special files) where this Python has it
+    # (3.10.12, 3.11.4 and later); git's own archive needs none of what it refuses
+    safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
+    try:
+        with tarfile.open(fileobj=io.BytesIO(archive.stdout)) as t:
+            t.extractall(dest, **safe)
+    except (OSError, tarfile.TarError) as exc:
+        raise SourceError(f"extracting git archive {rev} into {dest}: {exc}") from None
     return dest
 
 
@@ -149,11 +154,17 @@ def record(
 ) -> int:
     """Run each case into ``out/<case>`` with the package of ``source`` (None: the one this
     Python's runs import, see the module docstring); ``label`` is added to its name in
-    ``source.txt`` (the revision). Returns 1 if a run failed (an exit above 3), else 0."""
+    ``source.txt`` (the revision). Returns 1 if a run failed (an exit other than 0, or 3 for
+    a run that stopped early), else 0; raises :class:`SourceError` when the package the runs
+    would import is not the one asked for."""
     out = out.resolve()
     cwd, env = run_environment(source)
     package = imported_package(cwd, env)
     check_not_shadowed(package, env)
+    if source is not None and package != source.resolve() / "ffsm_pin":
+        raise SourceError(
+            f"{source} holds no ffsm_pin package: the runs would import {package} instead"
+        )
     out.mkdir(parents=True, exist_ok=True)
     what = f"{package}{label}"
     (out / "source.txt").write_text(f"{what}\n")
@@ -299,9 +310,14 @@ def main(argv: list[str] | None = None) -> int:
         try:
             if args.rev is None:
                 return record(args.out, args.cases, args.record_every, args.duration, args.source)
+            commit = resolve_revision(args.rev)  # then archive that commit, whatever moves
             with tempfile.TemporaryDirectory(prefix="compare-runs-") as tmp:
-                source = export_revision(args.rev, Path(tmp))
-                label = f" (git {args.rev} = {resolve_revision(args.rev)})"
+                source = export_revision(commit, Path(tmp) / "source")
+                # the export's kernels compile into the temporary folder, removed with it
+                # (numba names cache folders by the source's path: a kept cache of a random
+                # path would never be used again); a NUMBA_CACHE_DIR you set wins
+                os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(tmp) / "numba"))
+                label = f" (git {args.rev} = {commit})"
                 return record(args.out, args.cases, args.record_every, args.duration, source, label)
         except SourceError as exc:
             print(f"error: {exc}", file=sys.stderr)

@@ -82,10 +82,19 @@ class ControlOutput(NamedTuple):
 
 
 class RowOutput(NamedTuple):
-    """What :meth:`CoordinatedController.step_row` returns: u_m and the signals' row."""
+    """What :meth:`CoordinatedController.step_row` returns.
 
-    u_m: np.ndarray  # joint torques [N m]
-    # the period's signals at t, one row of CoordinatedController.signal_layout
+    Attributes
+    ----------
+    u_m:
+        The joint torques for the period [N m], shape ``(n_joints,)``.
+    signals:
+        The period's signals at its start, one row of
+        :attr:`CoordinatedController.signal_layout` (w~, e of Eq. 54, the estimates and
+        w-hat before the period advances them, w_mc, sigma_min, the damping).
+    """
+
+    u_m: np.ndarray
     signals: np.ndarray
 
 
@@ -323,6 +332,14 @@ class CoordinatedController:
             self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df = saved
 
     # ------------------------------------------------------------------ one period
+    @property
+    def damped_since(self) -> float | None:
+        """The time [s] since which damped least squares has been active without a break (the
+        period's damping > 0 at every period since), or None when the last period was not
+        damped; a stretch longer than the singularity policy's ``max_damped_time`` stops the
+        run."""
+        return self._damped_since
+
     def step(self, meas: Measurement, dt: float) -> ControlOutput:
         """Compute u_m for the period [t, t + dt) and advance the controller's states."""
         if self.backend == "numba":
@@ -350,9 +367,12 @@ class CoordinatedController:
 
         Raises
         ------
+        ParameterError
+            The controller was made without ``theta_d_true``.
         SimulationError
-            The stops of :meth:`step` (a funnel exit, a collapse of H_bm-hat, a singular
-            filter, an inertia that is not positive definite, a torque not finite).
+            The stops of :meth:`step`: a funnel exit, a collapse of H_bm-hat, damped least
+            squares active for longer than the policy's ``max_damped_time``, a singular
+            filter, an inertia that is not positive definite, a torque not finite.
         """
         if self.theta_d_true is None:
             raise ParameterError("step_row needs theta_d_true (the row's e of Eq. 54)")
@@ -388,7 +408,8 @@ class CoordinatedController:
             raise self._funnel_stop(meas, exc)
         if status == compiled.STATUS_H_COLLAPSE:
             raise self._collapse_stop(t, out[lay["H_bm_norm"]])
-        self._singularity_bookkeeping(t, sigma, damping)
+        # (the warning points at the caller of step / step_row: 5 frames up)
+        self._singularity_bookkeeping(t, sigma, damping, stacklevel=5)
         if status == compiled.STATUS_M_NOT_PD:
             raise self._inertia_stop(t)
         if status == compiled.STATUS_BASE_ROW:
@@ -441,7 +462,7 @@ class CoordinatedController:
             kc = self.kinematic.command(x, rates)
         except FunnelExit as exc:
             raise self._funnel_stop(meas, exc) from None
-        self._singularity_bookkeeping(t, kc.sigma_min, kc.damping)
+        self._singularity_bookkeeping(t, kc.sigma_min, kc.damping, stacklevel=4)
         if self.scheme != "no-attitude" and not kc.H_bm_norm > 1e-9:
             raise self._collapse_stop(t, kc.H_bm_norm)
 
@@ -500,7 +521,9 @@ class CoordinatedController:
         )
 
     # ------------------------------------------------------------------ stops
-    def _singularity_bookkeeping(self, t: float, sigma_min: float, damping: float) -> None:
+    def _singularity_bookkeeping(
+        self, t: float, sigma_min: float, damping: float, stacklevel: int
+    ) -> None:
         thr = self.policy.threshold
         if damping > 0:
             if self._damped_since is None:
@@ -511,7 +534,7 @@ class CoordinatedController:
                         f"{sigma_min:.4f} < {thr}); damped least squares is active"
                     )
                     self.events.append(msg)
-                    warnings.warn(msg, SingularityWarning, stacklevel=3)
+                    warnings.warn(msg, SingularityWarning, stacklevel=stacklevel)
                     self._last_warning = t
             elif t - self._damped_since > self.policy.max_damped_time:
                 raise SimulationError(

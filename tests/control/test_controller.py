@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -271,3 +272,40 @@ def test_step_row_without_the_true_theta_d_names_what_it_needs(make_chain):
     meas = Sensor(robot, ctrl.model, full_model=False).measure(0.0, q, np.zeros(robot.model.nv))
     with pytest.raises(FfsmError, match="step_row needs theta_d_true"):
         ctrl.step_row(meas, 1e-3)
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_damped_since_follows_each_stretch_of_damped_periods(backend):
+    """``damped_since`` is the start of the current stretch of periods whose damping is
+    positive, and None after a period without: checked against the damping each period
+    reports, period by period, over planar5's first 7.3 s, which enter damped least squares
+    at about 6.27 s and leave it at about 7.22 s (an ordinary period of the compiled backend
+    skips the bookkeeping: this holds it to the same state). Entering warns once, pointing at
+    the line that called the law (the paper's controller's ``step``), not inside it."""
+    from ffsm_pin.sim.plant import Plant
+
+    setup = prepare(builtin_scenario("planar5"))
+    ctrl = setup.controller
+    if backend == "numpy":
+        ctrl = LuJiaController(ctrl.context, backend="numpy")
+    law, layout = ctrl.law, ctrl.signal_layout
+    sensor = Sensor(setup.robot, setup.model, full_model=False)
+    plant = Plant(setup.robot)
+    q, v, dt = setup.q0.copy(), setup.v0.copy(), setup.scenario.dt
+    plant.reset(q, v)
+    expected, stretches = None, 0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SingularityWarning)
+        for k in range(7300):
+            t = k * dt
+            u_m, signals = ctrl.step(sensor.measure(t, q, v))
+            if signals.row[layout.index("damping")] > 0:
+                stretches += expected is None
+                expected = t if expected is None else expected
+            else:
+                expected = None
+            assert law.damped_since == expected, t
+            q, v, _ = plant.step(q, v, u_m, dt)
+    assert stretches == 1 and expected is None  # one stretch, entered and left
+    assert len(caught) == 1, [str(w) for w in caught]
+    assert Path(caught[0].filename).name == "lu_jia.py"  # LuJiaController.step's call

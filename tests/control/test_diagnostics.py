@@ -367,7 +367,7 @@ def test_step_row_runs_the_same_period_as_step(case, backend):
             loop.advance(out.u_m)
         for name in ("theta_z", "theta_d", "theta_b", "w_hat"):
             assert np.array_equal(getattr(by_step, name), getattr(by_row, name)), name
-        assert by_step._damped_since == by_row._damped_since
+        assert by_step.damped_since == by_row.damped_since
         assert (damped > 0) == (case == "case2")
         # the bookkeeping saw the damped periods (its event), not only the shared path
         for law in (by_step, by_row):
