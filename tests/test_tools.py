@@ -76,11 +76,11 @@ def test_compare_runs_records_the_package_it_was_asked_for(tmp_path):
     shadowed = tool.imported_package(here, env)
     assert shadowed == here / "ffsm_pin"
     with pytest.raises(tool.SourceError, match=r"--source .*other") as info:
-        tool.check_not_shadowed(shadowed, env)
+        tool.check_asked_for(shadowed, None, env["PYTHONPATH"])
     assert str(other / "ffsm_pin") in str(info.value) and str(shadowed) in str(info.value)
     cwd, env = tool.run_environment(other)
     assert tool.imported_package(cwd, env) == other / "ffsm_pin"
-    tool.check_not_shadowed(other / "ffsm_pin", env)  # what was asked for: no error
+    tool.check_asked_for(other / "ffsm_pin", other, env["PYTHONPATH"])  # asked for: no error
 
 
 def test_compare_runs_exports_a_revision_and_refuses_an_unknown_one(tmp_path, capsys):
@@ -104,8 +104,9 @@ def test_compare_runs_exports_a_revision_and_refuses_an_unknown_one(tmp_path, ca
 def test_compare_runs_record_runs_the_source_it_names(tmp_path, monkeypatch):
     """``record --source DIR`` runs DIR's package (a stand-in whose ``python -m
     ffsm_pin.sim`` notes which package ran it and exits as told), names it in
-    ``source.txt``, keeps a run that stopped early (exit 3) and fails on any other exit; a
-    folder without a package is refused before anything runs."""
+    ``source.txt``, keeps a run that stopped early (exit 3) and fails on any other exit,
+    passes ``extra_env`` to the runs unless this process sets the variable; a folder
+    without a package is refused before anything runs."""
     tool = _tool("compare_runs")
     fake = _fake_package(tmp_path / "fake", "fake")
     (fake / "ffsm_pin" / "sim").mkdir()
@@ -121,8 +122,17 @@ def test_compare_runs_record_runs_the_source_it_names(tmp_path, monkeypatch):
     assert tool.record(out, ["1", "spatial"], 1, 0.1, source=fake) == 0
     assert (out / "source.txt").read_text().strip() == str((fake / "ffsm_pin").resolve())
     assert [(out / c / "ran.txt").read_text() for c in ("1", "spatial")] == ["fake", "fake"]
+    # extra_env reaches the runs (exit 1: a failure) without touching this process
+    assert (
+        tool.record(tmp_path / "x", ["1"], 1, 0.1, source=fake, extra_env={"FAKE_EXIT": "1"}) == 1
+    )
+    assert "FAKE_EXIT" not in os.environ
     monkeypatch.setenv("FAKE_EXIT", "3")  # a run that stops early is a result
     assert tool.record(tmp_path / "stopped", ["1"], 1, 0.1, source=fake) == 0
+    # a variable this process has wins over extra_env (a NUMBA_CACHE_DIR you set)
+    assert (
+        tool.record(tmp_path / "y", ["1"], 1, 0.1, source=fake, extra_env={"FAKE_EXIT": "1"}) == 0
+    )
     monkeypatch.setenv("FAKE_EXIT", "1")
     assert tool.record(tmp_path / "failed", ["1"], 1, 0.1, source=fake) == 1
     (tmp_path / "empty").mkdir()

@@ -104,10 +104,13 @@ def resolve_revision(rev: str, repo: Path = ROOT) -> str:
     return found.stdout.strip()
 
 
-def run_environment(source: Path | None) -> tuple[Path, dict[str, str]]:
+def run_environment(
+    source: Path | None, extra: dict[str, str] | None = None
+) -> tuple[Path, dict[str, str]]:
     """(folder, environment) the runs start from: ``source`` first on the import path, run
-    from ``source`` itself; else this process's folder and environment."""
-    env = dict(os.environ)
+    from ``source`` itself; else this process's folder and environment. ``extra``: variables
+    set for the runs unless this process has them (the process's own stay as they are)."""
+    env = {**(extra or {}), **os.environ}
     if source is None:
         return Path.cwd(), env
     source = source.resolve()
@@ -130,9 +133,17 @@ def imported_package(cwd: Path, env: dict[str, str]) -> Path:
     return Path(found.stdout.strip()).resolve()
 
 
-def check_not_shadowed(package: Path, env: dict[str, str]) -> None:
-    """Refuse a ``PYTHONPATH`` whose first ``ffsm_pin`` is not the one the runs import."""
-    for entry in filter(None, env.get("PYTHONPATH", "").split(os.pathsep)):
+def check_asked_for(package: Path, source: Path | None, pythonpath: str) -> None:
+    """Refuse runs that would import ``package`` when another was asked for: ``source``'s
+    (``--source``, ``--rev``), else the first one on ``pythonpath`` (this process's
+    ``PYTHONPATH``, which the current folder shadows for ``python -m``)."""
+    if source is not None:
+        if package != source.resolve() / "ffsm_pin":
+            raise SourceError(
+                f"{source} holds no ffsm_pin package: the runs would import {package} instead"
+            )
+        return
+    for entry in filter(None, pythonpath.split(os.pathsep)):
         wanted = (Path(entry) / "ffsm_pin").resolve()
         if (wanted / "__init__.py").exists():
             if wanted != package:
@@ -151,20 +162,18 @@ def record(
     duration: float | None,
     source: Path | None = None,
     label: str = "",
+    extra_env: dict[str, str] | None = None,
 ) -> int:
     """Run each case into ``out/<case>`` with the package of ``source`` (None: the one this
     Python's runs import, see the module docstring); ``label`` is added to its name in
-    ``source.txt`` (the revision). Returns 1 if a run failed (an exit other than 0, or 3 for
+    ``source.txt`` (the revision), ``extra_env`` set for the runs unless this process has
+    it (:func:`run_environment`). Returns 1 if a run failed (an exit other than 0, or 3 for
     a run that stopped early), else 0; raises :class:`SourceError` when the package the runs
     would import is not the one asked for."""
     out = out.resolve()
-    cwd, env = run_environment(source)
+    cwd, env = run_environment(source, extra_env)
     package = imported_package(cwd, env)
-    check_not_shadowed(package, env)
-    if source is not None and package != source.resolve() / "ffsm_pin":
-        raise SourceError(
-            f"{source} holds no ffsm_pin package: the runs would import {package} instead"
-        )
+    check_asked_for(package, source, os.environ.get("PYTHONPATH", ""))
     out.mkdir(parents=True, exist_ok=True)
     what = f"{package}{label}"
     (out / "source.txt").write_text(f"{what}\n")
@@ -316,9 +325,11 @@ def main(argv: list[str] | None = None) -> int:
                 # the export's kernels compile into the temporary folder, removed with it
                 # (numba names cache folders by the source's path: a kept cache of a random
                 # path would never be used again); a NUMBA_CACHE_DIR you set wins
-                os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(tmp) / "numba"))
+                cache = {"NUMBA_CACHE_DIR": str(Path(tmp) / "numba")}
                 label = f" (git {args.rev} = {commit})"
-                return record(args.out, args.cases, args.record_every, args.duration, source, label)
+                return record(
+                    args.out, args.cases, args.record_every, args.duration, source, label, cache
+                )
         except SourceError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2

@@ -346,7 +346,7 @@ def test_step_row_runs_the_same_period_as_step(case, backend):
     period of :meth:`~CoordinatedController.step` without the other named outputs: two
     controllers built alike, fed the same measurements of one closed loop, give the same
     u_m and signals' row bit for bit and keep the same estimates, through the periods where
-    damped least squares is active (case 2 enters them at about 1.41 s; both book them as
+    damped least squares is active (case 2 enters them at about 1.34 s; both book them as
     an event), and at a funnel exit (case 1 and spatial; case 2 enforces no
     funnel), which both raise with the same message."""
     setup = prepare(builtin_scenario(case))
