@@ -121,11 +121,10 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
     # velocity_terms also gives Y_M(dw_r/dt)
     Y = np.empty((N, nd))
     scratch = np.empty((N, nd))  # Y_M of the second pass, unused
-    YMdot = np.empty((N, nd))  # unused
     Yh = np.empty((N, nd))
     for sign in (1.0, -1.0):
-        x = w + sign * w_r
-        velocity_terms(R, z, x, w_r_dot, x, Y if sign > 0 else scratch, YMdot, Yh, Yw)
+        x = w + sign * w_r  # (Y_Mdot not used: not computed)
+        velocity_terms(R, z, x, w_r_dot, x, Y if sign > 0 else scratch, None, Yh, Yw)
         subtract_dT(R, z, x, Yh)
         Y += (0.25 * sign) * Yh
     M_hat = np.empty((N, N))

@@ -124,11 +124,9 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
     a_m = w_c.imag / _H + k_v * (w_md - w[3:])
     M = np.empty((N, N))
     mass_matrix(R, z, theta_d, M)
-    YM = np.empty((N, nd))
-    YMdot = np.empty((N, nd))
     Yh = np.empty((N, nd))
-    Yb = np.empty((3, nd))
-    velocity_terms(R, z, w, w, w, YM, YMdot, Yh, Yb)
+    Yb = np.empty((3, nd))  # (Y_b, not used; Y_M and Y_Mdot not computed)
+    velocity_terms(R, z, w, w, w, None, None, Yh, Yb)
     subtract_dT(R, z, w, Yh)
     h = Yh @ theta_d  # C w
     Mbm = np.ascontiguousarray(M[:3, 3:])

@@ -301,7 +301,8 @@ def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, t
     if adaptive:
         w_tilde = w - w_hat
         Yb = np.empty((3, nd + 3))
-        velocity_terms(R, z, w, w, w_tilde, YM, YMdot, Yh, Yb[:, 3:])
+        # (Y_M(a) is the dynamic level's, at a known only there: not computed here)
+        velocity_terms(R, z, w, w, w_tilde, None, YMdot, Yh, Yb[:, 3:])
         subtract_dT(R, z, w, Yh)
         tb_new = theta_b_step(theta_b, Yb, g[G_G1], dt)
         Yz = np.empty((3, nz))

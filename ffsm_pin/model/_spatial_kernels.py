@@ -524,7 +524,12 @@ _PHI_I1 = (0, 1, 2, 1, 2, 2)
 @njit(cache=True)
 def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     """Y_M(a), Y_Mdot(w, s), the dM/dt w part of Y_h(w) (before :func:`subtract_dT`) and the
-    base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above)."""
+    base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above).
+
+    ``YM`` or ``YMdot`` None: that regressor is not computed (numba compiles none of its code;
+    ``a`` resp. ``s`` is then not read). The others are the same values either way: each entry
+    is its own expression.
+    """
     nb, n = R.shape[0], z.shape[0]
     N = n + 3
     om = np.empty((nb, 3))
@@ -553,8 +558,10 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     b, db, beta, dbeta = B4[0], B4[1], B4[2], B4[3]
     Pb2 = np.empty((2, 3, nb, N))
     Pb, dPb = Pb2[0], Pb2[1]
-    _vector_terms(R, z, dR, dz, a, b[0], db[0], Pb[0], dPb[0], beta[0], dbeta[0])
-    _vector_terms(R, z, dR, dz, s, b[1], db[1], Pb[1], dPb[1], beta[1], dbeta[1])
+    if YM is not None:
+        _vector_terms(R, z, dR, dz, a, b[0], db[0], Pb[0], dPb[0], beta[0], dbeta[0])
+    if YMdot is not None:
+        _vector_terms(R, z, dR, dz, s, b[1], db[1], Pb[1], dPb[1], beta[1], dbeta[1])
     _vector_terms(R, z, dR, dz, w, b[2], db[2], Pb[2], dPb[2], beta[2], dbeta[2])
     # ---- body columns: Jbar_k, Eq. (9a) first sum
     for k in range(nb):
@@ -566,8 +573,10 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
             if i0 == i1:
                 for r in range(3 + k):
                     p, dp = PR[k, i0, r], dPR[k, i0, r]
-                    YM[r, col] = ba * p
-                    YMdot[r, col] = ds * p + bs * dp
+                    if YM is not None:
+                        YM[r, col] = ba * p
+                    if YMdot is not None:
+                        YMdot[r, col] = ds * p + bs * dp
                     Yh[r, col] = dw * p + bw * dp
                 for r in range(3):
                     Yb[r, col] = bw * PR[k, i0, r]
@@ -577,14 +586,18 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 for r in range(3 + k):
                     p, dp = PR[k, i0, r], dPR[k, i0, r]
                     p2, dp2 = PR[k, i1, r], dPR[k, i1, r]
-                    YM[r, col] = ba * p + ba2 * p2
-                    YMdot[r, col] = ds * p + bs * dp + ds2 * p2 + bs2 * dp2
+                    if YM is not None:
+                        YM[r, col] = ba * p + ba2 * p2
+                    if YMdot is not None:
+                        YMdot[r, col] = ds * p + bs * dp + ds2 * p2 + bs2 * dp2
                     Yh[r, col] = dw * p + bw * dp + dw2 * p2 + bw2 * dp2
                 for r in range(3):
                     Yb[r, col] = bw * PR[k, i0, r] + bw2 * PR[k, i1, r]
             for r in range(3 + k, N):
-                YM[r, col] = 0.0
-                YMdot[r, col] = 0.0
+                if YM is not None:
+                    YM[r, col] = 0.0
+                if YMdot is not None:
+                    YMdot[r, col] = 0.0
                 Yh[r, col] = 0.0
     # ---- pair columns: D_kl, Eq. (9a) second sum, 9 columns (i, j) at a time
     # per body: PP[k, r, 3 i + j] = PR[k, i, r] (repeated over j), PT[k, r, 3 i + j] = PR[k, j, r]
@@ -630,15 +643,17 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 d1 = dPb[1, l, r] + dPb[1, k, r]
                 d2 = dPb[2, l, r] + dPb[2, k, r]
                 ptl, dptl, ppk, dppk = PT[l, r], dPT[l, r], PP[k, r], dPP[k, r]
-                ym, ymd, yh = YM[r, col : col + 9], YMdot[r, col : col + 9], Yh[r, col : col + 9]
+                yh = Yh[r, col : col + 9]
                 for c in range(9):
                     q, dq = q9[c], dq9[c]
                     pl, dpl, pk, dpk = ptl[c], dptl[c], ppk[c], dppk[c]
-                    ym[c] = q * p0 - U9[0, c] * pl - G9[0, c] * pk
-                    ymd[c] = (
-                        dq * p1 + q * d1
-                        - dU9[1, c] * pl - U9[1, c] * dpl - dG9[1, c] * pk - G9[1, c] * dpk
-                    )  # fmt: skip
+                    if YM is not None:
+                        YM[r, col + c] = q * p0 - U9[0, c] * pl - G9[0, c] * pk
+                    if YMdot is not None:
+                        YMdot[r, col + c] = (
+                            dq * p1 + q * d1
+                            - dU9[1, c] * pl - U9[1, c] * dpl - dG9[1, c] * pk - G9[1, c] * dpk
+                        )  # fmt: skip
                     yh[c] = (
                         dq * p2 + q * d2
                         - dU9[2, c] * pl - U9[2, c] * dpl - dG9[2, c] * pk - G9[2, c] * dpk
@@ -651,16 +666,20 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 p0, p1, p2 = Pb[0, k, r], Pb[1, k, r], Pb[2, k, r]
                 d1, d2 = dPb[1, k, r], dPb[2, k, r]
                 ppk, dppk = PP[k, r], dPP[k, r]
-                ym, ymd, yh = YM[r, col : col + 9], YMdot[r, col : col + 9], Yh[r, col : col + 9]
+                yh = Yh[r, col : col + 9]
                 for c in range(9):
                     q, dq = q9[c], dq9[c]
                     pk, dpk = ppk[c], dppk[c]
-                    ym[c] = q * p0 - G9[0, c] * pk
-                    ymd[c] = dq * p1 + q * d1 - dG9[1, c] * pk - G9[1, c] * dpk
+                    if YM is not None:
+                        YM[r, col + c] = q * p0 - G9[0, c] * pk
+                    if YMdot is not None:
+                        YMdot[r, col + c] = dq * p1 + q * d1 - dG9[1, c] * pk - G9[1, c] * dpk
                     yh[c] = dq * p2 + q * d2 - dG9[2, c] * pk - G9[2, c] * dpk
             for r in range(3 + l, N):
                 for c in range(9):
-                    YM[r, col + c] = 0.0
-                    YMdot[r, col + c] = 0.0
+                    if YM is not None:
+                        YM[r, col + c] = 0.0
+                    if YMdot is not None:
+                        YMdot[r, col + c] = 0.0
                     Yh[r, col + c] = 0.0
             col += 9

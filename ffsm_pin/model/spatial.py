@@ -483,8 +483,8 @@ class SpatialBarycentricModel(BarycentricCommon):
         R, z = self._rz(q_b, q_m)
         N, nd = self._N, self.n_d
         Y_Mdot, Y_h = np.empty((N, nd)), np.empty((N, nd))
-        scratch, rows = np.empty((N, nd)), np.empty((3, nd))  # Y_M(w), Y_b rows: not used
-        kern.velocity_terms(R, z, w, w, s_vec, scratch, Y_Mdot, Y_h, rows)
+        rows = np.empty((3, nd))  # Y_b rows: not used (and Y_M not computed)
+        kern.velocity_terms(R, z, w, w, s_vec, None, Y_Mdot, Y_h, rows)
         kern.subtract_dT(R, z, w, Y_h)
         return Y_Mdot, Y_h
 

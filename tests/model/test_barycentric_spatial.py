@@ -208,6 +208,37 @@ def test_compiled_kernels_equal_numpy_reference(spatial_chain, spatial_state, se
         assert rel(got, expected) < 1e-12, name
 
 
+@pytest.mark.parametrize("n", [1, 4, 7])
+def test_velocity_terms_without_some_regressors_keeps_the_others_bits(
+    spatial_chain, spatial_state, rng, n
+):
+    """``velocity_terms`` with Y_M or Y_Mdot None (what the paper's controller, gjm-ct and
+    adaptive-ct do not use) writes the other outputs with the bits of the full call, and
+    never reads the vector of a regressor it skips (NaN there would show)."""
+    from ffsm_pin.model import _spatial_kernels as kern
+
+    robot = spatial_chain(n, n % 3)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    consts = bm.kernel_constants()
+    N, nd = n + 3, bm.n_d
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kern.kinematics(s.base_attitude, s.joint_angles, consts.joint_rot, consts.axes, R, z)
+    w, a, sv = s.w, rng.normal(size=N), rng.normal(size=N)
+    full = [np.empty((N, nd)) for _ in range(3)] + [np.empty((3, nd))]
+    kern.velocity_terms(R, z, w, a, sv, *full)
+    nan = np.full(N, np.nan)
+    for skip_ym, skip_ymdot in [(True, False), (False, True), (True, True)]:
+        out = [np.full((N, nd), np.nan) for _ in range(3)] + [np.full((3, nd), np.nan)]
+        kern.velocity_terms(
+            R, z, w, nan if skip_ym else a, nan if skip_ymdot else sv,
+            None if skip_ym else out[0], None if skip_ymdot else out[1], out[2], out[3],
+        )  # fmt: skip
+        kept = [i for i, skip in enumerate((skip_ym, skip_ymdot, False, False)) if not skip]
+        for i in kept:
+            assert np.array_equal(out[i], full[i]), (skip_ym, skip_ymdot, i)
+
+
 def test_unknown_backend(spatial_chain):
     from ffsm_pin.errors import ParameterError
 
