@@ -12,6 +12,18 @@ def read_only(a) -> np.ndarray:
     return a
 
 
+def read_only_view(a: np.ndarray) -> np.ndarray:
+    """``a`` itself when it cannot be written to, else a read-only view of it (``a`` stays
+    writeable). A compiled kernel types a read-only array apart from a writeable one, so an
+    argument passed both ways would be compiled (or loaded from the cache) twice: as this
+    view, it is always the read-only kind the model layer hands out."""
+    if not a.flags.writeable:
+        return a
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
 def contiguous_rows(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
     """C-contiguous float copies (where needed) of a block of recorded rows (the arrays a
     compiled kernel takes)."""

@@ -26,6 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._arrays import read_only, read_only_view
 from ..errors import InfeasibleTaskError, ParameterError, SimulationError
 from ..model.interface import ReducedModel
 from ..model.planar import BarycentricModel
@@ -296,13 +297,19 @@ class CoordinatedController:
         self._status_ok = compiled.STATUS_OK
         period = compiled.period
         N = m.n_joints + self.m3
-        no_M, no_h = np.zeros((N, N)), np.zeros(N)
+        # the true M and C w (known model) always read-only, as the sensor's model hands them
+        # out (the period's argument types: one compiled period for every run and the warm-up)
+        no_M, no_h = read_only(np.zeros((N, N))), read_only(np.zeros(N))
         adaptive = self.adaptive
         # Eq. (54)'s e in the period when the truth is given (an empty array: not computed)
         truth = np.empty(0) if self.theta_d_true is None else self.theta_d_true
 
         def call(meas: Measurement, dt: float, out: np.ndarray):
-            M, h = (no_M, no_h) if adaptive else (meas.M, meas.h)
+            if adaptive:
+                M, h = no_M, no_h
+            else:
+                assert meas.M is not None and meas.h is not None  # the sensor's full model
+                M, h = read_only_view(meas.M), read_only_view(meas.h)
             return period(
                 *consts, dt, meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h,
                 self.theta_z, self.theta_d, self.theta_b, self.w_hat, self.Y_df, truth, out,

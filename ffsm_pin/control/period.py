@@ -34,6 +34,7 @@ from numba import njit, types
 from numba.extending import overload
 
 from .._array_kernels import _put
+from .._arrays import read_only
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
@@ -275,9 +276,10 @@ def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -
         geo, adaptive, g, 1e-3, q_b, q_m, w, np.zeros(N), z_e, theta_b, theta_z, theta_d
     )
     sens = np.zeros((n, *np.shape(w_b)))  # d w_mc / d w_b: (n,) planar, (n, 3) spatial
+    M_true, h_true = read_only(np.zeros((N, N))), read_only(np.zeros(N))  # (as the period's)
     kernels.dynamic_level(
-        geo, terms, adaptive, g, 1e-3, w, np.zeros(n), np.zeros(n), sens, np.zeros((N, N)),
-        np.zeros(N), theta_d.copy(), np.zeros(N), np.zeros((N, theta_d.size)), theta_d,
+        geo, terms, adaptive, g, 1e-3, w, np.zeros(n), np.zeros(n), sens, M_true, h_true,
+        theta_d.copy(), np.zeros(N), np.zeros((N, theta_d.size)), theta_d,
     )  # fmt: skip
 
 
