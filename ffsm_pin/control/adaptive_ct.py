@@ -120,6 +120,16 @@ class AdaptiveComputedTorque:
             )  # fmt: skip
             self._period = PERIOD[self.m3]
             self.step = self.step_numba  # type: ignore[method-assign]
+            self._warm_up(ctx.initial)
+
+    def _warm_up(self, meas: Measurement) -> None:
+        """Compile (or load) the compiled period now, on copies of the estimates (which it
+        advances in place), so that the run's first period does not pay for it."""
+        q_b = meas.q_b if self.m3 > 1 else float(meas.q_b)
+        self._period(
+            *self._consts, meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
+            self.theta_z.copy(), self.theta_d.copy(), self.theta_b.copy(),
+        )  # fmt: skip
 
     def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
         r = resolved_rates(

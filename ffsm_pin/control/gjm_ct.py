@@ -181,6 +181,8 @@ class GjmComputedTorque:
             )  # fmt: skip
             self._period = PERIOD[self.m3]
             self.step = self.step_numba  # type: ignore[method-assign]
+            # compile (or load) the period now, not in the run's first period (no state moves)
+            self.step_numba(ctx.initial)
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
         """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring)."""

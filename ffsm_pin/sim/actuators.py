@@ -111,6 +111,11 @@ class Actuators:
         self._zeros = np.zeros(n)
         self.last_saturated = False  # some joint at its limit in the last applied period
         self._kernel = _compiled_kernel()
+        if self._kernel is not None and not self.ideal:  # compile (or load) it before the run
+            self._kernel(
+                np.zeros(n), self.x.copy(), self.limit, self.alpha, self.lagged,
+                self.max_change, self.rate_limited, self._zeros, np.empty(n),
+            )  # fmt: skip
 
     def apply(self, u_cmd: np.ndarray) -> np.ndarray:
         """The torque applied this control period for the command ``u_cmd`` [N m]; sets

@@ -6,7 +6,6 @@ test_fast_spatial.py."""
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import subprocess
 import sys
@@ -18,9 +17,6 @@ import pytest
 from ffsm_pin.control import period
 from ffsm_pin.model.planar import PlanarKernelConstants
 from ffsm_pin.model.spatial import SpatialKernelConstants
-from ffsm_pin.scenario import builtin_scenario
-from ffsm_pin.sim.loop import simulate
-from ffsm_pin.sim.setup import prepare
 
 REPO = Path(__file__).resolve().parents[2]
 STEPS = ("geometry_terms", "kinematic_law", "dynamic_level")
@@ -106,24 +102,3 @@ def test_a_step_the_period_compiled_is_callable_from_python(tmp_path):
         assert proc.returncode == 0, (proc.returncode, proc.stderr[-3000:])
     hits = [int(x) for x in proc.stdout.split()]
     assert hits == [1, 1, 1], hits  # each loaded the entry the period wrote
-
-
-@pytest.mark.parametrize(
-    ("case", "params"),
-    [("known-model", {"backend": "numba"}), ("spatial-known-model", {}), ("case1", {}),
-     ("spatial", {})],
-    ids=["planar-known-model", "spatial-known-model", "planar", "spatial"],
-)  # fmt: skip
-def test_a_run_calls_the_period_its_controller_prepared(case, params):
-    """The controller compiles (or loads) its period before the run; every period of the run
-    calls that one. numba types a read-only array apart from a writeable one, and the known
-    model's M and C w come read-only from the sensor's model: a warm-up on writeable arrays
-    left the run to load another period at its first step, inside the timed loop (0.13 s
-    from a warm cache; a whole compilation on a first run)."""
-    sc = builtin_scenario(case)
-    controller = dataclasses.replace(sc.controller, params=params)
-    setup = prepare(dataclasses.replace(sc, duration=0.02, controller=controller))
-    before = set(period.period.signatures)
-    result = simulate(setup)
-    assert result.completed and result.steps == round(0.02 / sc.dt)
-    assert set(period.period.signatures) == before
