@@ -120,15 +120,18 @@ class AdaptiveComputedTorque:
             )  # fmt: skip
             self._period = PERIOD[self.m3]
             self.step = self.step_numba  # type: ignore[method-assign]
-            self._warm_up(ctx.initial)
+            # compile (or load) the period now, not in the run's first period; on copies of
+            # the estimates, which it advances in place
+            self._run_period(ctx.initial, self.theta_z.copy(), self.theta_d.copy(),
+                             self.theta_b.copy())  # fmt: skip
 
-    def _warm_up(self, meas: Measurement) -> None:
-        """Compile (or load) the compiled period now, on copies of the estimates (which it
-        advances in place), so that the run's first period does not pay for it."""
+    def _run_period(self, meas: Measurement, theta_z, theta_d, theta_b) -> tuple:
+        """The compiled period at ``meas`` on these estimates (advanced in place to t + dt):
+        (u_m, w_r of the joints, sigma_min, damping, all finite)."""
         q_b = meas.q_b if self.m3 > 1 else float(meas.q_b)
-        self._period(
+        return self._period(
             *self._consts, meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
-            self.theta_z.copy(), self.theta_d.copy(), self.theta_b.copy(),
+            theta_z, theta_d, theta_b,
         )  # fmt: skip
 
     def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
@@ -150,11 +153,9 @@ class AdaptiveComputedTorque:
             "theta_d_hat": self.theta_d.copy(),
             "theta_b_hat": self.theta_b.copy(),
         }
-        q_b = meas.q_b if self.m3 > 1 else float(meas.q_b)
-        u, w_r, sigma, damping, finite = self._period(
-            *self._consts, meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
-            self.theta_z, self.theta_d, self.theta_b,
-        )  # fmt: skip
+        u, w_r, sigma, damping, finite = self._run_period(
+            meas, self.theta_z, self.theta_d, self.theta_b
+        )
         if not finite:
             raise SimulationError(
                 f"t = {meas.t:.4f} s: the adaptive-ct torque became non-finite", time=meas.t,
