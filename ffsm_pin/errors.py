@@ -51,6 +51,11 @@ class StorageError(FfsmError, ValueError):
     """A run whose recording would not fit in the memory or on the disk there is."""
 
 
+class OutputError(FfsmError, OSError):
+    """A run's or a campaign's file could not be written (full disk, file-size limit,
+    permissions); the message names the file. What the folder held before is kept."""
+
+
 class SimulationError(FfsmError, RuntimeError):
     """A run that had to stop: funnel left, singular arm, non-finite numbers.
 

@@ -62,7 +62,9 @@ def controller_class(kind: str, base_dir: str | Path | None = None) -> type:
     if kind in installed:
         try:
             cls = installed[kind].load()  # type: ignore[attr-defined]
-        except Exception as exc:  # a broken plug-in is bad input, not a crash
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # a broken plug-in (sys.exit too) is bad input
             raise ControllerLoadError(
                 f"controller.type {kind!r}: its entry point could not be loaded "
                 f"({type(exc).__name__}: {exc})"
@@ -131,7 +133,10 @@ def _from_file(kind: str, file: str, base_dir: str | Path | None):
     sys.modules[mod_name] = module
     try:
         spec.loader.exec_module(module)
-    except Exception as exc:
+    except KeyboardInterrupt:
+        del sys.modules[mod_name]
+        raise
+    except BaseException as exc:  # sys.exit() at import too: bad input, one line
         del sys.modules[mod_name]
         raise ControllerLoadError(
             f"controller.type {kind!r}: importing {path} failed ({type(exc).__name__}: {exc})"
@@ -142,7 +147,9 @@ def _from_file(kind: str, file: str, base_dir: str | Path | None):
 def _import(kind: str, module_name: str):
     try:
         return importlib.import_module(module_name)
-    except Exception as exc:
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # sys.exit() at import too: bad input, one line
         raise ControllerLoadError(
             f"controller.type {kind!r}: cannot import module {module_name!r} "
             f"({type(exc).__name__}: {exc})"

@@ -1,8 +1,10 @@
 """``python -m ffsm_pin.sim``: run a scenario, record it, draw it, replay it (docs/cli.md).
 
 Exit status: 0 when every run completed; 3 when a run stopped early (everything recorded is
-still written, and one line on stderr says when and why); 2 for bad input (one line
-``error: ...`` on stderr, never a traceback); 130 when interrupted.
+still written, and one line on stderr says when and why) or was recovered (``--recover``); 2
+for bad input (one line ``error: ...`` on stderr, never a traceback); 4 when a file could not
+be written (one ``error:`` line naming it; the folder keeps the earlier run); 130 when
+interrupted. docs/cli.md, "What is kept when something fails".
 """
 
 from __future__ import annotations
@@ -22,13 +24,14 @@ from typing import TextIO
 import numpy as np
 
 from .._cli import Parser, UsageError, fail, positive_float, positive_int
-from ..errors import FfsmError
-from ..scenario.file import BUILTIN, builtin_scenario, load_scenario, scenario_to_toml
+from ..errors import FfsmError, OutputError
+from ..scenario.file import BUILTIN, builtin_scenario, load_scenario
 from ..scenario.spec import Scenario
 from .compile_note import note_compilation
+from .outputs import RunFolder, check_writable, output_error, write_outputs
 from .result import FIGURE_ROWS, RunResult
 
-EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 2, 3, 130
+EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_OUTPUT, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 # figures and replay.html of a longer run are drawn from this many evenly spaced rows
 PLOT_ROWS = FIGURE_ROWS
 COMPARE_CASES = ("case1", "case2", "case3")
@@ -51,7 +54,10 @@ spatial-no-attitude are its variants (--compare spatial runs spatial, -no-ppc, -
 
 output folder: trajectory.npz, summary.json, scenario.toml (the scenario as run),
 fig_*.png, replay.html (open it in a browser; no server needed).
-exit status: 0 completed, 3 stopped early (outputs still written), 2 bad input."""
+--recover DIR: what a killed run left in DIR (its spool) becomes trajectory.npz and
+summary.json (completed: false).
+exit status: 0 completed, 3 stopped early or recovered (outputs still written), 2 bad input,
+4 a file could not be written (the folder keeps the earlier run), 130 interrupted."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -81,6 +87,12 @@ def build_parser() -> argparse.ArgumentParser:
         "spatial-no-ppc and spatial-no-attitude (SET 'spatial') and overlay their figures",
     )
     what.add_argument("--scenario", metavar="FILE.toml", help="run a scenario file")
+    what.add_argument(
+        "--recover",
+        metavar="DIR",
+        help="write trajectory.npz and summary.json (completed: false) from what a killed run "
+        "left in its output folder DIR (its spool)",
+    )
     p.add_argument("--duration", metavar="S", type=positive_float, help="simulated time [s]")
     p.add_argument("--dt", metavar="S", type=positive_float, help="time step [s]")
     p.add_argument(
@@ -127,14 +139,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.simplefilter("ignore", category)
         warnings.showwarning = console.show_warning
         try:
-            return _run(args, console)
+            return _recover(args, console) if args.recover else _run(args, console)
+        except OutputError as exc:
+            console.clear()
+            fail(str(exc))
+            return EXIT_OUTPUT
         except FfsmError as exc:
             console.clear()
             return fail(str(exc))
         except OSError as exc:
             console.clear()
-            name = f" {exc.filename!r}" if exc.filename else ""
-            return fail(f"cannot write{name}: {exc.strerror or exc}")
+            fail(str(output_error(exc, Path(args.out or "."))))
+            return EXIT_OUTPUT
         except KeyboardInterrupt:
             console.clear()
             print("interrupted", file=sys.stderr)
@@ -161,30 +177,24 @@ def _run(args: argparse.Namespace, console: Console) -> int:
         check_storage(*size, args.record_every, args.out or "runs", copies=2)
     root = _out_dir(args.out)
     compare = len(setups) > 1
+    folders = [check_writable(root / _safe(su.scenario.name) if compare else root) for su in setups]
     results: list[RunResult] = []
-    for setup in setups:
+    for setup, folder in zip(setups, folders, strict=True):
         sc = setup.scenario
-        folder = root / _safe(sc.name) if compare else root
         console.context = sc.name if compare else ""
         console.start(sc.name, sc.duration, sc.dt)
+        # a spool (rows beyond memory) goes into the run's own folder: --recover finds it
         result = simulate(
-            setup, progress=console.progress, record_every=args.record_every, spool_dir=root
+            setup, progress=console.progress, record_every=args.record_every, spool_dir=folder
         )
         console.clear()
-        write_outputs(folder, sc, setup.robot, result, args.no_plots, args.no_html, console)
+        _write(folder, sc, setup.robot, result, args, console)
         results.append(result)
         if result.stop_cause == "interrupted":  # Ctrl-C: what was recorded is written; stop
             break
     if compare and not args.no_plots:
-        _guarded(console, "overlaid figures", _figures, results, root)
-    if console.quiet:
-        print(root)
-    else:
-        folders = [root / _safe(r.scenario_name) if compare else root for r in results]
-        print(result_table(results, folders))
-    for res in results:
-        if not res.completed:
-            print(f"{res.scenario_name}: {stop_line(res)}", file=sys.stderr)
+        _overlay(results, root, console)
+    _report(results, folders[: len(results)], root, console)
     status = EXIT_OK if all(r.completed for r in results) else EXIT_STOPPED
     if any(r.stop_cause == "interrupted" for r in results):
         return EXIT_INTERRUPTED  # no replay server after a Ctrl-C
@@ -229,51 +239,65 @@ def _override(sc: Scenario, args: argparse.Namespace) -> Scenario:
     return dataclasses.replace(sc, **changes) if changes else sc
 
 
-def write_outputs(
-    folder: Path,
-    scenario: Scenario,
-    robot,
-    result: RunResult,
-    no_plots: bool = False,
-    no_html: bool = False,
-    console: Console | None = None,
-) -> list[Path]:
-    """Write trajectory.npz, summary.json, scenario.toml, the figures and replay.html."""
-    console = console or Console(quiet=True)
-    folder.mkdir(parents=True, exist_ok=True)
-    result.save(folder)
-    written = [folder / "trajectory.npz", folder / "summary.json"]
-    (folder / "scenario.toml").write_text(scenario_to_toml(scenario), encoding="utf-8")
-    written.append(folder / "scenario.toml")
-    if not no_plots:
-        written += _guarded(console, "figures", _figures, [result], folder) or []
-    if not no_html:
-        out = _guarded(console, "replay.html", _replay, robot, result, folder / "replay.html")
-        if out is not None:
-            written.append(out)
-    return written
+def _recover(args: argparse.Namespace, console: Console) -> int:
+    """``--recover DIR``: every spool a killed run left in DIR, written as its run's files."""
+    from .recover import recover
+
+    found = recover(args.recover)
+    for run in found:
+        _write(run.folder, run.setup.scenario, run.setup.robot, run.result, args, console)
+    results = [run.result for run in found]
+    _report(results, [run.folder for run in found], Path(args.recover), console)
+    return EXIT_STOPPED
 
 
-def _figures(results, folder) -> list[Path]:
+def _write(folder: Path, scenario: Scenario, robot, result: RunResult, args, console) -> None:
+    """Write a run's files as a whole; when they cannot be, keep its spool for --recover."""
+    try:
+        write_outputs(
+            folder,
+            result,
+            scenario,
+            robot,
+            figures=not args.no_plots,
+            replay=not args.no_html,
+            warn=console.warn,
+        )
+    except OutputError as exc:
+        keep = getattr(result.signals, "keep_spool", None)
+        spool = keep() if keep is not None else None
+        if spool is None:
+            raise OutputError(f"{exc}; {folder} keeps what it held before this run") from None
+        raise OutputError(
+            f"{exc}; {folder} keeps what it held before this run, and this run's recording is "
+            f"kept in {spool}: free some space, then python -m ffsm_pin.sim --recover {folder}"
+        ) from None
+
+
+def _report(results: list[RunResult], folders: list[Path], root: Path, console) -> None:
+    """The result table (or, quiet, the folder) on stdout; a line per stopped run on stderr."""
+    if console.quiet:
+        print(root)
+    else:
+        print(result_table(results, folders))
+    for res in results:
+        if not res.completed:
+            print(f"{res.scenario_name}: {stop_line(res)}", file=sys.stderr)
+
+
+def _overlay(results: list[RunResult], root: Path, console) -> None:
+    """The overlaid figures of a comparison, written into ``root`` as a whole."""
     from .figures import write_figures  # matplotlib only when figures are drawn
 
-    # labels and thresholds from the results; a long run drawn from evenly spaced rows
-    return write_figures([r.thinned(PLOT_ROWS) for r in results], folder)
-
-
-def _replay(robot, result, path) -> Path:
-    from .replay import write_replay_html
-
-    return write_replay_html(robot, result.thinned(PLOT_ROWS), path)
-
-
-def _guarded(console: Console, what: str, fn, *args):
-    """Outputs after the recording must not lose the recording: report failures, go on."""
-    try:
-        return fn(*args)
-    except Exception as exc:  # noqa: BLE001 - reported, the run's data are already saved
-        console.warn(f"could not write {what}: {type(exc).__name__}: {exc}")
-        return None
+    with RunFolder(root) as out:
+        try:
+            write_figures([r.thinned(PLOT_ROWS) for r in results], out.staging)
+        except OSError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - reported, every run's files are written
+            console.warn(f"could not write overlaid figures: {type(exc).__name__}: {exc}")
+            return
+        out.commit()
 
 
 class _Terminated(Exception):

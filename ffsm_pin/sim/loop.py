@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -22,12 +22,18 @@ import numpy as np
 from ..control import _first_compile
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques, rows_beside
-from ..control.interface import SignalLayout, SignalRow, recorded_name, split_reply
+from ..control.interface import (
+    Measurement,
+    SignalLayout,
+    SignalRow,
+    recorded_name,
+    split_reply,
+)
 from ..control.kinematic import error_terms
 from ..errors import SimulationError
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE, Plant
-from .recorder import Recorder, extend
+from .recorder import Recorder, Signals, extend
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
@@ -68,6 +74,19 @@ def recording_size(setup: Setup) -> tuple[int, int]:
     per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
     m2, m3, nt = setup.model.m2, setup.model.m3, setup.n_task
     return steps, 8 * (per_step + m2 + m3 + 5 * m3 + 6 * nt)
+
+
+def spool_header(setup: Setup, record_every: int) -> dict:
+    """What a run's spool records before its rows (:mod:`ffsm_pin.sim.recover`): the scenario
+    as run, the recording interval [steps] and the step [s]."""
+    from ..scenario.file import scenario_to_toml
+
+    return {
+        "scenario_toml": scenario_to_toml(setup.scenario),
+        "scenario_name": setup.scenario.name,
+        "record_every": int(record_every),
+        "dt": setup.scenario.dt,
+    }
 
 
 #: The recorded columns the signals computed after the run are functions of.
@@ -135,7 +154,14 @@ class _ControllerFault(Exception):
 
 
 def _checked_torque(u, n: int) -> np.ndarray:
-    u = np.asarray(u, dtype=float)
+    u = np.asarray(u)
+    if u.dtype.kind not in "fiu":  # (not bool, complex, strings or objects)
+        raise _ControllerFault(
+            f"the controller returned a torque of dtype {u.dtype} ({u.tolist()!r:.80}); "
+            f"expected real numbers, shape ({n},), one per joint [N m]"
+        )
+    if u.dtype != np.float64:
+        u = u.astype(float)
     if u.shape != (n,):
         raise _ControllerFault(
             f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
@@ -146,6 +172,39 @@ def _checked_torque(u, n: int) -> np.ndarray:
             f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
         )
     return u
+
+
+def _standard_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
+    """The shapes the summary and the figures read standard signals with
+    (:data:`~ffsm_pin.control.interface.STANDARD_SIGNALS`)."""
+    return {
+        "sigma_min": (), "damping": (), "theta_z_hat": np.shape(setup.theta_z),
+        "theta_d_hat": np.shape(setup.theta_d), "theta_b_hat": np.shape(setup.theta_b),
+    }  # fmt: skip
+
+
+def _signal_fault(key: str, value) -> _ControllerFault | None:
+    """Why a controller's signal ``value`` cannot be recorded (not real numbers), or None."""
+    if type(value) in (float, int, np.float64) or (
+        type(value) is np.ndarray and value.dtype.kind in "fiu"
+    ):
+        return None
+    kind = np.asarray(value).dtype.kind if not isinstance(value, Mapping) else "O"
+    if kind in "fiu" and not isinstance(value, (bool, np.bool_)):
+        return None
+    return _ControllerFault(
+        f"the controller's signal {key!r} is a {type(value).__name__}, not real numbers; "
+        "each signal needs the same name, shape and type (numbers) every period"
+    )
+
+
+def _frozen(meas: Measurement) -> Measurement:
+    """A copy of ``meas`` that a controller writing into its arrays cannot change."""
+    q_b = meas.q_b.copy() if isinstance(meas.q_b, np.ndarray) else meas.q_b
+    return meas._replace(
+        q_b=q_b, q_m=meas.q_m.copy(), w=meas.w.copy(), z_e=meas.z_e.copy(),
+        z_e_dot=meas.z_e_dot.copy(),
+    )  # fmt: skip
 
 
 def simulate(
@@ -188,7 +247,12 @@ def simulate(
     # a controller's declared SignalLayout: its columns side by side, a row copied whole
     layout: SignalLayout | None = getattr(controller, "signal_layout", None)
     packed = [recorded_name(key) for key in layout.shapes] if layout else []
-    rec = Recorder(shapes, n_rows, spool_dir, packed=packed)
+
+    # a spool says what it holds before its rows: a killed run is recovered from it alone
+    def header() -> dict:  # (made only when a spool is: a run that fits in memory has none)
+        return spool_header(setup, record_every)
+
+    rec = Recorder(shapes, n_rows, spool_dir, packed=packed, header=header)
     A, A_signals = rec.arrays, rec.block
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
@@ -209,6 +273,16 @@ def simulate(
     actuators, sensors = setup.actuators, setup.sensors
     saturated = 0  # control periods with some joint at its torque limit
     names: dict[str, str] = {}  # controller signal -> recorded name
+    standard = _standard_shapes(setup)
+    first: tuple[Measurement, Measurement] | None = None
+    # the recorder's columns, looked up once (its arrays outlive every spill; a recorder
+    # rebuilt for the controller's signals at the first period is looked up again)
+    A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
+        A[key] for key in _LOOP_COLUMNS
+    )
+    no_column = np.empty((0,))  # (what the controller saw: recorded with sensors only)
+    A_mq_b, A_mq_m, A_mw, A_mz_e, A_mz_e_dot = (A.get(key, no_column) for key in _SEEN_COLUMNS)
+    signal_columns: list[tuple[str, np.ndarray]] = []
     wall0 = time.perf_counter()
     k = 0
     try:
@@ -220,32 +294,66 @@ def simulate(
             meas = sensor.measure(t, q, v)
             record = k % record_every == 0 or k == n_steps
             seen = meas if sensors is None else sensors.observe(meas)  # noise, delay
+            # what was measured is recorded before the controller runs, so that a controller
+            # writing into its measurement cannot change the recorded truth (at the first
+            # period, whose row goes to the recorder built after it, from copies)
+            if k == 0:
+                first = (_frozen(meas), _frozen(seen))
+            elif record:
+                i = rec.i
+                A_t[i], A_q[i], A_v[i], A_w[i] = t, q, v, meas.w
+                A_z_e[i], A_z_e_dot[i] = meas.z_e[:nt], meas.z_e_dot[:nt]
+                A_q_b[i] = meas.q_b
+                if sensors is not None:  # what the controller saw
+                    A_mq_b[i], A_mq_m[i], A_mw[i] = seen.q_b, seen.q_m, seen.w
+                    A_mz_e[i], A_mz_e_dot[i] = seen.z_e[:nt], seen.z_e_dot[:nt]
             try:
                 u_cmd, signals = split_reply(controller.step(seen))
                 u_cmd = _checked_torque(u_cmd, n)
                 if k == 0:  # the controller's signals: names and shapes from the first period
                     names = {key: recorded_name(key) for key in signals}
+                    for key, value in signals.items():
+                        fault = _signal_fault(key, value)
+                        if fault is not None:
+                            raise fault
                     new = {names[key]: np.shape(val) for key, val in signals.items()}
                     if any(shapes.get(key, shape) != shape for key, shape in new.items()):
                         raise _ControllerFault(
                             f"the controller's signals {new} differ from its signal_shapes"
                         )
+                    wrong = {k_: s_ for k_, s_ in new.items() if standard.get(k_, s_) != s_}
+                    if wrong:
+                        raise _ControllerFault(
+                            f"the controller's standard signals {wrong} need the shapes "
+                            f"{ {k_: standard[k_] for k_ in wrong} } (docs/controllers.md)"
+                        )
                     if set(new) - set(shapes):
                         shapes = {**shapes, **new}
-                        rec = Recorder(shapes, n_rows, spool_dir, packed=packed)
+                        rec = Recorder(shapes, n_rows, spool_dir, packed=packed, header=header)
                         A, A_signals = rec.arrays, rec.block
-                    # the recorder's columns, looked up once (its arrays outlive every spill)
+                        A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
+                            A[key] for key in _LOOP_COLUMNS
+                        )
+                        A_mq_b, A_mq_m, A_mw, A_mz_e, A_mz_e_dot = (
+                            A.get(key, no_column) for key in _SEEN_COLUMNS
+                        )
+                    # the controller's columns, looked up once (they outlive every spill)
                     signal_columns = [(key, A[names[key]]) for key in signals]
-                    A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
-                        A[key] for key in _LOOP_COLUMNS
-                    )
+                    assert first is not None
+                    m0, s0 = first
+                    A_t[0], A_q[0], A_v[0], A_w[0] = t, q, v, m0.w
+                    A_z_e[0], A_z_e_dot[0] = m0.z_e[:nt], m0.z_e_dot[:nt]
+                    A_q_b[0] = m0.q_b
                     if sensors is not None:
-                        A_mq_b, A_mq_m, A_mw, A_mz_e, A_mz_e_dot = (A[key] for key in _SEEN_COLUMNS)
+                        A_mq_b[0], A_mq_m[0], A_mw[0] = s0.q_b, s0.q_m, s0.w
+                        A_mz_e[0], A_mz_e_dot[0] = s0.z_e[:nt], s0.z_e_dot[:nt]
             except SimulationError as exc:
                 completed, stop_reason, stop_time = False, str(exc), exc.time
                 stop_cause, stop_funnel = exc.cause, exc.funnel
                 break
-            except Exception as exc:  # a controller's own failure is a stop, not a crash
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # a controller's own failure (sys.exit too) is a stop
                 what = str(exc) if isinstance(exc, _ControllerFault) else (
                     f"the controller raised {type(exc).__name__}: {exc}"
                 )  # fmt: skip
@@ -277,22 +385,20 @@ def simulate(
                                 sorted(map(repr, set(signals).symmetric_difference(names)))
                             )
                         for key, column in signal_columns:
-                            column[i] = signals[key]
-                except (KeyError, ValueError, IndexError) as exc:
+                            value = signals[key]
+                            fault = _signal_fault(key, value)
+                            if fault is not None:
+                                raise TypeError(str(fault))
+                            column[i] = value
+                except (KeyError, ValueError, IndexError, TypeError) as exc:
                     completed, stop_time, stop_cause = False, t, "controller"
                     stop_reason = (
                         f"t = {t:.4f} s: the controller's signals changed after the first "
                         f"period ({type(exc).__name__}: {exc}); each signal needs the same "
-                        "name and shape every period"
+                        "name, shape and type every period"
                     )
                     break
-                A_t[i], A_q[i], A_v[i], A_w[i], A_u_m[i] = t, q, v, meas.w, u_m
-                A_u_cmd[i] = u_cmd
-                A_z_e[i], A_z_e_dot[i] = meas.z_e[:nt], meas.z_e_dot[:nt]
-                A_q_b[i] = meas.q_b
-                if sensors is not None:  # what the controller saw
-                    A_mq_b[i], A_mq_m[i], A_mw[i] = seen.q_b, seen.q_m, seen.w
-                    A_mz_e[i], A_mz_e_dot[i] = seen.z_e[:nt], seen.z_e_dot[:nt]
+                A_u_m[i], A_u_cmd[i] = u_m, u_cmd
                 A_dw_b[i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
                 rec.commit()
             if final:
@@ -313,33 +419,61 @@ def simulate(
     except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
         completed, stop_time, stop_cause = False, k * dt, "interrupted"
         stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
-    per_row, truth = _after_run_signals(setup, reaction, plant.momentum_rows)
-    signals = extend(rec.finish(), per_row, truth, AFTER_RUN_INPUTS)
+    signals = recorded_signals(setup, rec.finish(), reaction, plant)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))
-    kind = sc.controller.type
-    return RunResult(
-        scheme=sc.controller.scheme if kind == "lu-jia" else None,
-        robot=setup.robot.name,
-        dt=dt,
-        duration=duration,
+    return run_result(
+        setup,
+        signals,
         steps=k,
         wall_time_s=wall,
         completed=completed,
         stop_reason=stop_reason,
-        signals=signals,
-        scenario_name=sc.name,
         stop_time=stop_time,
         stop_cause=stop_cause,
         stop_funnel=stop_funnel,
+        events=setup.events + list(getattr(controller, "events", [])),
+        saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
+    )
+
+
+def recorded_signals(
+    setup: Setup, raw: Signals, reaction: Callable[..., np.ndarray] | None = None, plant=None
+) -> Signals:
+    """The recorded per-step rows ``raw`` with the signals computed after the run (funnels,
+    reference, errors, momentum, F_r: :func:`_after_run_signals`) and the true parameters.
+
+    ``reaction`` and ``plant``: the run's F_r pass and plant, made anew when None (a
+    recovered spool, :mod:`ffsm_pin.sim.recover`).
+    """
+    if reaction is None:
+        reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
+    if plant is None:
+        plant = Plant(setup.robot, integrator=setup.scenario.integrator)
+    per_row, truth = _after_run_signals(setup, reaction, plant.momentum_rows)
+    return extend(raw, per_row, truth, AFTER_RUN_INPUTS)
+
+
+def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
+    """The :class:`RunResult` of a run of ``setup`` with the recorded ``signals``;
+    ``outcome``: the fields the run decided (steps, wall time, completion and stop, events,
+    saturation)."""
+    sc = setup.scenario
+    kind = sc.controller.type
+    return RunResult(
+        scheme=sc.controller.scheme if kind == "lu-jia" else None,
+        robot=setup.robot.name,
+        dt=sc.dt,
+        duration=sc.duration,
+        signals=signals,
+        scenario_name=sc.name,
         integrator=sc.integrator,
         substeps=sc.substeps,
-        events=setup.events + list(getattr(controller, "events", [])),
         rhoinf_b=sc.controller.funnel_b.rhoinf,
         rhoinf_z=sc.controller.funnel_z.rhoinf,
         damping_threshold=sc.controller.singularity.threshold,
         description=sc.description,
-        saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
         controller=kind,
+        **outcome,
     )

@@ -14,8 +14,12 @@ See docs/cli.md, "Long runs".
 
 from __future__ import annotations
 
+import json
+import os
 import shutil
+import socket
 import tempfile
+import time
 import weakref
 import zipfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -28,6 +32,11 @@ import numpy as np
 CHUNK_BYTES = 32 * 2**20
 # rows read at a time when a spilled recording is summarised, decimated or packed
 BLOCK_BYTES = 16 * 2**20
+#: A spool folder's name starts with this; its header file (written before any row) is
+#: :data:`SPOOL_HEADER`, in the format :data:`SPOOL_FORMAT`.
+SPOOL_PREFIX = ".ffsm-spool-"
+SPOOL_HEADER = "spool.json"
+SPOOL_FORMAT = "ffsm-pin spool 1"
 
 
 class Signals(Mapping):
@@ -74,6 +83,18 @@ class Signals(Mapping):
 
     def __len__(self) -> int:
         return len(self._shapes) + sum(k not in self._shapes for k in self._arrays)
+
+    @property
+    def spool(self) -> Path | None:
+        """The spool folder the rows live in, or None when they are in memory."""
+        return self._spool
+
+    def keep_spool(self) -> Path | None:
+        """Keep the spool folder after these signals are gone (a run whose files could not be
+        written: ``python -m ffsm_pin.sim --recover`` reads it); its path, or None."""
+        if self._finalizer is not None:
+            self._finalizer.detach()
+        return self._spool
 
     # ------------------------------------------------------------------ blocks
     @property
@@ -180,6 +201,10 @@ class Recorder:
         Keys of ``shapes`` held side by side, in this order, in :attr:`block` (``chunk_rows x
         width``): row :attr:`i` of it is their row, written in one copy (a controller's
         :class:`~ffsm_pin.control.interface.SignalRow`); their :attr:`arrays` are views of it.
+    header:
+        Called when the spool folder is made: what the spool says of its run (JSON-able), written
+        into :data:`SPOOL_HEADER` with the row shapes before any row, so that the rows of a run
+        killed before its end can be read back (:mod:`ffsm_pin.sim.recover`).
     """
 
     def __init__(
@@ -189,7 +214,9 @@ class Recorder:
         spool_dir: str | Path | None = None,
         chunk_bytes: int | None = None,
         packed: Sequence[str] = (),
+        header: Callable[[], Mapping[str, Any]] | None = None,
     ):
+        self._header = header
         chunk_bytes = CHUNK_BYTES if chunk_bytes is None else chunk_bytes
         self.shapes = dict(shapes)
         row = sum(8 * int(np.prod(s)) for s in self.shapes.values())
@@ -226,9 +253,7 @@ class Recorder:
         if self.i == 0:
             return
         if self._spool is None:
-            if self._spool_dir is not None:
-                Path(self._spool_dir).mkdir(parents=True, exist_ok=True)
-            self._spool = Path(tempfile.mkdtemp(prefix="ffsm-pin-rec-", dir=self._spool_dir))
+            self._spool = make_spool(self.shapes, self._spool_dir, self._header)
         for key, chunk in self.arrays.items():
             width = chunk[0].size
             with open(self._spool / f"{key}.bin", "r+b" if self.on_disk else "wb") as f:
@@ -249,6 +274,32 @@ class Recorder:
         self._spill()
         self.arrays, self.block = {}, np.empty((0, 0))  # the chunk's memory is no longer needed
         return Signals({}, self._spool, self.shapes, self.on_disk)
+
+
+def make_spool(
+    shapes: Mapping[str, tuple[int, ...]],
+    folder: str | Path | None,
+    header: Callable[[], Mapping[str, Any]] | None = None,
+) -> Path:
+    """A new spool folder in ``folder`` (the system's temporary folder when None) whose
+    :data:`SPOOL_HEADER` names the process, the row shapes (float64, C order, one raw file
+    ``<key>.bin`` per signal) and ``header()``."""
+    if folder is not None:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+    spool = Path(tempfile.mkdtemp(prefix=f"{SPOOL_PREFIX}{os.getpid()}-", dir=folder))
+    about = {
+        "format": SPOOL_FORMAT,
+        "pid": os.getpid(),
+        "host": socket.gethostname(),
+        "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "dtype": "<f8",
+        "shapes": {k: list(v) for k, v in shapes.items()},
+        **(dict(header()) if header is not None else {}),
+    }
+    tmp = spool / (SPOOL_HEADER + ".tmp")
+    tmp.write_text(json.dumps(about, indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, spool / SPOOL_HEADER)
+    return spool
 
 
 def extend(

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .recorder import Signals, Thinned, write_npz
+from .recorder import Signals, Thinned
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
@@ -103,6 +102,7 @@ class RunResult:
     description: str = ""
     controller: str = "lu-jia"  # the controller type ([controller] type)
     saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
+    estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -126,9 +126,11 @@ class RunResult:
         """Funnel ``which`` ("b" or "z") held over the whole run.
 
         A run stopped because that funnel was left never records the sample outside it (the
-        transformation (21) is undefined there), so the stop itself counts as a violation.
+        transformation (21) is undefined there), so the stop itself counts as a violation. A
+        run without a recorded row kept nothing.
         """
-        return self._scan().outside[which] is None and self.stop_funnel != which
+        scan = self._scan()
+        return scan.rows > 0 and scan.outside[which] is None and self.stop_funnel != which
 
     def first_violation_time(self) -> float | None:
         """First recorded sample outside a funnel, or the time of a funnel stop; None if
@@ -293,6 +295,10 @@ class RunResult:
     def save(self, out_dir: str | Path, *, figures: bool = False, compress: bool = False) -> dict:
         """Write ``trajectory.npz`` and ``summary.json`` into ``out_dir``; return the summary.
 
+        The files replace an earlier run's in ``out_dir`` as a whole, once both are complete
+        (:func:`ffsm_pin.sim.outputs.write_outputs`); ``summary.json`` is strict JSON
+        (non-finite numbers as ``null``).
+
         Parameters
         ----------
         out_dir:
@@ -304,17 +310,15 @@ class RunResult:
             Deflate ``trajectory.npz`` (``numpy.savez_compressed``). Off by default: recorded
             trajectories are floats that deflate by about a tenth, and deflating them costs
             about 20 times the writing (3.4 s of a 40 s spatial run's 9 s; docs/cli.md).
-        """
-        out_dir = Path(out_dir)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        write_npz(out_dir / "trajectory.npz", self.signals, compress=compress)
-        summary = self.summary()
-        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        if figures:
-            from .figures import write_figures  # matplotlib only when asked for
 
-            write_figures(self.thinned(FIGURE_ROWS), out_dir)
-        return summary
+        Raises
+        ------
+        OutputError
+            A file could not be written; ``out_dir`` keeps what it held.
+        """
+        from .outputs import write_outputs
+
+        return write_outputs(out_dir, self, figures=figures, compress=compress)
 
 
 def _max(so_far: float, values: np.ndarray) -> float:

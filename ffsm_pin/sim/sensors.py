@@ -96,5 +96,10 @@ class Sensors:
         else:  # delay only
             fields = meas[1:]
         self.buffer.append(fields)
-        # the oldest kept: k - d (or 0 early on), stamped with the current time
-        return Measurement(meas.t, *self.buffer[0])
+        # the oldest kept: k - d (or 0 early on), stamped with the current time; a copy of its
+        # arrays, since a buffered measurement is handed out more than once and a controller
+        # writing into one must not change what it is given later (M and h are read-only)
+        q_b, q_m, w, z_e, z_e_dot, M, h = self.buffer[0]
+        if not self._scalar_base:
+            q_b = q_b.copy()
+        return Measurement(meas.t, q_b, q_m.copy(), w.copy(), z_e.copy(), z_e_dot.copy(), M, h)

@@ -185,9 +185,9 @@ def _build_controller(cls: type, ctx: ControllerContext, kind: str) -> Controlle
     """``cls(ctx)``; a user's constructor that fails is bad input (exit 2)."""
     try:
         return cls(ctx)
-    except FfsmError:
+    except (FfsmError, KeyboardInterrupt):
         raise
-    except Exception as exc:
+    except BaseException as exc:  # sys.exit() in a constructor too: bad input, one line
         raise ControllerLoadError(
             f"controller.type {kind!r}: building {cls.__name__}(ctx) failed "
             f"({type(exc).__name__}: {exc})"

@@ -26,6 +26,17 @@ def free_disk(folder: str | Path) -> int | None:
         return None
 
 
+def file_size_limit() -> int | None:
+    """The largest file this process may write [bytes] (``ulimit -f``, RLIMIT_FSIZE), or
+    None when there is no limit (or the platform has none)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on POSIX
+        return None
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    return None if soft == resource.RLIM_INFINITY else int(soft)
+
+
 def _size(n: float) -> str:
     for unit in ("bytes", "KiB", "MiB", "GiB", "TiB"):
         if n < 1024 or unit == "TiB":
@@ -65,8 +76,22 @@ def check_storage(
         compression: the raw size and a header per signal).
     disk:
         Free disk [bytes]; read from the system when None.
+
+    With ``copies`` >= 2 the one file that holds every row, ``trajectory.npz``, is also
+    checked against the process's file-size limit (:func:`file_size_limit`).
     """
     rows = rows_recorded(steps, record_every)
+    limit = file_size_limit() if copies >= 2 else None
+    if limit is not None and rows * row_bytes > limit:
+        text = (
+            f"the run's trajectory.npz would hold {rows:,} rows of {row_bytes:,} bytes "
+            f"({_size(rows * row_bytes)}), more than the {_size(limit)} this process may write "
+            "into one file (ulimit -f)"
+        )
+        fit = _fitting_interval(steps, row_bytes, float(limit))
+        if fit is None:
+            raise StorageError(f"{text}; raise the limit, shorten the run or enlarge dt")
+        raise StorageError(f"{text}; use --record-every {fit} (or more) or raise the limit")
     need = copies * rows * row_bytes
     disk = free_disk(folder) if disk is None else disk
     if disk is None or need <= disk:

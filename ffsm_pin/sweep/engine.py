@@ -127,9 +127,9 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
             result = simulate(setup)
         summary = result.summary()
         if keep_dir is not None:
-            from ..sim.cli import write_outputs
+            from ..sim.outputs import write_outputs
 
-            write_outputs(Path(keep_dir), scenario, setup.robot, result)
+            write_outputs(Path(keep_dir), result, scenario, setup.robot, figures=True, replay=True)
     except Exception as exc:  # noqa: BLE001 - recorded in the row, the campaign goes on
         where = traceback.extract_tb(exc.__traceback__)[-1]
         text = f"{type(exc).__name__}: {exc} ({Path(where.filename).name}:{where.lineno})"
