@@ -77,7 +77,8 @@ def prepare(scenario: Scenario) -> Setup:
     robot = load_robot(
         spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
     )
-    if scenario.actuators.torque_limit == "urdf":  # before the (slow) controller is built
+    # URDF torque limits that the file does not give: refused before the (slow) controller
+    if isinstance(limit := scenario.actuators.torque_limit, str) and limit == "urdf":
         urdf_limits(robot.effort_limits, robot.n_joints, robot.joint_names)
     ctrl, ref = scenario.controller, scenario.reference
     cls = controller_class(ctrl.type, scenario.source.parent if scenario.source else None)
