@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable
+from pathlib import Path
 
 
 class FfsmError(Exception):
@@ -87,6 +88,22 @@ def did_you_mean(name: str, choices: Iterable[str]) -> str:
 def choices_text(choices: Iterable[str]) -> str:
     """Format valid choices for an error message."""
     return ", ".join(repr(c) for c in choices)
+
+
+def expected_count(n: int) -> str:
+    """The lengths a value may have when a single number is broadcast: ``"1 or 3"``, and ``"1"``
+    when the full length is 1 itself."""
+    return "1" if n == 1 else f"1 or {n}"
+
+
+def not_a_file(path: Path) -> str:
+    """Why ``path`` is no readable file, for a message: ``"not found"``, ``"is a folder, not a
+    file"`` or ``"is not a regular file"`` (a FIFO, a device, a socket: never opened)."""
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.exists():
+        return "is not a regular file"
+    return "not found"
 
 
 class ControllerLoadError(ScenarioError):

@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, expected_count
 from .backend import choose_backend
 from .interface import ControllerContext, Measurement
 from .kinematic import COMPLEX_STEP, along_measured_motion, momentum_evaluator, wrap_angle
@@ -103,7 +103,8 @@ def gains_from(ctx: ControllerContext, derived) -> dict:
             arr = np.broadcast_to(arr, (len(default),)) if arr.ndim == 0 else arr
             if arr.shape != (len(default),):
                 raise ParameterError(
-                    f"controller.params.{key}: {arr.size} values, expected 1 or {len(default)}"
+                    f"controller.params.{key}: {arr.size} values, expected "
+                    f"{expected_count(len(default))}"
                 )
         if not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
             raise ParameterError(f"controller.params.{key} = {value!r}: must be > 0")

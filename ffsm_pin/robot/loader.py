@@ -7,6 +7,7 @@ and zero gravity, lock joints, find the end effector, refuse branches, read the 
 
 from __future__ import annotations
 
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
@@ -14,13 +15,16 @@ from pathlib import Path
 import pinocchio as pin
 
 from ..errors import UnsupportedJointError, UrdfError, choices_text, did_you_mean
+from ._capture import native_output
 from .geometry import body_names, check_serial, end_effector_frame
 from .robot import Robot
 from .roots import ROOTS, SUPPORTED_BASES
 from .satellite import Satellite
 from .urdf import (
     EXAMPLE_ROBOTS,
+    UrdfWarning,
     example_robot_name,
+    joints_without_effort,
     parse_urdf,
     read_urdf,
     repair_limits,
@@ -78,11 +82,8 @@ def load_robot(
         raise UrdfError("options 'locked_joints' and 'satellite' apply only to base 'free-flyer'")
     path, package_dirs = resolve_source(urdf, relative_to)
     source = path.name
-    xml, satellite = _prepared_xml(read_urdf(path), source, root.check_xml, satellite)
-    try:
-        model = pin.buildModelFromXML(xml, root.joint_model())
-    except (RuntimeError, ValueError) as exc:
-        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {exc}") from None
+    xml, satellite, no_effort = _prepared_xml(read_urdf(path), source, root.check_xml, satellite)
+    model = _build_model(xml, root.joint_model(), source)
     model.gravity.setZero()
     locked = {str(k): float(v) for k, v in (locked_joints or {}).items()}
     if locked:
@@ -118,13 +119,39 @@ def load_robot(
         joint_names=tuple(model.names[j] for j in range(2, model.njoints)),
         locked_joints=locked,
         package_dirs=package_dirs,
+        no_effort_limit=tuple(j for j in no_effort if j not in locked),
     )
 
 
-def _prepared_xml(text: str, source: str, check_xml, satellite) -> tuple[str, Satellite | None]:
-    """The URDF text Pinocchio reads: limits repaired, checked for the root, a satellite added
-    (the original text when nothing changed)."""
+def _build_model(xml: str, joint_model, source: str) -> pin.Model:
+    """``pin.buildModelFromXML`` with what urdfdom prints captured: an ``Error:`` it prints
+    (it may still return a model, e.g. with a mass it could not read set to zero) is a
+    :class:`UrdfError` quoting it in one line; other output is one :class:`UrdfWarning`."""
+    failure = None
+    with native_output() as said:
+        try:
+            model = pin.buildModelFromXML(xml, joint_model)
+        except (RuntimeError, ValueError) as exc:
+            failure = " ".join(str(exc).split())
+    told = said.summary()
+    if failure is not None:
+        also = f" (urdfdom: {told})" if told and told not in failure else ""
+        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {failure}{also}")
+    if said.has_errors:
+        raise UrdfError(f"{source}: Pinocchio's URDF parser (urdfdom) reports: {told}")
+    if told:
+        warnings.warn(f"{source}: Pinocchio's URDF parser says: {told}", UrdfWarning, stacklevel=3)
+    return model
+
+
+def _prepared_xml(
+    text: str, source: str, check_xml, satellite
+) -> tuple[str, Satellite | None, tuple[str, ...]]:
+    """The URDF text Pinocchio reads (limits repaired, checked for the root, a satellite added;
+    the original text when nothing changed), the satellite, and the joints whose file gives no
+    effort limit (before the repair invents one)."""
     xml_root = parse_urdf(text, source)
+    no_effort = joints_without_effort(xml_root)
     changed = repair_limits(xml_root, source)
     check_xml(xml_root, source)
     roots = root_links(xml_root)
@@ -138,7 +165,8 @@ def _prepared_xml(text: str, source: str, check_xml, satellite) -> tuple[str, Sa
             satellite = Satellite.from_mapping(satellite)
         satellite.add_to(xml_root, roots[0], source)
         changed = True
-    return (ET.tostring(xml_root, encoding="unicode") if changed else text), satellite
+    xml = ET.tostring(xml_root, encoding="unicode") if changed else text
+    return xml, satellite, no_effort
 
 
 def _lock(model: pin.Model, locked: dict[str, float], source: str) -> pin.Model:

@@ -28,6 +28,10 @@ class Robot:
         :class:`PlanarGeometry` or :class:`SpatialGeometry` of the serial chain.
     urdf_xml:
         The (possibly repaired or extended) URDF text given to Pinocchio.
+    no_effort_limit:
+        Manipulator joints whose URDF gives no effort limit (no ``<limit>``, or one without
+        ``effort``): the model's effort limit of these joints is a placeholder the URDF repair
+        wrote for Pinocchio's parser, never a torque limit (:attr:`effort_limits`).
     """
 
     model: pin.Model
@@ -41,6 +45,16 @@ class Robot:
     joint_names: tuple[str, ...]  # manipulator joints 1..n
     locked_joints: Mapping[str, float] = field(default_factory=dict)
     package_dirs: tuple[Path, ...] = ()  # where package:// mesh paths resolve
+    no_effort_limit: tuple[str, ...] = ()  # joints without <limit effort> in the file
+
+    @property
+    def effort_limits(self) -> np.ndarray:
+        """Each manipulator joint's URDF ``<limit effort>`` [N m], shape (n_joints,); NaN for
+        the joints of :attr:`no_effort_limit` (the file gives none)."""
+        effort = np.array(self.model.effortLimit, dtype=float)[-self.n_joints :]
+        missing = [name in self.no_effort_limit for name in self.joint_names]
+        effort[np.asarray(missing, dtype=bool)] = np.nan
+        return effort
 
     @property
     def base(self) -> str:

@@ -15,7 +15,7 @@ import xml.etree.ElementTree as ET
 from importlib import resources
 from pathlib import Path
 
-from ..errors import RobotFileError, UrdfError, choices_text, did_you_mean
+from ..errors import RobotFileError, UrdfError, choices_text, did_you_mean, not_a_file
 
 ERD_PREFIX = "example-robot-data:"
 
@@ -34,6 +34,11 @@ EXAMPLE_ROBOTS: dict[str, tuple[str, str, tuple[str, ...]]] = {
     "xarm7": ("xarm_description/urdf/xarm7.urdf", "link7", ()),
     "z1": ("z1_description/urdf/z1.urdf", "link06", ("jointGripper",)),
 }
+
+
+#: The effort [N m] written into a repaired ``<limit>`` because urdfdom requires one; never used
+#: as a torque limit (see :func:`joints_without_effort`).
+PLACEHOLDER_EFFORT = "1000"
 
 
 class UrdfWarning(UserWarning):
@@ -72,6 +77,9 @@ def resolve_urdf(urdf: str | Path, relative_to: str | Path | None = None) -> Pat
     shipped = urdf_dir() / p.name
     if p.parent == Path(".") and shipped.is_file():
         return Path(str(shipped))
+    for c in candidates:
+        if c.exists():  # a folder, a FIFO, a device: never opened
+            raise RobotFileError(f"URDF {str(urdf)!r}: {str(c)!r} {not_a_file(c)}")
     raise RobotFileError(
         f"URDF {str(urdf)!r} not found (looked in {', '.join(str(c) for c in candidates)}); "
         f"shipped robots: {choices_text(shipped_urdfs())}"
@@ -157,12 +165,31 @@ def parse_urdf(text: str, source: str) -> ET.Element:
     return root
 
 
+#: Joint types whose URDF ``<limit>`` gives an effort limit (urdfdom reads it for these).
+LIMITED_TYPES = ("revolute", "continuous", "prismatic")
+
+
+def joints_without_effort(root: ET.Element) -> tuple[str, ...]:
+    """Names of the movable joints whose file gives no effort limit (no ``<limit>``, or a
+    ``<limit>`` without ``effort``), in file order; read before :func:`repair_limits`, whose
+    invented value is no limit."""
+    return tuple(
+        joint.get("name", "?")
+        for joint in root.iter("joint")
+        if joint.get("type") in LIMITED_TYPES
+        and ((limit := joint.find("limit")) is None or limit.get("effort") is None)
+    )
+
+
 def repair_limits(root: ET.Element, source: str) -> bool:
     """Make every 'continuous' joint 'revolute' and give every revolute joint without
     ``<limit>`` one, each with a :class:`UrdfWarning` naming the joint; True if anything changed.
 
     urdfdom (Pinocchio's parser) rejects revolute joints without limits outright; SPARTpy's
-    bundled URDFs are an example. Limits are not enforced by the simulator.
+    bundled URDFs are an example. The position and velocity limits are not enforced by the
+    simulator; the effort written here is a placeholder for the parser, never a torque limit
+    (:attr:`~ffsm_pin.robot.Robot.no_effort_limit` names these joints, and
+    ``actuators.torque_limit = "urdf"`` refuses them).
     """
     changed = False
     for joint in root.iter("joint"):
@@ -170,16 +197,21 @@ def repair_limits(root: ET.Element, source: str) -> bool:
         if joint.get("type") == "continuous":
             warnings.warn(
                 f"{source}: joint {name!r} is 'continuous'; treated as 'revolute' with "
-                "limits +-2 pi (limits are not enforced by the simulator)",
+                "position limits +-2 pi (joint position limits are not enforced by the simulator)",
                 UrdfWarning,
                 stacklevel=4,
             )
             joint.set("type", "revolute")
+            limit = joint.find("limit")
+            if limit is not None:  # a continuous joint's <limit> may give effort and velocity only
+                limit.set("lower", limit.get("lower", repr(-2 * math.pi)))
+                limit.set("upper", limit.get("upper", repr(2 * math.pi)))
             changed = True
         if joint.get("type") == "revolute" and joint.find("limit") is None:
             warnings.warn(
-                f"{source}: revolute joint {name!r} has no <limit>; added "
-                "lower=-2pi upper=2pi effort=1e3 velocity=1e2 (not enforced by the simulator)",
+                f"{source}: revolute joint {name!r} has no <limit>; it gets position limits "
+                "+-2 pi (not enforced by the simulator) and no torque limit "
+                "(actuators.torque_limit = 'urdf' refuses this joint: give a number instead)",
                 UrdfWarning,
                 stacklevel=4,
             )
@@ -188,7 +220,7 @@ def repair_limits(root: ET.Element, source: str) -> bool:
                 "limit",
                 lower=repr(-2 * math.pi),
                 upper=repr(2 * math.pi),
-                effort="1000",
+                effort=PLACEHOLDER_EFFORT,
                 velocity="100",
             )
             changed = True

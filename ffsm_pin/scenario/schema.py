@@ -56,6 +56,7 @@ from .spec import (
 TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
 GAIN_KEYS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
 FUNNEL_KEYS = ("rho0", "rhoinf", "beta", "sigma")  # FunnelParams fields; TOML rho_b0, ...
+MAX_STEPS = 1e12  # control steps of a run (sim.duration / sim.dt): more is no run at all
 
 
 # ------------------------------------------------------------------------------ errors
@@ -412,9 +413,16 @@ class SimModel(_Table):
 
     @model_validator(mode="after")
     def dt_within_duration(self):
-        """Refuse a step longer than the run."""
+        """Refuse a step longer than the run, and a run of absurdly many steps."""
         if self.dt > self.duration:
             fail(("dt",), f" = {self.dt} is longer than sim.duration = {self.duration}")
+        steps = self.duration / self.dt
+        if not steps <= MAX_STEPS:  # also inf (the quotient overflowed)
+            fail(
+                ("duration",),
+                f" = {self.duration:g} s at sim.dt = {self.dt:g} s is {steps:.3g} control steps; "
+                f"at most {MAX_STEPS:.0e} (shorten sim.duration or lengthen sim.dt)",
+            )
         return self
 
 
@@ -518,7 +526,21 @@ class ScenarioModel(_Table):
         funnel = self.controller.funnel
         funnel_arrays(funnel, "b", n_b, dflt.funnel_b if planar else None)
         funnel_arrays(funnel, "z", n_ee, dflt.funnel_z if planar else None)
+        self._delay_within_run()
         return self
+
+    def _delay_within_run(self) -> None:
+        """Refuse a sensor delay as long as the run: the controller would never see anything
+        but the first measurement."""
+        delay, sim = self.sensors.delay, self.sim
+        steps = round(sim.duration / sim.dt)
+        if delay >= steps:
+            fail(
+                ("sensors", "delay"),
+                f" = {delay} control periods ({delay * sim.dt:g} s at sim.dt = {sim.dt:g} s) is "
+                f"not shorter than the run (sim.duration = {sim.duration:g} s, {steps} control "
+                "periods); the controller would never see a new measurement",
+            )
 
 
 def _length(value: list | None, n: int, at: tuple) -> None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, ScenarioError, expected_count
 from ..scenario.devices import ActuatorSpec
 
 
@@ -37,10 +37,44 @@ def per_joint(value, n: int, key: str, joints: tuple[str, ...] = ()) -> np.ndarr
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
         names = f" ({', '.join(joints)})" if joints else ""
-        raise ParameterError(f"{key}: {arr.size} values, expected 1 or {n}, one per joint{names}")
+        raise ParameterError(
+            f"{key}: {arr.size} values, expected {expected_count(n)}, one per joint{names}"
+        )
     if np.any(arr < 0) or not np.all(np.isfinite(arr) | (arr == np.inf)):
         raise ParameterError(f"{key} = {arr.tolist()}: must be >= 0")
     return arr
+
+
+def urdf_limits(effort: np.ndarray | None, n: int, joints: tuple[str, ...] = ()) -> np.ndarray:
+    """The torque limits of ``torque_limit = "urdf"``: each joint's URDF effort limit [N m].
+
+    Parameters
+    ----------
+    effort:
+        Each joint's effort limit, NaN where the URDF gives none
+        (:attr:`~ffsm_pin.robot.Robot.effort_limits`); None: none known.
+    n:
+        Number of joints.
+    joints:
+        Joint names, for the message.
+
+    Raises
+    ------
+    ScenarioError
+        A joint without a finite effort limit > 0, naming the joints and what to give instead.
+    """
+    eff = np.full(n, np.nan) if effort is None else np.asarray(effort, dtype=float).copy()
+    names = joints if len(joints) == n else tuple(f"joint {i + 1}" for i in range(n))
+    bad = [name for name, e in zip(names, eff, strict=True) if not (e > 0 and np.isfinite(e))]
+    if bad:
+        which = ", ".join(repr(name) for name in bad)
+        raise ScenarioError(
+            f"actuators.torque_limit = 'urdf': {which} "
+            f"{'has' if len(bad) == 1 else 'have'} no effort limit > 0 in the URDF "
+            "(<limit effort=...>); give the limits as numbers instead: [actuators] "
+            f"torque_limit = 50.0, or a list of {n} [N m]"
+        )
+    return eff
 
 
 BLOCK = 1024  # control periods whose torque noise is drawn in one call
@@ -58,7 +92,8 @@ class Actuators:
     dt:
         Control period [s].
     effort:
-        Each joint's URDF effort limit [N m] (needed for ``torque_limit = "urdf"``).
+        Each joint's URDF effort limit [N m], NaN where the URDF gives none (needed for
+        ``torque_limit = "urdf"``, :func:`urdf_limits`).
     joints:
         Joint names, for messages.
     """
@@ -76,14 +111,7 @@ class Actuators:
         if spec.torque_limit == "none":
             self.limit = np.full(n, np.inf)
         elif spec.torque_limit == "urdf":
-            eff = np.full(n, np.nan) if effort is None else np.asarray(effort, float)
-            bad = [j for j, e in zip(joints or range(n), eff, strict=False) if not e > 0]
-            if bad:
-                raise ParameterError(
-                    f"actuators.torque_limit = 'urdf': joints {bad} have no positive "
-                    "<limit effort> in the URDF; give the limits as numbers"
-                )
-            self.limit = eff.copy()
+            self.limit = urdf_limits(effort, n, joints)
         elif isinstance(spec.torque_limit, str):
             raise ParameterError(
                 f"actuators.torque_limit = {spec.torque_limit!r} unknown; valid choices: "

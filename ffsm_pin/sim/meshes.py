@@ -31,6 +31,9 @@ import numpy as np
 import pinocchio as pin
 from yourdfpy.urdf import filename_handler_magic, filename_handler_meta
 
+from ..errors import UrdfError
+from ..robot._capture import native_output
+
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
     warnings.simplefilter("ignore", DeprecationWarning)
     import meshcat.geometry as mg
@@ -90,13 +93,35 @@ def visual_geometry(
             else:
                 mesh.set("filename", str(found))
     xml = ET.tostring(root, encoding="unicode")
-    gmodel = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL)
+    gmodel = _build_visuals(model, xml, urdf_path)
     root_link = _root_link(root)
     has_visual = any(
         link.get("name") == root_link and link.find("visual") is not None
         for link in root.iter("link")
     )
     return RobotVisuals(gmodel, tuple(missing), root_link, has_visual)
+
+
+def _build_visuals(model: pin.Model, xml: str, urdf_path: str | Path | None) -> pin.GeometryModel:
+    """``pin.buildGeomFromUrdfString`` (urdfdom parses the URDF, assimp reads the meshes) with
+    what those C++ libraries print captured: a failure is a :class:`UrdfError` quoting it in one
+    line, other output one :class:`ReplayWarning`."""
+    source = Path(urdf_path).name if urdf_path is not None else "URDF"
+    failure = None
+    with native_output() as said:
+        try:
+            gmodel = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL)
+        except (RuntimeError, ValueError) as exc:
+            failure = " ".join(str(exc).split())
+    told = said.summary()
+    if failure is not None:
+        also = f" ({told})" if told and told not in failure else ""
+        raise UrdfError(f"{source}: Pinocchio cannot read the visual geometry: {failure}{also}")
+    if told:
+        warnings.warn(
+            f"replay: {source}: the URDF and mesh readers say: {told}", ReplayWarning, stacklevel=3
+        )
+    return gmodel
 
 
 def resolve_mesh(filename: str, base_dir: Path | None, package_dirs: Sequence[Path]) -> Path | None:

@@ -22,7 +22,7 @@ from collections import deque
 import numpy as np
 
 from ..control.controller import Measurement
-from ..errors import ParameterError
+from ..errors import ParameterError, expected_count
 from ..scenario.devices import NOISE_KEYS, SensorSpec
 
 BLOCK = 1024  # measurements whose noise is drawn in one call
@@ -52,7 +52,7 @@ class Sensors:
             arr = np.full(size, float(arr)) if arr.ndim == 0 else arr
             if arr.shape != (size,):
                 raise ParameterError(
-                    f"sensors.noise.{key}: {arr.size} values, expected 1 or {size}"
+                    f"sensors.noise.{key}: {arr.size} values, expected {expected_count(size)}"
                 )
             if np.any(arr < 0) or not np.all(np.isfinite(arr)):
                 raise ParameterError(f"sensors.noise.{key} = {arr.tolist()}: must be >= 0")

@@ -31,7 +31,7 @@ from ..model import ReducedModel, State, make_model
 from ..robot import Robot, load_robot
 from ..scenario.file import check_scenario
 from ..scenario.spec import Scenario
-from .actuators import Actuators
+from .actuators import Actuators, urdf_limits
 from .estimates import initial_estimates
 from .initial import initial_state
 from .measurement import Sensor
@@ -77,6 +77,9 @@ def prepare(scenario: Scenario) -> Setup:
     robot = load_robot(
         spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
     )
+    # URDF torque limits that the file does not give: refused before the (slow) controller
+    if isinstance(limit := scenario.actuators.torque_limit, str) and limit == "urdf":
+        urdf_limits(robot.effort_limits, robot.n_joints, robot.joint_names)
     ctrl, ref = scenario.controller, scenario.reference
     cls = controller_class(ctrl.type, scenario.source.parent if scenario.source else None)
     model = make_model(robot)
@@ -157,7 +160,7 @@ def prepare(scenario: Scenario) -> Setup:
         events.append(msg)
         warnings.warn(msg, ReachWarning, stacklevel=2)
     n = robot.n_joints
-    effort = np.asarray(robot.model.effortLimit)[-n:]  # the arm joints' URDF <limit effort>
+    effort = robot.effort_limits  # the arm joints' URDF <limit effort>, NaN where none
     actuators = Actuators(scenario.actuators, n, scenario.dt, effort, robot.joint_names)
     sensors = Sensors(scenario.sensors, n, m3, model.m2 + m3)
     return Setup(

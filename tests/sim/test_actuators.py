@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from ffsm_pin.errors import ParameterError
+from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario import ActuatorSpec
 from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
 from ffsm_pin.sim.actuators import Actuators
@@ -52,7 +52,7 @@ def test_urdf_limits_equal_the_same_numbers_given_explicitly():
 
 
 def test_urdf_limits_need_efforts():
-    with pytest.raises(ParameterError, match="effort"):
+    with pytest.raises(ScenarioError, match="effort"):
         Actuators(ActuatorSpec(torque_limit="urdf"), 2, 1e-3, np.array([10.0, 0.0]), ("a", "b"))
 
 

@@ -1,0 +1,106 @@
+"""What C and C++ libraries print: captured at the file-descriptor level, summarised in one line.
+
+Pinocchio's URDF parser (urdfdom, through console_bridge) and the mesh loader (assimp, through
+coal) write their diagnostics straight to the process's standard output and error, below
+Python's ``sys.stdout``/``sys.stderr``: a user of the command line would see their text
+before the package's own one-line ``error:``. :func:`native_output` redirects file descriptors
+1 and 2 to a temporary file around such calls (restored in any case) and hands back what was
+written; :func:`summary` turns it into one line for an error message or a warning.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import re
+import sys
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+MAX_SUMMARY = 300  # characters of a summary (the rest is elided)
+#: urdfdom's trailer lines ("at line 380 in /project/urdfdom/.../link.cpp") and level prefixes
+_WHERE = re.compile(r"^\s*at line \d+ in \S+\s*$")
+_LEVEL = re.compile(r"^\s*(Error|Warning|Info|Debug)\s*:\s*", re.IGNORECASE)
+
+
+@dataclass
+class NativeOutput:
+    """The text the C/C++ code wrote while :func:`native_output` was active (set on exit)."""
+
+    text: str = ""
+
+    @property
+    def has_errors(self) -> bool:
+        """Whether a line is an ``Error:`` line (console_bridge's level prefix)."""
+        return any(
+            (m := _LEVEL.match(line)) and m.group(1).lower() == "error"
+            for line in self.text.splitlines()
+        )
+
+    def summary(self) -> str:
+        """The text as one line (see :func:`summary`)."""
+        return summary(self.text)
+
+
+def summary(text: str, limit: int = MAX_SUMMARY) -> str:
+    """One line for what a C/C++ library printed: level prefixes and source locations left out,
+    repeated lines once, lines joined by ``"; "``, at most ``limit`` characters."""
+    parts: list[str] = []
+    for line in text.splitlines():
+        if not line.strip() or _WHERE.match(line):
+            continue
+        line = " ".join(_LEVEL.sub("", line).split())
+        if line and line not in parts:
+            parts.append(line)
+    out = "; ".join(parts)
+    return out if len(out) <= limit else out[: limit - 3].rstrip() + "..."
+
+
+def _flush_c_streams() -> None:
+    """Flush the C library's stdio buffers (POSIX; a no-op where libc cannot be reached)."""
+    if os.name != "posix":
+        return
+    with contextlib.suppress(OSError, AttributeError, TypeError):
+        ctypes.CDLL(None).fflush(None)
+
+
+@contextlib.contextmanager
+def native_output() -> Iterator[NativeOutput]:
+    """Capture what is written to file descriptors 1 and 2 inside the ``with`` block.
+
+    Yields
+    ------
+    NativeOutput
+        Its ``text`` is filled when the block is left (also when it raises). Python's own
+        streams are flushed first, so nothing written before the block is captured.
+
+    Notes
+    -----
+    The redirection is process-wide: output of other threads during the block is captured
+    too. Keep the block to the library call.
+    """
+    captured = NativeOutput()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            stream.flush()
+    _flush_c_streams()
+    try:
+        saved = [os.dup(1), os.dup(2)]
+    except OSError:  # no descriptors 1 and 2 (e.g. a detached process): nothing to capture
+        yield captured
+        return
+    with tempfile.TemporaryFile() as sink:
+        try:
+            os.dup2(sink.fileno(), 1)
+            os.dup2(sink.fileno(), 2)
+            yield captured
+        finally:
+            _flush_c_streams()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+            sink.seek(0)
+            captured.text = sink.read().decode("utf-8", errors="replace")
