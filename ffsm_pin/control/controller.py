@@ -128,7 +128,7 @@ class CoordinatedController:
     Parameters
     ----------
     model:
-        The reduced model of the robot (:class:`~ffsm_pin.reduced_model.ReducedModel`:
+        The reduced model of the robot (:class:`~ffsm_pin.model.interface.ReducedModel`:
         planar or spatial; regressors and estimate evaluators).
     scheme:
         One of :data:`SCHEMES`.
