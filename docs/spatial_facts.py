@@ -7,8 +7,9 @@ origins, off-axis CoMs, full inertia tensors, zero gravity) is built directly as
 model; every quantity of docs/spatial.md sections 1-5 is formed from its definition on that page
 and compared with Pinocchio's CRBA, centroidal momentum, frame velocity and ABA. Section 7's
 attitude-authority ratio is measured on xArm7 and Panda from example-robot-data (skipped when the
-package is not installed). This script does not use ffsm_pin.spatial: it is an independent check
-of the page. Exit status 1 if a residual exceeds its bound.
+package is not installed). This script does not use ffsm_pin's spatial model
+(ffsm_pin.model.spatial, ffsm_pin.model.state): it is an independent check of the page. Exit
+status 1 if a residual exceeds its bound.
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ from .errors import FfsmError
 from .model import State, make_model
 from .robot import FreeFloatingRobot, Robot, load_robot, shipped_urdfs
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 # the simulation layer is imported on first use, so that `import ffsm_pin` stays light
 _LAZY = {

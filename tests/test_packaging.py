@@ -24,3 +24,5 @@ def test_every_package_is_installed():
     }
     assert found <= listed, f"packages missing from pyproject.toml: {sorted(found - listed)}"
     assert "ffsm_pin.urdf" in listed and config["package-dir"]["ffsm_pin.urdf"] == "urdf"
+    gone = listed - found - {"ffsm_pin.urdf"}
+    assert not gone, f"pyproject.toml lists packages that no longer exist: {sorted(gone)}"

@@ -143,7 +143,7 @@ class AdaptiveComputedTorque:
 
     def step(self, meas: Measurement):
         """u_m for the period starting at ``meas.t``; the estimates advance to t + dt (the
-        compiled period when numba is available, else :meth:`step_numpy`)."""
+        compiled period, :meth:`step_numba`, unless ``backend="numpy"``: :meth:`step_numpy`)."""
         return self.step_numpy(meas)
 
     def step_numba(self, meas: Measurement):

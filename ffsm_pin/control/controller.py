@@ -128,7 +128,7 @@ class CoordinatedController:
     Parameters
     ----------
     model:
-        The reduced model of the robot (:class:`~ffsm_pin.reduced_model.ReducedModel`:
+        The reduced model of the robot (:class:`~ffsm_pin.model.interface.ReducedModel`:
         planar or spatial; regressors and estimate evaluators).
     scheme:
         One of :data:`SCHEMES`.
@@ -243,8 +243,7 @@ class CoordinatedController:
         self.backend = self._choose_backend(backend)
 
     def _choose_backend(self, backend: str) -> str:
-        """'numba' (the compiled period, :mod:`.period`) unless numba is missing or 'numpy'
-        is asked.
+        """'numba' (the compiled period, :mod:`.period`) unless 'numpy' is asked.
 
         The compiled period serves planar and spatial robots with every scheme, task and
         null-space option. The planar known-model baseline runs the numpy reference unless
@@ -262,12 +261,8 @@ class CoordinatedController:
         planar_compiled = planar and (self.adaptive or backend == "numba")
         if backend == "numpy" or not (spatial or planar_compiled):
             return "numpy"
-        try:  # the compiled period (imports numba)
-            from . import period as compiled
-        except ImportError:
-            if backend == "numba":
-                raise
-            return "numpy"
+        from . import period as compiled  # the compiled period: numba compiles or loads it
+
         self._setup_compiled(compiled)
         self._warm_up()
         return "numba"

@@ -195,8 +195,8 @@ class GjmComputedTorque:
 
     def step(self, meas: Measurement):
         """u_m for the period starting at ``meas.t``, and w_md (as ``w_mc``), sigma_min and
-        damping as signals (the compiled period when numba is available, else
-        :meth:`step_numpy`)."""
+        damping as signals (the compiled period, :meth:`step_numba`, unless
+        ``backend="numpy"``: :meth:`step_numpy`)."""
         return self.step_numpy(meas)
 
     def step_numba(self, meas: Measurement):

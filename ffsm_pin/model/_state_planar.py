@@ -1,7 +1,8 @@
 """The paper's reduced quantities for one plant state, computed by Pinocchio's algorithms.
 
-:class:`FloatingBaseState` owns a Pinocchio ``Data`` and computes everything for a state in
-one :meth:`FloatingBaseState.update` call; the results are read-only arrays.
+The planar root's part of :class:`~ffsm_pin.model.state.State`, which owns a Pinocchio ``Data``
+and computes everything for a state in one :meth:`~ffsm_pin.model.state.State.update` call;
+the results are read-only arrays.
 
 Conventions (docs/model.md section 1): Pinocchio's planar root has q = (x, y, cos q_b, sin q_b,
 q_m) and v = (v_x, v_y, w_b, w_m) with (v_x, v_y) in the *base* frame. The paper's

@@ -1,7 +1,8 @@
 """The paper's reduced quantities of a spatial robot for one plant state, from Pinocchio.
 
-:class:`SpatialState` owns a Pinocchio ``Data`` and computes everything for a state in one
-:meth:`SpatialState.update` call; the results are read-only arrays.
+The free-flyer root's part of :class:`~ffsm_pin.model.state.State`, which owns a Pinocchio
+``Data`` and computes everything for a state in one :meth:`~ffsm_pin.model.state.State.update`
+call; the results are read-only arrays.
 
 Velocities (docs/spatial.md section 1): Pinocchio's free-flyer has v = (v_B, w_B, dq_m) with
 the base twist in the *base* frame. The controller's velocity is w = (w_b, dq_m) with

@@ -163,7 +163,7 @@ class SpatialBarycentricModel(BarycentricCommon):
     angles [rad]; velocity arguments ``w = (w_b, w_m)`` [rad/s] with w_b in the inertial frame.
     Method names and argument order are those of the planar
     :class:`ffsm_pin.model.planar.BarycentricModel` (the shared interface is
-    :class:`ffsm_pin.reduced_model.ReducedModel`).
+    :class:`ffsm_pin.model.interface.ReducedModel`).
 
     ``backend="numba"`` (default) evaluates real arguments with the compiled kernels of
     :mod:`ffsm_pin.model._spatial_kernels`; ``"numpy"`` uses the vectorised numpy reference

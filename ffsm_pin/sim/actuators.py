@@ -19,15 +19,7 @@ import numpy as np
 
 from ..errors import ParameterError, ScenarioError, expected_count
 from ..scenario.devices import ActuatorSpec
-
-
-def _compiled_kernel():
-    """The numba actuator step, or None without numba (then the numpy reference runs)."""
-    try:
-        from ._actuator_kernel import actuate
-    except ImportError:
-        return None
-    return actuate
+from ._actuator_kernel import actuate
 
 
 def per_joint(value, n: int, key: str, joints: tuple[str, ...] = ()) -> np.ndarray:
@@ -138,8 +130,8 @@ class Actuators:
         self._row = BLOCK  # next row of the current block of torque noise (none drawn yet)
         self._zeros = np.zeros(n)
         self.last_saturated = False  # some joint at its limit in the last applied period
-        self._kernel = _compiled_kernel()
-        if self._kernel is not None and not self.ideal:  # compile (or load) it before the run
+        self._kernel = actuate  # the compiled step (numba)
+        if not self.ideal:  # compile (or load) it before the run
             self._kernel(
                 np.zeros(n), self.x.copy(), self.limit, self.alpha, self.lagged,
                 self.max_change, self.rate_limited, self._zeros, np.empty(n),
@@ -147,15 +139,11 @@ class Actuators:
 
     def apply(self, u_cmd: np.ndarray) -> np.ndarray:
         """The torque applied this control period for the command ``u_cmd`` [N m]; sets
-        :attr:`last_saturated`. The compiled step when numba is installed, else
-        :meth:`apply_reference` (the two are tested equal bit for bit)."""
+        :attr:`last_saturated`. The compiled step, tested equal bit for bit to
+        :meth:`apply_reference`."""
         if self.ideal:
             self.last_saturated = False
             return u_cmd
-        if self._kernel is None:
-            u = self.apply_reference(u_cmd)
-            self.last_saturated = self.saturated(u)
-            return u
         out = np.empty(self.n)
         self.last_saturated = self._kernel(
             np.asarray(u_cmd, dtype=float), self.x, self.limit, self.alpha, self.lagged,

@@ -21,9 +21,9 @@ Figures written:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -35,7 +35,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from .result import RunResult  # noqa: E402
+if TYPE_CHECKING:  # result.py imports this module to draw a run's figures
+    from .result import RunResult
 
 FIGURE_NAMES = (
     "fig_errors.png",
@@ -75,7 +76,8 @@ def write_figures(
     dpi:
         Resolution of the PNG files.
     """
-    runs = [results] if isinstance(results, RunResult) else list(results)
+    # a RunResult is no iterable (it has no __iter__): several runs are any iterable of them
+    runs = list(results) if isinstance(results, Iterable) else [results]
     if not runs:
         raise ValueError("write_figures needs at least one run")
     labels = _labels(runs, labels)

@@ -52,8 +52,6 @@ def paper_scenario(scheme="ppc", duration=DURATION, dt=1e-3, **controller):
 def with_backend(setup, backend: str):
     """The prepared setup with its controller rebuilt on ``backend`` ('numpy' reference or
     'numba' compiled period): the same estimates, funnels, gains and initial measurement."""
-    if backend == "numba":
-        pytest.importorskip("numba")
     # the same controller (estimates, funnels, gains, initial measurement) on `backend`
     setup.controller = LuJiaController(setup.controller.context, backend=backend)
     assert setup.controller.law.backend == backend

@@ -21,8 +21,6 @@ from ffsm_pin.sim.measurement import Sensor
 from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.run import prepare
 
-pytest.importorskip("numba")
-
 
 def _compiled_base_inertia(model, theta_d):
     """The kernels' f(q_b, q_m, w) -> (M_bb, dM_bb/dt) of the true model."""

@@ -32,7 +32,6 @@ from ffsm_pin.scenario.spec import (
 from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.run import Sensor, initial_state, prepare
 
-pytest.importorskip("numba")
 DATA = Path(__file__).resolve().parents[1] / "data"
 
 

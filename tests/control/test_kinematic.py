@@ -45,8 +45,6 @@ def _run(scheme: str, backend: str):
         dt=DT,
     )
     setup = prepare(sc)
-    if backend == "numba":
-        pytest.importorskip("numba")
     # the same controller (estimates, funnels, gains, initial measurement) on `backend`
     setup.controller = LuJiaController(setup.controller.context, backend=backend)
     assert setup.controller.law.backend == backend

@@ -104,7 +104,7 @@ def yawed_robots(data_dir, tmp_path_factory):
 # ----------------------------------------------------------------------------- the comparison
 def check_against_pinocchio(robot, seed, random_state, n_states=N_STATES):
     """Every model quantity with the true parameters equals FloatingBaseState's at random
-    states (module docstring of ffsm_pin.barycentric; docs/model.md sections 1-2)."""
+    states (module docstring of ffsm_pin.model.planar; docs/model.md sections 1-2)."""
     bm = BarycentricModel(robot.geometry)
     fbs = FloatingBaseState(robot)
     data = robot.model.createData()

@@ -1,7 +1,8 @@
 """The spatial model restricted to planar motion is the planar model: the paper's planar robot
 and an off-axis planar chain loaded on a free-flyer root, moving in their plane, give the
 planar reduced M, C w, momentum rows and reaction torque (two independent implementations:
-ffsm_pin.state / ffsm_pin.barycentric against ffsm_pin.spatial)."""
+ffsm_pin.model._state_planar / ffsm_pin.model.planar against ffsm_pin.model._state_spatial /
+ffsm_pin.model.spatial)."""
 
 from __future__ import annotations
 

@@ -77,25 +77,6 @@ def test_state_agrees_with_the_model_it_parameterises(robot, rng):
     np.testing.assert_allclose(M, st.M, rtol=1e-10, atol=1e-10 * np.abs(st.M).max())
 
 
-def test_old_module_paths_still_import_with_a_warning():
-    import importlib
-    import sys
-
-    for name, new in (
-        ("ffsm_pin.barycentric", "ffsm_pin.model.planar"),
-        ("ffsm_pin.reduced_model", "ffsm_pin.model.interface"),
-        ("ffsm_pin.spatial.barycentric", "ffsm_pin.model.spatial"),
-    ):
-        sys.modules.pop(name, None)
-        with pytest.warns(DeprecationWarning, match=new):
-            old = importlib.import_module(name)
-        assert old is importlib.import_module(new)
-    sys.modules.pop("ffsm_pin.state", None)
-    with pytest.warns(DeprecationWarning, match="ffsm_pin.model.state"):
-        from ffsm_pin.state import FloatingBaseState
-    assert FloatingBaseState is State
-
-
 def test_update_dynamics_gives_the_numbers_of_update(robot, rng):
     """The known-model controller's per-period path (M, h only) is the full update's
     arithmetic: bitwise equal (the full update's M, h are checked against Pinocchio's ABA in

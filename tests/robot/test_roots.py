@@ -79,12 +79,10 @@ def test_options_only_where_the_root_supports_them():
 
 
 def test_one_class_and_old_names():
-    """The 0.1.0 class names and the spatial loader's module still resolve, to the one class."""
+    """The 0.1.0 class names and the spatial loader resolve to the one class and loader."""
     from ffsm_pin import FreeFloatingRobot
-    from ffsm_pin.spatial import SpatialRobot, load_spatial_robot
-    from ffsm_pin.spatial import mrp as old_mrp
+    from ffsm_pin.robot import SpatialRobot, load_spatial_robot
 
     assert FreeFloatingRobot is Robot and SpatialRobot is Robot
-    assert old_mrp.to_rotation is mrp.to_rotation
     robot = load_spatial_robot(**SPATIAL9)
     assert isinstance(robot, Robot) and robot.base == "free-flyer"

@@ -1,13 +1,11 @@
 """One URDF writer for both geometries (ffsm_pin.robot.writer): the table's geometry is told
-apart by ``kind`` or the base inertia, ambiguous or unknown kinds are refused naming the
-choices, and the deprecated per-geometry modules keep working for one release."""
+apart by ``kind`` or the base inertia, and ambiguous or unknown kinds are refused naming the
+choices."""
 
 from __future__ import annotations
 
-import importlib
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import pytest
@@ -73,38 +71,11 @@ def test_command_line_ambiguous_table_is_one_error_line(tmp_path):
     assert "kind" in proc.stderr
 
 
-@pytest.mark.parametrize(
-    ("module", "path"),
-    [("ffsm_pin.planar_urdf", PLANAR), ("ffsm_pin.spatial_urdf", SPATIAL)],
-    ids=["planar", "spatial"],
-)
-def test_deprecated_modules_still_work_and_say_so(module, path):
-    sys.modules.pop(module, None)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        old = importlib.import_module(module)
-    assert any(issubclass(w.category, DeprecationWarning) and "ffsm_pin.robot.writer"
-               in str(w.message) for w in caught)  # fmt: skip
-    assert old.chain_to_urdf(old.chain_from_table(read_table(path))) == writer.chain_to_urdf(
-        writer.chain_from_table(read_table(path))
-    )
-    proc = _cli(module, path)
+@pytest.mark.parametrize("path", [PLANAR, SPATIAL], ids=["planar", "spatial"])
+def test_command_line_writes_either_geometry(path):
+    """One command for both geometries (it replaced ``python -m ffsm_pin.planar_urdf`` and
+    ``python -m ffsm_pin.spatial_urdf``, removed in 0.2.0)."""
+    proc = _cli("ffsm_pin.robot.writer", path)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout == _cli("ffsm_pin.robot.writer", path).stdout
-    assert proc.stderr.startswith("warning: ") and "deprecated" in proc.stderr
-    assert "ffsm_pin.robot.writer" in proc.stderr
-
-
-@pytest.mark.parametrize(
-    ("module", "other", "key"),
-    [
-        ("ffsm_pin.spatial_urdf", PLANAR, "base.inertia"),
-        ("ffsm_pin.planar_urdf", SPATIAL, "base.inertia"),
-    ],
-    ids=["spatial", "planar"],
-)
-def test_deprecated_command_lines_keep_their_geometry(module, other, key):
-    """The old per-geometry commands read their own geometry only, as before."""
-    proc = _cli(module, other)
-    assert proc.returncode == 2 and key in proc.stderr
-    assert proc.stderr.splitlines()[-1].startswith("error: ")
+    assert proc.stderr == ""
+    assert proc.stdout == writer.chain_to_urdf(writer.chain_from_table(read_table(path)))

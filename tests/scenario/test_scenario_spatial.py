@@ -174,10 +174,7 @@ def test_position_task_is_valid_for_planar_robots():
     assert sc.reference.task == "position" and len(sc.reference.ee) == 2
     setup = prepare(sc)
     # the compiled period serves the position task too (it fell back to numpy before)
-    from ffsm_pin.control.backend import numba_available
-
-    expected = "numba" if numba_available() else "numpy"
-    assert setup.n_task == 2 and setup.controller.law.backend == expected
+    assert setup.n_task == 2 and setup.controller.law.backend == "numba"
     with pytest.raises(FfsmError, match="3 values, expected 2"):
         scenario_from_toml(_edit(text, "rho_z0", "[1.0, 1.0, 0.2]"))
 

@@ -10,18 +10,17 @@ from pathlib import Path
 
 from ..._cli import fail
 from ...errors import FfsmError
-from . import KINDS, chain_from_table, chain_to_urdf, read_table
+from . import chain_from_table, chain_to_urdf, read_table
 from ._xml import tomllib
 
 PROG = "python -m ffsm_pin.robot.writer"
 
 
-def main(argv: list[str] | None = None, prog: str = PROG, kind: str | None = None) -> int:
-    """Run the command line; returns the exit status. ``kind`` ("planar" or "spatial") reads
-    every table as that geometry (the deprecated per-geometry commands); None tells them
-    apart (:func:`~ffsm_pin.robot.writer.table_kind`)."""
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status. The table's geometry is told apart by
+    :func:`~ffsm_pin.robot.writer.table_kind`."""
     parser = argparse.ArgumentParser(
-        prog=prog,
+        prog=PROG,
         description="Write the URDF of a free-floating manipulator (planar or spatial) from a "
         "TOML chain table.",
     )
@@ -30,7 +29,7 @@ def main(argv: list[str] | None = None, prog: str = PROG, kind: str | None = Non
     args = parser.parse_args(argv)
     try:
         table = read_table(args.table)
-        chain = chain_from_table(table) if kind is None else KINDS[kind](table)
+        chain = chain_from_table(table)
     except (OSError, tomllib.TOMLDecodeError, FfsmError) as exc:
         return fail(f"{args.table}: {exc}")
     text = chain_to_urdf(chain)
@@ -39,21 +38,6 @@ def main(argv: list[str] | None = None, prog: str = PROG, kind: str | None = Non
     else:
         sys.stdout.write(text)
     return 0
-
-
-def moved(old: str) -> str:
-    """The deprecation message of the former module ``old`` (``ffsm_pin.planar_urdf``...)."""
-    return f"{old} moved to ffsm_pin.robot.writer ({PROG}); this alias goes in the next release"
-
-
-def deprecated_main(old: str, kind: str, argv: list[str] | None = None) -> int:
-    """The former per-geometry command line ``python -m old``: reads ``kind`` tables only and
-    says on stderr that it is deprecated."""
-    print(
-        f"warning: python -m {old} is deprecated and goes in the next release; use {PROG}",
-        file=sys.stderr,
-    )
-    return main(argv, prog=f"python -m {old}", kind=kind)
 
 
 if __name__ == "__main__":
