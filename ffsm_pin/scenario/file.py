@@ -28,7 +28,7 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 
 Spatial robots (``base = "free-flyer"``, docs/cli.md "Spatial robots"): ``[robot]`` also takes
 ``locked_joints = { name = value }`` and ``[robot.satellite]``
-(:class:`~ffsm_pin.spatial.robot.Satellite`); ``[initial] base_pose`` is x, y, z and an MRP
+(:class:`~ffsm_pin.robot.Satellite`); ``[initial] base_pose`` is x, y, z and an MRP
 (|s| <= 1), or x, y, z with ``base_attitude_rpy`` or ``base_attitude_quaternion`` (x, y, z,
 w), converted to the MRP (written back as such by :func:`scenario_to_toml`); the velocity
 keys are 3-vectors (``base_twist`` 6), all in the inertial frame.

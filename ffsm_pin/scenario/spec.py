@@ -211,14 +211,14 @@ class Reference:
 class RobotSpec:
     """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
     optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
-    :class:`~ffsm_pin.spatial.robot.Satellite` added under an arm-only URDF's root)."""
+    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root)."""
 
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
     base: str = "planar"
     end_effector: str = "ee"
     relative_to: str | None = None  # folder of the scenario file
     locked_joints: tuple[tuple[str, float], ...] = ()
-    satellite: Any = None  # ffsm_pin.spatial.robot.Satellite | None
+    satellite: Any = None  # ffsm_pin.robot.Satellite | None
 
 
 @dataclass(frozen=True)
