@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["from_quaternion", "from_rotation", "kinematics_rate", "to_rotation"]
+__all__ = ["from_quaternion", "from_rotation", "kinematics_rate", "l_matrix", "to_rotation"]
 
 
 @njit(cache=True)
@@ -100,3 +100,24 @@ def kinematics_rate(s, R, w):
     for i in range(3):
         out[i] *= 0.25
     return out
+
+
+@njit(cache=True)
+def l_matrix(s, R0):
+    """L_b = 1/4 B(s) R0^T of Eq. (1) (:func:`ffsm_pin.attitude.mrp.L_matrix`) as complex128,
+    for real or complex ``s`` and ``R0`` (a complex step through the attitude); the product
+    with R0^T adds its terms in ascending order."""
+    s0, s1, s2 = s[0], s[1], s[2]
+    d = 1.0 - (s0 * s0 + s1 * s1 + s2 * s2)
+    B = np.empty((3, 3), dtype=np.complex128)
+    B[0, 0], B[0, 1], B[0, 2] = d + 2 * s0 * s0, 2 * (s0 * s1 - s2), 2 * (s0 * s2 + s1)
+    B[1, 0], B[1, 1], B[1, 2] = 2 * (s1 * s0 + s2), d + 2 * s1 * s1, 2 * (s1 * s2 - s0)
+    B[2, 0], B[2, 1], B[2, 2] = 2 * (s2 * s0 - s1), 2 * (s2 * s1 + s0), d + 2 * s2 * s2
+    BR = np.zeros((3, 3), dtype=np.complex128)  # B R0^T
+    for i in range(3):
+        for j in range(3):
+            acc = 0j
+            for k in range(3):
+                acc += B[i, k] * R0[j, k]
+            BR[i, j] = acc
+    return 0.25 * BR

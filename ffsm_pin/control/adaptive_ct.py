@@ -37,12 +37,13 @@ import numpy as np
 
 from ..errors import SimulationError
 from .adaptation import theta_b_step, theta_d_increment, theta_z_step
-from .backend import choose_backend
-from .gjm_ct import GjmGains, drift_bound, gains_from, resolved_rates
+from .adaptive_ct_kernels import PERIOD, AdaptiveCtKernelGains
+from .compiled import CompiledController, kernel_measurement, state_field
 from .interface import ControllerContext, Measurement
-from .kinematic import COMPLEX_STEP, along_measured_motion, momentum_evaluator
-
-_H = COMPLEX_STEP  # the step of along_measured_motion
+from .kernels import COMPLEX_STEP, Estimates
+from .kinematic import along_measured_motion, momentum_evaluator
+from .reference_kernels import reference_arrays
+from .resolved_motion import drift_bound, gains_from, rate_gains, resolved_rates
 
 
 @dataclass(frozen=True)
@@ -67,15 +68,15 @@ class AdaptiveCtGains:
 
     @classmethod
     def derived(cls, scenario, dt: float, m2: int, n_task: int, drift: float) -> AdaptiveCtGains:
-        """k_z and k_s as gjm-ct's k_z and k_v (:meth:`~.gjm_ct.GjmGains.derived`, with the
+        """k_z and k_s as gjm-ct's k_z and k_v (:func:`~.resolved_motion.rate_gains`, with the
         drift term: without it the 5-link robot leaves its funnel at 7 s while theta_z-hat
         adapts); the adaptation gains are the scenario's gamma_1, gamma_2, gamma_3."""
-        g = GjmGains.derived(scenario.controller.funnel_z, dt, m2, n_task, drift)
+        k_z, k_s = rate_gains(scenario.controller.funnel_z, dt, m2, n_task, drift)
         p = scenario.controller.gains
-        return cls(g.k_z, g.k_v, p.gamma_1, p.gamma_2, p.gamma_3)
+        return cls(k_z, k_s, p.gamma_1, p.gamma_2, p.gamma_3)
 
 
-class AdaptiveComputedTorque:
+class AdaptiveComputedTorque(CompiledController):
     """Adaptive computed torque (Slotine & Li type) on the barycentric regressors.
 
     Parameters
@@ -86,6 +87,9 @@ class AdaptiveComputedTorque:
     """
 
     needs_estimates = True
+    theta_z = state_field("theta_z", "theta_z-hat (Eq. 42), advanced in place by the kernels")
+    theta_d = state_field("theta_d", "theta_d-hat (the gradient law)")
+    theta_b = state_field("theta_b", "theta_b-hat (Eq. 28)")
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario
@@ -93,7 +97,7 @@ class AdaptiveComputedTorque:
         self.model = ctx.model
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
         estimates = ctx.required_estimates()
-        self.theta_z, self.theta_d, self.theta_b = (np.array(x, dtype=float) for x in estimates)
+        self.state = Estimates(*(np.array(x, dtype=float) for x in estimates))
         drift = drift_bound(ctx, self.theta_z)
         derived = AdaptiveCtGains.derived(sc, ctx.dt, self.m2, self.nt, drift)
         self.gains = AdaptiveCtGains(**gains_from(ctx, derived))
@@ -108,31 +112,19 @@ class AdaptiveComputedTorque:
             "theta_z_hat": (ctx.model.n_z,), "theta_d_hat": (ctx.model.n_d,),
             "theta_b_hat": (ctx.model.n_b,),
         }  # fmt: skip
-        self.backend = choose_backend(backend)
-        if self.backend == "numba":
-            from ._adaptive_ct_kernels import PERIOD
+        self.bind_backend(backend, ctx.initial)
 
-            g = self.gains
-            self._consts = (
-                *ctx.model.kernel_constants(), *self.reference.kernel_arrays(), self._k_z,
-                float(g.k_s), float(g.gamma_b), float(g.gamma_z), float(g.gamma_d),
-                float(self.threshold), int(self.nt), float(self.dt),
-            )  # fmt: skip
-            self._period = PERIOD[self.m3]
-            self.step = self.step_numba  # type: ignore[method-assign]
-            # compile (or load) the period now, not in the run's first period; on copies of
-            # the estimates, which it advances in place
-            self._run_period(ctx.initial, self.theta_z.copy(), self.theta_d.copy(),
-                             self.theta_b.copy())  # fmt: skip
-
-    def _run_period(self, meas: Measurement, theta_z, theta_d, theta_b) -> tuple:
-        """The compiled period at ``meas`` on these estimates (advanced in place to t + dt):
-        (u_m, w_r of the joints, sigma_min, damping, all finite)."""
-        q_b = meas.q_b if self.m3 > 1 else float(meas.q_b)
-        return self._period(
-            *self._consts, meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot,
-            theta_z, theta_d, theta_b,
+    def prepare_kernels(self) -> None:
+        """The compiled period's bundles (:mod:`.adaptive_ct_kernels`): gains and the period's
+        constants, the model's and the reference's arrays."""
+        g = self.gains
+        self._geo = self.context.model.kernel_constants()
+        self._gains = AdaptiveCtKernelGains(
+            self._k_z, float(g.k_s), float(g.gamma_b), float(g.gamma_z), float(g.gamma_d),
+            float(self.threshold), int(self.nt), float(self.dt),
         )  # fmt: skip
+        self._ref = reference_arrays(self.reference)
+        self._period = PERIOD[self.m3]
 
     def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
         r = resolved_rates(
@@ -143,18 +135,19 @@ class AdaptiveComputedTorque:
 
     def step(self, meas: Measurement):
         """u_m for the period starting at ``meas.t``; the estimates advance to t + dt (the
-        compiled period, :meth:`step_numba`, unless ``backend="numpy"``: :meth:`step_numpy`)."""
-        return self.step_numpy(meas)
+        compiled period, :meth:`step_compiled`, unless ``backend="numpy"``:
+        :meth:`step_numpy`)."""
+        return super().step(meas)
 
-    def step_numba(self, meas: Measurement):
-        """:meth:`step` by the compiled period (``ffsm_pin/control/_adaptive_ct_kernels.py``)."""
+    def step_compiled(self, meas: Measurement):
+        """:meth:`step` by the compiled period (``ffsm_pin/control/adaptive_ct_kernels.py``)."""
         signals = {  # the estimates at t, before the update
             "theta_z_hat": self.theta_z.copy(),
             "theta_d_hat": self.theta_d.copy(),
             "theta_b_hat": self.theta_b.copy(),
         }
-        u, w_r, sigma, damping, finite = self._run_period(
-            meas, self.theta_z, self.theta_d, self.theta_b
+        u, w_r, sigma, damping, finite = self._period(
+            self._geo, self._gains, self._ref, kernel_measurement(meas, self.m3), self.state
         )
         if not finite:
             raise SimulationError(
@@ -179,13 +172,13 @@ class AdaptiveComputedTorque:
         theta_z = theta_z_step(self.theta_z, Y_z, meas.z_e_dot[: self.m2], g.gamma_z, dt)
         # reference motion and its rate along the measured motion and the estimates' rates
         # (complex step)
-        hj = 1j * _H
+        hj = 1j * COMPLEX_STEP
         w_r_c, sigma, damping = self._reference(
             *along_measured_motion(meas, m3),
             self.theta_z + hj * (theta_z - self.theta_z) / dt,
             self.theta_b + hj * (theta_b - self.theta_b) / dt,
         )
-        w_r, w_r_dot = w_r_c.real.copy(), w_r_c.imag / _H
+        w_r, w_r_dot = w_r_c.real.copy(), w_r_c.imag / COMPLEX_STEP
         s = w - w_r
         # Y theta_d = M dw_r/dt + C(q, w) w_r, the latter by polarization of C(q, x) x
         Y = m.Y_M(q_b, q_m, w_r_dot) + 0.25 * (m.Y_h(q_b, q_m, w + w_r) - m.Y_h(q_b, q_m, w - w_r))

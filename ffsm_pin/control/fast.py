@@ -14,7 +14,7 @@ diagnostic e of Eq. (54) is computed in :func:`dynamic_level`.
 
 Layout conventions are those of :class:`~ffsm_pin.model.planar.BarycentricModel`:
 theta_d = (Dc_kk, Dc_kl (k<l), [Ds_kl (k<l)]), theta_z = (v_0, V_0..V_n) with scalar or
-2-vector V_k. Status codes: ``STATUS_*`` of :mod:`._shared_kernels`.
+2-vector V_k. Status codes: ``STATUS_*`` of :mod:`.kernels`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import _put
+from .._array_kernels import difference, positive_definite, put
 from .._arrays import contiguous_rows as _rows
 from ..model._planar_kernels import (
     column_sums,
@@ -34,20 +34,8 @@ from ..model._planar_kernels import (
     xm,
     y_m,
 )
-from ._shared_kernels import (
-    G_G1,
-    G_G2,
-    G_G3,
-    G_KB,
-    G_KD,
-    G_KDE,
-    G_KZ,
-    G_QBD,
-    G_THR,
-    NS_CODE,
-    NS_GAIN,
-    NS_JOINT_CENTERING,
-    NS_STEP,
+from .kernels import (
+    JOINT_CENTERING,
     STATUS_BASE_ROW,
     STATUS_FUNNEL_B,
     STATUS_FUNNEL_Z,
@@ -55,62 +43,54 @@ from ._shared_kernels import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _reference,
     damped_pinv,
-    difference,
     filter_regressor_update,
     funnel_terms,
     joint_centering_gradient,
     manipulability_gradient,
     perturbed_joints,
-    positive_definite,
     theta_z_step,
+    wrap_angle,
 )
-
-_H = 1e-30
-_TWO_PI = 2.0 * np.pi
+from .reference_kernels import reference_at
 
 
 @njit(cache=True)
-def _wrap(d):
-    return d - _TWO_PI * np.rint(d.real / _TWO_PI)
-
-
-@njit(cache=True)
-def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-                  t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) (complex-step safe; :func:`.period.kinematic_law`);
-    ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``nt`` the task
-    rows (3 the pose task, 2 the position task), ``ns`` = :func:`pack_null_space`."""
+    ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``law`` the
+    :class:`~.period.PeriodLaw` (its ``n_task``: 3 the pose task, 2 the position task),
+    ``ns`` its ``null_space``."""
     S, off, K, L, ee_row, collinear = geo
+    nt, g = law.n_task, law.gains
     nb = S.shape[0]
     n = nb - 1
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
-    ref = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
+    z_d = reference_at(ref, t, False)
     err_z = np.empty(nt, dtype=z_e.dtype)
     for i in range(nt):
-        err_z[i] = z_e[i] - ref[i]  # Eq. (17): the task's components of z_e
+        err_z[i] = z_e[i] - z_d[i]  # Eq. (17): the task's components of z_e
     if nt > 2:  # the end-effector angle
-        err_z[2] = _wrap(err_z[2])
+        err_z[2] = wrap_angle(err_z[2])
     err_b = np.empty(1, dtype=err_z.dtype)
-    err_b[0] = _wrap(q_b - g[G_QBD])
-    psi_z, Phi_z, iz = funnel_terms(fz, t, err_z, identity)
+    err_b[0] = wrap_angle(q_b - law.q_bd[0])
+    psi_z, Phi_z, iz = funnel_terms(law.funnel_z, t, err_z, law.identity)
     w_mc = np.zeros(n, dtype=err_z.dtype)
     sens = np.zeros(n)
     if iz >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
     J = jacobian(theta_z, c, s, S, ee_row, collinear)[:nt]  # the task's rows
     Jm = np.ascontiguousarray(J[:, 1:])
-    target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - g[G_KZ] * Phi_z * psi_z
+    target = reference_at(ref, t, True) - g.k_z * Phi_z * psi_z
     target[0] -= theta_z[0]
     target[1] -= theta_z[1]
-    if not attitude:  # Eq. (81)
-        pinv, sigma, damping = damped_pinv(Jm, g[G_THR])
+    if not law.attitude:  # Eq. (81)
+        pinv, sigma, damping = damped_pinv(Jm, law.threshold)
         Jb = J[:, 0].copy()
         w_mc = pinv @ (target - Jb * w_b)
         sens = -(pinv @ Jb).real
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
-    psi_b, Phi_b, ib = funnel_terms(fb, t, err_b, identity)
+    psi_b, Phi_b, ib = funnel_terms(law.funnel_b, t, err_b, law.identity)
     if ib >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
     Mphi = mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
@@ -120,18 +100,18 @@ def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, r
     hnorm = np.sqrt(hh.real)
     if not hnorm > 1e-9:
         return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
-    a_b = theta_b[0] + g[G_KB] * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
+    a_b = theta_b[0] + g.k_b * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
     Hp = Hbm / hh  # pseudo-inverse of the row H_bm
     U = np.eye(n) - np.outer(Hp, Hbm)
     A = Jm @ U
-    pinv, sigma, damping = damped_pinv(A, g[G_THR])
+    pinv, sigma, damping = damped_pinv(A, law.threshold)
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
         # (ns None, no null-space term: numba compiles none of this)
         grad = _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns,
                                     q_b, q_m, theta_b, theta_z)  # fmt: skip
-        xi = xi + ns[NS_GAIN] * (grad - pinv @ (A @ grad))
+        xi = xi + ns.gain * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
 
@@ -154,13 +134,13 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, nt, q_b, q_m, theta_b, th
 def _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns, q_b, q_m, theta_b, theta_z):
     """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space): the shared
     objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
-    if ns[NS_CODE] == NS_JOINT_CENTERING:
+    if ns.code == JOINT_CENTERING:
         return joint_centering_gradient(ns, q_m)
-    Q = perturbed_joints(q_m, ns[NS_STEP])  # manipulability: central differences
+    Q = perturbed_joints(q_m, ns.step)  # manipulability: central differences
     A = np.empty((Q.shape[0], nt, q_m.size), dtype=np.complex128)
     for i in range(Q.shape[0]):
         A[i] = _reduced_jacobian(S, off, K, L, ee_row, collinear, nt, q_b, Q[i], theta_b, theta_z)
-    return manipulability_gradient(A, ns[NS_STEP])
+    return manipulability_gradient(A, ns.step)
 
 
 @njit(cache=True)
@@ -178,43 +158,48 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 
 
 @njit(cache=True)
-def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d):
+def geometry_terms(geo, law, dt, meas, state):
     """The body angles' trigonometry and Eqs. (28), (42) over the period
-    (:func:`.period.geometry_terms`; the estimates unchanged when ``adaptive`` is False, the
-    known-model scheme). ``w_hat`` is not read."""
+    (:func:`.period.geometry_terms`; the estimates unchanged when ``law.adaptive`` is False,
+    the known-model scheme). ``state.w_hat`` is not read."""
     S, off, K, L, ee_row, collinear = geo
-    nd = theta_d.size
+    q_b, q_m, w = meas.q_b, meas.q_m, meas.w
+    theta_b, theta_z = state.theta_b, state.theta_z
+    nd = state.theta_d.size
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
-    if not adaptive:  # known model: no adaptation
+    if not law.adaptive:  # known model: no adaptation
         return (pc, ps), theta_b.copy(), theta_z.copy(), w[0], w[0]
-    tb_new = theta_b_step(theta_b, y_m(pc, ps, K, L, S, w, nd, collinear)[0], g[G_G1], dt)
+    g = law.gains
+    tb_new = theta_b_step(theta_b, y_m(pc, ps, K, L, S, w, nd, collinear)[0], g.gamma_1, dt)
     Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
-    tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
+    tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
     return (pc, ps), tb_new, tz_new, w[0], w[0]
 
 
 @njit(cache=True)
-def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
-                  theta_d, w_hat, Y_df, theta_d_true):  # fmt: skip
+def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """The dynamic level (Eqs. 46, 49-52, 60a, 64-65; :func:`.period.dynamic_level`): returns
     (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~, e) and, when the status is
-    ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``terms`` those of
-    :func:`geometry_terms`. ``M_true``, ``h_true``: Pinocchio's reduced M and C w (known-model
-    scheme, ``adaptive = False``: computed torque on the true dynamics; not read otherwise).
-    ``theta_d_true``: the true theta_d for the diagnostic e of Eq. (54), never read by the
-    law; empty: e is not computed (an empty ``e``)."""
+    ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df of ``state`` in place. ``terms`` those
+    of :func:`geometry_terms`. ``meas.M``, ``meas.h``: Pinocchio's reduced M and C w
+    (known-model scheme, ``law.adaptive`` False: computed torque on the true dynamics; not
+    read otherwise). ``law.theta_d_true``: the true theta_d for the diagnostic e of Eq. (54),
+    never read by the law; empty: e is not computed (an empty ``e``)."""
     S, off, K, L, ee_row, collinear = geo
     pc, ps = terms
+    g, adaptive, w = law.gains, law.adaptive, meas.w
+    M_true, h_true, theta_d_true = meas.M, meas.h, law.theta_d_true
+    theta_d, w_hat, Y_df = state.theta_d, state.w_hat, state.Y_df
     nb = S.shape[0]
     nd = theta_d.size
     none = np.empty(0)
     if not adaptive:  # known model: no filter estimate, no adaptation
         status, value, w_hat_dot, u_m = _manifold(
-            np.ascontiguousarray(M_true), -h_true, w, w_mc, w_mc_dot, sens, g[G_KD]
+            np.ascontiguousarray(M_true), -h_true, w, w_mc, w_mc_dot, sens, g.k_d
         )
         if status != STATUS_OK:
             return status, value, none, none, none, none
-        _put(w_hat, 0, w + dt * w_hat_dot)
+        put(w_hat, 0, w + dt * w_hat_dot)
         e = np.zeros(nb if theta_d_true.size else 0)  # w~ = 0, Y_df = 0, theta_d-hat = theta_d
         return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb), e
     w_tilde = w - w_hat
@@ -223,11 +208,11 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
     if not positive_definite(M_hat):
         return STATUS_M_NOT_PD, 0.0, none, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
-    cg = g[G_G3] * dt
+    cg = g.gamma_3 * dt
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
     eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-    rr = difference(Ymd, Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
-    status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g[G_KD])
+    rr = difference(Ymd, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
+    status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g.k_d)
     if status != STATUS_OK:
         return status, value, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
@@ -235,9 +220,9 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         M = S.T @ mass_phi(theta_d_true, pc, ps, K, L, nb, collinear) @ S
         e = M @ w_tilde + Y_df @ (theta_d_true - theta_d)
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
-    YM = y_m(pc, ps, K, L, S, w_hat_dot - g[G_KDE] * w_tilde, nd, collinear)
-    decay = np.exp(-g[G_KDE] * dt)
-    filter_regressor_update(Y_df, decay, -np.expm1(-g[G_KDE] * dt) / g[G_KDE], YM, Ymd, Yh)
+    YM = y_m(pc, ps, K, L, S, w_hat_dot - g.k_de * w_tilde, nd, collinear)
+    decay = np.exp(-g.k_de * dt)
+    filter_regressor_update(Y_df, decay, -np.expm1(-g.k_de * dt) / g.k_de, YM, Ymd, Yh)
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
     return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde, e
@@ -257,7 +242,7 @@ def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
     wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
     w_hat_dot = np.empty(nb)
     w_hat_dot[0] = wb_dot
-    _put(w_hat_dot, 1, tgt + sens * wb_dot)
+    put(w_hat_dot, 1, tgt + sens * wb_dot)
     u_m = M_hat[1:] @ w_hat_dot - rr[1:]
     if not np.all(np.isfinite(u_m)):
         return STATUS_NONFINITE, 0.0, none, none

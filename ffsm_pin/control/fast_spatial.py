@@ -18,7 +18,8 @@ suite checks that both give the same outputs and trajectories
   Pinocchio's M and C w passed in, no adaptation); tasks ``pose`` (6 rows) and
   ``position`` (3 rows); null-space objectives none, manipulability, joint-centering.
 
-Status codes and the packed funnel, gains and null-space arrays: :mod:`._shared_kernels`.
+Status codes, the funnel and null-space bundles and the shared kernels: :mod:`.kernels`; the
+bundles of the period (the law, the state, the outputs): :mod:`.period`.
 """
 
 from __future__ import annotations
@@ -26,8 +27,19 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import _put
+from .._array_kernels import (
+    cmm,
+    cmmt,
+    cmtv,
+    cmv,
+    difference,
+    positive_definite,
+    put,
+    smallest_singular_value_above,
+    solve,
+)
 from .._arrays import contiguous_rows as _rows
+from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kernels import (
     attitude_rows,
     kinematics,
@@ -38,20 +50,9 @@ from ..model._spatial_kernels import (
     y_z,
     ym,
 )
-from ._shared_kernels import (
-    G_G1,
-    G_G2,
-    G_G3,
-    G_KB,
-    G_KD,
-    G_KDE,
-    G_KZ,
-    G_QBD,
-    G_THR,
-    NS_CODE,
-    NS_GAIN,
-    NS_JOINT_CENTERING,
-    NS_STEP,
+from .kernels import (
+    COMPLEX_STEP,
+    JOINT_CENTERING,
     STATUS_BASE_ROW,
     STATUS_FUNNEL_B,
     STATUS_FUNNEL_Z,
@@ -59,19 +60,15 @@ from ._shared_kernels import (
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
     STATUS_OK,
-    _reference,
-    _solve,
     damped_pinv,
-    difference,
     filter_regressor_update,
     funnel_terms,
     joint_centering_gradient,
     manipulability_gradient,
     perturbed_joints,
-    positive_definite,
-    smallest_singular_value_above,
     theta_z_step,
 )
+from .reference_kernels import reference_at
 
 __all__ = [
     "base_velocity",
@@ -80,79 +77,14 @@ __all__ = [
     "kinematic_law",
     "reaction_rows",
     "reaction_rows_of",
+    "task_geometry",
     "true_model_constants",
 ]
-
-_H = 1e-30  # complex step, as in control/kinematic.py
-
-
-# ---------------------------------------------------------------------- complex helpers
-@njit(cache=True)
-def _cmm(A, B):
-    """A @ B as complex128 (A, B real or complex, any layout)."""
-    m, k = A.shape
-    p = B.shape[1]
-    out = np.zeros((m, p), dtype=np.complex128)
-    for i in range(m):
-        for l in range(k):
-            a = A[i, l]
-            for j in range(p):
-                out[i, j] += a * B[l, j]
-    return out
-
-
-@njit(cache=True)
-def _cmmt(A, B):
-    """A @ B.T (plain transpose) as complex128."""
-    m, k = A.shape
-    p = B.shape[0]
-    out = np.zeros((m, p), dtype=np.complex128)
-    for i in range(m):
-        for j in range(p):
-            acc = 0j
-            for l in range(k):
-                acc += A[i, l] * B[j, l]
-            out[i, j] = acc
-    return out
-
-
-@njit(cache=True)
-def _cmv(A, x):
-    """A @ x as complex128."""
-    out = np.zeros(A.shape[0], dtype=np.complex128)
-    for i in range(A.shape[0]):
-        acc = 0j
-        for j in range(A.shape[1]):
-            acc += A[i, j] * x[j]
-        out[i] = acc
-    return out
-
-
-@njit(cache=True)
-def _cmtv(A, x):
-    """A.T @ x as complex128."""
-    out = np.zeros(A.shape[1], dtype=np.complex128)
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            out[j] += A[i, j] * x[i]
-    return out
-
-
-@njit(cache=True)
-def _l_matrix(s, R0):
-    """L_b = 1/4 B(s) R0^T of Eq. (1) (spatial/mrp.L_matrix), real or complex."""
-    s0, s1, s2 = s[0], s[1], s[2]
-    d = 1.0 - (s0 * s0 + s1 * s1 + s2 * s2)
-    B = np.empty((3, 3), dtype=np.complex128)
-    B[0, 0], B[0, 1], B[0, 2] = d + 2 * s0 * s0, 2 * (s0 * s1 - s2), 2 * (s0 * s2 + s1)
-    B[1, 0], B[1, 1], B[1, 2] = 2 * (s1 * s0 + s2), d + 2 * s1 * s1, 2 * (s1 * s2 - s0)
-    B[2, 0], B[2, 1], B[2, 2] = 2 * (s2 * s0 - s1), 2 * (s2 * s1 + s0), d + 2 * s2 * s2
-    return 0.25 * _cmmt(B, R0)
 
 
 # ---------------------------------------------------------------------- kinematic level
 @njit(cache=True)
-def _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
+def task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
     """(J (nt, n+3) of Eq. 3 for theta_z, H_bb (3x3), H_bm (3xn) of Eq. 13 for theta_d, R_0)
     at complex arguments."""
     n = q_m.size
@@ -179,12 +111,12 @@ def _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
 def _projector(Hbm):
     """(H_bm^+ = H^T (H H^T)^-1, U = E - H^+ H, smallest singular value of Re H)."""
     n = Hbm.shape[1]
-    HH = _cmmt(Hbm, Hbm)
+    HH = cmmt(Hbm, Hbm)
     hnorm = np.sqrt(max(np.linalg.eigvalsh(np.ascontiguousarray(HH.real))[0], 0.0))
     if not hnorm > 1e-9:
         return np.zeros((n, 3), dtype=np.complex128), np.zeros((n, n), dtype=np.complex128), hnorm
-    Hp = _cmm(Hbm.T, np.linalg.inv(HH))
-    U = -_cmm(Hp, Hbm)
+    Hp = cmm(Hbm.T, np.linalg.inv(HH))
+    U = -cmm(Hp, Hbm)
     for i in range(n):
         U[i, i] += 1.0
     return Hp, U, hnorm
@@ -193,72 +125,73 @@ def _projector(Hbm):
 @njit(cache=True)
 def _reduced_jacobian(jr, ax, er, m, nt, q_b, q_m, theta_b, theta_z):
     """A = J_m-hat U-hat of Eq. (36) at (q_b, q_m), complex."""
-    J, _, Hbm, _ = _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
+    J, _, Hbm, _ = task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
     _, U, _ = _projector(Hbm)
-    return _cmm(np.ascontiguousarray(J[:, 3:]), U)
+    return cmm(np.ascontiguousarray(J[:, 3:]), U)
 
 
 @njit(cache=True)
 def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
     """grad_{q_m} mu of the null-space objective (control/null_space.py), complex: the shared
     objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
-    if ns[NS_CODE] == NS_JOINT_CENTERING:
+    if ns.code == JOINT_CENTERING:
         return joint_centering_gradient(ns, q_m)
-    Q = perturbed_joints(q_m, ns[NS_STEP])  # manipulability: central differences
+    Q = perturbed_joints(q_m, ns.step)  # manipulability: central differences
     A = np.empty((Q.shape[0], nt, q_m.size), dtype=np.complex128)
     for i in range(Q.shape[0]):
         A[i] = _reduced_jacobian(jr, ax, er, m, nt, q_b, Q[i], theta_b, theta_z)
-    return manipulability_gradient(A, ns[NS_STEP])
+    return manipulability_gradient(A, ns.step)
 
 
 @njit(cache=True)
-def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-                  t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments (:func:`.period.kinematic_law`);
     returns (w_mc, d w_mc/d w_b, sigma_min, damping, |H_bm|, err_b, err_z, status, exit index).
-    ``geo`` the model's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`."""
+    ``geo`` the model's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`, ``law`` the
+    :class:`~.period.PeriodLaw`, ``ns`` its ``null_space``."""
     jr, ax, er, m = geo
+    nt, g = law.n_task, law.gains
     n = q_m.size
-    ref = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, False)
+    z_d = reference_at(ref, t, False)
     err_z = np.empty(nt, dtype=np.complex128)
     for i in range(nt):
-        err_z[i] = z_e[i] - ref[i]  # Eq. (17)
+        err_z[i] = z_e[i] - z_d[i]  # Eq. (17)
     err_b = np.empty(3, dtype=np.complex128)
     for i in range(3):
-        err_b[i] = q_b[i] - g[G_QBD + i]  # Eq. (16), MRP components
+        err_b[i] = q_b[i] - law.q_bd[i]  # Eq. (16), MRP components
     w_mc = np.zeros(n, dtype=np.complex128)
     sens = np.zeros((n, 3))
-    psi_z, Phi_z, iz = funnel_terms(fz, t, err_z, identity)
+    psi_z, Phi_z, iz = funnel_terms(law.funnel_z, t, err_z, law.identity)
     if iz >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
-    J, Hbb, Hbm, R0 = _geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
+    J, Hbb, Hbm, R0 = task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
     Jb = np.ascontiguousarray(J[:, :3])
     Jm = np.ascontiguousarray(J[:, 3:])
-    target = _reference(rc, rA, ramp, rfreq, rphase, rpp, t, True) - g[G_KZ] * Phi_z * psi_z
+    target = reference_at(ref, t, True) - g.k_z * Phi_z * psi_z
     for i in range(3):
         target[i] -= theta_z[i]  # -v0bar-hat
-    if not attitude:  # Eq. (81)
-        pinv, sigma, damping = damped_pinv(Jm, g[G_THR])
-        w_mc = _cmv(pinv, target - _cmv(Jb, w_b))
-        sens = np.ascontiguousarray(-_cmm(pinv, Jb).real)
+    if not law.attitude:  # Eq. (81)
+        pinv, sigma, damping = damped_pinv(Jm, law.threshold)
+        w_mc = cmv(pinv, target - cmv(Jb, w_b))
+        sens = np.ascontiguousarray(-cmm(pinv, Jb).real)
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
-    psi_b, Phi_b, ib = funnel_terms(fb, t, err_b, identity)
+    psi_b, Phi_b, ib = funnel_terms(law.funnel_b, t, err_b, law.identity)
     if ib >= 0:
         return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
     Hp, U, hnorm = _projector(Hbm)
     if not hnorm > 1e-9:
         return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
-    L_b = _l_matrix(q_b, R0)
-    a_b = theta_b[:3] + g[G_KB] * _cmv(Hbb, _cmtv(L_b, Phi_b * psi_b))  # Eq. (25)
-    A = _cmm(Jm, U)
-    pinv, sigma, damping = damped_pinv(A, g[G_THR])
-    Hp_ab = _cmv(Hp, a_b)
-    xi = _cmv(pinv, target - _cmv(Jm, Hp_ab))  # Eq. (36)
+    L_b = l_matrix(q_b, R0)
+    a_b = theta_b[:3] + g.k_b * cmv(Hbb, cmtv(L_b, Phi_b * psi_b))  # Eq. (25)
+    A = cmm(Jm, U)
+    pinv, sigma, damping = damped_pinv(A, law.threshold)
+    Hp_ab = cmv(Hp, a_b)
+    xi = cmv(pinv, target - cmv(Jm, Hp_ab))  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
         # (ns None, no null-space term: numba compiles none of this)
         grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
-        xi = xi + ns[NS_GAIN] * (grad - _cmv(pinv, _cmv(A, grad)))
-    w_mc = Hp_ab + _cmv(U, xi)  # Eq. (25)
+        xi = xi + ns.gain * (grad - cmv(pinv, cmv(A, grad)))
+    w_mc = Hp_ab + cmv(U, xi)  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
 
 
@@ -279,11 +212,13 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 
 
 @njit(cache=True)
-def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d):
+def geometry_terms(geo, law, dt, meas, state):
     """The body rotations and joint axes, the regressors of the dynamic level and Eqs. (28),
     (42) over the period (:func:`.period.geometry_terms`; the estimates unchanged when
-    ``adaptive`` is False), and dq_b/dt of Eq. (1)."""
+    ``law.adaptive`` is False), and dq_b/dt of Eq. (1)."""
     jr, ax, er, m = geo
+    q_b, q_m, w, w_hat = meas.q_b, meas.q_m, meas.w, state.w_hat
+    theta_b, theta_z, theta_d = state.theta_b, state.theta_z, state.theta_d
     n = q_m.size
     nb = n + 1
     N = n + 3
@@ -298,30 +233,33 @@ def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, t
     YMdot = np.empty((N, nd))
     Yh = np.empty((N, nd))
     w_tilde = np.zeros(N)
-    if adaptive:
+    if law.adaptive:
+        g = law.gains
         w_tilde = w - w_hat
         Yb = np.empty((3, nd + 3))
         # (Y_M(a) is the dynamic level's, at a known only there: not computed here)
         velocity_terms(R, z, w, w, w_tilde, None, YMdot, Yh, Yb[:, 3:])
         subtract_dT(R, z, w, Yh)
-        tb_new = theta_b_step(theta_b, Yb, g[G_G1], dt)
+        tb_new = theta_b_step(theta_b, Yb, g.gamma_1, dt)
         Yz = np.empty((3, nz))
         y_z(R, z, w, Yz)
-        tz_new = theta_z_step(theta_z, Yz, z_e_dot, g[G_G2], dt)  # Eq. (42)
-    q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+        tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
+    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     return (R, z, YM, YMdot, Yh, w_tilde), tb_new, tz_new, q_b_rate, w[:3]
 
 
 @njit(cache=True)
-def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
-                  theta_d, w_hat, Y_df, theta_d_true):  # fmt: skip
+def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """Eqs. (46), (50)-(52), (60)-(64) with 3x3 base rows (:func:`.period.dynamic_level`):
     returns (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~, e) and, when the status is
-    ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df in place. ``M_true``, ``h_true``:
-    Pinocchio's reduced M and C w (known-model scheme, ``adaptive = False``; not read
-    otherwise). ``theta_d_true``: the true theta_d for the diagnostic e of Eq. (54), never read
-    by the law; empty: e is not computed (an empty ``e``)."""
+    ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df of ``state`` in place. ``meas.M``,
+    ``meas.h``: Pinocchio's reduced M and C w (known-model scheme, ``law.adaptive`` False;
+    not read otherwise). ``law.theta_d_true``: the true theta_d for the diagnostic e of
+    Eq. (54), never read by the law; empty: e is not computed (an empty ``e``)."""
     R, z, YM, YMdot, Yh, w_tilde = terms
+    g, adaptive, w = law.gains, law.adaptive, meas.w
+    M_true, h_true, theta_d_true = meas.M, meas.h, law.theta_d_true
+    theta_d, w_hat, Y_df = state.theta_d, state.w_hat, state.Y_df
     n = w_mc.size
     N = n + 3
     nd = theta_d.size
@@ -331,12 +269,12 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         mass_matrix(R, z, theta_d, M_hat)
         if not positive_definite(M_hat):
             return STATUS_M_NOT_PD, 0.0, none, none, none, none
-        cg = g[G_G3] * dt
+        cg = g.gamma_3 * dt
         d_theta_d = -cg * (
-            Y_df.T @ _solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
+            Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
         )  # Eq. (51), linearly implicit
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-        rr = difference(YMdot, Yh) @ theta_d + g[G_KDE] * (M_hat @ w_tilde) + eta_x
+        rr = difference(YMdot, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
         wh = w_hat
     else:  # known model: computed torque on the true reduced dynamics
         M_hat = np.ascontiguousarray(M_true)
@@ -344,17 +282,17 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
         wh = w
         d_theta_d = np.zeros(nd)
     # Eqs. (60a), (64)-(65), base rows 3x3
-    tgt = w_mc_dot - g[G_KD] * (wh[3:] - w_mc)
+    tgt = w_mc_dot - g.k_d * (wh[3:] - w_mc)
     Mbb = np.ascontiguousarray(M_hat[:3, :3])
     Mbm = np.ascontiguousarray(M_hat[:3, 3:])
     denom = Mbb + Mbm @ sens
     regular, smallest = smallest_singular_value_above(denom, 1e-12 * np.max(np.abs(Mbb)))
     if not regular:
         return STATUS_BASE_ROW, smallest, none, none, none, none
-    wb_dot = _solve(denom, rr[:3] - Mbm @ tgt)
+    wb_dot = solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
-    _put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see _put)
-    _put(w_hat_dot, 3, tgt + sens @ wb_dot)
+    put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see put)
+    put(w_hat_dot, 3, tgt + sens @ wb_dot)
     u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
     if not np.all(np.isfinite(u_m)):
         return STATUS_NONFINITE, 0.0, none, none, none, none
@@ -368,14 +306,14 @@ def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, 
             e = np.zeros(N)
     # advance the controller's states to t + dt
     if adaptive:
-        ym(R, z, w_hat_dot - g[G_KDE] * w_tilde, YM, False)  # Eq. (49)
-        decay = np.exp(-g[G_KDE] * dt)
-        gain = -np.expm1(-g[G_KDE] * dt) / g[G_KDE]
+        ym(R, z, w_hat_dot - g.k_de * w_tilde, YM, False)  # Eq. (49)
+        decay = np.exp(-g.k_de * dt)
+        gain = -np.expm1(-g.k_de * dt) / g.k_de
         filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)  # Eq. (50)
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
     else:
-        _put(w_hat, 0, w + dt * w_hat_dot)
+        put(w_hat, 0, w + dt * w_hat_dot)
     return STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde, e
 
 
@@ -390,14 +328,14 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     kinematics(q_b, q_m, jr, ax, R, z)
     M = np.empty((3, 3))  # M_bb alone (mass_matrix skips the joint rows)
     mass_matrix(R, z, theta_d, M)
-    hj = 1j * _H
-    q_b_rate = np.ascontiguousarray(_l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    hj = 1j * COMPLEX_STEP
+    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     Rc = np.empty((nb, 3, 3), dtype=np.complex128)
     zc = np.empty((n, 3), dtype=np.complex128)
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
     Mc = np.empty((3, 3), dtype=np.complex128)
     mass_matrix(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
-    return M, Mc.imag / _H
+    return M, Mc.imag / COMPLEX_STEP
 
 
 @njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside

@@ -39,11 +39,10 @@ from ..errors import ParameterError
 from ..model.interface import ReducedModel
 from .funnel import Funnel, FunnelEval
 from .gains import Gains
+from .kernels import COMPLEX_STEP  # the step h of along_measured_motion (derivative = imag / h)
 from .linalg import damped_row_pinv, row_pinv
 from .null_space import NullSpace, null_space_gradient
 
-_H = 1e-30  # complex step; any tiny h works (no subtractive cancellation)
-COMPLEX_STEP = _H  # the step h of :func:`along_measured_motion` (derivative = imag / h)
 _TWO_PI = 2.0 * np.pi
 
 
@@ -141,10 +140,10 @@ def along_measured_motion(meas, m3: int) -> tuple[complex, Any, np.ndarray, np.n
     w = meas.w
     q_b_rate = attitude_matrix(meas.q_b, m3) @ w[:m3]
     return (
-        meas.t + 1j * _H,
+        meas.t + 1j * COMPLEX_STEP,
         _complex(meas.q_b, q_b_rate[0] if m3 == 1 else q_b_rate),
-        meas.q_m + 1j * _H * w[m3:],
-        np.asarray(meas.z_e) + 1j * _H * meas.z_e_dot,
+        meas.q_m + 1j * COMPLEX_STEP * w[m3:],
+        np.asarray(meas.z_e) + 1j * COMPLEX_STEP * meas.z_e_dot,
     )
 
 
@@ -282,18 +281,18 @@ class KinematicLaw:
         sensitivity ``dwmc_dwb`` and added by the caller, who knows dw_b/dt.
         """
         xc = KinematicInputs(
-            x.t + 1j * _H * rates.t,
+            x.t + 1j * COMPLEX_STEP * rates.t,
             _complex(x.q_b, rates.q_b),
-            np.asarray(x.q_m) + 1j * _H * np.asarray(rates.q_m),
-            np.asarray(x.z_e) + 1j * _H * np.asarray(rates.z_e),
-            np.asarray(x.theta_b) + 1j * _H * np.asarray(rates.theta_b),
-            np.asarray(x.theta_z) + 1j * _H * np.asarray(rates.theta_z),
+            np.asarray(x.q_m) + 1j * COMPLEX_STEP * np.asarray(rates.q_m),
+            np.asarray(x.z_e) + 1j * COMPLEX_STEP * np.asarray(rates.z_e),
+            np.asarray(x.theta_b) + 1j * COMPLEX_STEP * np.asarray(rates.theta_b),
+            np.asarray(x.theta_z) + 1j * COMPLEX_STEP * np.asarray(rates.theta_z),
             _complex(x.w_b, 0.0),
         )
         w_mc, fb, fz, sigma, damping, h_norm, sens = self.evaluate(xc)
         return KinematicCommand(
             w_mc=w_mc.real.copy(),
-            w_mc_dot=w_mc.imag / _H,
+            w_mc_dot=w_mc.imag / COMPLEX_STEP,
             dwmc_dwb=np.real(sens[:, 0] if self.m3 == 1 else sens),
             funnel_b=None if fb is None else _real_eval(fb),
             funnel_z=_real_eval(fz),
@@ -306,8 +305,8 @@ class KinematicLaw:
 def _complex(value, rate):
     """value + i h rate; a scalar stays a scalar (planar attitude), arrays stay arrays."""
     if np.ndim(value) == 0:
-        return value + 1j * _H * rate
-    return np.asarray(value) + 1j * _H * np.asarray(rate)
+        return value + 1j * COMPLEX_STEP * rate
+    return np.asarray(value) + 1j * COMPLEX_STEP * np.asarray(rate)
 
 
 def _real_eval(f: FunnelEval) -> FunnelEval:

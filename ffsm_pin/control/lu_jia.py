@@ -106,6 +106,11 @@ class LuJiaController:
         self.signal_layout = law.signal_layout
         self.signal_shapes = dict(law.signal_layout.shapes)  # (as before the layout)
 
+    @property
+    def backend(self) -> str:
+        """The backend the law runs on: ``"numba"`` (the compiled period) or ``"numpy"``."""
+        return self.law.backend
+
     def singular_value(self, meas: Measurement) -> float:
         """sigma_min of the inverted task Jacobian (J_m-hat U-hat, or J_m-hat for Eq. 81) at
         ``meas`` with the current estimates [m]; the distance to a kinematic singularity."""

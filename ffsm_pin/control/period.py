@@ -4,64 +4,58 @@ One period (Eqs. 28, 42, 25+36 or 81, 46, 49-52, 60-64; docs/model.md) is the sa
 sequence of steps for a planar robot (m3 = 1) and a spatial one (m3 = 3): the geometry's terms
 at the measured state and the estimators' steps (Eqs. 28, 42), the kinematic law evaluated
 once with complex arguments ``x + i h dx/dt`` (its real part ``w_mc``, its imaginary part over
-h the exact ``dw_mc/dt``), the report of the kinematic level, the dynamic level (Eqs. 46,
-49-52, 60-64), the updates of the estimators and the outputs. :func:`period` writes that
-sequence once. What differs is how each step is computed from the robot's geometry: a
-planar robot's body angles and closed-form products, a spatial robot's rotations, MRP
-attitudes and 3x3 solves. Those three steps (:func:`geometry_terms`, :func:`kinematic_law`,
-:func:`dynamic_level`) are the geometry's compiled kernels (:mod:`.fast` for
-:class:`~ffsm_pin.model.planar.PlanarKernelConstants`, :mod:`.fast_spatial` for
-:class:`~ffsm_pin.model.spatial.SpatialKernelConstants`), chosen by numba when it compiles
-:func:`period` from the type of the model's constants (the table :data:`GEOMETRIES`), so the
-choice costs nothing per period and each geometry's arithmetic is exactly its own.
+h the exact ``dw_mc/dt``), the dynamic level (Eqs. 46, 49-52, 60-64), the updates of the
+estimators and the outputs. :func:`period` writes that sequence once. What differs is how each
+step is computed from the robot's geometry: a planar robot's body angles and closed-form
+products, a spatial robot's rotations, MRP attitudes and 3x3 solves. Those three steps
+(:func:`geometry_terms`, :func:`kinematic_law`, :func:`dynamic_level`) are the geometry's
+compiled kernels (:mod:`.fast` for :class:`~ffsm_pin.model.planar.PlanarKernelConstants`,
+:mod:`.fast_spatial` for :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`), chosen by
+numba when it compiles :func:`period` from the type of the model's constants (the table
+:data:`GEOMETRIES`), so the choice costs nothing per period and each geometry's arithmetic is
+exactly its own.
+
+What a period needs travels as named bundles (NamedTuples numba types by their class):
+
+* ``geo``: the model's kernel constants;
+* :class:`PeriodLaw`: the scheme's flags, the gains (:class:`KernelGains`), the singularity
+  threshold, the desired base attitude, the funnels and the null-space option
+  (:mod:`.kernels`), the true theta_d of the diagnostic e;
+* :class:`~.reference_kernels.ReferenceArrays`: the end-effector reference;
+* the measurement (:class:`~.interface.Measurement`, with the true M and C w of a known-model
+  run, read-only stand-ins otherwise);
+* :class:`PeriodState`: the estimates, w-hat and the filtered regressor, advanced in place;
+* :class:`PeriodOutputs`: preallocated outputs, the signals as views of one row of the
+  controller's ``signal_layout`` (:func:`period_outputs`).
 
 The readable reference is the numpy controller (:class:`~.controller.CoordinatedController`
 with ``backend = "numpy"``); ``tests/control/test_fast.py`` and ``test_fast_spatial.py`` check
 the two against each other, planar and spatial.
-
-Outputs: :func:`period` returns (status, exit index) with the ``STATUS_*`` codes of
-:mod:`._shared_kernels` and writes ``out`` as :func:`out_layout` says.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from .._array_kernels import _put
-from .._arrays import read_only
+from .._array_kernels import put
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
-from ._shared_kernels import (  # noqa: F401 - re-exported for the controller
-    STATUS_BASE_ROW,
+from .interface import SignalLayout
+from .kernels import (
+    COMPLEX_STEP,
     STATUS_FUNNEL_B,
     STATUS_FUNNEL_Z,
-    STATUS_H_COLLAPSE,
-    STATUS_M_NOT_PD,
-    STATUS_NONFINITE,
     STATUS_OK,
-    gains_array,
-    pack_funnel,
-    pack_null_space,
-    report_kinematic,
+    FunnelConstants,
+    NullSpaceTerm,
+    funnel_constants,
+    null_space_term,
 )
-
-__all__ = [
-    "GEOMETRIES",
-    "SIGNALS",
-    "compile_in_parallel",
-    "gains_array",
-    "out_layout",
-    "pack_funnel",
-    "pack_null_space",
-    "period",
-]
 
 #: The compiled kernels of each geometry, by the type of the model's kernel constants. Each
 #: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
@@ -75,65 +69,125 @@ GEOMETRIES: dict[type, Any] = {
     SpatialKernelConstants: fast_spatial,
 }
 
-_H = 1e-30  # the complex step, as in control/kinematic.py
+
+# ---------------------------------------------------------------------- the bundles
+class KernelGains(NamedTuple):
+    """The paper's gains (:class:`~.gains.Gains`) as the compiled period reads them."""
+
+    k_b: float
+    k_z: float
+    k_de: float
+    k_d: float
+    gamma_1: float
+    gamma_2: float
+    gamma_3: float
 
 
-#: The signals :func:`period` writes side by side at the end of ``out``, in this order.
+class PeriodLaw(NamedTuple):
+    """The constants of a run of the paper's law (made once, :func:`period_law`)."""
+
+    n_task: int  # task rows (pose: m2 + m3, position: m2)
+    attitude: bool  # the base attitude is regulated (False: Eq. 81, scheme no-attitude)
+    identity: bool  # psi = e, Phi = 1 (scheme no-ppc)
+    adaptive: bool  # False: the known-model scheme (the true M and C w, no adaptation)
+    gains: KernelGains
+    threshold: float  # [m] damped least squares below this sigma_min
+    q_bd: np.ndarray  # desired base attitude (m3,) [rad or MRP]
+    funnel_b: FunnelConstants
+    funnel_z: FunnelConstants
+    null_space: NullSpaceTerm | None  # None: the paper's Eq. (36), nothing compiled for it
+    theta_d_true: np.ndarray  # the true theta_d for the diagnostic e (empty: not computed)
+
+
+class PeriodState(NamedTuple):
+    """What a period advances to t + dt, in place (Table 2 gives the start)."""
+
+    theta_z: np.ndarray  # Eq. (42)
+    theta_d: np.ndarray  # Eq. (51)
+    theta_b: np.ndarray  # Eq. (28)
+    w_hat: np.ndarray  # the filter's state, Eq. (46)
+    Y_df: np.ndarray  # the filtered regressor, Eq. (50)
+
+
+class PeriodOutputs(NamedTuple):
+    """Where a period writes its outputs (preallocated, reused every period). The signals
+    are views of one row of the controller's ``signal_layout`` (:func:`period_outputs`);
+    ``sigma_min`` and ``damping`` one-entry views."""
+
+    u_m: np.ndarray  # joint torques (n,) [N m]
+    w_mc_dot: np.ndarray  # dw_mc/dt with the base's acceleration fed back (n,)
+    err_b: np.ndarray  # attitude error (m3,)
+    err_z: np.ndarray  # task error (n_task,)
+    w_tilde: np.ndarray
+    e: np.ndarray  # Eq. (54), written when the law has theta_d_true
+    theta_z_hat: np.ndarray  # the estimates and w-hat at t, before the period advances them
+    theta_d_hat: np.ndarray
+    theta_b_hat: np.ndarray
+    w_hat: np.ndarray
+    w_mc: np.ndarray
+    sigma_min: np.ndarray
+    damping: np.ndarray
+
+
+#: The signals a period writes (the fields of :class:`PeriodOutputs` that are views of the
+#: signals' row).
 SIGNALS = ("w_tilde", "e", "theta_z_hat", "theta_d_hat", "theta_b_hat", "w_hat", "w_mc",
            "sigma_min", "damping")  # fmt: skip
 
 
-def out_layout(
-    n: int, m3: int, n_task: int, signals: Mapping[str, tuple[int, ...]]
-) -> dict[str, Any]:
-    """Where :func:`period` writes each output in ``out``: u_m, dw_mc/dt, err_b, err_z,
-    |H_bm|, the exiting error component, then the block ``signals`` (each signal also by
-    name): n joints, m3 attitude coordinates (1 planar, 3 spatial), n_task task rows, and
-    the shapes of the signals the period reports, in the order it writes them (w~, e, the
-    estimates and w-hat at t, w_mc, sigma_min, damping:
-    :attr:`~.controller.CoordinatedController.signal_layout`)."""
-    if tuple(signals) != SIGNALS:  # the order `period` writes them in
-        raise ValueError(f"out_layout: the signals must be {SIGNALS}, in this order")
-    h = 2 * n + m3 + n_task
-    lay: dict[str, Any] = {
-        "u_m": slice(0, n), "w_mc_dot": slice(n, 2 * n), "err_b": slice(2 * n, 2 * n + m3),
-        "err_z": slice(2 * n + m3, h), "H_bm_norm": h, "exit_value": h + 1,
-    }  # fmt: skip
-    start = h + 2
-    for key, shape in signals.items():
-        stop = start + math.prod(shape)
-        lay[key] = slice(start, stop) if shape else start
-        start = stop
-    lay["signals"] = slice(h + 2, start)
-    lay["size"] = start
-    return lay
+def period_law(*, n_task: int, scheme: str, gains, threshold: float, q_bd, funnel_b, funnel_z,
+               null_space, center, n_joints: int, theta_d_true) -> PeriodLaw:  # fmt: skip
+    """The :class:`PeriodLaw` of a controller: its scheme, :class:`~.gains.Gains`, the
+    singularity threshold [m], desired base attitude, its two
+    :class:`~.funnel.Funnel` (sides fixed), :class:`~.null_space.NullSpace` with the
+    joint-centering ``center``, and the true theta_d (None: e is not computed)."""
+    return PeriodLaw(
+        int(n_task), scheme != "no-attitude", scheme == "no-ppc", scheme != "known-model",
+        KernelGains(*(float(getattr(gains, k)) for k in KernelGains._fields)), float(threshold),
+        np.array(q_bd, dtype=float).reshape(-1), funnel_constants(funnel_b),
+        funnel_constants(funnel_z), null_space_term(null_space, center, n_joints),
+        np.empty(0) if theta_d_true is None else np.array(theta_d_true, dtype=float),
+    )  # fmt: skip
+
+
+def period_outputs(
+    layout: SignalLayout, n: int, m3: int, n_task: int
+) -> tuple[PeriodOutputs, np.ndarray]:
+    """(outputs, row): the :class:`PeriodOutputs` of ``n`` joints, m3 attitude coordinates and
+    n_task task rows, its signals views of ``row``, one row of ``layout`` (which must have
+    exactly the signals of :data:`SIGNALS`, any order)."""
+    if set(layout.shapes) != set(SIGNALS):
+        raise ValueError(f"period_outputs: the layout's signals must be {SIGNALS}")
+    row = np.zeros(layout.size)
+    views = {key: row[start:stop] for key, (start, stop, _) in layout.slots.items()}
+    return PeriodOutputs(np.zeros(n), np.zeros(n), np.zeros(m3), np.zeros(n_task), **views), row
 
 
 # ---------------------------------------------------------------------- the geometry's steps
-def geometry_terms(geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d):
+def geometry_terms(geo, law, dt, meas, state):
     """The geometry's terms at the measured state, and Eqs. (28), (42) over the period.
 
     Returns ``(terms, theta_b(t + dt), theta_z(t + dt), dq_b/dt, w_b)``: ``terms`` what the
     dynamic level reuses (geometry-specific), the estimates after the period (unchanged when
-    ``adaptive`` is False), the attitude's rate (Eq. 1) and the base's angular velocity.
+    ``law.adaptive`` is False), the attitude's rate (Eq. 1) and the base's angular velocity.
     Compiled per geometry (:data:`GEOMETRIES`); this Python body is never run.
     """
     raise NotImplementedError
 
 
-def kinematic_law(geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-                  t, q_b, q_m, z_e, theta_b, theta_z, w_b):  # fmt: skip
+def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments: (w_mc, d w_mc / d w_b, sigma_min,
-    damping, |H_bm|, err_b, err_z, status, exit index). Compiled per geometry."""
+    damping, |H_bm|, err_b, err_z, status, exit index). ``ns`` is ``law.null_space``, an
+    argument of its own so that numba prunes the null-space term when it is None. Compiled per
+    geometry."""
     raise NotImplementedError
 
 
-def dynamic_level(geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, sens, M_true, h_true,
-                  theta_d, w_hat, Y_df, theta_d_true):  # fmt: skip
+def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """Eqs. (46), (49)-(52), (60)-(64): (status, exit value, u_m, w_mc_dot fed with the
-    base's acceleration, w~, e); advances theta_d-hat, w-hat and Y_df in place when the status
-    is ``STATUS_OK``. ``e`` the diagnostic e of Eq. (54) with the true M and ``theta_d_true``
-    (empty when ``theta_d_true`` is). Compiled per geometry."""
+    base's acceleration, w~, e); advances theta_d-hat, w-hat and Y_df of ``state`` in place
+    when the status is ``STATUS_OK``. ``e`` the diagnostic e of Eq. (54) with the true M and
+    ``law.theta_d_true`` (empty when that is). Compiled per geometry."""
     raise NotImplementedError
 
 
@@ -173,124 +227,115 @@ for _cls, _kernels in GEOMETRIES.items():
 
 # ---------------------------------------------------------------------- one period
 @njit(cache=True)
-def period(geo, nt, attitude, identity, adaptive, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp,
-           ns, dt, t, q_b, q_m, w, z_e, z_e_dot, M_true, h_true,
-           theta_z, theta_d, theta_b, w_hat, Y_df, theta_d_true, out):  # fmt: skip
-    """One control period; updates the estimator states in place, writes ``out`` (see
-    :func:`out_layout`) and returns (status, exit index).
+def period(geo, law, ref, dt, meas, state, out):
+    """One control period at ``meas`` (time t [s]) over [t, t + dt): advances ``state`` in
+    place, writes ``out`` and returns (status, exit index, value).
 
-    ``geo`` the model's kernel constants (its type selects the geometry's kernels), ``nt``
-    the task rows, ``attitude`` False for scheme no-attitude (Eq. 81), ``identity`` True for
-    no-ppc, ``adaptive`` False for known-model (Pinocchio's reduced M and C w passed as
-    ``M_true``, ``h_true``; not read otherwise). ``fb``, ``fz`` the packed funnels, ``g``
-    :func:`gains_array`, ``rc`` ... ``rpp`` the reference's arrays, ``ns`` the packed
-    null-space option or None; the measurement at ``t`` [s]; the controller's states,
-    advanced to ``t + dt``. ``theta_d_true``: the true theta_d, for the diagnostic e of
-    Eq. (54) alone (written to ``out``; never read by the law), or empty (e not computed,
-    its slot of ``out`` not written).
+    ``geo`` the model's kernel constants (its type selects the geometry's kernels), ``law`` a
+    :class:`PeriodLaw` (the known-model scheme, ``law.adaptive`` False, reads Pinocchio's
+    reduced M and C w from ``meas.M``, ``meas.h``), ``ref`` the reference's arrays, ``state``
+    a :class:`PeriodState`, ``out`` a :class:`PeriodOutputs`. ``value`` is what a stop reports:
+    the exiting error component (a funnel exit, its index the exit index), |H_bm-hat| (its
+    collapse), the smallest singular value of the base rows' matrix (a singular filter);
+    |H_bm-hat| otherwise.
     """
-    n, N = q_m.size, w.size
-    # the signal block of `out` (out_layout): w~, e, the estimates and w-hat at t, w_mc,
-    # sigma_min, damping; the estimates and w-hat written now, before they advance
-    s = n + N + nt + 2
-    at_est = s + 2 * N
-    _put(out, at_est, theta_z)
-    _put(out, at_est + theta_z.size, theta_d)
-    _put(out, at_est + theta_z.size + theta_d.size, theta_b)
-    at_w_hat = at_est + theta_z.size + theta_d.size + theta_b.size
-    _put(out, at_w_hat, w_hat)
-    at_w_mc = at_w_hat + N  # then sigma_min and the damping
-    terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(
-        geo, adaptive, g, dt, q_b, q_m, w, w_hat, z_e_dot, theta_b, theta_z, theta_d
-    )  # Eqs. (28), (42)
+    n = meas.q_m.size
+    w = meas.w
+    # the estimates and w-hat at t, written now, before they advance
+    put(out.theta_z_hat, 0, state.theta_z)
+    put(out.theta_d_hat, 0, state.theta_d)
+    put(out.theta_b_hat, 0, state.theta_b)
+    put(out.w_hat, 0, state.w_hat)
+    terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(geo, law, dt, meas, state)  # (28), (42)
 
     # kinematic level, value and exact derivative in one complex evaluation
-    hj = 1j * _H
+    hj = 1j * COMPLEX_STEP
+    theta_b, theta_z = state.theta_b, state.theta_z
     w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = kinematic_law(
-        geo, nt, attitude, identity, fb, fz, g, rc, rA, ramp, rfreq, rphase, rpp, ns,
-        t + hj, q_b + hj * q_b_rate, q_m + hj * w[w.size - n:], z_e + hj * z_e_dot,
-        theta_b + hj * (tb_new - theta_b) / dt, theta_z + hj * (tz_new - theta_z) / dt,
-        w_b + 0j,
+        geo, law, ref, law.null_space,
+        meas.t + hj, meas.q_b + hj * q_b_rate, meas.q_m + hj * w[w.size - n:],
+        meas.z_e + hj * meas.z_e_dot, theta_b + hj * (tb_new - theta_b) / dt,
+        theta_z + hj * (tz_new - theta_z) / dt, w_b + 0j,
     )  # fmt: skip
-    report_kinematic(out, 2 * n, s - 2, at_w_mc + n, err_b, err_z, sigma, damping, hnorm,
-                     status, idx)  # fmt: skip
+    for i in range(err_b.size):
+        out.err_b[i] = err_b[i].real
+    for i in range(err_z.size):
+        out.err_z[i] = err_z[i].real
+    out.sigma_min[0] = sigma
+    out.damping[0] = damping
     if status != STATUS_OK:
-        return status, idx
+        value = hnorm
+        if status == STATUS_FUNNEL_Z or status == STATUS_FUNNEL_B:
+            value = (err_z[idx] if status == STATUS_FUNNEL_Z else err_b[idx]).real
+        return status, idx, value
     w_mc = w_mc_c.real.copy()
-    w_mc_dot = w_mc_c.imag / _H
+    w_mc_dot = w_mc_c.imag / COMPLEX_STEP
 
     status, value, u_m, w_mc_dot_fed, w_tilde, e_54 = dynamic_level(
-        geo, terms, adaptive, g, dt, w, w_mc, w_mc_dot, np.ascontiguousarray(sens), M_true,
-        h_true, theta_d, w_hat, Y_df, theta_d_true,
-    )  # fmt: skip
+        geo, terms, law, dt, meas, w_mc, w_mc_dot, np.ascontiguousarray(sens), state
+    )
     if status != STATUS_OK:
-        if status == STATUS_BASE_ROW:
-            out[s - 1] = value  # the smallest singular value of the base rows' matrix
-        return status, -1
-    if adaptive:
-        _put(theta_b, 0, tb_new)
-        _put(theta_z, 0, tz_new)
-    _put(out, 0, u_m)
-    _put(out, n, w_mc_dot_fed)
-    _put(out, s, w_tilde)
-    _put(out, s + N, e_54)  # (nothing when not computed)
-    _put(out, at_w_mc, w_mc)
-    return STATUS_OK, -1
+        return status, -1, value  # (a singular filter: the smallest singular value)
+    if law.adaptive:
+        put(theta_b, 0, tb_new)
+        put(theta_z, 0, tz_new)
+    put(out.u_m, 0, u_m)
+    put(out.w_mc_dot, 0, w_mc_dot_fed)
+    put(out.w_tilde, 0, w_tilde)
+    put(out.e, 0, e_54)  # (nothing when not computed)
+    put(out.w_mc, 0, w_mc)
+    return STATUS_OK, -1, hnorm
 
 
 # ---------------------------------------------------------------------- first compilation
-def compile_in_parallel(consts, t, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+def compile_in_parallel(geo, law, ref, meas, state) -> None:
     """On a first run, compile the geometry's real kernels (those :func:`period` calls, then
     the run's reaction torques) in a second process while this one compiles the geometry's
     complex kinematic law (:mod:`._first_compile`); :func:`period` then loads the former from
-    the cache. ``consts`` the constant arguments of :func:`period` (the model's kernel
-    constants first), the others the controller's initial measurement and estimates. Does
-    nothing when the cache is warm."""
-    kernels = GEOMETRIES[type(consts[0])]
+    the cache. The arguments are those of :func:`period` (the measurement with the types a
+    run passes). Does nothing when the cache is warm."""
+    kernels = GEOMETRIES[type(geo)]
     _first_compile.compile_in_parallel(
         __name__,
-        (consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b),
+        (geo, law, ref, meas, state),
         (kernels.kinematic_law,),
-        lambda: kernels.kinematic_law(
-            *_kinematic_args(kernels, consts, t, q_b, q_m, w, z_e, theta_z, theta_b)
-        ),
+        lambda: kernels.kinematic_law(*_kinematic_args(kernels, geo, law, ref, meas, state)),
     )
 
 
-def _kinematic_args(kernels, consts, t, q_b, q_m, w, z_e, theta_z, theta_b) -> tuple:
+def _kinematic_args(kernels, geo, law, ref, meas, state) -> tuple:
     """Arguments of the geometry's ``kinematic_law`` with the types :func:`period` passes
     (complex values of the measurement's shapes); the values only need to be finite."""
-    c = 1j * _H
-    return (*consts[:4], *consts[5:], t + c, q_b + c, q_m + c, z_e + c, theta_b + c,
-            theta_z + c, kernels.base_velocity(w) + 0j)  # fmt: skip
+    c = 1j * COMPLEX_STEP
+    return (geo, law, ref, law.null_space, meas.t + c, meas.q_b + c, meas.q_m + c,
+            meas.z_e + c, state.theta_b + c, state.theta_z + c,
+            kernels.base_velocity(meas.w) + 0j)  # fmt: skip
 
 
-def _compile_real_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+def _compile_real_kernels(geo, law, ref, meas, state) -> None:
     """Compile the geometry's real steps of :func:`period` with the argument types it passes
-    (the second process of :func:`compile_in_parallel`; ``z_e`` stands for the measured
-    z_e_dot, of the same type)."""
-    geo, adaptive, g = consts[0], consts[4], consts[7]
+    (the second process of :func:`compile_in_parallel`, on its own copies: the state moves)."""
     kernels = GEOMETRIES[type(geo)]
-    n, N = q_m.size, w.size
-    terms, _, _, _, w_b = kernels.geometry_terms(
-        geo, adaptive, g, 1e-3, q_b, q_m, w, np.zeros(N), z_e, theta_b, theta_z, theta_d
-    )
+    n = meas.q_m.size
+    terms, _, _, _, w_b = kernels.geometry_terms(geo, law, 1e-3, meas, state)
     sens = np.zeros((n, *np.shape(w_b)))  # d w_mc / d w_b: (n,) planar, (n, 3) spatial
-    M_true, h_true = read_only(np.zeros((N, N))), read_only(np.zeros(N))  # (as the period's)
-    kernels.dynamic_level(
-        geo, terms, adaptive, g, 1e-3, w, np.zeros(n), np.zeros(n), sens, M_true, h_true,
-        theta_d.copy(), np.zeros(N), np.zeros((N, theta_d.size)), theta_d,
-    )  # fmt: skip
+    kernels.dynamic_level(geo, terms, law, 1e-3, meas, np.zeros(n), np.zeros(n), sens, state)
 
 
-def _compile_run_kernels(consts, q_b, q_m, w, z_e, theta_z, theta_d, theta_b) -> None:
+def _compile_run_kernels(geo, law, ref, meas, state) -> None:
     """Compile the geometry's ``reaction_rows`` (the run's reaction torque,
     :mod:`.diagnostics`) with the argument types the run passes (the second process, after
     :func:`_compile_real_kernels`)."""
-    kernels = GEOMETRIES[type(consts[0])]
-    fixed = kernels.true_model_constants(consts[0])
-    n, N = q_m.size, w.size
+    kernels = GEOMETRIES[type(geo)]
+    fixed = kernels.true_model_constants(geo)
+    n, N = meas.q_m.size, meas.w.size
     rows = kernels.reaction_rows_of(  # one recorded row of each: base_inertia's types too
         np.zeros((1, N - n)), np.zeros((1, n)), np.zeros((1, N)), np.zeros((1, N - n))
     )
-    kernels.reaction_rows(*fixed, *rows, theta_d)
+    kernels.reaction_rows(*fixed, *rows, state.theta_d)
+
+
+__all__ = [
+    "GEOMETRIES", "SIGNALS", "KernelGains", "PeriodLaw", "PeriodOutputs", "PeriodState",
+    "compile_in_parallel", "period", "period_law", "period_outputs",
+]  # fmt: skip

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import _mv, _put, _put_rows
+from .._array_kernels import mv, put, put_rows
 
 
 @njit(cache=True)
@@ -36,8 +36,8 @@ def trig(S, off, K, L, q_b, q_m):
     nb = S.shape[0]
     q = np.empty(nb, dtype=q_m.dtype)
     q[0] = q_b
-    _put(q, 1, q_m)  # q[1:] = q_m (loops instead of slice assignments here and below: _put)
-    phi = _mv(S, q) + off
+    put(q, 1, q_m)  # q[1:] = q_m (loops instead of slice assignments here and below: put)
+    phi = mv(S, q) + off
     c = np.cos(phi)
     s = np.sin(phi)
     P = K.size
@@ -82,7 +82,7 @@ def jacobian(theta_z, c, s, S, ee_row, collinear):
             dp[0, k] = -s[k] * vx - c[k] * vy
             dp[1, k] = c[k] * vx - s[k] * vy
     J = np.empty((3, nb), dtype=dp.dtype)
-    _put_rows(J, xm(dp, S))  # J[:2]
+    put_rows(J, xm(dp, S))  # J[:2]
     for j in range(nb):
         J[2, j] = ee_row[j]
     return J

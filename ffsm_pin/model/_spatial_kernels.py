@@ -311,14 +311,14 @@ def attitude_rows(R_m, ee_rot, z, m, out):
 
 
 @njit(cache=True)
-def controller_terms(
-    s_b, q_m, joint_rot, axes, ee_rot, m, theta_z, theta_d, w, a, sv,
-    J, Yz, Yb, YM, YMdot, Yh, M,
-):  # fmt: skip
+def controller_terms(geo, s_b, q_m, theta_z, theta_d, w, a, sv, out):
     """Everything of one controller period in one call (one dispatch, every output written in
-    full): kinematics, J (6, N) with position rows for the barycentric vectors V_k of theta_z
-    and MRP attitude rows, Y_z (6, n_z), Y_b (3, n_b), Y_M(a), Y_Mdot(w, s), Y_h(w) and
-    M(theta_d)."""
+    full into ``out``, a :class:`~ffsm_pin.model.spatial.TermsBuffers`): kinematics, J (6, N)
+    with position rows for the barycentric vectors V_k of theta_z and MRP attitude rows,
+    Y_z (6, n_z), Y_b (3, n_b), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d); ``geo`` the
+    robot's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`."""
+    joint_rot, axes, ee_rot, m = geo
+    J, Yz, Yb, YM, YMdot, Yh, M = out
     nb, n = joint_rot.shape[0] + 1, joint_rot.shape[0]
     R = np.empty((nb, 3, 3))
     z = np.empty((n, 3))

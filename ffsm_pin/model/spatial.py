@@ -99,6 +99,19 @@ class SpatialParameterLayout:
         return names
 
 
+class TermsBuffers(NamedTuple):
+    """Where the compiled ``controller_terms`` writes (the arrays of
+    :class:`ControllerTerms`, J whole)."""
+
+    J: np.ndarray  # (6, n+3)
+    Y_z: np.ndarray
+    Y_b: np.ndarray
+    Y_M: np.ndarray
+    Y_Mdot: np.ndarray
+    Y_h: np.ndarray
+    M: np.ndarray
+
+
 class ControllerTerms(NamedTuple):
     """Everything the controller needs for one period (see
     :meth:`SpatialBarycentricModel.controller_terms`)."""
@@ -553,11 +566,11 @@ class SpatialBarycentricModel(BarycentricCommon):
         Yh = np.empty((N, nd))
         M = np.empty((N, N))
         kern.controller_terms(
-            np.ascontiguousarray(q_b, dtype=float), np.ascontiguousarray(q_m, dtype=float),
-            self._joint_rot_c, self._axes_c, self._ee_rot_c, self._ee_body,
-            np.ascontiguousarray(theta_z, dtype=float), np.ascontiguousarray(theta_d, dtype=float),
-            np.ascontiguousarray(w, dtype=float), np.ascontiguousarray(a, dtype=float),
-            np.ascontiguousarray(s_vec, dtype=float), J, Yz, Yb, YM, YMdot, Yh, M,
+            self.kernel_constants(), np.ascontiguousarray(q_b, dtype=float),
+            np.ascontiguousarray(q_m, dtype=float), np.ascontiguousarray(theta_z, dtype=float),
+            np.ascontiguousarray(theta_d, dtype=float), np.ascontiguousarray(w, dtype=float),
+            np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(s_vec, dtype=float),
+            TermsBuffers(J, Yz, Yb, YM, YMdot, Yh, M),
         )  # fmt: skip
         return ControllerTerms(J[:, :3], J[:, 3:], Yz, Yb, YM, YMdot, Yh, M)
 

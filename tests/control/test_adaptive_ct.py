@@ -89,7 +89,7 @@ def _adaptive(case: str, duration: float):
 
 @pytest.mark.parametrize("case", ["case1", "planar5", "spatial", "spatial-pose"])
 def test_compiled_period_equals_the_numpy_reference(case):
-    """The compiled period (control/_adaptive_ct_kernels.py) and step_numpy from the same
+    """The compiled period (control/adaptive_ct_kernels.py) and step_numpy from the same
     estimates, over a sequence of random measurements: the same torque, signals and updated
     estimates to rounding (operation order differs: solves, the polarization sum)."""
     setup = prepare(_adaptive(case, 1.0))

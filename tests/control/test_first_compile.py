@@ -51,8 +51,7 @@ def test_a_warm_cache_starts_no_second_process(monkeypatch, geo):
     started = []
     monkeypatch.setattr(_first_compile, "cold", lambda dispatcher: False)
     monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: started.append(a))
-    consts = (geo(*([None] * len(geo._fields))),)
-    period.compile_in_parallel(consts, *([None] * 8))
+    period.compile_in_parallel(geo(*([None] * len(geo._fields))), *([None] * 4))
     assert started == []
 
 
@@ -122,7 +121,7 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
     assert any(cache.rglob(f"*{second_process_kernel}*.nbi"))
     assert any(cache.glob("*/control_*/*.nbi"))  # <cache>/<kernel digest>/<module folder>
     # the built-in cases run without the null-space term: its gradient is not compiled
-    # (pack_null_space gives None, which numba's branch pruning sees)
+    # (null_space_term gives None, which numba's branch pruning sees)
     assert not any(cache.rglob("*_null_space_gradient*.nbi"))
     second, warm_err = run("warm")  # another folder, the same cache
     assert MESSAGE not in warm_err
@@ -155,7 +154,7 @@ def test_the_second_process_runs_without_error(case, monkeypatch, tmp_path):
     module, child_args = captured["payload"]
     assert module == "ffsm_pin.control.period"  # one period; the geometry from the constants
     geometry = PlanarKernelConstants if case == "case1" else SpatialKernelConstants
-    assert type(child_args[0][0]) is geometry
+    assert type(child_args[0]) is geometry  # (the model's constants, the law's, ...)
     assert "ffsm_pin.sim.plant" in _first_compile.ALSO  # registered by the plant's module
     env = {**os.environ, "PYTHONPATH": str(REPO), "NUMBA_CACHE_DIR": str(tmp_path)}
     proc = subprocess.run(

@@ -87,7 +87,7 @@ def test_bad_params_name_the_key(params, words):
 # ----------------------------------------------------------------- compiled period
 @pytest.mark.parametrize("case", ["case1", "planar5", "spatial", "spatial-pose"])
 def test_compiled_period_equals_the_numpy_reference(case):
-    """The compiled period (control/_gjm_kernels.py) against step_numpy at random states and
+    """The compiled period (control/gjm_ct_kernels.py) against step_numpy at random states and
     estimates off the truth: the same torque and command to rounding (different operation
     order: solves, the complex-step momentum rows), and the same damping decision."""
     setup = prepare(_gjm(case, 1.0, initial="perturbed"))
@@ -101,7 +101,7 @@ def test_compiled_period_equals_the_numpy_reference(case):
         q[-n:] += rng.uniform(-0.2, 0.2, n)
         v[-n:] += rng.normal(0.0, 0.3, n)
         meas = sensor.measure(float(rng.uniform(0, 20)), q, v)
-        got, want = ctrl.step_numba(meas), ctrl.step_numpy(meas)
+        got, want = ctrl.step_compiled(meas), ctrl.step_numpy(meas)
         scale = np.abs(want[0]).max()
         np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-12 * scale)
         for key in ("w_mc", "sigma_min", "damping"):

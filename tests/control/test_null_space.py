@@ -128,9 +128,9 @@ def _w_mc(ctrl, x: KinematicInputs, rates: KinematicInputs | None = None):
     from ffsm_pin.control import fast
 
     hj = 1j * 1e-30
-    c = ctrl._fast_consts  # the period's constants; the kinematic law takes all but `adaptive`
+    # the period's bundles: the model's constants, the law's, the reference's, the null space
     w_c, _, _, damping, _, _, _, status, _ = fast.kinematic_law(
-        *c[:4], *c[5:],
+        ctrl._geo, ctrl._law, ctrl._ref, ctrl._law.null_space,
         x.t + hj * rates.t, x.q_b + hj * rates.q_b, x.q_m + hj * rates.q_m,
         x.z_e + hj * rates.z_e, x.theta_b + hj * rates.theta_b,
         x.theta_z + hj * rates.theta_z, x.w_b + 0j,

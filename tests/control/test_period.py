@@ -1,8 +1,8 @@
 """The one compiled control period (control/period.py): each geometry's steps are registered,
-the output layout tiles its buffer, and a step the period compiled is callable from Python
-(the period and the geometry's own dispatcher share cache entries, so they must compile the
-same code). The period's values against the numpy reference: tests/control/test_fast.py and
-test_fast_spatial.py."""
+the outputs' signals are views of one row of the layout, and a step the period compiled is
+callable from Python (the period and the geometry's own dispatcher share cache entries, so they
+must compile the same code). The period's values against the numpy reference:
+tests/control/test_fast.py and test_fast_spatial.py."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control import period
+from ffsm_pin.control.interface import SignalLayout
 from ffsm_pin.model.planar import PlanarKernelConstants
 from ffsm_pin.model.spatial import SpatialKernelConstants
 
@@ -40,31 +41,32 @@ def test_each_geometry_provides_the_three_steps_as_cached_kernels(cls):
 
 @pytest.mark.parametrize(("m3", "n_task"), [(1, 3), (3, 6), (3, 3)])
 @pytest.mark.parametrize("n", [2, 7])
-def test_out_layout_tiles_the_buffer_without_gaps(n, m3, n_task):
-    """Every entry of ``out`` belongs to exactly one output, and the signals' block is the
-    signals side by side in the order given (the row a run records in one copy)."""
+def test_the_outputs_signals_are_views_of_one_row_of_the_layout(n, m3, n_task):
+    """Each signal the period writes by name lands in its slot of the row the run records in
+    one copy (the signals side by side in the layout's order, whatever that order), and the
+    other outputs are arrays of their own."""
     N, n_z, n_d, n_b = n + m3, 5, 11, 4
     signals = {"w_tilde": (N,), "e": (N,), "theta_z_hat": (n_z,), "theta_d_hat": (n_d,),
                "theta_b_hat": (n_b,), "w_hat": (N,), "w_mc": (n,), "sigma_min": (),
                "damping": ()}  # fmt: skip
-    lay = period.out_layout(n, m3, n_task, signals)
-    sizes = {"u_m": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task,
-             **{k: int(np.prod(s)) for k, s in signals.items()}}  # fmt: skip
-    covered = np.zeros(lay["size"], dtype=int)
-    for key, size in sizes.items():
-        entries = np.arange(lay["size"])[lay[key]]
-        assert entries.size == size, key
-        covered[entries] += 1
-    for key in ("H_bm_norm", "exit_value"):
-        covered[lay[key]] += 1
-    assert (covered == 1).all()  # every entry written by exactly one output
-    block = np.arange(lay["size"])[lay["signals"]]
-    in_order = np.concatenate([np.atleast_1d(np.arange(lay["size"])[lay[k]]) for k in signals])
-    np.testing.assert_array_equal(block, in_order)
-    # the period writes them in its own order: another one is refused
-    swapped = {"e": signals["e"], **signals}
-    with pytest.raises(ValueError, match="in this order"):
-        period.out_layout(n, m3, n_task, swapped)
+    for order in (list(signals), list(reversed(signals))):
+        layout = SignalLayout({k: signals[k] for k in order})
+        out, row = period.period_outputs(layout, n, m3, n_task)
+        assert row.shape == (layout.size,)
+        for key in period.SIGNALS:
+            view = getattr(out, key)
+            view[:] = np.arange(view.size) + 1.0 + 100 * period.SIGNALS.index(key)
+            assert np.shares_memory(view, row), key
+        for key in period.SIGNALS:  # each written exactly where the layout reads it
+            want = np.arange(int(np.prod(signals[key]))) + 1.0 + 100 * period.SIGNALS.index(key)
+            np.testing.assert_array_equal(np.atleast_1d(row[layout.index(key)]), want)
+        sizes = {"u_m": n, "w_mc_dot": n, "err_b": m3, "err_z": n_task}
+        for key, size in sizes.items():
+            assert getattr(out, key).shape == (size,) and not np.shares_memory(
+                getattr(out, key), row
+            )
+    with pytest.raises(ValueError, match="signals must be"):
+        period.period_outputs(SignalLayout({"w_tilde": (N,)}), n, m3, n_task)
 
 
 @pytest.mark.slow

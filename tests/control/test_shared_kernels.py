@@ -9,16 +9,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ffsm_pin.control._shared_kernels import (
-    damped_pinv,
-    difference,
-    filter_regressor_update,
-    funnel_terms,
-    pack_funnel,
-    positive_definite,
-    smallest_singular_value_above,
-)
+from ffsm_pin._array_kernels import difference, positive_definite, smallest_singular_value_above
 from ffsm_pin.control.funnel import Funnel, FunnelExit, FunnelParams
+from ffsm_pin.control.kernels import (
+    damped_pinv,
+    filter_regressor_update,
+    funnel_constants,
+    funnel_terms,
+)
 from ffsm_pin.control.linalg import damped_row_pinv
 
 PARAMS = FunnelParams((2.0, 0.5, 0.3), (0.1, 0.2, 0.01), (1.5, 0.05, 0.7), (1.0, 0.3, 0.55))
@@ -27,14 +25,14 @@ PARAMS = FunnelParams((2.0, 0.5, 0.3), (0.1, 0.2, 0.01), (1.5, 0.05, 0.7), (1.0,
 @pytest.mark.parametrize("dtype", [float, complex])
 def test_inside_equals_the_numpy_funnel(dtype, rng):
     funnel = Funnel(PARAMS, np.array([0.1, -0.05, 0.02]))
-    table = pack_funnel(funnel)
+    constants = funnel_constants(funnel)
     for t in (0.0, 0.7, 3.0):
         lo, hi = funnel.bounds(t)
         e = (lo + (hi - lo) * rng.uniform(0.05, 0.95, 3)).astype(dtype)
         if dtype is complex:
             e = e + 1e-20j * rng.normal(size=3)  # a complex step
         ref = funnel.evaluate(t, e)
-        psi, Phi, idx = funnel_terms(table, t, e, False)
+        psi, Phi, idx = funnel_terms(constants, t, e, False)
         assert idx == -1
         np.testing.assert_allclose(psi, ref.psi, rtol=1e-14, atol=1e-15)
         np.testing.assert_allclose(Phi, ref.Phi, rtol=1e-14, atol=1e-15)
@@ -50,14 +48,14 @@ def test_exit_index_is_the_reference_one():
     e = np.array([1.01 * hi[0], 0.0, 3.0 * hi[2]])  # component 2 is farther out
     with pytest.raises(FunnelExit) as exc:
         funnel.evaluate(0.0, e)
-    _, _, idx = funnel_terms(pack_funnel(funnel), 0.0, e, False)
+    _, _, idx = funnel_terms(funnel_constants(funnel), 0.0, e, False)
     assert idx == exc.value.index == 2
 
 
 def test_identity_passes_the_error_through():
     funnel = Funnel(PARAMS, np.ones(3))
     e = np.array([5.0, -7.0, 0.3])  # far outside: no refusal without prescribed performance
-    psi, Phi, idx = funnel_terms(pack_funnel(funnel), 1.0, e, True)
+    psi, Phi, idx = funnel_terms(funnel_constants(funnel), 1.0, e, True)
     assert idx == -1
     np.testing.assert_array_equal(psi, e)
     np.testing.assert_array_equal(Phi, np.ones(3))
@@ -99,10 +97,10 @@ def test_null_space_objective_kernels_equal_the_numpy_reference(rng):
     the rows of perturbed_joints) against control/null_space.py on a smooth made-up
     A(q_m) = J_m U of the right shape, at complex arguments as in the kinematic law."""
     from ffsm_pin.control import null_space as ref
-    from ffsm_pin.control._shared_kernels import (
+    from ffsm_pin.control.kernels import (
         joint_centering_gradient,
         manipulability_gradient,
-        pack_null_space,
+        null_space_term,
         perturbed_joints,
     )
 
@@ -116,13 +114,13 @@ def test_null_space_objective_kernels_equal_the_numpy_reference(rng):
     center = rng.normal(size=n)
     for objective in ("manipulability", "joint-centering"):
         spec = ref.NullSpace(objective=objective, gain=0.5)
-        ns = pack_null_space(spec, center, n)
+        ns = null_space_term(spec, center, n)
         expected = ref.null_space_gradient(spec, center, q_m, reduced_jacobian)
         if objective == "joint-centering":
             got = joint_centering_gradient(ns, q_m)
         else:
-            Q = perturbed_joints(q_m, ns[2])
-            got = manipulability_gradient(np.array([reduced_jacobian(q) for q in Q]), ns[2])
+            Q = perturbed_joints(q_m, ns.step)
+            got = manipulability_gradient(np.array([reduced_jacobian(q) for q in Q]), ns.step)
         # the central difference divides mu's rounding (~1e-16 mu, the products' order
         # differs) by the step (null_space.GRADIENT_STEP): ~1e-10 relative; 1e-8 allowed
         np.testing.assert_allclose(got.real, expected.real, rtol=1e-8, atol=1e-12)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
-from ffsm_pin.control._shared_kernels import _piecewise
+from ffsm_pin.control.reference_kernels import piecewise
 from ffsm_pin.errors import ParameterError, ScenarioError
 from ffsm_pin.scenario.file import (
     builtin_path,
@@ -78,12 +78,12 @@ def test_compiled_piecewise_equals_numpy_reference(make):
     t0, t1 = pp.table[0, 1], pp.table[0, -1]
     for t in np.concatenate(([t0 - 1.0, t0, t1, t1 + 2.0], np.linspace(t0, t1, 37))):
         for order in (0, 1):
-            np.testing.assert_array_equal(_piecewise(pp.table, t, order), pp.derivative(t, order))
+            np.testing.assert_array_equal(piecewise(pp.table, t, order), pp.derivative(t, order))
             # complex products may round differently in compiled code (LLVM's complex
             # multiply): the value equal to an ulp, the derivative (imag / H, a sum of O(1)
             # terms that can cancel) to 1e-13 absolute, not bitwise
             tc = t + 1j * H
-            got, want = _piecewise(pp.table, tc, order), pp.derivative(tc, order)
+            got, want = piecewise(pp.table, tc, order), pp.derivative(tc, order)
             np.testing.assert_allclose(got.real, want.real, rtol=1e-15, atol=0)
             np.testing.assert_allclose(got.imag / H, want.imag / H, rtol=0, atol=1e-13)
 

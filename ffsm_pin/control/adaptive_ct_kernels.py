@@ -4,24 +4,42 @@ One period, planar and spatial, as
 :meth:`~ffsm_pin.control.adaptive_ct.AdaptiveComputedTorque.step_numpy` (the readable
 reference; tested against each other in ``tests/control/test_adaptive_ct.py``): the
 kinematic estimates by the paper's Eqs. (28) and (42), the reference motion of gjm-ct
-(:mod:`._gjm_kernels`) at the measurement and the estimates advanced by a complex step, the
-Slotine & Li torque with C(q, w) w_r by polarization, and the gradient law of theta_d stepped
-linearly implicitly. The estimates are updated in place; the period returns
+(:mod:`.resolved_motion_kernels`) at the measurement and the estimates advanced by a complex
+step, the Slotine & Li torque with C(q, w) w_r by polarization, and the gradient law of theta_d
+stepped linearly implicitly. A period takes named bundles (the model's kernel constants,
+:class:`AdaptiveCtKernelGains`, the reference, the measurement and the estimates,
+:class:`~.kernels.Estimates`); the estimates are updated in place; the period returns
 (u_m, w_mr, sigma_min, damping, finite).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
+from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms, y_z, ym
 from . import fast, fast_spatial
-from ._gjm_kernels import _H, _rates_planar, _rates_spatial
-from ._shared_kernels import theta_z_step
+from .kernels import COMPLEX_STEP, theta_z_step
+from .resolved_motion_kernels import rates_planar, rates_spatial
+
+
+class AdaptiveCtKernelGains(NamedTuple):
+    """The adaptive-ct gains as its period reads them (:class:`~.adaptive_ct.AdaptiveCtGains`),
+    with the period's constants."""
+
+    k_z: np.ndarray  # [1/s] one per task component
+    k_s: float  # [1/s]
+    gamma_b: float
+    gamma_z: float
+    gamma_d: float
+    threshold: float  # [m] damped least squares below this sigma_min of J*
+    n_task: int
+    dt: float  # [s] the control period
 
 
 @njit(cache=True)
@@ -51,28 +69,29 @@ def _torque_and_update(Y, s, M_hat, m3, k_s, gamma_d, dt, theta_d, theta_b, thet
 
 
 @njit(cache=True)
-def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, rpp,
-                  k_z, k_s, gamma_b, gamma_z, gamma_d, thr, nt, dt,
-                  t, q_b, q_m, w, z_e, z_e_dot, theta_z, theta_d, theta_b):  # fmt: skip
+def period_planar(geo, gains, ref, meas, est):
     """One adaptive-ct period (planar); updates the estimates in place."""
+    S, off, K, L, ee_row, collinear = geo
+    q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
+    theta_z, theta_d, theta_b = est
     nb = S.shape[0]
     nd = theta_d.size
     c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
     tb_new = fast.theta_b_step(
-        theta_b, planar_kernels.y_m(pc, ps, K, L, S, w, nd, collinear)[0], gamma_b, dt
+        theta_b, planar_kernels.y_m(pc, ps, K, L, S, w, nd, collinear)[0], gains.gamma_b, dt
     )
     Yz = planar_kernels.position_regressor(c, s, S, w, theta_z.size, collinear)
-    tz_new = theta_z_step(theta_z, Yz, z_e_dot, gamma_z, dt)
-    hj = 1j * _H
-    w_mc, w_bc, sigma, damping = _rates_planar(
-        S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, rpp, k_z, thr, nt,
-        t + hj, q_b + hj * w[0], q_m + hj * w[1:], z_e + hj * z_e_dot,
-        theta_z + hj * (tz_new - theta_z) / dt, theta_b + hj * (tb_new - theta_b) / dt,
+    tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, gains.gamma_z, dt)
+    hj = 1j * COMPLEX_STEP
+    w_mc, w_bc, sigma, damping = rates_planar(
+        geo, gains, ref, meas.t + hj, q_b + hj * w[0], q_m + hj * w[1:],
+        meas.z_e + hj * meas.z_e_dot, theta_z + hj * (tz_new - theta_z) / dt,
+        theta_b + hj * (tb_new - theta_b) / dt,
     )  # fmt: skip
     w_r = np.empty(nb)
     w_r_dot = np.empty(nb)
-    w_r[0], w_r_dot[0] = w_bc.real, w_bc.imag / _H
-    w_r[1:], w_r_dot[1:] = w_mc.real, w_mc.imag / _H
+    w_r[0], w_r_dot[0] = w_bc.real, w_bc.imag / COMPLEX_STEP
+    w_r[1:], w_r_dot[1:] = w_mc.real, w_mc.imag / COMPLEX_STEP
     _, Yh_plus = planar_kernels.velocity_regressors(
         pc, ps, K, L, S, w + w_r, w + w_r, nd, collinear
     )
@@ -81,16 +100,17 @@ def period_planar(S, off, K, L, ee_row, collinear, rc, rA, ramp, rfreq, rphase, 
     )
     Y = planar_kernels.y_m(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
     M_hat = S.T @ planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    u, finite = _torque_and_update(Y, w - w_r, M_hat, 1, k_s, gamma_d, dt,
+    u, finite = _torque_and_update(Y, w - w_r, M_hat, 1, gains.k_s, gains.gamma_d, dt,
                                    theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
     return u, w_r[1:].copy(), sigma, damping, finite
 
 
 @njit(cache=True)
-def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
-                   k_z, k_s, gamma_b, gamma_z, gamma_d, thr, nt, dt,
-                   t, q_b, q_m, w, z_e, z_e_dot, theta_z, theta_d, theta_b):  # fmt: skip
+def period_spatial(geo, gains, ref, meas, est):
     """One adaptive-ct period (spatial); updates the estimates in place."""
+    jr, ax, er, m = geo
+    q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
+    theta_z, theta_d, theta_b = est
     n = q_m.size
     nb, N, nd = n + 1, n + 3, theta_d.size
     R = np.empty((nb, 3, 3))
@@ -100,23 +120,23 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
     ym(R, z, w, Yw, True)  # the base rows of Y_M(w)
     Yb = np.empty((3, nd + 3))
     Yb[:, 3:] = Yw
-    tb_new = fast_spatial.theta_b_step(theta_b, Yb, gamma_b, dt)
+    tb_new = fast_spatial.theta_b_step(theta_b, Yb, gains.gamma_b, dt)
     Yz = np.empty((3, theta_z.size))
     y_z(R, z, w, Yz)
-    tz_new = theta_z_step(theta_z, Yz, z_e_dot, gamma_z, dt)
-    q_b_rate = np.ascontiguousarray(fast_spatial._l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
-    hj = 1j * _H
-    w_mc, w_bc, sigma, damping = _rates_spatial(
-        jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp, k_z, thr, nt,
-        t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:], z_e + hj * z_e_dot,
-        theta_z + hj * (tz_new - theta_z) / dt, theta_b + hj * (tb_new - theta_b) / dt,
+    tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, gains.gamma_z, dt)
+    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    hj = 1j * COMPLEX_STEP
+    w_mc, w_bc, sigma, damping = rates_spatial(
+        geo, gains, ref, meas.t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:],
+        meas.z_e + hj * meas.z_e_dot, theta_z + hj * (tz_new - theta_z) / dt,
+        theta_b + hj * (tb_new - theta_b) / dt,
     )  # fmt: skip
     w_r = np.empty(N)
     w_r_dot = np.empty(N)
     for i in range(3):
-        w_r[i], w_r_dot[i] = w_bc[i].real, w_bc[i].imag / _H
+        w_r[i], w_r_dot[i] = w_bc[i].real, w_bc[i].imag / COMPLEX_STEP
     for j in range(n):
-        w_r[3 + j], w_r_dot[3 + j] = w_mc[j].real, w_mc[j].imag / _H
+        w_r[3 + j], w_r_dot[3 + j] = w_mc[j].real, w_mc[j].imag / COMPLEX_STEP
     # Y = Y_M(dw_r/dt) + 1/4 (Y_h(w + w_r) - Y_h(w - w_r)) (polarization); the first pass of
     # velocity_terms also gives Y_M(dw_r/dt)
     Y = np.empty((N, nd))
@@ -129,7 +149,7 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
         Y += (0.25 * sign) * Yh
     M_hat = np.empty((N, N))
     mass_matrix(R, z, theta_d, M_hat)
-    u, finite = _torque_and_update(Y, w - w_r, M_hat, 3, k_s, gamma_d, dt,
+    u, finite = _torque_and_update(Y, w - w_r, M_hat, 3, gains.k_s, gains.gamma_d, dt,
                                    theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
     return u, w_r[3:].copy(), sigma, damping, finite
 
@@ -137,4 +157,4 @@ def period_spatial(jr, ax, er, m, rc, rA, ramp, rfreq, rphase, rpp,
 #: The compiled period by attitude dimension m3 (planar 1, spatial 3).
 PERIOD: dict[int, Callable[..., tuple]] = {1: period_planar, 3: period_spatial}
 
-__all__ = ["PERIOD", "period_planar", "period_spatial"]
+__all__ = ["PERIOD", "AdaptiveCtKernelGains", "period_planar", "period_spatial"]

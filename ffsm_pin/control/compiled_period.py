@@ -1,0 +1,146 @@
+"""The paper's compiled period driven from Python (the compiled side of
+:class:`~.controller.CoordinatedController`).
+
+:class:`CompiledPeriod` makes the period's named bundles once (:mod:`.period`: the law's
+constants, the model's and the reference's arrays, the outputs with the signals as views of one
+row of the controller's ``signal_layout``), warms the period up (a first run compiles its real
+kernels in a second process meanwhile, :func:`.period.compile_in_parallel`), runs a period into
+its outputs and turns its status into the law's stops (:mod:`.stops`), as the numpy reference
+raises them. The backend choice, the warm-up on copies and the binding of ``step`` are the
+kit's (:class:`~.compiled.CompiledController`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._arrays import read_only, read_only_view
+from ..errors import ParameterError
+from .funnel import Funnel, FunnelExit
+from .gains import Gains, SingularityPolicy
+from .interface import Measurement, SignalLayout
+from .kernels import (
+    STATUS_BASE_ROW,
+    STATUS_FUNNEL_B,
+    STATUS_FUNNEL_Z,
+    STATUS_H_COLLAPSE,
+    STATUS_M_NOT_PD,
+    STATUS_NONFINITE,
+    STATUS_OK,
+)
+from .period import PeriodState, compile_in_parallel, period, period_law, period_outputs
+from .reference_kernels import reference_arrays
+from .schemes import ControlOutput, RowOutput
+from .stops import SingularityWatch, base_row_stop, collapse_stop, inertia_stop, nonfinite_stop
+
+
+class CompiledPeriod:
+    """The compiled side of :class:`~.controller.CoordinatedController` (a mixin: the law's
+    attributes below are the controller's)."""
+
+    model: Any
+    scheme: str
+    gains: Gains
+    policy: SingularityPolicy
+    q_bd: np.ndarray
+    funnel_b: Funnel
+    funnel_z: Funnel
+    null_space: Any
+    kinematic: Any
+    reference: Any
+    n_task: int
+    m3: int
+    adaptive: bool
+    theta_d_true: np.ndarray | None
+    signal_layout: SignalLayout
+    state: PeriodState
+    _watch: SingularityWatch
+
+    def funnel_stop(self, meas: Measurement, exc: FunnelExit) -> Exception:
+        """The stop of a funnel exit (the controller's)."""
+        raise NotImplementedError
+
+    def prepare_kernels(self) -> None:
+        """The compiled period's bundles (:mod:`.period`): the law's constants, the model's
+        and the reference's, the outputs (the signals as views of one row of
+        :attr:`signal_layout`), and read-only stand-ins for the true M and C w, which only
+        the known-model scheme reads (one compiled period for every run and the warm-up)."""
+        m = self.model
+        self._geo = m.kernel_constants()
+        self._law = period_law(
+            n_task=self.n_task, scheme=self.scheme, gains=self.gains,
+            threshold=self.policy.threshold, q_bd=self.q_bd, funnel_b=self.funnel_b,
+            funnel_z=self.funnel_z, null_space=self.null_space, center=self.kinematic.center,
+            n_joints=m.n_joints, theta_d_true=self.theta_d_true,
+        )  # fmt: skip
+        self._ref = reference_arrays(self.reference)
+        self._out, self._row = period_outputs(self.signal_layout, m.n_joints, self.m3, self.n_task)
+        N = m.n_joints + self.m3
+        self._no_M, self._no_h = read_only(np.zeros((N, N))), read_only(np.zeros(N))
+
+    def _kernel_meas(self, meas: Measurement) -> Measurement:
+        """``meas`` as the period takes it: the true M and C w read-only (known model; as the
+        sensor's model hands them out), the stand-ins otherwise."""
+        if self.adaptive:
+            M, h = self._no_M, self._no_h
+        else:
+            assert meas.M is not None and meas.h is not None  # the sensor's full model
+            M, h = read_only_view(meas.M), read_only_view(meas.h)
+        return Measurement(meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
+
+    def warm_up_call(self, meas: Measurement, dt: float) -> None:
+        """The compiled period alone at ``meas`` (no bookkeeping), after a first run's second
+        process has compiled its real kernels (:func:`.period.compile_in_parallel`)."""
+        if meas.M is None and not self.adaptive:  # known model: any M, C w do for compiling
+            meas = meas._replace(M=np.eye(len(meas.w)), h=np.zeros(len(meas.w)))
+        km = self._kernel_meas(meas)
+        compile_in_parallel(self._geo, self._law, self._ref, km, self.state)
+        period(self._geo, self._law, self._ref, dt, km, self.state, self._out)
+
+    def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
+        if self.theta_d_true is None:
+            raise ParameterError("step_row needs theta_d_true (the row's e of Eq. 54)")
+        self._run_compiled(meas, dt)
+        return RowOutput(self._out.u_m.copy(), self._row.copy())
+
+    def step_compiled(self, meas: Measurement, dt: float) -> ControlOutput:
+        """:meth:`step` by the compiled period; the outputs are copies."""
+        self._run_compiled(meas, dt)
+        o, truth = self._out, self.theta_d_true is not None
+        return ControlOutput(
+            u_m=o.u_m.copy(), w_mc=o.w_mc.copy(), w_mc_dot=o.w_mc_dot.copy(),
+            err_b=o.err_b.copy(), err_z=o.err_z.copy(), w_tilde=o.w_tilde.copy(),
+            sigma_min=float(o.sigma_min[0]), damping=float(o.damping[0]),
+            e=o.e.copy() if truth else None, signals=self._row.copy() if truth else None,
+        )  # fmt: skip
+
+    def _run_compiled(self, meas: Measurement, dt: float) -> None:
+        """Run the compiled period into the outputs, keep the singularity bookkeeping, and
+        raise the stop its status says."""
+        status, idx, value = period(
+            self._geo, self._law, self._ref, dt, self._kernel_meas(meas), self.state, self._out
+        )
+        damping = self._out.damping[0]
+        if status == STATUS_OK and damping == 0.0 and self._watch.since is None:
+            return  # the common period: nothing to book, no stop
+        t = meas.t
+        if status in (STATUS_FUNNEL_Z, STATUS_FUNNEL_B):
+            funnel = self.funnel_z if status == STATUS_FUNNEL_Z else self.funnel_b
+            rho = float(funnel.rho(t)[idx])
+            exc = FunnelExit(idx, value, funnel.lower[idx] * rho, funnel.upper[idx] * rho)
+            raise self.funnel_stop(meas, exc)
+        if status == STATUS_H_COLLAPSE:
+            raise collapse_stop(t, value)
+        # (the warning points at the caller of step / step_row)
+        self._watch.update(t, float(self._out.sigma_min[0]), float(damping), stacklevel=3)
+        if status == STATUS_M_NOT_PD:
+            raise inertia_stop(t)
+        if status == STATUS_BASE_ROW:
+            raise base_row_stop(t, self.m3)
+        if status == STATUS_NONFINITE:
+            raise nonfinite_stop(t)
+
+
+__all__ = ["CompiledPeriod"]

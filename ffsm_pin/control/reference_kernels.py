@@ -1,0 +1,84 @@
+"""The end-effector reference evaluated inside a compiled period (complex-step safe).
+
+A scenario's reference (:class:`ffsm_pin.scenario.spec.Reference`) gives its arrays through
+``kernel_arrays()``: constant terms, harmonic selection, amplitudes, frequencies, phases and the
+piecewise polynomial of a reference from data. :class:`ReferenceArrays` names them, and
+:func:`reference_at` evaluates z_e,d(t) or its rate as ``Reference.ee_pose`` /
+``Reference.ee_rate`` do.
+
+Where this lives: the reference is the scenario layer's (:mod:`ffsm_pin.scenario.spec`), which
+sits above the control layer, and the controllers' kernels call this one, so its compiled
+evaluation is here, next to the kernels that use it; ``Reference.kernel_arrays`` is the one
+place the two layers meet. (Moving the kernel beside ``Reference`` would need the control layer
+to import the scenario's, which the layering forbids.)
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .._array_kernels import mv
+
+
+class ReferenceArrays(NamedTuple):
+    """A reference's arrays as the compiled kernels read them (``Reference.kernel_arrays``):
+    ``z_d(t) = c + A (amp * cos(freq t + phase)) + pp(t)``."""
+
+    c: np.ndarray  # constant terms, (n_task,)
+    A: np.ndarray  # harmonic term -> component, (n_task, n_terms)
+    amp: np.ndarray  # amplitudes, (n_terms,)
+    freq: np.ndarray  # [rad/s]
+    phase: np.ndarray  # [rad]
+    pp: np.ndarray  # piecewise polynomial table (no columns: no data)
+
+
+def reference_arrays(reference) -> ReferenceArrays:
+    """The :class:`ReferenceArrays` of a scenario's reference (``reference.kernel_arrays()``,
+    C-contiguous float arrays)."""
+    return ReferenceArrays(*reference.kernel_arrays())
+
+
+@njit(cache=True)
+def reference_at(ref, t, rate):
+    """z_e,d(t) (``rate`` False) or dz_e,d/dt of ``ref`` (:class:`ReferenceArrays`): the
+    harmonic terms plus, when ``ref.pp`` has segments, the piecewise polynomial of a reference
+    from data (complex-step safe)."""
+    arg = ref.freq * t + ref.phase
+    if rate:
+        out = mv(ref.A, -ref.amp * ref.freq * np.sin(arg))
+    else:
+        out = ref.c + mv(ref.A, ref.amp * np.cos(arg))
+    if ref.pp.shape[1] > 0:
+        out = out + piecewise(ref.pp, t, 1 if rate else 0)
+    return out
+
+
+@njit(cache=True)
+def piecewise(table, t, order):
+    """d^order/dt^order of :class:`ffsm_pin.scenario.trajectory.PiecewisePolynomial` at t
+    (as its numpy ``derivative``; the segment is chosen by Re t)."""
+    starts = table[0]
+    tr = t.real
+    lo, hi = 0, starts.size  # last k with starts[k] <= tr (0 when none)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if starts[mid] <= tr:
+            lo = mid
+        else:
+            hi = mid
+    tau = t - starts[lo]
+    n = (table.shape[0] - 1) // 6
+    out = np.zeros(n) + 0.0 * tau  # real or complex, as t
+    for p in range(5, order - 1, -1):
+        fac = 1.0
+        for j in range(order):
+            fac *= p - j
+        for i in range(n):
+            out[i] = out[i] * tau + fac * table[1 + p * n + i, lo]
+    return out
+
+
+__all__ = ["ReferenceArrays", "piecewise", "reference_arrays", "reference_at"]

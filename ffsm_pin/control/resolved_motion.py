@@ -1,0 +1,123 @@
+"""Resolved motion through the generalized Jacobian: what both baselines build on
+(docs/baselines.md; :mod:`.gjm_ct`, :mod:`.adaptive_ct`).
+
+With the momentum conserved, the base rate is ``w_b = H_bb^-1 (A_0 - H_bm w_m)`` (Eq. 13 of
+the paper) and the end-effector rate of Eq. (3) becomes ``dz_e/dt = J* w_m + d`` with the
+generalized Jacobian ``J* = J_m - J_b H_bb^-1 H_bm`` and ``d = J_b H_bb^-1 A_0 + (v_0, 0)``
+(Umetani & Yoshida 1989). :func:`resolved_rates` gives the joint rates that make the task error
+decay at k_z, ``w_md = J*^+ (dz_d/dt - d - k_z e_z)``, and the base rate with them; their
+compiled twins are :mod:`.resolved_motion_kernels`. Also here: the default rates
+(:func:`rate_gains`), the drift bound they use (:func:`drift_bound`), and the check of a
+baseline's ``[controller.params]`` (:func:`gains_from`).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import ParameterError, expected_count
+from .interface import ControllerContext
+from .kinematic import wrap_angle
+from .linalg import damped_row_pinv
+
+
+def rate_gains(
+    funnel, dt: float, m2: int, n_task: int, drift: float = 0.0
+) -> tuple[tuple[float, ...], float]:
+    """(k_z per task component, the joint loop's rate) [1/s] from the scenario's end-effector
+    funnel ``funnel`` (a FunnelParams), the control period ``dt`` [s] and a drift speed
+    ``drift`` [m/s] the model may miss (the larger of ``|v_0-hat|`` and the end-effector speed
+    measured at t = 0, :func:`drift_bound`).
+
+    Per task component, the larger of
+
+    * ``2 beta_z``: the error decays twice as fast as its funnel, so an error that starts
+      inside stays inside when the model is exact;
+    * ``drift / (sigma_z rho_z,inf)``: a drift wrong by as much as its estimate leaves a
+      steady error drift / k_z (the resolved-rate loop has no integral action), which then
+      stays inside the narrower side of the final funnel (position components only).
+
+    The joint loop is ten times faster than the fastest task component, but at most
+    0.1 / dt (a tenth of the sampling rate).
+    """
+
+    def per_component(x):
+        return np.broadcast_to(np.asarray(x, dtype=float), (n_task,))
+
+    beta, sigma, rhoinf = (per_component(x) for x in (funnel.beta, funnel.sigma, funnel.rhoinf))
+    k_z = 2.0 * beta
+    k_z[:m2] = np.maximum(k_z[:m2], drift / (sigma[:m2] * rhoinf[:m2]))
+    return tuple(float(k) for k in k_z), float(min(10.0 * k_z.max(), 0.1 / dt))
+
+
+def drift_bound(ctx: ControllerContext, theta_z: np.ndarray) -> float:
+    """The drift speed a wrong model may miss [m/s]: the larger of ``|v_0-hat|`` (the estimated
+    CoM velocity) and the end-effector speed measured at t = 0."""
+    return max(
+        float(np.linalg.norm(np.asarray(theta_z)[: ctx.m2])),
+        float(np.linalg.norm(np.asarray(ctx.initial.z_e_dot)[: ctx.m2])),
+    )
+
+
+def gains_from(ctx: ControllerContext, derived) -> dict:
+    """The ``[controller.params]`` of a baseline, checked: numbers > 0 (or one per component
+    where a tuple default says so); unknown keys are an error naming the valid ones."""
+    out = {}
+    unknown = sorted(set(ctx.params) - set(vars(derived)))
+    if unknown:
+        raise ParameterError(
+            f"controller.params.{unknown[0]}: unknown for controller.type "
+            f"{ctx.scenario.controller.type!r}; valid keys: {', '.join(vars(derived))}"
+        )
+    for key, default in vars(derived).items():
+        value = ctx.params.get(key, default)
+        arr = np.asarray(value, dtype=float)
+        if isinstance(default, tuple):
+            arr = np.broadcast_to(arr, (len(default),)) if arr.ndim == 0 else arr
+            if arr.shape != (len(default),):
+                raise ParameterError(
+                    f"controller.params.{key}: {arr.size} values, expected "
+                    f"{expected_count(len(default))}"
+                )
+        if not (np.all(np.isfinite(arr)) and np.all(arr > 0)):
+            raise ParameterError(f"controller.params.{key} = {value!r}: must be > 0")
+        out[key] = tuple(float(x) for x in arr) if isinstance(default, tuple) else float(arr)
+    return out
+
+
+class ResolvedRates(NamedTuple):
+    """Joint and base rates that make the task error decay at k_z (module docstring)."""
+
+    w_m: np.ndarray  # w_md = J*^+ (dz_d/dt - d - k_z e_z) [rad/s]
+    w_b: np.ndarray  # the base rate momentum conservation gives with it, H_bb^-1 (A_0 - H_bm w_md)
+    sigma_min: float  # smallest singular value of J* [m]
+    damping: float  # lambda^2 of its damped pseudo-inverse (0 = undamped)
+
+
+def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold, n_task,
+                   t, q_b, q_m, z_e) -> ResolvedRates:  # fmt: skip
+    """Resolved motion through the generalized Jacobian at a (possibly complex) state, with the
+    model of the estimates ``theta_z``, ``theta_b``; ``momentum`` gives H_bb, H_bm, A_0
+    (the model itself, or :class:`~.kinematic.ComplexStepMomentum` for spatial models)."""
+    m2 = model.m2
+    J_b, J_m = model.jacobians(theta_z, q_b, q_m)
+    J_b, J_m = J_b[:n_task], J_m[:n_task]
+    H_bb, H_bm, A0 = momentum.momentum_matrices(theta_b, q_b, q_m)
+    G = np.linalg.solve(H_bb, np.column_stack((H_bm, np.atleast_1d(A0))))
+    J_star = J_m - J_b @ G[:, :-1]  # the generalized Jacobian
+    drift = J_b @ G[:, -1]
+    drift[:m2] = drift[:m2] + theta_z[:m2]  # + (v_0, 0)
+    err = np.array(z_e)[:n_task] - reference.ee_pose(t)
+    if model.m3 == 1 and n_task > m2:
+        err[m2] = wrap_angle(err[m2])
+    inv = damped_row_pinv(J_star, threshold)
+    w_m = inv.pinv @ (reference.ee_rate(t) - drift - k_z * err)
+    w_b = G[:, -1] - G[:, :-1] @ w_m
+    return ResolvedRates(w_m, w_b, inv.sigma_min, inv.damping)
+
+
+__all__ = [
+    "ResolvedRates", "drift_bound", "gains_from", "rate_gains", "resolved_rates",
+]  # fmt: skip
