@@ -90,6 +90,7 @@ class GjmComputedTorque(CompiledController):
         # spatial: H_bb, H_bm of complex-step arguments through the real model
         self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
+        self.signal_shapes = {"w_mc": (self.n,), "sigma_min": (), "damping": ()}
         self.bind_backend(backend, ctx.initial)
 
     def prepare_kernels(self) -> None:
