@@ -4,7 +4,7 @@
   (``f(x + i h dx)``, ``df = Im / h``; the numpy references' too, :mod:`.kinematic`);
 * the status codes a compiled period returns (``STATUS_*``);
 * the named bundles shared by several controllers: :class:`Estimates` (the model parameters a
-  baseline estimates), :class:`FunnelConstants` (a funnel, Eqs. 18-22) and
+  baseline estimates), :data:`FUNNEL_RECORD` (a funnel, Eqs. 18-22, one record per component) and
   :class:`NullSpaceTerm` (the option of :mod:`.null_space`), with the kernels that read them
   (:func:`funnel_terms`, the null-space objective's gradients);
 * the damped pseudo-inverse of the singularity policy (:func:`damped_pinv`), the planar angle
@@ -54,25 +54,24 @@ class Estimates(NamedTuple):
     theta_b: np.ndarray  # (A_0, the base rows' parameters), Eq. (14)
 
 
-class FunnelConstants(NamedTuple):
-    """A funnel as the compiled kernels read it (:meth:`~.funnel.Funnel.kernel_table`), one
-    entry per error component: rho(t) = (rho_0 - rho_inf) exp(-beta t) + rho_inf (Eq. 18),
-    ``R(s) = ln((a + b_1 s) / (a + b_2 s))`` of Eq. (21), and the bounds on s = e / rho."""
-
-    rho_0: np.ndarray
-    rho_inf: np.ndarray
-    beta: np.ndarray  # [1/s]
-    a: np.ndarray
-    b_1: np.ndarray
-    b_2: np.ndarray
-    upper: np.ndarray
-    lower: np.ndarray
+#: A funnel as the compiled kernels read it: one record per error component (a structured
+#: array, a single argument however many components), from
+#: :meth:`~.funnel.Funnel.kernel_table`: rho(t) = (rho_0 - rho_inf) exp(-beta t) + rho_inf
+#: (Eq. 18), ``R(s) = ln((a + b_1 s) / (a + b_2 s))`` of Eq. (21), and the bounds on s = e / rho.
+FUNNEL_RECORD = np.dtype(
+    [(name, np.float64) for name in ("rho_0", "rho_inf", "beta", "a", "b_1", "b_2", "upper",
+                                      "lower")]
+)  # fmt: skip
 
 
-def funnel_constants(funnel) -> FunnelConstants:
-    """The :class:`FunnelConstants` of a :class:`~ffsm_pin.control.funnel.Funnel` (rows of its
-    kernel table: contiguous float vectors)."""
-    return FunnelConstants(*funnel.kernel_table())
+def funnel_constants(funnel) -> np.ndarray:
+    """The records (:data:`FUNNEL_RECORD`, one per error component) of a
+    :class:`~ffsm_pin.control.funnel.Funnel`: the rows of its kernel table, the same values."""
+    table = funnel.kernel_table()
+    records = np.empty(table.shape[1], dtype=FUNNEL_RECORD)
+    for name, row in zip(FUNNEL_RECORD.names, table, strict=True):
+        records[name] = row
+    return records
 
 
 class NullSpaceTerm(NamedTuple):
@@ -109,7 +108,7 @@ def wrap_angle(d):
 @njit(cache=True)
 def funnel_terms(f, t, e, identity):
     """(psi, Phi, exit index or -1) of Eqs. (18)-(22) for the funnel ``f``
-    (:class:`FunnelConstants`) at time ``t`` [s], in the dtype of the error ``e`` (real, or
+    (records of :data:`FUNNEL_RECORD`) at time ``t`` [s], in the dtype of the error ``e`` (real, or
     complex for a complex step in ``t`` or the state). The exit index is the component nearest
     to (or farthest beyond) its bound, as :class:`~ffsm_pin.control.funnel.Funnel` reports it;
     ``identity`` gives psi = e, Phi = 1 (no prescribed performance)."""
@@ -125,18 +124,20 @@ def funnel_terms(f, t, e, identity):
     s = np.empty(m, dtype=e.dtype)
     worst, idx = np.inf, -1
     for i in range(m):
-        rho[i] = (f.rho_0[i] - f.rho_inf[i]) * np.exp(-f.beta[i] * t) + f.rho_inf[i]  # Eq. (18)
+        c = f[i]
+        rho[i] = (c.rho_0 - c.rho_inf) * np.exp(-c.beta * t) + c.rho_inf  # Eq. (18)
         s[i] = e[i] / rho[i]
-        margin = min(f.upper[i] - s[i].real, s[i].real - f.lower[i])
+        margin = min(c.upper - s[i].real, s[i].real - c.lower)
         if margin < worst:
             worst, idx = margin, i
     if worst <= 0:
         return psi, Phi, idx
     for i in range(m):
-        num = f.a[i] + f.b_1[i] * s[i]
-        den = f.a[i] + f.b_2[i] * s[i]
+        c = f[i]
+        num = c.a + c.b_1 * s[i]
+        den = c.a + c.b_2 * s[i]
         psi[i] = np.log(num / den)  # Eq. (21)
-        Phi[i] = (f.b_1[i] / num - f.b_2[i] / den) / rho[i]  # Eq. (22)
+        Phi[i] = (c.b_1 / num - c.b_2 / den) / rho[i]  # Eq. (22)
     return psi, Phi, -1
 
 
@@ -250,7 +251,7 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
 __all__ = [
     "COMPLEX_STEP", "JOINT_CENTERING", "STATUS_BASE_ROW", "STATUS_FUNNEL_B", "STATUS_FUNNEL_Z",
     "STATUS_H_COLLAPSE", "STATUS_M_NOT_PD", "STATUS_NONFINITE", "STATUS_OK", "Estimates",
-    "FunnelConstants", "NullSpaceTerm", "damped_pinv", "filter_regressor_update",
+    "FUNNEL_RECORD", "NullSpaceTerm", "damped_pinv", "filter_regressor_update",
     "funnel_constants", "funnel_terms", "joint_centering_gradient", "manipulability",
     "manipulability_gradient", "null_space_term", "perturbed_joints", "spd_det",
     "theta_z_step", "wrap_angle",

@@ -51,7 +51,6 @@ from .kernels import (
     STATUS_FUNNEL_B,
     STATUS_FUNNEL_Z,
     STATUS_OK,
-    FunnelConstants,
     NullSpaceTerm,
     funnel_constants,
     null_space_term,
@@ -93,8 +92,8 @@ class PeriodLaw(NamedTuple):
     gains: KernelGains
     threshold: float  # [m] damped least squares below this sigma_min
     q_bd: np.ndarray  # desired base attitude (m3,) [rad or MRP]
-    funnel_b: FunnelConstants
-    funnel_z: FunnelConstants
+    funnel_b: np.ndarray  # records of kernels.FUNNEL_RECORD, one per component
+    funnel_z: np.ndarray
     null_space: NullSpaceTerm | None  # None: the paper's Eq. (36), nothing compiled for it
     theta_d_true: np.ndarray  # the true theta_d for the diagnostic e (empty: not computed)
 
