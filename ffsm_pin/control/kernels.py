@@ -58,10 +58,8 @@ class Estimates(NamedTuple):
 #: array, a single argument however many components), from
 #: :meth:`~.funnel.Funnel.kernel_table`: rho(t) = (rho_0 - rho_inf) exp(-beta t) + rho_inf
 #: (Eq. 18), ``R(s) = ln((a + b_1 s) / (a + b_2 s))`` of Eq. (21), and the bounds on s = e / rho.
-FUNNEL_RECORD = np.dtype(
-    [(name, np.float64) for name in ("rho_0", "rho_inf", "beta", "a", "b_1", "b_2", "upper",
-                                      "lower")]
-)  # fmt: skip
+FUNNEL_FIELDS = ("rho_0", "rho_inf", "beta", "a", "b_1", "b_2", "upper", "lower")
+FUNNEL_RECORD = np.dtype([(name, np.float64) for name in FUNNEL_FIELDS])
 
 
 def funnel_constants(funnel) -> np.ndarray:
@@ -69,7 +67,7 @@ def funnel_constants(funnel) -> np.ndarray:
     :class:`~ffsm_pin.control.funnel.Funnel`: the rows of its kernel table, the same values."""
     table = funnel.kernel_table()
     records = np.empty(table.shape[1], dtype=FUNNEL_RECORD)
-    for name, row in zip(FUNNEL_RECORD.names, table, strict=True):
+    for name, row in zip(FUNNEL_FIELDS, table, strict=True):
         records[name] = row
     return records
 
