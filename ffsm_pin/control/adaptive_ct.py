@@ -124,6 +124,7 @@ class AdaptiveComputedTorque(CompiledController):
             float(self.threshold), int(self.nt), float(self.dt),
         )  # fmt: skip
         self._ref = reference_arrays(self.reference)
+        self._fields = (tuple(self._gains), tuple(self._ref))  # as the period takes them
         self._period = PERIOD[self.m3]
 
     def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
@@ -147,7 +148,11 @@ class AdaptiveComputedTorque(CompiledController):
             "theta_b_hat": self.theta_b.copy(),
         }
         u, w_r, sigma, damping, finite = self._period(
-            self._geo, self._gains, self._ref, kernel_measurement(meas, self.m3), self.state
+            self._geo,
+            self._fields[0],
+            self._fields[1],
+            kernel_measurement(meas, self.m3),
+            tuple(self.state),
         )
         if not finite:
             raise SimulationError(

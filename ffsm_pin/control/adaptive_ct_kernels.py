@@ -8,8 +8,9 @@ kinematic estimates by the paper's Eqs. (28) and (42), the reference motion of g
 step, the Slotine & Li torque with C(q, w) w_r by polarization, and the gradient law of theta_d
 stepped linearly implicitly. A period takes named bundles (the model's kernel constants,
 :class:`AdaptiveCtKernelGains`, the reference, the measurement and the estimates,
-:class:`~.kernels.Estimates`); the estimates are updated in place; the period returns
-(u_m, w_mr, sigma_min, damping, finite).
+:class:`~.kernels.Estimates`; all but the model's constants as the plain tuples of their
+fields, named again on entry, as in :func:`.period.period`); the estimates are updated in
+place; the period returns (u_m, w_mr, sigma_min, damping, finite).
 """
 
 from __future__ import annotations
@@ -24,7 +25,9 @@ from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms, y_z, ym
 from . import fast, fast_spatial
-from .kernels import COMPLEX_STEP, theta_z_step
+from .interface import Measurement
+from .kernels import COMPLEX_STEP, Estimates, theta_z_step
+from .reference_kernels import ReferenceArrays
 from .resolved_motion_kernels import rates_planar, rates_spatial
 
 
@@ -69,8 +72,11 @@ def _torque_and_update(Y, s, M_hat, m3, k_s, gamma_d, dt, theta_d, theta_b, thet
 
 
 @njit(cache=True)
-def period_planar(geo, gains, ref, meas, est):
+def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     """One adaptive-ct period (planar); updates the estimates in place."""
+    gains = AdaptiveCtKernelGains(*gains_f)  # (the bundles named again: module docstring)
+    ref = ReferenceArrays(*ref_f)
+    meas, est = Measurement(*meas_f), Estimates(*est_f)
     S, off, K, L, ee_row, collinear = geo
     q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
     theta_z, theta_d, theta_b = est
@@ -106,8 +112,11 @@ def period_planar(geo, gains, ref, meas, est):
 
 
 @njit(cache=True)
-def period_spatial(geo, gains, ref, meas, est):
+def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     """One adaptive-ct period (spatial); updates the estimates in place."""
+    gains = AdaptiveCtKernelGains(*gains_f)  # (the bundles named again: module docstring)
+    ref = ReferenceArrays(*ref_f)
+    meas, est = Measurement(*meas_f), Estimates(*est_f)
     jr, ax, er, m = geo
     q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
     theta_z, theta_d, theta_b = est

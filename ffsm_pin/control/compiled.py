@@ -47,14 +47,19 @@ def copied(state: Any) -> Any:
     return state
 
 
-def kernel_measurement(meas: Measurement, m3: int) -> Measurement:
-    """``meas`` with the types a compiled kernel is warmed up and run with: a planar q_b as a
-    float, the true M and C w (known-model controllers) read-only as the sensor's model hands
-    them out (numba types a read-only array apart from a writeable one)."""
+def kernel_measurement(meas: Measurement, m3: int) -> tuple:
+    """The fields of ``meas`` with the types a compiled kernel is warmed up and run with, as a
+    plain tuple (``Measurement(*fields)`` names them again, in a kernel or in Python): a planar
+    q_b as a float, the true M and C w (known-model controllers) read-only as the sensor's
+    model hands them out (numba types a read-only array apart from a writeable one).
+
+    A kernel called every period may take its bundles' fields as plain tuples and name them on
+    entry: numba types a plain tuple from Python at a fraction of a named one's cost (a named
+    tuple's class and field names are part of its type); the package's periods do."""
     q_b = float(meas.q_b) if m3 == 1 else meas.q_b
     M = None if meas.M is None else read_only_view(meas.M)
     h = None if meas.h is None else read_only_view(meas.h)
-    return Measurement(meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
+    return (meas.t, q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
 
 
 def state_field(name: str, doc: str) -> Any:

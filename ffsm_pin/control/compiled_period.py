@@ -30,7 +30,14 @@ from .kernels import (
     STATUS_NONFINITE,
     STATUS_OK,
 )
-from .period import PeriodState, compile_in_parallel, period, period_law, period_outputs
+from .period import (
+    PeriodState,
+    compile_in_parallel,
+    law_fields,
+    period,
+    period_law,
+    period_outputs,
+)
 from .reference_kernels import reference_arrays
 from .schemes import ControlOutput, RowOutput
 from .stops import SingularityWatch, base_row_stop, collapse_stop, inertia_stop, nonfinite_stop
@@ -79,16 +86,19 @@ class CompiledPeriod:
         self._out, self._row = period_outputs(self.signal_layout, m.n_joints, self.m3, self.n_task)
         N = m.n_joints + self.m3
         self._no_M, self._no_h = read_only(np.zeros((N, N))), read_only(np.zeros(N))
+        # what the period takes every period: the bundles' fields (period's docstring)
+        self._fields = (self._geo, law_fields(self._law), tuple(self._ref))
+        self._out_fields = tuple(self._out)
 
-    def _kernel_meas(self, meas: Measurement) -> Measurement:
-        """``meas`` as the period takes it: the true M and C w read-only (known model; as the
-        sensor's model hands them out), the stand-ins otherwise."""
+    def _kernel_meas(self, meas: Measurement) -> tuple:
+        """The fields of ``meas`` as the period takes them: the true M and C w read-only (known
+        model; as the sensor's model hands them out), the stand-ins otherwise."""
         if self.adaptive:
             M, h = self._no_M, self._no_h
         else:
             assert meas.M is not None and meas.h is not None  # the sensor's full model
             M, h = read_only_view(meas.M), read_only_view(meas.h)
-        return Measurement(meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
+        return (meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
 
     def warm_up_call(self, meas: Measurement, dt: float) -> None:
         """The compiled period alone at ``meas`` (no bookkeeping), after a first run's second
@@ -96,8 +106,9 @@ class CompiledPeriod:
         if meas.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             meas = meas._replace(M=np.eye(len(meas.w)), h=np.zeros(len(meas.w)))
         km = self._kernel_meas(meas)
-        compile_in_parallel(self._geo, self._law, self._ref, km, self.state)
-        period(self._geo, self._law, self._ref, dt, km, self.state, self._out)
+        compile_in_parallel(self._geo, self._law, self._ref, Measurement(*km), self.state)
+        geo, law, ref = self._fields
+        period(geo, law, ref, dt, km, tuple(self.state), self._out_fields)
 
     def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
         if self.theta_d_true is None:
@@ -119,8 +130,9 @@ class CompiledPeriod:
     def _run_compiled(self, meas: Measurement, dt: float) -> None:
         """Run the compiled period into the outputs, keep the singularity bookkeeping, and
         raise the stop its status says."""
+        geo, law, ref = self._fields
         status, idx, value = period(
-            self._geo, self._law, self._ref, dt, self._kernel_meas(meas), self.state, self._out
+            geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields
         )
         damping = self._out.damping[0]
         if status == STATUS_OK and damping == 0.0 and self._watch.since is None:

@@ -101,6 +101,7 @@ class GjmComputedTorque(CompiledController):
             self._k_z, float(self.gains.k_v), float(self.threshold), int(self.nt)
         )
         self._ref = reference_arrays(self.reference)
+        self._fields = (tuple(self._gains), tuple(self._ref))  # as the period takes them
         self._period = PERIOD[self.m3]
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
@@ -120,7 +121,11 @@ class GjmComputedTorque(CompiledController):
     def step_compiled(self, meas: Measurement):
         """:meth:`step` by the compiled period (``ffsm_pin/control/gjm_ct_kernels.py``)."""
         u, w_md, sigma, damping = self._period(
-            self._geo, self._gains, self._ref, kernel_measurement(meas, self.m3), self.state
+            self._geo,
+            self._fields[0],
+            self._fields[1],
+            kernel_measurement(meas, self.m3),
+            tuple(self.state),
         )
         return u, {"w_mc": w_md, "sigma_min": sigma, "damping": damping}
 

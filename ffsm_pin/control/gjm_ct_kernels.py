@@ -13,7 +13,9 @@ and velocity regressors of :mod:`ffsm_pin.model._planar_kernels` and
 A period takes named bundles: the model's kernel constants, :class:`GjmKernelGains`, the
 reference (:class:`~.reference_kernels.ReferenceArrays`), the measurement
 (:class:`~.interface.Measurement`) and the estimates (:class:`~.kernels.Estimates`, not
-adapted); it returns (u_m, w_md, sigma_min, damping).
+adapted); it returns (u_m, w_md, sigma_min, damping). Called from Python every period, it takes
+all but the model's constants as the plain tuples of their fields and names them again on
+entry (numba types a plain tuple at a fraction of a named one's cost; :func:`.period.period`).
 """
 
 from __future__ import annotations
@@ -27,7 +29,9 @@ from numba import njit
 from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms
-from .kernels import COMPLEX_STEP
+from .interface import Measurement
+from .kernels import COMPLEX_STEP, Estimates
+from .reference_kernels import ReferenceArrays
 from .resolved_motion_kernels import rates_planar, rates_spatial
 
 
@@ -42,8 +46,11 @@ class GjmKernelGains(NamedTuple):
 
 # ---------------------------------------------------------------------- planar
 @njit(cache=True)
-def period_planar(geo, gains, ref, meas, est):
+def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     """(u_m, w_md, sigma_min, damping) of one gjm-ct period (planar)."""
+    gains = GjmKernelGains(*gains_f)  # (the bundles named again: module docstring)
+    ref = ReferenceArrays(*ref_f)
+    meas, est = Measurement(*meas_f), Estimates(*est_f)
     S, off, K, L, ee_row, collinear = geo
     q_b, q_m, w = meas.q_b, meas.q_m, meas.w
     theta_d = est.theta_d
@@ -66,8 +73,11 @@ def period_planar(geo, gains, ref, meas, est):
 
 # ---------------------------------------------------------------------- spatial
 @njit(cache=True)
-def period_spatial(geo, gains, ref, meas, est):
+def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     """(u_m, w_md, sigma_min, damping) of one gjm-ct period (spatial)."""
+    gains = GjmKernelGains(*gains_f)  # (the bundles named again: module docstring)
+    ref = ReferenceArrays(*ref_f)
+    meas, est = Measurement(*meas_f), Estimates(*est_f)
     jr, ax, er, m = geo
     q_b, q_m, w = meas.q_b, meas.q_m, meas.w
     theta_d = est.theta_d

@@ -45,7 +45,7 @@ from .._array_kernels import put
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
-from .interface import SignalLayout
+from .interface import Measurement, SignalLayout
 from .kernels import (
     COMPLEX_STEP,
     STATUS_FUNNEL_B,
@@ -55,6 +55,7 @@ from .kernels import (
     funnel_constants,
     null_space_term,
 )
+from .reference_kernels import ReferenceArrays
 
 #: The compiled kernels of each geometry, by the type of the model's kernel constants. Each
 #: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
@@ -149,6 +150,12 @@ def period_law(*, n_task: int, scheme: str, gains, threshold: float, q_bd, funne
     )  # fmt: skip
 
 
+def law_fields(law: PeriodLaw) -> tuple:
+    """The fields of ``law`` as :func:`period` takes them: a plain tuple, the gains' too (the
+    null-space term stays a named tuple or None: numba prunes its code on None)."""
+    return (*law[:4], tuple(law.gains), *law[5:])
+
+
 def period_outputs(
     layout: SignalLayout, n: int, m3: int, n_task: int
 ) -> tuple[PeriodOutputs, np.ndarray]:
@@ -226,18 +233,27 @@ for _cls, _kernels in GEOMETRIES.items():
 
 # ---------------------------------------------------------------------- one period
 @njit(cache=True)
-def period(geo, law, ref, dt, meas, state, out):
-    """One control period at ``meas`` (time t [s]) over [t, t + dt): advances ``state`` in
-    place, writes ``out`` and returns (status, exit index, value).
+def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
+    """One control period at the measurement (time t [s]) over [t, t + dt): advances the
+    state in place, writes the outputs and returns (status, exit index, value).
 
-    ``geo`` the model's kernel constants (its type selects the geometry's kernels), ``law`` a
-    :class:`PeriodLaw` (the known-model scheme, ``law.adaptive`` False, reads Pinocchio's
-    reduced M and C w from ``meas.M``, ``meas.h``), ``ref`` the reference's arrays, ``state``
-    a :class:`PeriodState`, ``out`` a :class:`PeriodOutputs`. ``value`` is what a stop reports:
-    the exiting error component (a funnel exit, its index the exit index), |H_bm-hat| (its
-    collapse), the smallest singular value of the base rows' matrix (a singular filter);
-    |H_bm-hat| otherwise.
+    ``geo`` the model's kernel constants (a named tuple: its type selects the geometry's
+    kernels); the other bundles arrive as the plain tuples of their fields, in order
+    (:func:`law_fields` for :class:`PeriodLaw`; ``tuple(...)`` of
+    :class:`~.reference_kernels.ReferenceArrays`, :class:`~.interface.Measurement`,
+    :class:`PeriodState`, :class:`PeriodOutputs`) and are named again here: numba types a
+    plain tuple from Python at a fraction of a named one's cost (each named tuple's class and
+    field names are part of its type), and this is called every period. The known-model
+    scheme (``law.adaptive`` False) reads Pinocchio's reduced M and C w from ``meas.M``,
+    ``meas.h``. ``value`` is what a stop reports: the exiting error component (a funnel exit,
+    its index the exit index), |H_bm-hat| (its collapse), the smallest singular value of the
+    base rows' matrix (a singular filter); |H_bm-hat| otherwise.
     """
+    g = law_f[4]
+    law = PeriodLaw(law_f[0], law_f[1], law_f[2], law_f[3], KernelGains(*g), law_f[5], law_f[6],
+                    law_f[7], law_f[8], law_f[9], law_f[10])  # fmt: skip
+    ref, meas = ReferenceArrays(*ref_f), Measurement(*meas_f)
+    state, out = PeriodState(*state_f), PeriodOutputs(*out_f)
     n = meas.q_m.size
     w = meas.w
     # the estimates and w-hat at t, written now, before they advance
@@ -336,5 +352,5 @@ def _compile_run_kernels(geo, law, ref, meas, state) -> None:
 
 __all__ = [
     "GEOMETRIES", "SIGNALS", "KernelGains", "PeriodLaw", "PeriodOutputs", "PeriodState",
-    "compile_in_parallel", "period", "period_law", "period_outputs",
+    "compile_in_parallel", "law_fields", "period", "period_law", "period_outputs",
 ]  # fmt: skip

@@ -96,7 +96,7 @@ class KitPD(CompiledController):
 
     def step_compiled(self, meas: Measurement):
         """The period by :func:`pd_period`."""
-        u, err = pd_period(self.gains, kernel_measurement(meas, self.m3), self.state)
+        u, err = pd_period(self.gains, Measurement(*kernel_measurement(meas, self.m3)), self.state)
         return u, {"position_error": err}
 
     def step_numpy(self, meas: Measurement):
