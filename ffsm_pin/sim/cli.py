@@ -28,7 +28,8 @@ from ..errors import FfsmError, OutputError
 from ..scenario.file import BUILTIN, builtin_scenario, load_scenario
 from ..scenario.spec import Scenario
 from .compile_note import note_compilation
-from .outputs import RunFolder, check_writable, output_error, write_outputs
+from .files import RunFolder, check_writable, output_error
+from .outputs import write_outputs
 from .result import FIGURE_ROWS, RunResult
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_OUTPUT, EXIT_INTERRUPTED = 0, 2, 3, 4, 130

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .recorder import Signals, Thinned
+from .files import RunFolder, held_interrupt, output_error, strict_json
+from .recorder import Signals, Thinned, write_npz
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
@@ -296,8 +297,9 @@ class RunResult:
         """Write ``trajectory.npz`` and ``summary.json`` into ``out_dir``; return the summary.
 
         The files replace an earlier run's in ``out_dir`` as a whole, once both are complete
-        (:func:`ffsm_pin.sim.outputs.write_outputs`); ``summary.json`` is strict JSON
-        (non-finite numbers as ``null``).
+        (:class:`~ffsm_pin.sim.files.RunFolder`); ``summary.json`` is strict JSON (non-finite
+        numbers as ``null``). ``python -m ffsm_pin.sim`` writes its folder the same way,
+        with the scenario and the replay (:func:`ffsm_pin.sim.outputs.write_outputs`).
 
         Parameters
         ----------
@@ -316,9 +318,28 @@ class RunResult:
         OutputError
             A file could not be written; ``out_dir`` keeps what it held.
         """
-        from .outputs import write_outputs
+        with held_interrupt(), RunFolder(out_dir) as out:
+            try:
+                summary = self.write_data(out, compress=compress)
+                if figures:
+                    from .figures import write_figures  # matplotlib only when asked for
 
-        return write_outputs(out_dir, self, figures=figures, compress=compress)
+                    write_figures(self.thinned(FIGURE_ROWS), out.staging)
+            except OSError as exc:
+                raise output_error(exc, Path(out_dir)) from None
+            out.commit()
+        return summary
+
+    def write_data(self, out: RunFolder, *, compress: bool = False) -> dict:
+        """Write the recording into a staged run folder ``out``: ``trajectory.npz``,
+        ``summary.json`` and, when the estimates were drawn, ``estimates.json``; return the
+        summary; :meth:`save` and :func:`ffsm_pin.sim.outputs.write_outputs` commit it."""
+        write_npz(out.path("trajectory.npz"), self.signals, compress=compress)
+        summary = self.summary()
+        out.path("summary.json").write_text(strict_json(summary), encoding="utf-8")
+        if self.estimates is not None:
+            out.path("estimates.json").write_text(strict_json(self.estimates), encoding="utf-8")
+        return summary
 
 
 def _max(so_far: float, values: np.ndarray) -> float:
