@@ -17,8 +17,9 @@ import logging
 import os
 import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .._cli import Parser, UsageError, fail, positive_int
 from ..errors import FfsmError
@@ -32,6 +33,9 @@ from .folder import (
     folder_campaign,
     write_text_atomic,
 )
+
+if TYPE_CHECKING:
+    from sys import UnraisableHookArgs
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_ERRORS, EXIT_INTERRUPTED = 0, 2, 3, 130
 
@@ -94,7 +98,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 _lost_interrupts: list[object] = []
 
 
-def _note_lost_interrupt(hook):
+def _note_lost_interrupt(
+    hook: Callable[[UnraisableHookArgs], object],
+) -> Callable[[UnraisableHookArgs], None]:
     """An unraisable-exception hook that keeps a KeyboardInterrupt for :func:`_main`.
 
     numba's compiler calls back into Python from C (ctypes); a Ctrl-C that lands there is
@@ -102,7 +108,7 @@ def _note_lost_interrupt(hook):
     the campaign stops as interrupted after its set-up.
     """
 
-    def note(unraisable):
+    def note(unraisable: UnraisableHookArgs) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             _lost_interrupts.append(unraisable.exc_value)
         else:
@@ -213,7 +219,9 @@ def _run_locked(campaign: Campaign, cases: list[Case], out: Path, args: argparse
     return EXIT_ERRORS if n_err else EXIT_OK
 
 
-def _check_same_campaign(campaign: Campaign, out: Path, args: argparse.Namespace, stamp: str):
+def _check_same_campaign(
+    campaign: Campaign, out: Path, args: argparse.Namespace, stamp: str
+) -> None:
     """Refuse a folder whose campaign.toml is another campaign's (name or scenarios differ);
     with --force, keep that campaign's files under new names and go on."""
     held = out / CAMPAIGN_FILE

@@ -253,7 +253,10 @@ class CampaignIdentity:
 
 def campaign_file_text(name: str, source: str, text: str) -> str:
     """The text of a folder's ``campaign.toml``: a comment naming the campaign and its file
-    (the name a file without ``name`` gets is its file name), then the campaign file."""
+    (the name a file without ``name`` gets is its file name), then the campaign file (without
+    such a comment of its own: a folder's campaign.toml run again)."""
+    while _HEADER_RE.match(text):
+        text = text.partition("\n")[2]
     return _HEADER.format(name=json.dumps(name), source=source) + text
 
 
