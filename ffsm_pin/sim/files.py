@@ -97,6 +97,21 @@ class RunFolder:
             self.abort()
 
 
+@contextlib.contextmanager
+def replaced_file(path: str | Path) -> Iterator[Path]:
+    """Write one file as a whole: yields a temporary name ``.<name>.<pid>.tmp`` in the same
+    folder, renamed to ``path`` when the block ends; removed if it raises (a reader sees the
+    old file or the new one, never a part)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
 def check_writable(folder: str | Path) -> Path:
     """Make ``folder`` and write a small file into it (removed again): raise
     :class:`OutputError` naming it before anything is simulated when it cannot hold a run."""

@@ -31,6 +31,7 @@ from types import TracebackType
 from typing import Any
 
 from ..errors import FfsmError
+from ..sim.files import replaced_file
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -296,11 +297,5 @@ def folder_campaign(folder: Path) -> CampaignIdentity | None:
 def write_text_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file in the same folder and a rename: a
     reader sees the old file or the new one, never a part."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    with replaced_file(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise

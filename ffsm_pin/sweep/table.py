@@ -16,7 +16,6 @@ again (docs/campaigns.md).
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from ..sim.files import replaced_file
 from .campaign import Case
 
 __all__ = ["HEAD", "SUMMARY_TYPES", "ResultsTable", "case_columns"]
@@ -166,13 +166,8 @@ class ResultsTable:
     def write(self) -> None:
         """Write the file atomically: a temporary file in the same folder, then a rename."""
         start = time.perf_counter()
-        tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        try:
+        with replaced_file(self.path) as tmp:
             pq.write_table(self.table(), tmp)
-            os.replace(tmp, self.path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
         self.dirty = False
         self._last_end = time.perf_counter()
         self._last_cost = self._last_end - start
