@@ -210,6 +210,9 @@ def _check(scenarios: list[Scenario]) -> int:
 
     status = EXIT_OK
     for sc in scenarios:
+        loads = _user_code(sc)
+        if loads:
+            print(f"{sc.name}: controller: {loads}")
         rep = check(sc)
         fmt = lambda v, u="": "n/a" if v is None else f"{v:.4g}{u}"  # noqa: E731
         print(
@@ -221,6 +224,18 @@ def _check(scenarios: list[Scenario]) -> int:
         for problem in rep.problems:
             status = fail(problem)
     return status
+
+
+def _user_code(sc: Scenario) -> str | None:
+    """What a ``file.py:Class`` controller type will run, for ``--check``; None otherwise."""
+    from ..control.registry import resolved_type
+
+    kind = sc.controller.type
+    where, sep, name = kind.rpartition(":")
+    if not sep or not where.endswith(".py"):
+        return None
+    path = resolved_type(kind, sc.source.parent if sc.source else None).rpartition(":")[0]
+    return f"loads and runs {path} (class {name})"
 
 
 def _scenarios(args: argparse.Namespace) -> list[Scenario]:

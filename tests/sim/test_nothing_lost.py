@@ -420,3 +420,24 @@ def test_summary_json_is_strict_after_a_blow_up(tmp_path):
 def test_strict_json_turns_non_finite_numbers_into_null():
     text = strict_json({"a": float("inf"), "b": [1.0, float("nan")], "c": {"d": -float("inf")}})
     assert json.loads(text) == {"a": None, "b": [1.0, None], "c": {"d": None}}
+
+
+SHADOWS = (
+    PD
+    + """
+    def step(self, meas):
+        bogus = {"t": -1.0, "q": [9.0] * 8, "err_z": [9.0] * 3, "ctrl_t": 5.0, "u_m": [7.0] * 4}
+        return self.torque(meas), bogus
+"""
+)
+
+
+def test_a_controller_cannot_shadow_the_standard_outputs(tmp_path):
+    """Signals named like the run's own outputs are saved under ctrl_ names; the outputs keep
+    the run's values (compared with the same law reporting nothing)."""
+    shadow = simulate(prepare(_short(_controller_scenario(tmp_path, SHADOWS, "shadow"), 0.05)))
+    honest = simulate(prepare(_short(_controller_scenario(tmp_path, HONEST, "honest"), 0.05)))
+    for key in ("t", "q", "err_z", "u_m"):
+        assert np.array_equal(shadow[key], honest[key]), key
+    assert np.all(shadow["ctrl_t"] == -1.0) and np.all(shadow["ctrl_ctrl_t"] == 5.0)
+    assert np.all(shadow["ctrl_u_m"] == 7.0)
