@@ -62,7 +62,8 @@ def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
         return None
     state = State(setup.robot)
     q, v = np.asarray(signals["q"][rows]), np.asarray(signals["v"][rows])
-    return min(generalized_jacobian_sigma(state.update(a, b), setup.n_task) for a, b in zip(q, v))
+    rows_qv = zip(q, v, strict=True)
+    return min(generalized_jacobian_sigma(state.update(a, b), setup.n_task) for a, b in rows_qv)
 
 
 def case_extras(setup, result, summary: dict[str, Any]) -> dict[str, Any]:
