@@ -89,12 +89,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespace) -> int:
     """Resume or start the campaign in ``out``, write the report; the exit status."""
+    from .auto_repeat import grow, resumed
     from .report import write_report
     from .table import ResultsTable
 
     out.mkdir(parents=True, exist_ok=True)
     (out / "campaign.toml").write_text(campaign.text, encoding="utf-8")
     table = ResultsTable(out / "results.parquet", campaign.columns)
+    campaign, cases = resumed(campaign, cases, table.read())  # repeat = "auto"
     by_hash = {c.case_hash: c for c in cases}
     stale = 0
     if not args.force:
@@ -115,8 +117,14 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
         )
     todo = [c for c in cases if c.case_hash not in table.rows]
     table.write()
-    if todo:
-        _run_on_cluster(todo, table, out, args, campaign.name, len(cases))
+    ran = 0
+    batch: tuple[Campaign, list[Case], list[Case]] | None = (campaign, cases, todo)
+    while batch is not None:  # repeat = "auto": batches until the target is met or capped
+        campaign, cases, todo = batch
+        if todo:
+            _run_on_cluster(todo, table, out, args, campaign.name, len(cases))
+        ran += len(todo)
+        batch = grow(campaign, table)
     write_report(out, campaign)
     n_err = sum(r["status"] == "error" for r in table.rows.values())
     n_stop = sum(r["status"] == "stopped" for r in table.rows.values())
@@ -124,7 +132,7 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
         print(out)
     else:
         print(
-            f"{campaign.name}: {len(table.rows)} cases ({len(todo)} run now), {n_stop} stopped "
+            f"{campaign.name}: {len(table.rows)} cases ({ran} run now), {n_stop} stopped "
             f"early, {n_err} errors\nresults: {out / 'results.parquet'}\nreport:  "
             f"{out / 'report.md'}"
         )

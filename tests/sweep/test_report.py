@@ -8,7 +8,7 @@ from sweep_cases import SMALL
 
 from ffsm_pin.scenario.file import load_scenario
 from ffsm_pin.sweep.campaign import expand, load_campaign
-from ffsm_pin.sweep.report import RATE_SQL, _sql, query, write_report
+from ffsm_pin.sweep.report import RATE_SQL, query, sql, write_report
 from ffsm_pin.sweep.table import ResultsTable
 
 FUNNEL_STOP = "t = 1.0000 s: err_z[1] = 0.9 left its funnel (-0.8, 0.8)"
@@ -47,7 +47,7 @@ def campaign_dir(campaign_file, tmp_path):
 
 def test_rates_and_wilson_intervals(campaign_dir):
     campaign, _, out = campaign_dir
-    rows = query(_sql(RATE_SQL, out / "results.parquet", list(campaign.columns)))
+    rows = query(sql(RATE_SQL, out / "results.parquet", list(campaign.columns)))
     assert [r["controller.estimates.spread"] for r in rows] == [0.1, 0.3]
     a, b = rows
     assert (a["n"], a["kept"], a["stopped"], a["errors"]) == (11, 0, 3, 0)
@@ -66,7 +66,7 @@ def test_report_files(campaign_dir):
     report = write_report(out, campaign).read_text()
     for name in ("fig_funnel_rate.png", "fig_max_u.png", "fig_settle.png", "fig_min_sigma.png"):
         assert (out / name).stat().st_size > 1000 and f"({name})" in report
-    assert "| 0.3 | 10 | 5 | 50% | 24% - 76% | 0 | 1 |" in report
+    assert "| 0.3 | 10 | 5 | 50% | 24% - 76% | 19% - 81% | 0 | 1 |" in report
     assert "case 22: RuntimeError: boom" in report
     assert "| 0.1 | funnel left | 3 | 1.00 | 1.00 |" in report  # the stop causes
     # worst cases: not kept first, largest max |u_m| first; case 11 (u = 110) leads
