@@ -174,7 +174,7 @@ def _overlay(path: Path, title: str, median, worst, signals) -> str:
                         ax.plot(t, bound[:, i] / rho[:, i], color=line.get_color(), lw=0.8,
                                 ls="--")  # fmt: skip
             ax.set_ylabel(f"err_{which} / rho_{which}")
-            ax.legend(loc="lower right", fontsize=7, ncol=3)
+            ax.legend(loc="best", fontsize=7, ncol=3)
             ax.grid(alpha=0.3)
         ax = axes[2, col]
         u = _stack(rows, "u_m")
@@ -190,7 +190,7 @@ def _overlay(path: Path, title: str, median, worst, signals) -> str:
                 for y in (-1, 1):
                     ax.axhline(y, color="k", lw=0.8, ls="--")
             ax.set_ylabel("u_m / limit" if scale is not None else "u_m [N m]")
-            ax.legend(loc="lower right", fontsize=7, ncol=4)
+            ax.legend(loc="best", fontsize=7, ncol=4)
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
     fig.suptitle(f"{title}: errors against their funnels (dashed), torques against limits")
