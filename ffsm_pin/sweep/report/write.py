@@ -70,8 +70,12 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         f"SELECT count(*) AS n, sum(wall_time_s) AS wall FROM read_parquet('{quoted(path)}')"
     )[0]
     files = figures(out, cols, rates, points)
+    auto = status_text(campaign, query(
+        'SELECT grid_point, nominal, status, funnel_ok_b, funnel_ok_z '
+        f"FROM read_parquet('{quoted(path)}')"
+    )) if campaign.auto is not None else ""  # fmt: skip
 
-    lines = _head(out, campaign, total, runs)
+    lines = _head(out, campaign, total, auto)
     lines += _nominal(nominal, by)
     controllers: list[dict[str, Any]] = []
     if CONTROLLER_KEY in cols:
@@ -85,7 +89,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         lines += failed_section(failed, runs, by)
     if CONTROLLER_KEY in cols:
         lines += paired_section(paired_rows(runs, cols), labels)
-    lines += how_many_section(rates, controllers, by, status_text(campaign, runs))
+    lines += how_many_section(rates, controllers, by, auto)
     lines += _spread(cols, spread, files, have)
     lines += _overlays(out, runs, by, labels)
     lines += _worst(out, cols, worst)
@@ -112,7 +116,7 @@ def _labels(path: Path, have: set[str]) -> dict[str, str]:
     return controller_labels(kinds)
 
 
-def _head(out: Path, campaign: Campaign, total, runs) -> list[str]:
+def _head(out: Path, campaign: Campaign, total, auto: str) -> list[str]:
     lines = [f"# Campaign `{campaign.name}`", ""]
     if campaign.description:
         lines += [campaign.description, ""]
@@ -132,8 +136,8 @@ def _head(out: Path, campaign: Campaign, total, runs) -> list[str]:
         f"{f(total['wall'], '{:.0f}')} s of simulation wall time in total.",
         "",
     ]
-    if campaign.auto is not None:
-        lines += [status_text(campaign, runs), ""]
+    if auto:
+        lines += [auto, ""]
     lines += [
         "Reproduce (from the repository root; an existing folder is resumed, `--force` re-runs):",
         "",
