@@ -9,7 +9,7 @@ from typing import Any
 
 from ..stats import mcnemar_exact, runs_for_half_width, runs_to_separate, wilson_half_width
 from .sql import CONTROLLER_KEY
-from .text import f, table
+from .text import f, relabel, table
 
 __all__ = ["failed_section", "how_many_section", "paired_rows", "paired_section"]
 
@@ -24,7 +24,10 @@ def _left(r: Row) -> str:
 
 
 def failed_section(
-    failed: list[dict[str, Any]], runs: Sequence[Row], by: tuple[str, ...]
+    failed: list[dict[str, Any]],
+    runs: Sequence[Row],
+    by: tuple[str, ...],
+    labels: Mapping[str, str],
 ) -> list[str]:
     """The section "Why runs failed": the rows of FAILED_SQL, each with its share of the
     controller's runs (``runs``: every run, RUNS_SQL)."""
@@ -35,6 +38,7 @@ def failed_section(
     for r in failed:
         n = totals.get((*(r[c] for c in by), r["controller"]), 0)
         r["share"] = f"{r['runs']} of {n}" if n else str(r["runs"])
+    relabel(failed, labels, ("controller",))
     lines = [
         "## Why runs failed",
         "",

@@ -84,9 +84,8 @@ def write_report(out: Path, campaign: Campaign) -> Path:
     lines += _rates(cols, rates, causes, files["rate"])
     if "first_violation_funnel" in have:
         failed = query(sql(FAILED_SQL, path, by=by_sel(by)))
-        relabel(failed, labels, lab_keys)
         q["failed"] = sql(FAILED_SQL, Path("results.parquet"), by=by_sel(by))
-        lines += failed_section(failed, runs, by)
+        lines += failed_section(failed, runs, by, labels)
     if CONTROLLER_KEY in cols:
         lines += paired_section(paired_rows(runs, cols), labels)
     lines += how_many_section(rates, controllers, by, auto)
