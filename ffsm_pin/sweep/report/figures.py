@@ -153,7 +153,7 @@ def _stack(rows: list[dict[str, Any]], key: str) -> np.ndarray | None:
 
 def _overlay(path: Path, title: str, median, worst, signals) -> str:
     plt = _plt()
-    fig, axes = plt.subplots(3, 2, figsize=(10, 7.5), sharex="col", squeeze=False)
+    fig, axes = plt.subplots(3, 2, figsize=(11, 7.5), sharex="col", squeeze=False)
     for col, (what, run) in enumerate((("median run", median), ("worst run", worst))):
         rows = signals.get(run["case"], [])
         top = axes[0, col]
@@ -174,7 +174,7 @@ def _overlay(path: Path, title: str, median, worst, signals) -> str:
                         ax.plot(t, bound[:, i] / rho[:, i], color=line.get_color(), lw=0.8,
                                 ls="--")  # fmt: skip
             ax.set_ylabel(f"err_{which} / rho_{which}")
-            ax.legend(loc="best", fontsize=7, ncol=3)
+            _legend(ax, col)
             ax.grid(alpha=0.3)
         ax = axes[2, col]
         u = _stack(rows, "u_m")
@@ -190,11 +190,17 @@ def _overlay(path: Path, title: str, median, worst, signals) -> str:
                 for y in (-1, 1):
                     ax.axhline(y, color="k", lw=0.8, ls="--")
             ax.set_ylabel("u_m / limit" if scale is not None else "u_m [N m]")
-            ax.legend(loc="best", fontsize=7, ncol=4)
+            _legend(ax, col)
         ax.set_xlabel("t [s]")
         ax.grid(alpha=0.3)
     fig.suptitle(f"{title}: errors against their funnels (dashed), torques against limits")
     return _save(fig, path)
+
+
+def _legend(ax, col: int) -> None:
+    """One legend per row, outside the right-hand panel."""
+    if col == 1:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
 
 
 def _outcome(run: Mapping[str, Any]) -> str:
