@@ -435,6 +435,7 @@ def simulate(
         stop_funnel=stop_funnel,
         events=setup.events + list(getattr(controller, "events", [])),
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
+        saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
     )
 
 

@@ -175,6 +175,7 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
 
 
 def _run_locked(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespace) -> int:
+    from .auto_repeat import grow, resumed
     from .report import write_report
     from .table import ResultsTable
 
@@ -184,6 +185,7 @@ def _run_locked(campaign: Campaign, cases: list[Case], out: Path, args: argparse
         out / CAMPAIGN_FILE, campaign_file_text(campaign.name, campaign.source, campaign.text)
     )
     table = ResultsTable(out / "results.parquet", campaign.columns)
+    campaign, cases = resumed(campaign, cases, table.read())  # repeat = "auto"
     by_hash = {c.case_hash: c for c in cases}
     stale = 0
     if not args.force:
@@ -203,8 +205,14 @@ def _run_locked(campaign: Campaign, cases: list[Case], out: Path, args: argparse
         )
     todo = [c for c in cases if c.case_hash not in table.rows]
     table.write()
-    if todo:
-        _run_on_cluster(todo, table, out, args, campaign.name, len(cases))
+    ran = 0
+    batch: tuple[Campaign, list[Case], list[Case]] | None = (campaign, cases, todo)
+    while batch is not None:  # repeat = "auto": batches until the target is met or capped
+        campaign, cases, todo = batch
+        if todo:
+            _run_on_cluster(todo, table, out, args, campaign.name, len(cases))
+        ran += len(todo)
+        batch = grow(campaign, table)
     write_report(out, campaign)
     n_err = sum(r["status"] == "error" for r in table.rows.values())
     n_stop = sum(r["status"] == "stopped" for r in table.rows.values())
@@ -212,7 +220,7 @@ def _run_locked(campaign: Campaign, cases: list[Case], out: Path, args: argparse
         print(out)
     else:
         print(
-            f"{campaign.name}: {len(table.rows)} cases ({len(todo)} run now), {n_stop} stopped "
+            f"{campaign.name}: {len(table.rows)} cases ({ran} run now), {n_stop} stopped "
             f"early, {n_err} errors\nresults: {out / 'results.parquet'}\nreport:  "
             f"{out / 'report.md'}"
         )
@@ -246,6 +254,7 @@ def _check_same_campaign(
     for name, new in (
         (CAMPAIGN_FILE, f"campaign-before-{stamp}.toml"),
         ("results.parquet", f"results-before-{stamp}.parquet"),
+        ("signals.parquet", f"signals-before-{stamp}.parquet"),
     ):
         if (out / name).is_file():
             os.replace(out / name, out / new)

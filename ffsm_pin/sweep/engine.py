@@ -207,6 +207,7 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     """
     from ..scenario.file import scenario_from_toml
     from ..sim.run import prepare, simulate
+    from .explain import case_extras
 
     wall0, cpu0 = time.perf_counter(), time.thread_time()
     try:
@@ -216,6 +217,7 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
             setup = prepare(scenario)
             result = simulate(setup)
         summary = result.summary()
+        extras = case_extras(setup, result, summary)  # lists, min_sigma_gjm, signals
         if keep_dir is not None:
             from ..sim.outputs import write_outputs
 
@@ -225,7 +227,8 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
         text = f"{type(exc).__name__}: {exc} ({Path(where.filename).name}:{where.lineno})"
         return {"status": "error", "error": " ".join(text.split()), **_cost(wall0, cpu0)}
     status = "completed" if result.completed else "stopped"
-    return {"status": status, "error": None, **summary_scalars(summary), **_cost(wall0, cpu0)}
+    scalars = summary_scalars(summary)
+    return {"status": status, "error": None, **scalars, **extras, **_cost(wall0, cpu0)}
 
 
 def _cost(wall0: float, cpu0: float) -> dict[str, float]:
