@@ -203,6 +203,10 @@ def scenario_to_toml(scenario: Scenario) -> str:
             f"{k} = {_toml(getattr(sat, k))}"
             for k in ("mass", "inertia", "size", "mount_xyz", "mount_rpy", "name")
         ]
+    if r.payload is not None:
+        pay = r.payload
+        lines += ["", "[robot.payload]"]
+        lines += [f"{k} = {_toml(getattr(pay, k))}" for k in ("mass", "com", "inertia", "known")]
     lines += [
         "",
         "[initial]",
@@ -340,6 +344,11 @@ def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
         from ..robot import Satellite
 
         satellite = Satellite(**r.satellite.model_dump())
+    payload = None
+    if r.payload is not None:
+        from ..robot import Payload
+
+        payload = Payload(**r.payload.model_dump())
     return RobotSpec(
         urdf=r.urdf,
         base=r.base,
@@ -347,6 +356,7 @@ def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
         relative_to=str(src.parent.resolve()) if src is not None else None,
         locked_joints=tuple((k, float(v)) for k, v in r.locked_joints.items()),
         satellite=satellite,
+        payload=payload,
     )
 
 

@@ -38,7 +38,9 @@ from ..control.controller import SCHEMES
 from ..control.gains import Gains, SingularityPolicy
 from ..control.kinematic import TASKS
 from ..control.null_space import OBJECTIVES, NullSpace
-from ..errors import ScenarioError, choices_text, did_you_mean
+from ..errors import InertiaError, ScenarioError, choices_text, did_you_mean
+from ..robot.geometry import check_inertia
+from ..robot.payload import Payload
 from ..robot.satellite import Satellite
 from .devices import LIMIT_WORDS, ActuatorSpec, SensorSpec
 from .spec import (
@@ -196,6 +198,26 @@ class SatelliteModel(_Table):
     name: str = default(Satellite, "name")
 
 
+class PayloadModel(_Table):
+    """``[robot.payload]``, :class:`~ffsm_pin.robot.Payload`: a rigid body held by the end
+    effector (com and inertia in the end-effector frame)."""
+
+    mass: Pos  # [kg]
+    com: vec(3) = default(Payload, "com")  # [m], end-effector frame
+    inertia: vec(6)  # ixx, iyy, izz, ixy, ixz, iyz about its CoM [kg m^2]
+    known: bool = default(Payload, "known")  # in the controller's estimates
+
+    @model_validator(mode="after")
+    def physical(self):
+        """Refuse an inertia no rigid body has."""
+        xx, yy, zz, xy, xz, yz = self.inertia
+        try:
+            check_inertia(self.mass, [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]], "the payload")
+        except InertiaError as exc:
+            fail(("inertia",), f" = {list(self.inertia)}: {str(exc).removeprefix('the payload ')}")
+        return self
+
+
 class RobotModel(_Table):
     """``[robot]``: the URDF, its root (planar or free-flyer), end effector, satellite."""
 
@@ -204,6 +226,7 @@ class RobotModel(_Table):
     end_effector: str = default(RobotSpec, "end_effector")
     locked_joints: dict[str, Num] = {}  # [rad or m], free-flyer only
     satellite: SatelliteModel | None = None  # free-flyer only
+    payload: PayloadModel | None = None  # held by the end effector
 
     @model_validator(mode="after")
     def spatial_only(self):

@@ -211,7 +211,8 @@ class Reference:
 class RobotSpec:
     """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
     optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
-    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root)."""
+    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root); ``payload``, a
+    :class:`~ffsm_pin.robot.Payload` held by the end effector (either base)."""
 
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
     base: str = "planar"
@@ -219,6 +220,7 @@ class RobotSpec:
     relative_to: str | None = None  # folder of the scenario file
     locked_joints: tuple[tuple[str, float], ...] = ()
     satellite: Any = None  # ffsm_pin.robot.Satellite | None
+    payload: Any = None  # ffsm_pin.robot.Payload | None, held by the end effector
 
 
 @dataclass(frozen=True)
