@@ -215,7 +215,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         f"joints = {_toml(ini.joints)}",
         f"joint_rates = {_toml(ini.joint_rates)}",
     ]
-    for key in ("base_twist", "com_velocity", "base_rate", "angular_momentum"):
+    for key in ("base_twist", "com_velocity", "base_rate", "angular_momentum", "attitude_error"):
         if getattr(ini, key) is not None:
             lines.append(f"{key} = {_toml(getattr(ini, key))}")
     lines += ["", "[reference]", f"task = {_toml(ref.task)}"]
@@ -374,8 +374,8 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
             s = mrp.from_quaternion(q / np.linalg.norm(q))
         base_pose = base_pose + tuple(float(x) for x in s)
     joints = _floats(ini.joints)
-    rates = ini.base_rate, ini.angular_momentum
-    rate, mom = (_vec(x) if isinstance(x, list) else x for x in rates)
+    rates = ini.base_rate, ini.angular_momentum, ini.attitude_error
+    rate, mom, error = (_vec(x) if isinstance(x, list) else x for x in rates)
     try:
         return InitialCondition(
             base_pose=base_pose,
@@ -386,6 +386,7 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
             com_velocity=_vec(ini.com_velocity),
             base_rate=rate,
             angular_momentum=mom,
+            attitude_error=error,
         )
     except ParameterError as exc:
         raise ScenarioError(f"[initial] {exc}") from None

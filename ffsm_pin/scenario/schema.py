@@ -256,6 +256,9 @@ class InitialModel(_Table):
     com_velocity: Vec | None = None  # [m/s]
     base_rate: NumOrVec | None = None  # [rad/s]
     angular_momentum: NumOrVec | None = None  # [kg m^2/s]
+    attitude_error: NumOrVec | None = (
+        None  # [rad] on top of base_pose: planar angle, spatial axis*angle
+    )
 
     @field_validator("base_attitude_quaternion")
     @classmethod
@@ -525,7 +528,7 @@ class ScenarioModel(_Table):
             check_mrp(ini.base_pose[3:], ("initial", "base_pose"), "[3:6]")
         for key, n in (("base_twist", 6 if spatial else 3), ("com_velocity", 3 if spatial else 2)):
             _length(getattr(ini, key), n, ("initial", key))
-        for key in ("base_rate", "angular_momentum"):
+        for key in ("base_rate", "angular_momentum", "attitude_error"):
             value = getattr(ini, key)
             if value is not None and isinstance(value, list) != spatial:
                 fail(("initial", key), f": expected {'3 numbers' if spatial else 'a number'}")

@@ -235,6 +235,10 @@ class InitialCondition:
       * base_twist = (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s];
       * com_velocity = v_0 (2 / 3) [m/s] with base_rate = w_b (number / 3) [rad/s];
       * com_velocity with angular_momentum = A_0 about the system CoM (number / 3) [kg m^2/s].
+    attitude_error: an initial base attitude error applied on top of base_pose's attitude:
+        planar an angle added to q_b [rad]; spatial a rotation vector (axis times angle)
+        [rad] about inertial axes, R(0) = exp([e]x) R(base_pose). A campaign draws it in a
+        random direction with a given angle (docs/campaigns.md, ``{ angle = ... }``).
     """
 
     base_pose: tuple[float, ...]
@@ -245,6 +249,7 @@ class InitialCondition:
     com_velocity: tuple[float, ...] | None = None
     base_rate: float | tuple[float, ...] | None = None
     angular_momentum: float | tuple[float, ...] | None = None
+    attitude_error: float | tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         by_twist = self.base_twist is not None
