@@ -11,7 +11,7 @@ theta_z and theta_b (v_0 and A_0) are those of the drawn robot at the measured i
 
 What was drawn is a record, written as ``estimates.json`` in the run's folder
 (:func:`bodies_record`); :func:`estimates_from_record` computes the same estimates from it.
-docs/model.md section 8 says what the spread means.
+docs/model.md section 6 says what the spread means.
 """
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ def perturb_body(
     planar: bool = False,
     line: Sequence[float] | None = None,
 ) -> pin.Inertia:
-    """A rigid body drawn around ``body`` with relative ``spread`` s (docs/model.md section 8).
+    """A rigid body drawn around ``body`` with relative ``spread`` s (docs/model.md section 6).
 
     * mass: m (1 + U(-s, s)), positive since s < 1;
     * centre of mass: moved by at most s r, r the RMS distance of the body's mass from its CoM
