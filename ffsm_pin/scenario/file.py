@@ -26,6 +26,9 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
   (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
+Either base takes ``[robot.payload]`` (:class:`~ffsm_pin.robot.Payload`, a body held by the
+end effector) and ``[initial] attitude_error`` (a base attitude error on top of ``base_pose``).
+
 Spatial robots (``base = "free-flyer"``, docs/cli.md "Spatial robots"): ``[robot]`` also takes
 ``locked_joints = { name = value }`` and ``[robot.satellite]``
 (:class:`~ffsm_pin.robot.Satellite`); ``[initial] base_pose`` is x, y, z and an MRP

@@ -275,9 +275,10 @@ class InitialCondition:
 class Estimates:
     """Initial parameter estimates: 'paper' (Table 2), 'true', 'perturbed' or 'explicit'.
 
-    'perturbed': every true parameter times 1 + U(-spread, spread), from a generator seeded
-    with ``seed``; a draw of theta_d with an indefinite inertia M-hat is redrawn from the same
-    stream (see :func:`ffsm_pin.sim.estimates.perturbed_estimates`).
+    'perturbed': every body's mass, centre of mass and rotational inertia drawn as a rigid body
+    within ``spread`` of the truth, from a generator seeded with ``seed``, the barycentric
+    estimates derived from the drawn bodies (:func:`ffsm_pin.sim.estimates.perturb_body`,
+    docs/model.md section 6).
     """
 
     initial: str = "paper"

@@ -4,7 +4,9 @@ A campaign names a scenario (built-in name or file) or several, a root seed, a n
 per grid point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``) and
 for one scenario's cases (``[campaign.set_for.<scenario>]``), grid axes
 (``[[vary]]``: a dotted scenario key and its values) and randomly sampled keys (``[[sample]]``:
-a dotted key and a distribution). :func:`expand` turns it into cases:
+a dotted key and a distribution) and dispersed keys (``[campaign.disperse]``: any numeric
+scenario key drawn per case, each from its own stream, read back from the case's resolved
+scenario). :func:`expand` turns it into cases:
 
 * with several scenarios, each gets the cases below in turn (its own nominal case first), and
   the column ``scenario`` says which; the grid's seeds are the same for every scenario;
