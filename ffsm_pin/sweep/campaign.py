@@ -346,13 +346,13 @@ def expand(campaign: Campaign) -> list[Case]:
         except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
             raise CampaignError(f"{campaign.source}: scenario {str(path)!r}: {exc}") from None
         own = campaign.set_for.get(name, {})
-        sizes = _disperse_sizes(campaign, base, path)
         tag = {SCENARIO_COLUMN: name} if several else {}
         index = len(cases)
         label = f"nominal scenario {name}" if several else "nominal scenario"
         cases.append(
             _case(campaign, base, path, index, None, None, tag, common, _seed_of(base), label)
         )
+        sizes = _disperse_sizes(campaign, base, path, cases[-1].scenario_toml)
         for p, values in enumerate(points):
             point = {**tag, **{v.key: x for v, x in zip(campaign.vary, values, strict=True)}}
             # every scenario draws the same seeds (common random numbers; a campaign over one
@@ -389,12 +389,15 @@ def expand(campaign: Campaign) -> list[Case]:
     return cases
 
 
-def _disperse_sizes(campaign: Campaign, doc: Mapping, path: Path) -> dict[str, int | None]:
+def _disperse_sizes(
+    campaign: Campaign, doc: Mapping, path: Path, nominal_toml: str
+) -> dict[str, int | None]:
     """For each ``[campaign.disperse]`` key: None (a number is drawn) or the number of values
     (element-wise); CampaignError (one line) for a key that is no scenario key or not numeric.
 
-    A key whose value in the scenario (its file, or the default the resolved scenario writes)
-    is a list of numbers is drawn element-wise with that length (a list bound must have it);
+    ``doc`` is the scenario file's document, ``nominal_toml`` its resolved nominal case. A key
+    whose value in the scenario (its file, or the default the resolved scenario writes) is a
+    list of numbers is drawn element-wise with that length (a list bound must have it);
     a number, or a key the file leaves out whose value may be a number, is drawn as a number
     (as a list where a bound is a list). ``angle`` draws a 3-vector on a free-flyer robot and
     an angle on a planar one unless the value is already a list or a number.
@@ -403,12 +406,7 @@ def _disperse_sizes(campaign: Campaign, doc: Mapping, path: Path) -> dict[str, i
     if not campaign.disperse:
         return out
     where = f"{campaign.source}: campaign.disperse"
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            resolved = tomllib.loads(scenario_to_toml(scenario_from_dict(doc, source=path)))
-    except FfsmError as exc:
-        raise CampaignError(f"{campaign.source}: scenario {str(path)!r}: {exc}") from None
+    resolved = tomllib.loads(nominal_toml)  # the scenario file's values and defaults
     for d in campaign.disperse:
         _schema_key(d.key, where)
         value = _lookup(resolved, d.key, _lookup(doc, d.key))
