@@ -476,5 +476,6 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         damping_threshold=sc.controller.singularity.threshold,
         description=sc.description,
         controller=kind,
+        estimates=dict(setup.drawn_estimates) or None,
         **outcome,
     )
