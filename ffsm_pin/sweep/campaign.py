@@ -78,6 +78,9 @@ __all__ = [
 
 #: The column of the scenario in a campaign over several scenarios.
 SCENARIO_COLUMN = "scenario"
+#: Grid axes that do not change a case's random draws (estimates, samples, dispersions): the
+#: cases of every scenario and every controller type at one grid point and repeat draw alike.
+COMMON_DRAWS = (SCENARIO_COLUMN, "controller.type")
 
 
 class CampaignError(FfsmError, ValueError):
@@ -382,18 +385,20 @@ def expand(campaign: Campaign) -> list[Case]:
         sizes = _disperse_sizes(campaign, base, path, cases[-1].scenario_toml)
         for p, values in enumerate(points):
             point = {**tag, **{v.key: x for v, x in zip(campaign.vary, values, strict=True)}}
-            # every scenario draws the same seeds (common random numbers; a campaign over one
-            # scenario draws what it drew before campaigns could have several)
+            # every scenario and every controller type draws the same seeds (common random
+            # numbers: the paired comparison of the report compares controllers on the same
+            # draws; a campaign over one scenario and one controller draws what it drew before)
             grid = {k: v for k, v in point.items() if k != SCENARIO_COLUMN}
+            draws = {k: v for k, v in grid.items() if k not in COMMON_DRAWS}
             for r in range(campaign.repeat):
-                seed = estimates_seed(campaign.seed, grid, r)
+                seed = estimates_seed(campaign.seed, draws, r)
                 keys = {**common, **campaign.set, **own, **grid, SEED_KEY: seed}
                 for s in campaign.sample:
-                    stream = case_stream(campaign.seed, grid, r, "sample:" + s.key)
+                    stream = case_stream(campaign.seed, draws, r, "sample:" + s.key)
                     keys[s.key] = s.draw(np.random.default_rng(stream))
                 drawn = {}
                 for d in campaign.disperse:  # each key its own stream: others' draws unchanged
-                    stream = case_stream(campaign.seed, grid, r, "disperse:" + d.key)
+                    stream = case_stream(campaign.seed, draws, r, "disperse:" + d.key)
                     drawn[d.key] = d.draw(np.random.default_rng(stream), sizes[d.key])
                 keys.update(drawn)
                 index = len(cases)
