@@ -16,8 +16,8 @@ from pathlib import Path
 import pinocchio as pin
 
 from ..errors import UnsupportedJointError, UrdfError, choices_text, did_you_mean
-from .capture import native_call
 from .geometry import body_names, check_serial, end_effector_frame
+from .native import native_call
 from .payload import Payload
 from .robot import Robot
 from .roots import ROOTS, SUPPORTED_BASES
