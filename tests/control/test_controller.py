@@ -5,6 +5,7 @@ non-increasing (Eq. 43), and the plant keeps its momentum to rounding."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 from pathlib import Path
@@ -277,12 +278,17 @@ def test_damped_since_follows_each_stretch_of_damped_periods(backend):
     """``damped_since`` is the start of the current stretch of periods whose damping is
     positive, and None after a period without: checked against the damping each period
     reports, period by period, over planar5's first 7.3 s, which enter damped least squares
-    at about 6.27 s and leave it at about 7.22 s (an ordinary period of the compiled backend
+    at about 5.68 s and leave it at about 7.15 s (an ordinary period of the compiled backend
     skips the bookkeeping: this holds it to the same state). Entering warns once, pointing at
     the line that called the law (the paper's controller's ``step``), not inside it."""
     from ffsm_pin.sim.plant import Plant
 
-    setup = prepare(builtin_scenario("planar5"))
+    sc = builtin_scenario("planar5")
+    # a threshold above the arm's sigma_min between 5.7 and 7.1 s (the shipped 0.05 m is never
+    # reached from its physical estimates, docs/null_space.md)
+    policy = dataclasses.replace(sc.controller.singularity, threshold=0.09)
+    sc = dataclasses.replace(sc, controller=dataclasses.replace(sc.controller, singularity=policy))
+    setup = prepare(sc)
     ctrl = setup.controller
     if backend == "numpy":
         ctrl = LuJiaController(ctrl.context, backend="numpy")

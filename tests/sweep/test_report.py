@@ -152,7 +152,7 @@ def test_report_explains_failures_and_compares_pairs(campaign_file, tmp_path):
     assert "| lu-jia | stopped: funnel | z[1] | 1 of 6 | 2.00 | 2.00 |" in failed
     # pairs by repeat index: both kept on 0, 1; only lu-jia on 2, 3, 4; neither on 5
     paired = report.split("## Paired comparison", 1)[1].split("\n## ", 1)[0]
-    assert "| MyCtl | lu-jia | 6 | 2 | 0 | 3 | 1 | 0.25 | no |" in paired  # p = 2 / 2^3
+    assert "| MyCtl | lu-jia | 6 | 2 | 0 | 3 | 1 | 0.25 | yes |" in paired  # p = 2 / 2^3
     many = report.split("## How many runs", 1)[1].split("\n## ", 1)[0]
     assert "The two closest controllers: MyCtl (33% of 6 runs) and lu-jia (83% of 6)" in many
     assert "| 33% (10% - 70%; exact 4% - 78%) |" in report  # 2 of 6: Wilson; Clopper-Pearson
