@@ -231,7 +231,7 @@ class TargetState:
         return L + np.cross(lever, self.linear_momentum(target))
 
     def kinetic_energy(self, target: Target) -> float:
-        """m |v|^2 / 2 + w^T I w / 2 [J]."""
+        """``m v.v / 2 + w^T I w / 2`` [J]."""
         w = self.angular_velocity
         return 0.5 * target.mass * float(self.velocity @ self.velocity) + 0.5 * float(
             w @ target.inertia @ w

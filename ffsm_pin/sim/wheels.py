@@ -68,7 +68,7 @@ class Wheels:
     max_torque:
         (N,) motor torque limits [N m], > 0 (``inf``: none).
     max_momentum:
-        (N,) momentum capacities |h_i| <= max_momentum [N m s], > 0 (``inf``: none).
+        (N,) momentum capacities, ``abs(h_i) <= max_momentum`` [N m s], > 0 (``inf``: none).
     """
 
     axes: np.ndarray
@@ -129,7 +129,7 @@ class Wheels:
 
     def limit(self, h, tau, dt: float) -> np.ndarray:
         """The torques [N m] the wheels apply for commanded ``tau`` over ``dt`` [s] from
-        momenta ``h``: clipped to +-max_torque, then so that |h + tau dt| <= max_momentum
+        momenta ``h``: clipped to +-max_torque, then so that ``abs(h + tau dt) <= max_momentum``
         (a wheel at its capacity gives no more torque that way)."""
         h, tau = np.asarray(h, dtype=float), np.asarray(tau, dtype=float)
         out = np.clip(tau, -self.max_torque, self.max_torque)
