@@ -179,3 +179,17 @@ def test_controller_labels():
         "/a/c/x.py:PD": "joint PD", "/a/one.py:Same": "one.py:Same",
         "/a/two.py:Same": "two.py:Same",
     }  # fmt: skip
+
+
+def test_a_user_campaign_says_how_to_reproduce_it_from_anywhere(campaign_dir, tmp_path):
+    """A user's campaign file lies outside the repository: its report's command names it and
+    the output folder by absolute paths, so it runs from any folder (issue 41)."""
+    campaign, _, out = campaign_dir
+    report = write_report(out, campaign).read_text()
+    line = next(ln for ln in report.splitlines() if ln.startswith("python -m ffsm_pin.sweep "))
+    _, _, file, _, folder = line.split()
+    from pathlib import Path
+
+    assert Path(file).is_absolute() and Path(file).is_file()
+    assert Path(folder).is_absolute() and Path(folder) == out.resolve()
+    assert "from any folder" in report

@@ -137,11 +137,18 @@ def _head(out: Path, campaign: Campaign, total, auto: str) -> list[str]:
     ]
     if auto:
         lines += [auto, ""]
+    arg = _campaign_arg(campaign)
+    where = (
+        "from the repository root"  # a built-in campaign, its report shipped in docs/
+        if arg == campaign.name
+        else "from any folder: the campaign file and this folder by their absolute paths"
+    )
+    folder = out if arg == campaign.name else Path(out).resolve()
     lines += [
-        "Reproduce (from the repository root; an existing folder is resumed, `--force` re-runs):",
+        f"Reproduce ({where}; an existing folder is resumed, `--force` re-runs):",
         "",
         "```bash",
-        f"python -m ffsm_pin.sweep {_campaign_arg(campaign)} --out {out}",
+        f"python -m ffsm_pin.sweep {arg} --out {folder}",
         "```",
         "",
         "A case **keeps its funnels** when it runs the whole horizon with both funnels kept "
@@ -429,4 +436,4 @@ def _campaign_arg(campaign: Campaign) -> str:
         campaign.name
     ):
         return campaign.name
-    return campaign.source
+    return str(Path(campaign.source).resolve())
