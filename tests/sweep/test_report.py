@@ -187,7 +187,8 @@ def test_a_user_campaign_says_how_to_reproduce_it_from_anywhere(campaign_dir, tm
     campaign, _, out = campaign_dir
     report = write_report(out, campaign).read_text()
     line = next(ln for ln in report.splitlines() if ln.startswith("python -m ffsm_pin.sweep "))
-    _, _, file, _, folder = line.split()
+    words = line.split()
+    file, folder = words[3], words[words.index("--out") + 1]
     from pathlib import Path
 
     assert Path(file).is_absolute() and Path(file).is_file()
