@@ -41,11 +41,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..errors import ParameterError
+
+if TYPE_CHECKING:  # for the annotations only: the scenario is a layer above the controllers
+    from ..model import ReducedModel
+    from ..robot import Robot
+    from ..scenario.spec import Scenario
 
 # Signals a controller may report under their own names (units in docs/cli.md):
 STANDARD_SIGNALS = {
@@ -110,7 +115,10 @@ class ControllerContext:
     initial:
         The exact measurement at t = 0.
     scenario:
-        The whole scenario (built-in controllers read their own keys from it).
+        The whole scenario: ``scenario.performance`` is what the run is judged by (the
+        funnels and the singularity threshold, :class:`~ffsm_pin.scenario.spec.Performance`),
+        ``scenario.controller.lu_jia`` the paper's controller's own parameters (which another
+        controller may read where it uses them).
     estimates:
         Initial parameter estimates (theta_z, theta_d, theta_b) from ``[controller.estimates]``,
         drawn when first read (a scenario's estimates matter only to a controller that reads
@@ -129,10 +137,10 @@ class ControllerContext:
     params: Mapping[str, Any]
     reference: Callable[[float], ReferenceSample]
     base_attitude_reference: np.ndarray
-    robot: Any
-    model: Any
+    robot: Robot
+    model: ReducedModel
     initial: Measurement
-    scenario: Any = None
+    scenario: Scenario
     estimates_source: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
     truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 

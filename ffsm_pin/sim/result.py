@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..control.registry import DEFAULT_TYPE
 from .recorder import Signals, Thinned
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
@@ -80,7 +81,7 @@ class RunResult:
     :data:`EXTRA_KEYS` to an array (time along axis 0 for the per-sample keys).
     """
 
-    scheme: str | None  # the paper's controller's variant; None for other controllers
+    scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
     robot: str
     dt: float
     duration: float  # requested horizon [s]
@@ -100,7 +101,7 @@ class RunResult:
     rhoinf_z: tuple[float, ...] | None = None
     damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
     description: str = ""
-    controller: str = "lu-jia"  # the controller type ([controller] type)
+    controller: str = DEFAULT_TYPE  # the controller type ([controller] type)
     saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)

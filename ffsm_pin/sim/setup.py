@@ -111,7 +111,8 @@ def prepare(scenario: Scenario) -> Setup:
         scenario = dataclasses.replace(scenario, reference=ref)
     q_bd = np.array(ref.base_attitude, dtype=float)
     err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
-    funnels = {"b": Funnel(ctrl.funnel_b, err_b), "z": Funnel(ctrl.funnel_z, err_z)}
+    perf = scenario.performance  # what every run is judged by
+    funnels = {"b": Funnel(perf.funnel_b, err_b), "z": Funnel(perf.funnel_z, err_z)}
     for label, key, funnel, err in (
         ("base attitude", "rho_b0", funnels["b"], err_b),
         ("end-effector", "rho_z0", funnels["z"], err_z),

@@ -38,7 +38,7 @@ from ffsm_pin.sim.run import Sensor, prepare, simulate
 # The paper's case as shipped (Table 2 initial state, Eq. 80 reference, rho_b0 = 1.0), so the
 # tests also guard the built-in scenario file.
 CASE1 = builtin_scenario("case1")
-EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.controller.funnel_b
+EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.performance.funnel_b
 FUNNEL_Z = ControllerSpec().funnel_z  # the paper's end-effector funnel
 DTS = (2e-3, 1e-3, 5e-4)
 DURATION = 2.0  # [s]
