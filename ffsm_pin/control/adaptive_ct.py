@@ -86,6 +86,8 @@ class AdaptiveComputedTorque:
     """
 
     needs_estimates = True
+    # [controller.params]: the fields of AdaptiveCtGains
+    params_keys = ("k_z", "k_s", "gamma_b", "gamma_z", "gamma_d")
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario

@@ -155,6 +155,7 @@ class GjmComputedTorque:
     """
 
     needs_estimates = True
+    params_keys = ("k_z", "k_v")  # [controller.params]: the fields of GjmGains
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario

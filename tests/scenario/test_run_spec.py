@@ -15,7 +15,9 @@ from pathlib import Path
 import pytest
 
 import ffsm_pin.sim
+from ffsm_pin.control.adaptive_ct import AdaptiveCtGains
 from ffsm_pin.control.gains import SingularityPolicy
+from ffsm_pin.control.gjm_ct import GjmGains
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.control.lu_jia_params import GAIN_KEYS, LuJiaKeys, LuJiaParams
 from ffsm_pin.control.registry import BUILTIN as CONTROLLER_TYPES
@@ -125,6 +127,53 @@ def test_the_lu_jia_controller_ignores_other_controllers_params():
         sc, controller=dataclasses.replace(sc.controller, params={"kp": 40.0}), duration=0.01
     )
     assert simulate(prepare(sc)).completed
+
+
+def test_the_baselines_declare_their_params_keys():
+    """The keys they accept are the fields of their gains (checked before they are built)."""
+    for kind, gains in (("gjm-ct", GjmGains), ("adaptive-ct", AdaptiveCtGains)):
+        keys = tuple(f.name for f in dataclasses.fields(gains))
+        assert CONTROLLER_TYPES[kind].params_keys == keys
+    assert not hasattr(LuJiaController, "params_keys")  # it leaves other types' keys alone
+
+
+@pytest.mark.parametrize(
+    ("kind", "params", "message"),
+    [
+        ("gjm-ct", {"k_vv": 1.0}, "controller.params.k_vv: unknown for controller.type 'gjm-ct' "
+                                  "(did you mean 'k_v'?); valid keys: 'k_z', 'k_v'"),
+        ("adaptive-ct", {"kp": 1.0}, "controller.params.kp: unknown for controller.type "
+                                     "'adaptive-ct'; valid keys: 'k_z', 'k_s', 'gamma_b', "
+                                     "'gamma_z', 'gamma_d'"),
+        ("mine.py:Declared", {"gain": 2.0}, "controller.params.gain: unknown for controller.type "
+                                            "'mine.py:Declared' (did you mean 'gains'?); valid "
+                                            "keys: 'gains', 'target'"),
+        ("mine.py:NoKeys", {"gain": 2.0}, "controller.params.gain: unknown for controller.type "
+                                          "'mine.py:NoKeys'; valid keys: none"),
+    ],
+)  # fmt: skip
+def test_declared_params_keys_refuse_others_in_one_line(kind, params, message, tmp_path):
+    (tmp_path / "mine.py").write_text(
+        textwrap.dedent("""
+        class Declared:
+            params_keys = ("gains", "target")
+
+            def __init__(self, ctx):
+                raise AssertionError("never built with a key it does not declare")
+
+            def step(self, meas):
+                return None
+
+        class NoKeys(Declared):
+            params_keys = ()
+    """)
+    )
+    d = _case1_doc()
+    d["controller"]["type"] = kind
+    d["controller"]["params"] = params
+    with pytest.raises(FfsmError) as info:
+        prepare(scenario_from_dict(d, source=tmp_path / "case.toml"))
+    assert str(info.value) == message
 
 
 @pytest.mark.parametrize("kind", ["gjm-ct", "adaptive-ct"])

@@ -15,18 +15,18 @@ from ffsm_pin.sweep import cli
 from ffsm_pin.sweep.campaign import CampaignError, check_cases, expand, load_campaign
 from ffsm_pin.sweep.engine import run_case
 
-# a user's controller that, like the baselines, refuses keys it does not know
+# a user's controller that, like the baselines, declares the keys it accepts (params_keys:
+# any other is refused before it is built) and needs both
 STRICT_PD = '''
 import numpy as np
 
 
 class StrictPD:
-    """u_m = kp (q_m(0) - q_m) - kd w_m; refuses any [controller.params] key but kp, kd."""
+    """u_m = kp (q_m(0) - q_m) - kd w_m; [controller.params] kp and kd, nothing else."""
+
+    params_keys = ("kp", "kd")
 
     def __init__(self, ctx):
-        unknown = sorted(set(ctx.params) - {"kp", "kd"})
-        if unknown:
-            raise ValueError(f"StrictPD: unknown params {unknown}; valid: kp, kd")
         self.kp, self.kd = float(ctx.params["kp"]), float(ctx.params["kd"])
         self.target, self.m3 = np.array(ctx.initial.q_m), ctx.m3
 
@@ -175,7 +175,7 @@ def test_without_it_the_users_keys_are_refused_for_gjm_ct_with_a_hint(campaign_f
         check_cases(expand(campaign), campaign.source)
     message = str(info.value)
     assert "\n" not in message
-    assert "controller.params.kd: unknown for controller.type 'gjm-ct'" in message
+    assert "controller.params.kp: unknown for controller.type 'gjm-ct'" in message
     assert '[campaign.set_for_controller."<type>"]' in message
 
 
