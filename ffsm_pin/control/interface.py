@@ -13,9 +13,14 @@ A controller is any class with
 
 and optionally the attributes
 
-* ``needs_funnels`` (bool, default False): the controller uses the scenario's funnels itself
-  (the paper's transformation); a run whose initial errors are not strictly inside them is
-  refused before it starts.
+* ``needs_funnels`` (bool, default False): the controller uses the run's funnels itself
+  (``ctx.scenario.performance``; the paper's transformation); a run whose initial errors are
+  not strictly inside them is refused before it starts.
+* ``params_keys`` (collection of str): the ``[controller.params]`` keys it accepts; any other
+  is bad input before the controller is built (one line naming the key and the valid ones).
+  Without it the table is handed over unchecked.
+* ``scheme`` (str): the controller's variant, reported as ``scheme`` in summary.json (the
+  paper's controller: its scheme); the run loop asks the controller, it names none.
 * ``needs_estimates`` (bool, default False): ``[controller.estimates]`` are drawn and checked
   while the run is prepared (else when ``ctx.estimates`` is first read);
 * ``needs_dynamics`` (bool, default False): ``meas.M`` and ``meas.h`` carry the true reduced

@@ -13,16 +13,18 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[initial]``: ``com_at_origin = false``, ``joint_rates`` = zeros;
 * ``[reference]``: ``task = "pose"`` (or ``"position"``: the m2 position components only),
   ``base_attitude`` = zeros (1 angle planar, 3 MRP components spatial);
-* ``[controller]``: ``k_b`` and ``k_z`` derived from the funnels and dt
-  (:func:`~ffsm_pin.control.gains.derived_gain`, docs/gains.md), the paper's other gains,
-  funnels and Table 2 estimates (``scheme = "ppc"``);
-  a funnel entry may be a single number, used for every component; spatial robots and the
-  position task have no default funnels (the paper's are planar pose funnels);
+* ``[controller]``: ``type = "lu-jia"``, Table 2 estimates; the run's performance
+  specification (:class:`~ffsm_pin.scenario.spec.Performance`): the paper's funnels (a funnel
+  entry may be a single number, used for every component; spatial robots and the position task
+  have no default funnels: the paper's are planar pose funnels) and the singularity threshold;
+  the lu-jia controller's own keys (:mod:`ffsm_pin.control.lu_jia_params`, accepted for every
+  type): ``scheme = "ppc"``, ``k_b`` and ``k_z`` derived from the funnels and dt
+  (:func:`~ffsm_pin.control.gains.derived_gain`, docs/gains.md), the paper's other gains;
 * ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
   ``gain = 1.0``, ``center`` = the initial joint angles,
   :class:`~ffsm_pin.control.null_space.NullSpace`;
-* ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
-  :class:`~ffsm_pin.control.gains.SingularityPolicy`;
+* ``[controller.singularity]``: ``threshold`` [m] (the run's) and ``max_damped_time`` [s]
+  (the lu-jia controller's), default :class:`~ffsm_pin.control.gains.SingularityPolicy`;
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
   (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
