@@ -18,9 +18,11 @@ import pytest
 
 from ffsm_pin.control.kinematic import KinematicInputs
 from ffsm_pin.control.lu_jia import LuJiaController
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.scenario.spec import (
     ControllerSpec,
+    Performance,
     RobotSpec,
     Scenario,
 )
@@ -40,9 +42,10 @@ def _run(scheme: str, backend: str):
         RobotSpec(),
         TABLE2,
         EQ80,
-        ControllerSpec(scheme=scheme, funnel_b=FUNNEL_B),
+        ControllerSpec(lu_jia=LuJiaParams(scheme=scheme)),
         duration=DURATION,
         dt=DT,
+        performance=Performance(funnel_b=FUNNEL_B),
     )
     setup = prepare(sc)
     # the same controller (estimates, funnels, gains, initial measurement) on `backend`

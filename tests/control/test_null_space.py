@@ -248,7 +248,7 @@ def test_none_is_the_paper_law():
     setup, paper = _controller(NullSpace(), "numpy")
     _, none = _controller(NullSpace("none", 5.0), "numpy")
     _, zero = _controller(NullSpace("manipulability", 0.0), "numpy")
-    assert paper.null_space == ControllerSpec().null_space
+    assert paper.null_space == ControllerSpec().lu_jia.null_space
     for x, _ in _random_states(setup.model, paper.theta_b, paper.theta_z, n_states=4):
         w0 = _w_mc(paper, x)[0]
         np.testing.assert_array_equal(_w_mc(none, x)[0], w0)
