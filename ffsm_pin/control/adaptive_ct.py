@@ -88,6 +88,7 @@ class AdaptiveComputedTorque:
     needs_estimates = True
     # [controller.params]: the fields of AdaptiveCtGains
     params_keys = ("k_z", "k_s", "gamma_b", "gamma_z", "gamma_d")
+    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario

@@ -156,6 +156,7 @@ class GjmComputedTorque:
 
     needs_estimates = True
     params_keys = ("k_z", "k_v")  # [controller.params]: the fields of GjmGains
+    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario

@@ -21,6 +21,8 @@ and optionally the attributes
   Without it the table is handed over unchecked.
 * ``scheme`` (str): the controller's variant, reported as ``scheme`` in summary.json (the
   paper's controller: its scheme); the run loop asks the controller, it names none.
+* ``sigma_measure`` (str): the matrix whose smallest singular value its ``sigma_min`` signal
+  is (``min_sigma_of`` in summary.json).
 * ``needs_estimates`` (bool, default False): ``[controller.estimates]`` are drawn and checked
   while the run is prepared (else when ``ctx.estimates`` is first read);
 * ``needs_dynamics`` (bool, default False): ``meas.M`` and ``meas.h`` carry the true reduced

@@ -100,6 +100,8 @@ class LuJiaController:
         )
         law = self.law
         self.scheme = p.scheme  # reported as summary.json's scheme
+        # what sigma_min is the smallest singular value of (summary.json's min_sigma_of)
+        self.sigma_measure = "J_m-hat" if p.scheme == "no-attitude" else "J_m-hat U-hat"
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt

@@ -15,7 +15,7 @@ from pathlib import Path
 import pinocchio as pin
 
 from ..errors import UnsupportedJointError, UrdfError, choices_text, did_you_mean
-from ._capture import native_output
+from .capture import native_call
 from .geometry import body_names, check_serial, end_effector_frame
 from .robot import Robot
 from .roots import ROOTS, SUPPORTED_BASES
@@ -127,21 +127,16 @@ def _build_model(xml: str, joint_model, source: str) -> pin.Model:
     """``pin.buildModelFromXML`` with what urdfdom prints captured: an ``Error:`` it prints
     (it may still return a model, e.g. with a mass it could not read set to zero) is a
     :class:`UrdfError` quoting it in one line; other output is one :class:`UrdfWarning`."""
-    failure = None
-    with native_output() as said:
-        try:
-            model = pin.buildModelFromXML(xml, joint_model)
-        except (RuntimeError, ValueError) as exc:
-            failure = " ".join(str(exc).split())
-    told = said.summary()
-    if failure is not None:
-        also = f" (urdfdom: {told})" if told and told not in failure else ""
-        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {failure}{also}")
+    call = native_call(pin.buildModelFromXML, xml, joint_model)
+    said, told = call.output, call.output.summary()
+    if call.failure is not None:
+        also = f" (urdfdom: {told})" if told and told not in call.failure else ""
+        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {call.failure}{also}")
     if said.has_errors:
         raise UrdfError(f"{source}: Pinocchio's URDF parser (urdfdom) reports: {told}")
     if told:
         warnings.warn(f"{source}: Pinocchio's URDF parser says: {told}", UrdfWarning, stacklevel=3)
-    return model
+    return call.value
 
 
 def _prepared_xml(

@@ -435,6 +435,7 @@ def simulate(
         stop_funnel=stop_funnel,
         events=setup.events + list(getattr(controller, "events", [])),
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
+        saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
     )
 
 
@@ -460,7 +461,9 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
     ``outcome``: the fields the run decided (steps, wall time, completion and stop, events,
     saturation)."""
     sc, perf = setup.scenario, setup.scenario.performance
-    scheme = getattr(setup.controller, "scheme", None)  # a controller's variant, if it has one
+    # what the controller says of itself: its variant, what its sigma_min measures
+    scheme = getattr(setup.controller, "scheme", None)
+    measure = getattr(setup.controller, "sigma_measure", None)
     return RunResult(
         scheme=scheme if isinstance(scheme, str) else None,
         robot=setup.robot.name,
@@ -475,5 +478,6 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         damping_threshold=perf.singularity_threshold,
         description=sc.description,
         controller=sc.controller.type,
+        sigma_measure=measure if isinstance(measure, str) else None,
         **outcome,
     )

@@ -63,6 +63,7 @@ else:  # pragma: no cover
 
 __all__ = [
     "BUILTIN_CAMPAIGNS",
+    "AutoRepeat",
     "Campaign",
     "CampaignError",
     "Case",
@@ -132,6 +133,16 @@ class Sample:
 
 
 @dataclass(frozen=True)
+class AutoRepeat:
+    """``repeat = "auto"``: batches of repeats until the 95 % Wilson interval of every grid
+    point's funnel-keeping rate is no wider than +- ``target_half_width``, or ``max_repeat``
+    draws per grid point (:mod:`ffsm_pin.sweep.auto_repeat`)."""
+
+    target_half_width: float = 0.05
+    max_repeat: int = 400  # +- 0.05 at a rate of 1/2 takes 381 runs
+
+
+@dataclass(frozen=True)
 class Campaign:
     """A parsed, validated campaign file."""
 
@@ -149,6 +160,7 @@ class Campaign:
     text: str  # the campaign file's text
     description: str = ""
     set_for: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # per scenario
+    auto: AutoRepeat | None = None  # repeat = "auto"; ``repeat`` is then the current batch's
     # per controller type (as written in controller.type)
     set_for_controller: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
@@ -263,6 +275,16 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
                     f"{choices_text(kinds)} (controller.type as the campaign or its scenarios "
                     "write it)"
                 )
+    auto, repeat = None, c.repeat
+    if c.repeat == "auto":
+        from .auto_repeat import first_repeat
+
+        default = AutoRepeat()
+        auto = AutoRepeat(
+            default.target_half_width if c.target_half_width is None else c.target_half_width,
+            default.max_repeat if c.max_repeat is None else c.max_repeat,
+        )
+        repeat = first_repeat(auto)
     return Campaign(
         name=c.name or path.stem,
         scenarios=scenarios,
@@ -270,7 +292,7 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         set_for={k: dict(v) for k, v in c.set_for.items()},
         set_for_controller={k: dict(v) for k, v in c.set_for_controller.items()},
         seed=c.seed,
-        repeat=c.repeat,
+        repeat=int(repeat),
         duration=c.duration,
         dt=c.dt,
         set=c.set,
@@ -284,6 +306,7 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         source=str(path),
         text=text,
         description=c.description,
+        auto=auto,
     )
 
 

@@ -94,6 +94,16 @@ def toml_key(name: str) -> str:
     return name if name and name.replace("_", "").replace("-", "").isalnum() else f'"{name}"'
 
 
+def _repeat(value: Any) -> Any:
+    if value == "auto":
+        return value
+    if not isinstance(value, int) or isinstance(value, bool):
+        fail((), f': expected an integer >= 1 or "auto", got {describe(value)}')
+    if value < 1:
+        fail((), f" = {value}: must be >= 1")
+    return value
+
+
 class CampaignTable(_Table):
     """``[campaign]``: the scenario(s), per-scenario overrides and the run settings."""
 
@@ -108,10 +118,22 @@ class CampaignTable(_Table):
     name: str | None = None  # default: the file's stem
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
-    repeat: Annotated[int, Field(ge=1)] = 1  # draws per grid point
+    # draws per grid point, or "auto": batches until the rates' 95 % Wilson intervals are no
+    # wider than +- target_half_width at every grid point, or max_repeat draws
+    repeat: Annotated[int | Literal["auto"], BeforeValidator(_repeat)] = 1
+    target_half_width: Annotated[float, Field(gt=0, lt=0.5, allow_inf_nan=False)] | None = None
+    max_repeat: Annotated[int, Field(ge=1)] | None = None
     duration: Pos | None = None  # [s]
     dt: Pos | None = None  # [s]
     set: Annotated[dict[str, Any], AfterValidator(flatten)] = {}
+
+    @model_validator(mode="after")
+    def auto_keys(self):
+        """target_half_width and max_repeat only with repeat = "auto"."""
+        for key in ("target_half_width", "max_repeat"):
+            if getattr(self, key) is not None and self.repeat != "auto":
+                fail((key,), ': only with repeat = "auto"')
+        return self
 
 
 class VaryTable(_Table):

@@ -40,7 +40,8 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 def _paper(scheme: str) -> Scenario:
     """The shipped case 1 (Table 2, Eq. 80, rho_b0 = 1.0) with another scheme, 0.5 s."""
     case1 = builtin_scenario("case1")
-    ctrl = dataclasses.replace(case1.controller, scheme=scheme)
+    lu_jia = dataclasses.replace(case1.controller.lu_jia, scheme=scheme)
+    ctrl = dataclasses.replace(case1.controller, lu_jia=lu_jia)
     return dataclasses.replace(case1, controller=ctrl, duration=0.5)
 
 
@@ -122,8 +123,8 @@ def _offaxis_position(scheme: str, null_space: NullSpace | None = None) -> Scena
     ref = dataclasses.replace(sc.reference, ee=sc.reference.ee[:2], task="position")
     fz = sc.performance.funnel_z  # the paper's end-effector funnels, x and y
     funnel_z = FunnelParams(*(tuple(getattr(fz, f.name)[:2]) for f in dataclasses.fields(fz)))
-    ctrl = dataclasses.replace(sc.controller, funnel_z=funnel_z)
-    return dataclasses.replace(sc, reference=ref, controller=ctrl)
+    perf = dataclasses.replace(sc.performance, funnel_z=funnel_z)
+    return dataclasses.replace(sc, reference=ref, performance=perf)
 
 
 @pytest.mark.parametrize("scheme", ["ppc", "no-ppc", "no-attitude"])

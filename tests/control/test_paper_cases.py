@@ -176,6 +176,9 @@ def test_paper_funnel_stops_cleanly_at_the_fold(case1_paper_funnel):
     assert r.funnel_inside_z.all()
     s = r.summary()
     assert s["funnel_ok_z"] is False and s["first_violation_t"] == r.stop_time
+    # which component: the one the stop names ("end-effector error component i (name)")
+    named = int(r.stop_reason.split("error component ")[1].split()[0])
+    assert (s["first_violation_funnel"], s["first_violation_component"]) == ("z", named)
 
 
 def test_paper_funnel_no_blow_up_before_the_stop(case1_paper_funnel):

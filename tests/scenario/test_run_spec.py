@@ -208,7 +208,8 @@ def test_the_run_loop_names_no_controller():
 
 def test_the_summary_reports_the_controllers_own_scheme(tmp_path):
     """``scheme`` in summary.json is the controller's attribute: the paper's controller's
-    variant, a user's controller's own label, null for the baselines."""
+    variant, a user's controller's own label, null for the baselines; ``min_sigma_of`` is the
+    controller's ``sigma_measure``."""
     (tmp_path / "mine.py").write_text(
         textwrap.dedent("""
         import numpy as np
@@ -228,12 +229,16 @@ def test_the_summary_reports_the_controllers_own_scheme(tmp_path):
     )
     base = _case1_doc()
     base["sim"] = {"duration": 0.01, "dt": 0.001}
-    for kind, scheme in (("lu-jia", "ppc"), ("gjm-ct", None), ("mine.py:Labelled", "my-variant"),
-                         ("mine.py:NotAString", None)):  # fmt: skip
+    for kind, scheme, measure in (
+        ("lu-jia", "ppc", "J_m-hat U-hat"), ("gjm-ct", None, "J*-hat"),
+        ("adaptive-ct", None, "J*-hat"), ("mine.py:Labelled", "my-variant", None),
+        ("mine.py:NotAString", None, None),
+    ):  # fmt: skip
         d = {**base, "controller": {**base["controller"], "type": kind}}
         sc = scenario_from_dict(d, source=tmp_path / "case.toml")
         summary = simulate(prepare(sc)).summary()
         assert summary["scheme"] == scheme, kind
+        assert summary["min_sigma_of"] == measure, kind  # (None: no sigma_min reported)
         assert summary["controller"] == kind
         assert summary["damping_threshold"] == sc.performance.singularity_threshold
 

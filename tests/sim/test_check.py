@@ -157,3 +157,13 @@ def test_other_warnings_of_the_setup_still_show(monkeypatch):
         report = check(builtin_scenario("case1"))
     assert report.problems == ["k_z breaks a condition"]
     assert not [w for w in shown if w.category is GainWarning]
+
+
+def test_check_names_the_file_a_user_controller_runs(capsys):
+    """A .py controller type is code: --check says which file it loads (CONTRACT, Nothing lost)."""
+    examples = Path(__file__).resolve().parents[2] / "examples"
+    assert main(["--check", "--scenario", str(examples / "joint_pd_planar.toml")]) == 0
+    out = capsys.readouterr().out
+    assert f"loads and runs {(examples / 'joint_pd.py').resolve()} (class JointPD)" in out
+    assert main(["--check", "--case", "1"]) == 0
+    assert "loads and runs" not in capsys.readouterr().out  # built-in types run no user file
