@@ -7,6 +7,7 @@ and zero gravity, lock joints, find the end effector, refuse branches, read the 
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
@@ -15,8 +16,9 @@ from pathlib import Path
 import pinocchio as pin
 
 from ..errors import UnsupportedJointError, UrdfError, choices_text, did_you_mean
-from .capture import native_call
 from .geometry import body_names, check_serial, end_effector_frame
+from .native import native_call
+from .payload import Payload
 from .robot import Robot
 from .roots import ROOTS, SUPPORTED_BASES
 from .satellite import Satellite
@@ -41,6 +43,7 @@ def load_robot(
     relative_to: str | Path | None = None,
     locked_joints: Mapping[str, float] | None = None,
     satellite: Satellite | Mapping | None = None,
+    payload: Payload | Mapping | None = None,
 ) -> Robot:
     """Load and validate a free-floating manipulator.
 
@@ -62,6 +65,10 @@ def load_robot(
     satellite:
         Free-flyer only: a :class:`Satellite` (or its dict) added as the new root body under
         the URDF's root link, for arm-only URDFs.
+    payload:
+        A :class:`Payload` (or its dict) held by the end effector: a rigid body fixed to the
+        end-effector frame, added to the body of the frame's joint. The robot's model and
+        geometry include it; ``robot.unloaded`` is the robot without it.
 
     Returns
     -------
@@ -107,7 +114,7 @@ def load_robot(
             "satellite=...)"
         )
     geometry = root.geometry(model, fid, names, source, **extra)
-    return Robot(
+    robot = Robot(
         model=model,
         root=root,
         urdf_path=path,
@@ -120,6 +127,18 @@ def load_robot(
         locked_joints=locked,
         package_dirs=package_dirs,
         no_effort_limit=tuple(j for j in no_effort if j not in locked),
+    )
+    if payload is None:
+        return robot
+    if isinstance(payload, Mapping):
+        payload = Payload.from_mapping(payload)
+    loaded = payload.attach(model, fid)
+    return dataclasses.replace(
+        robot,
+        model=loaded,
+        geometry=root.geometry(loaded, fid, names, source),
+        payload=payload,
+        unloaded=robot,
     )
 
 

@@ -28,6 +28,9 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
   (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
+Either base takes ``[robot.payload]`` (:class:`~ffsm_pin.robot.Payload`, a body held by the
+end effector) and ``[initial] attitude_error`` (a base attitude error on top of ``base_pose``).
+
 Spatial robots (``base = "free-flyer"``, docs/cli.md "Spatial robots"): ``[robot]`` also takes
 ``locked_joints = { name = value }`` and ``[robot.satellite]``
 (:class:`~ffsm_pin.robot.Satellite`); ``[initial] base_pose`` is x, y, z and an MRP
@@ -206,6 +209,10 @@ def scenario_to_toml(scenario: Scenario) -> str:
             f"{k} = {_toml(getattr(sat, k))}"
             for k in ("mass", "inertia", "size", "mount_xyz", "mount_rpy", "name")
         ]
+    if r.payload is not None:
+        pay = r.payload
+        lines += ["", "[robot.payload]"]
+        lines += [f"{k} = {_toml(getattr(pay, k))}" for k in ("mass", "com", "inertia", "known")]
     lines += [
         "",
         "[initial]",
@@ -214,7 +221,7 @@ def scenario_to_toml(scenario: Scenario) -> str:
         f"joints = {_toml(ini.joints)}",
         f"joint_rates = {_toml(ini.joint_rates)}",
     ]
-    for key in ("base_twist", "com_velocity", "base_rate", "angular_momentum"):
+    for key in ("base_twist", "com_velocity", "base_rate", "angular_momentum", "attitude_error"):
         if getattr(ini, key) is not None:
             lines.append(f"{key} = {_toml(getattr(ini, key))}")
     lines += ["", "[reference]", f"task = {_toml(ref.task)}"]
@@ -346,6 +353,11 @@ def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
         from ..robot import Satellite
 
         satellite = Satellite(**r.satellite.model_dump())
+    payload = None
+    if r.payload is not None:
+        from ..robot import Payload
+
+        payload = Payload(**r.payload.model_dump())
     return RobotSpec(
         urdf=r.urdf,
         base=r.base,
@@ -353,6 +365,7 @@ def _robot(r: schema.RobotModel, src: Path | None) -> RobotSpec:
         relative_to=str(src.parent.resolve()) if src is not None else None,
         locked_joints=tuple((k, float(v)) for k, v in r.locked_joints.items()),
         satellite=satellite,
+        payload=payload,
     )
 
 
@@ -370,8 +383,8 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
             s = mrp.from_quaternion(q / np.linalg.norm(q))
         base_pose = base_pose + tuple(float(x) for x in s)
     joints = _floats(ini.joints)
-    rates = ini.base_rate, ini.angular_momentum
-    rate, mom = (_vec(x) if isinstance(x, list) else x for x in rates)
+    rates = ini.base_rate, ini.angular_momentum, ini.attitude_error
+    rate, mom, error = (_vec(x) if isinstance(x, list) else x for x in rates)
     try:
         return InitialCondition(
             base_pose=base_pose,
@@ -382,6 +395,7 @@ def _initial(ini: schema.InitialModel) -> InitialCondition:
             com_velocity=_vec(ini.com_velocity),
             base_rate=rate,
             angular_momentum=mom,
+            attitude_error=error,
         )
     except ParameterError as exc:
         raise ScenarioError(f"[initial] {exc}") from None

@@ -34,7 +34,9 @@ from pydantic import (
 from .._schema import Num, Pos, Vec, _is_number, _numbers, _Table, default, describe, fail
 from ..control.kinematic import TASKS
 from ..control.lu_jia_params import LuJiaKeys, LuJiaSingularityKeys
-from ..errors import ScenarioError, choices_text, did_you_mean
+from ..errors import InertiaError, ScenarioError, choices_text, did_you_mean
+from ..robot.geometry import check_inertia
+from ..robot.payload import Payload
 from ..robot.satellite import Satellite
 from .devices import LIMIT_WORDS, ActuatorSpec, SensorSpec
 from .spec import (
@@ -147,6 +149,26 @@ class SatelliteModel(_Table):
     name: str = default(Satellite, "name")
 
 
+class PayloadModel(_Table):
+    """``[robot.payload]``, :class:`~ffsm_pin.robot.Payload`: a rigid body held by the end
+    effector (com and inertia in the end-effector frame)."""
+
+    mass: Pos  # [kg]
+    com: vec(3) = default(Payload, "com")  # [m], end-effector frame
+    inertia: vec(6)  # ixx, iyy, izz, ixy, ixz, iyz about its CoM [kg m^2]
+    known: bool = default(Payload, "known")  # in the controller's estimates
+
+    @model_validator(mode="after")
+    def physical(self):
+        """Refuse an inertia no rigid body has."""
+        xx, yy, zz, xy, xz, yz = self.inertia
+        try:
+            check_inertia(self.mass, [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]], "the payload")
+        except InertiaError as exc:
+            fail(("inertia",), f" = {list(self.inertia)}: {str(exc).removeprefix('the payload ')}")
+        return self
+
+
 class RobotModel(_Table):
     """``[robot]``: the URDF, its root (planar or free-flyer), end effector, satellite."""
 
@@ -155,6 +177,7 @@ class RobotModel(_Table):
     end_effector: str = default(RobotSpec, "end_effector")
     locked_joints: dict[str, Num] = {}  # [rad or m], free-flyer only
     satellite: SatelliteModel | None = None  # free-flyer only
+    payload: PayloadModel | None = None  # held by the end effector
 
     @model_validator(mode="after")
     def spatial_only(self):
@@ -184,6 +207,9 @@ class InitialModel(_Table):
     com_velocity: Vec | None = None  # [m/s]
     base_rate: NumOrVec | None = None  # [rad/s]
     angular_momentum: NumOrVec | None = None  # [kg m^2/s]
+    attitude_error: NumOrVec | None = (
+        None  # [rad] on top of base_pose: planar angle, spatial axis*angle
+    )
 
     @field_validator("base_attitude_quaternion")
     @classmethod
@@ -428,7 +454,7 @@ class ScenarioModel(_Table):
             check_mrp(ini.base_pose[3:], ("initial", "base_pose"), "[3:6]")
         for key, n in (("base_twist", 6 if spatial else 3), ("com_velocity", 3 if spatial else 2)):
             _length(getattr(ini, key), n, ("initial", key))
-        for key in ("base_rate", "angular_momentum"):
+        for key in ("base_rate", "angular_momentum", "attitude_error"):
             value = getattr(ini, key)
             if value is not None and isinstance(value, list) != spatial:
                 fail(("initial", key), f": expected {'3 numbers' if spatial else 'a number'}")
@@ -534,26 +560,26 @@ def _model_at(loc: tuple, root: type[BaseModel]) -> type[BaseModel] | None:
         if isinstance(part, int):
             continue
         if part.startswith("<"):
-            model = _model_in(annotation, part)
+            model = model_in(annotation, part)
         else:
             field = model.model_fields.get(part) if model is not None else None
             if field is None:
                 return None
             annotation = field.annotation
-            model = _model_in(annotation)
+            model = model_in(annotation)
     return model
 
 
-def _model_in(annotation: Any, tag: str | None = None) -> type[BaseModel] | None:
+def model_in(annotation: Any, tag: str | None = None) -> type[BaseModel] | None:
     """The first model class in an annotation (or the union member tagged ``tag``)."""
     if tag is None and isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
     if tag is not None and any(
         isinstance(m, Tag) and m.tag == tag for m in getattr(annotation, "__metadata__", ())
     ):
-        return _model_in(annotation.__args__[0])
+        return model_in(annotation.__args__[0])
     for arg in getattr(annotation, "__args__", ()):
-        found = _model_in(arg, tag)
+        found = model_in(arg, tag)
         if found is not None:
             return found
     return None

@@ -213,7 +213,8 @@ class Reference:
 class RobotSpec:
     """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
     optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
-    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root)."""
+    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root); ``payload``, a
+    :class:`~ffsm_pin.robot.Payload` held by the end effector (either base)."""
 
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
     base: str = "planar"
@@ -221,6 +222,7 @@ class RobotSpec:
     relative_to: str | None = None  # folder of the scenario file
     locked_joints: tuple[tuple[str, float], ...] = ()
     satellite: Any = None  # ffsm_pin.robot.Satellite | None
+    payload: Any = None  # ffsm_pin.robot.Payload | None, held by the end effector
 
 
 @dataclass(frozen=True)
@@ -235,6 +237,10 @@ class InitialCondition:
       * base_twist = (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s];
       * com_velocity = v_0 (2 / 3) [m/s] with base_rate = w_b (number / 3) [rad/s];
       * com_velocity with angular_momentum = A_0 about the system CoM (number / 3) [kg m^2/s].
+    attitude_error: an initial base attitude error applied on top of base_pose's attitude:
+        planar an angle added to q_b [rad]; spatial a rotation vector (axis times angle)
+        [rad] about inertial axes, R(0) = exp([e]x) R(base_pose). A campaign draws it in a
+        random direction with a given angle (docs/campaigns.md, ``{ angle = ... }``).
     """
 
     base_pose: tuple[float, ...]
@@ -245,6 +251,7 @@ class InitialCondition:
     com_velocity: tuple[float, ...] | None = None
     base_rate: float | tuple[float, ...] | None = None
     angular_momentum: float | tuple[float, ...] | None = None
+    attitude_error: float | tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         by_twist = self.base_twist is not None
@@ -270,9 +277,10 @@ class InitialCondition:
 class Estimates:
     """Initial parameter estimates: 'paper' (Table 2), 'true', 'perturbed' or 'explicit'.
 
-    'perturbed': every true parameter times 1 + U(-spread, spread), from a generator seeded
-    with ``seed``; a draw of theta_d with an indefinite inertia M-hat is redrawn from the same
-    stream (see :func:`ffsm_pin.sim.estimates.perturbed_estimates`).
+    'perturbed': every body's mass, centre of mass and rotational inertia drawn as a rigid body
+    within ``spread`` of the truth, from a generator seeded with ``seed``, the barycentric
+    estimates derived from the drawn bodies (:func:`ffsm_pin.sim.estimates.perturb_body`,
+    docs/model.md section 6).
     """
 
     initial: str = "paper"

@@ -224,6 +224,8 @@ def _check(scenarios: list[Scenario]) -> int:
             f", base attitude error = {fmt(rep.attitude_error, ' rad')} "
             f"(authority {fmt(rep.authority, ' rad')})"
         )
+        if rep.resolved:
+            print(f"{sc.name}: {rep.resolved}")
         for problem in rep.problems:
             status = fail(problem)
     return status

@@ -479,5 +479,6 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         description=sc.description,
         controller=sc.controller.type,
         sigma_measure=measure if isinstance(measure, str) else None,
+        estimates=dict(setup.drawn_estimates) or None,
         **outcome,
     )

@@ -32,7 +32,7 @@ import pinocchio as pin
 from yourdfpy.urdf import filename_handler_magic, filename_handler_meta
 
 from ..errors import UrdfError
-from ..robot.capture import native_call
+from ..robot.native import native_call
 
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
     warnings.simplefilter("ignore", DeprecationWarning)

@@ -65,6 +65,9 @@ class Setup:
     sensors: Sensors | None = None  # between the plant and the controller (exact: None)
     funnel_b: Funnel | None = None  # the performance specification, sides fixed at t = 0
     funnel_z: Funnel | None = None
+    # what the initial estimates were made from (sim.estimates.bodies_record), filled when
+    # they are drawn; empty for Table 2, explicit vectors, or estimates never read
+    drawn_estimates: dict = dataclasses.field(default_factory=dict)
 
     @property
     def n_task(self) -> int:
@@ -82,7 +85,12 @@ def prepare(scenario: Scenario) -> Setup:
     if spatial:
         options = {"locked_joints": dict(spec.locked_joints) or None, "satellite": spec.satellite}
     robot = load_robot(
-        spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
+        spec.urdf,
+        spec.end_effector,
+        base=spec.base,
+        relative_to=spec.relative_to,
+        payload=spec.payload,
+        **options,
     )
     # URDF torque limits that the file does not give: refused before the (slow) controller
     if isinstance(limit := scenario.actuators.torque_limit, str) and limit == "urdf":
@@ -107,8 +115,12 @@ def prepare(scenario: Scenario) -> Setup:
         np.array(model.true_theta_b(st.angular_momentum)),
     )
 
+    drawn: dict = {}  # what the estimates were made from (estimates.json), once drawn
+
     def estimates():  # drawn when the controller first reads ctx.estimates
-        return initial_estimates(scenario, model, truth)
+        made = initial_estimates(scenario, model, truth, robot, q0, v0)
+        drawn.update(made.record or {})
+        return made.theta_z, made.theta_d, made.theta_b
 
     if getattr(cls, "needs_estimates", False):  # checked before the funnels, as they are read
         estimates = _constant(estimates())
@@ -175,7 +187,7 @@ def prepare(scenario: Scenario) -> Setup:
     return Setup(
         scenario, robot, model, q0, v0, *truth, controller, horizon, events,
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
-        funnels["b"], funnels["z"],
+        funnels["b"], funnels["z"], drawn,
     )  # fmt: skip
 
 

@@ -19,15 +19,10 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from .campaign import AutoRepeat, Campaign, Case, expand
+from .campaign import Campaign, Case, expand
 from .stats import runs_for_half_width, wilson_half_width
 
-__all__ = ["counts", "first_repeat", "grow", "next_repeat", "resumed", "status_text"]
-
-
-def first_repeat(auto: AutoRepeat) -> int:
-    """The first batch: the fewest runs whose Wilson interval can be as narrow as the target."""
-    return min(auto.max_repeat, runs_for_half_width(0.0, auto.target_half_width))
+__all__ = ["counts", "grow", "next_repeat", "resumed", "status_text"]
 
 
 def kept(row: Mapping[str, Any]) -> bool:

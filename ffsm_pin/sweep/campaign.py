@@ -6,7 +6,9 @@ for one scenario's cases (``[campaign.set_for.<scenario>]``) and for the cases o
 type (``[campaign.set_for_controller."<type>"]``: a controller's own ``[controller.params]``
 beside other controllers that would refuse them), grid axes
 (``[[vary]]``: a dotted scenario key and its values) and randomly sampled keys (``[[sample]]``:
-a dotted key and a distribution). :func:`expand` turns it into cases:
+a dotted key and a distribution) and dispersed keys (``[campaign.disperse]``: any numeric
+scenario key drawn per case, each from its own stream, read back from the case's resolved
+scenario). :func:`expand` turns it into cases:
 
 * with several scenarios, each gets the cases below in turn (its own nominal case first), and
   the column ``scenario`` says which; the grid's seeds are the same for every scenario;
@@ -50,11 +52,12 @@ from .. import __version__
 from ..control.registry import DEFAULT_TYPE
 from ..errors import FfsmError, choices_text, did_you_mean
 from ..scenario.file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
-from ..scenario.schema import first_error
+from ..scenario.schema import ScenarioModel, describe, first_error, model_in
 from ..scenario.spec import Scenario
 from . import campaign_schema as schema
 from .campaign_schema import DISTRIBUTIONS, SEED_KEY
 from .seeds import case_stream, estimates_seed
+from .stats import runs_for_half_width
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -67,6 +70,7 @@ __all__ = [
     "Campaign",
     "CampaignError",
     "Case",
+    "Disperse",
     "SCENARIO_COLUMN",
     "Sample",
     "Vary",
@@ -81,6 +85,9 @@ __all__ = [
 SCENARIO_COLUMN = "scenario"
 #: The scenario key that names a case's controller (``[campaign.set_for_controller]``).
 TYPE_KEY = "controller.type"
+#: Grid axes that do not change a case's random draws (estimates, samples, dispersions): the
+#: cases of every scenario and every controller type at one grid point and repeat draw alike.
+COMMON_DRAWS = (SCENARIO_COLUMN, TYPE_KEY)
 
 
 class CampaignError(FfsmError, ValueError):
@@ -141,6 +148,42 @@ class AutoRepeat:
     target_half_width: float = 0.05
     max_repeat: int = 400  # +- 0.05 at a rate of 1/2 takes 381 runs
 
+    def first_batch(self) -> int:
+        """The first batch: the fewest runs whose Wilson interval can be as narrow as the
+        target."""
+        return min(self.max_repeat, runs_for_half_width(0.0, self.target_half_width))
+
+
+@dataclass(frozen=True)
+class Disperse:
+    """A key of ``[campaign.disperse]`` drawn per case: ``uniform`` (low, high), ``normal``
+    (mean, std), element-wise where a bound is a list or the key's value is one, or ``angle``
+    (a rotation of this angle [rad] about a uniformly random axis: a 3-vector, or a planar
+    angle of random sign)."""
+
+    key: str
+    distribution: str
+    params: tuple[Any, ...]
+
+    def draw(self, rng: np.random.Generator, size: int | None) -> float | list[float]:
+        """One value from ``rng``: a number (``size`` None) or ``size`` numbers."""
+        if self.distribution == "angle":
+            (angle,) = self.params
+            if size is None:
+                return float(angle * rng.choice((-1.0, 1.0)))
+            axis = rng.normal(size=size)
+            return [float(x) for x in angle * axis / np.linalg.norm(axis)]
+        a, b = (np.asarray(x, dtype=float) for x in self.params)
+        shape = () if size is None else (size,)
+        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
+        x = rng.uniform(a, b) if self.distribution == "uniform" else rng.normal(a, b)
+        return float(x) if size is None else [float(v) for v in np.atleast_1d(x)]
+
+    def size(self) -> int | None:
+        """The number of values a list bound asks for (None: numbers only)."""
+        sizes = {len(x) for x in self.params if isinstance(x, list)}
+        return sizes.pop() if sizes else None
+
 
 @dataclass(frozen=True)
 class Campaign:
@@ -161,6 +204,7 @@ class Campaign:
     description: str = ""
     set_for: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # per scenario
     auto: AutoRepeat | None = None  # repeat = "auto"; ``repeat`` is then the current batch's
+    disperse: tuple[Disperse, ...] = ()  # [campaign.disperse], drawn per case
     # per controller type (as written in controller.type)
     set_for_controller: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
@@ -183,8 +227,8 @@ class Campaign:
     @property
     def columns(self) -> tuple[str, ...]:
         """Keys that get a column in results.parquet (``scenario`` when there are several,
-        the varied keys, then the sampled ones)."""
-        return self.axes + tuple(s.key for s in self.sample)
+        the varied keys, the sampled ones, then the dispersed ones)."""
+        return self.axes + tuple(s.key for s in self.sample) + tuple(d.key for d in self.disperse)
 
     @property
     def n_cases(self) -> int:
@@ -277,14 +321,12 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
                 )
     auto, repeat = None, c.repeat
     if c.repeat == "auto":
-        from .auto_repeat import first_repeat
-
         default = AutoRepeat()
         auto = AutoRepeat(
             default.target_half_width if c.target_half_width is None else c.target_half_width,
             default.max_repeat if c.max_repeat is None else c.max_repeat,
         )
-        repeat = first_repeat(auto)
+        repeat = auto.first_batch()
     return Campaign(
         name=c.name or path.stem,
         scenarios=scenarios,
@@ -307,6 +349,10 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         text=text,
         description=c.description,
         auto=auto,
+        disperse=tuple(
+            Disperse(key, spec["distribution"], tuple(spec["params"]))
+            for key, spec in c.disperse.items()
+        ),
     )
 
 
@@ -386,24 +432,34 @@ def expand(campaign: Campaign) -> list[Case]:
         cases.append(
             _case(campaign, base, path, index, None, None, tag, common, _seed_of(base), label)
         )
+        sizes = _disperse_sizes(campaign, base, path, cases[-1].scenario_toml)
         for p, values in enumerate(points):
             point = {**tag, **{v.key: x for v, x in zip(campaign.vary, values, strict=True)}}
-            # every scenario draws the same seeds (common random numbers; a campaign over one
-            # scenario draws what it drew before campaigns could have several)
+            # every scenario and every controller type draws the same seeds (common random
+            # numbers: the paired comparison of the report compares controllers on the same
+            # draws; a campaign over one scenario and one controller draws what it drew before)
             grid = {k: v for k, v in point.items() if k != SCENARIO_COLUMN}
+            draws = {k: v for k, v in grid.items() if k not in COMMON_DRAWS}
             for r in range(campaign.repeat):
-                seed = estimates_seed(campaign.seed, grid, r)
+                seed = estimates_seed(campaign.seed, draws, r)
                 keys = {**common, **campaign.set, **own, **grid, SEED_KEY: seed}
                 for s in campaign.sample:
-                    stream = case_stream(campaign.seed, grid, r, "sample:" + s.key)
+                    stream = case_stream(campaign.seed, draws, r, "sample:" + s.key)
                     keys[s.key] = s.draw(np.random.default_rng(stream))
+                drawn = {}
+                for d in campaign.disperse:  # each key its own stream: others' draws unchanged
+                    stream = case_stream(campaign.seed, draws, r, "disperse:" + d.key)
+                    drawn[d.key] = d.draw(np.random.default_rng(stream), sizes[d.key])
+                keys.update(drawn)
                 # the keys of this case's controller type (disjoint from the others: schema)
                 kind = keys.get(TYPE_KEY, _lookup(base, TYPE_KEY, DEFAULT_TYPE))
                 if isinstance(kind, str):
                     keys.update(campaign.set_for_controller.get(kind, {}))
                 index = len(cases)
                 point_index = p + len(points) * which
-                cases.append(_case(campaign, base, path, index, point_index, r, point, keys, seed))
+                case = _case(campaign, base, path, index, point_index, r, point, keys, seed)
+                _check_arrived(case, drawn, campaign.source)
+                cases.append(case)
     for col in campaign.columns:  # one type per column: lists if any case resolves to a list
         if any(isinstance(c.values[col], list) for c in cases):
             for c in cases:
@@ -417,6 +473,126 @@ def expand(campaign: Campaign) -> list[Case]:
             )
         hashes[case.case_hash] = case.index
     return cases
+
+
+def _disperse_sizes(
+    campaign: Campaign, doc: Mapping, path: Path, nominal_toml: str
+) -> dict[str, int | None]:
+    """For each ``[campaign.disperse]`` key: None (a number is drawn) or the number of values
+    (element-wise); CampaignError (one line) for a key that is no scenario key or not numeric.
+
+    ``doc`` is the scenario file's document, ``nominal_toml`` its resolved nominal case. A key
+    whose value in the scenario (its file, or the default the resolved scenario writes) is a
+    list of numbers is drawn element-wise with that length (a list bound must have it);
+    a number, or a key the file leaves out whose value may be a number, is drawn as a number
+    (as a list where a bound is a list). ``angle`` draws a 3-vector on a free-flyer robot and
+    an angle on a planar one unless the value is already a list or a number.
+    """
+    out: dict[str, int | None] = {}
+    if not campaign.disperse:
+        return out
+    where = f"{campaign.source}: campaign.disperse"
+    resolved = tomllib.loads(nominal_toml)  # the scenario file's values and defaults
+    for d in campaign.disperse:
+        _schema_key(d.key, where)
+        value = _lookup(resolved, d.key, _lookup(doc, d.key))
+        size = d.size()
+        if (
+            isinstance(value, bool)
+            or isinstance(value, (str, Mapping))
+            and not _takes_number(doc, d, path)
+        ):
+            raise CampaignError(
+                f"{where}: {d.key} is not numeric (its value is {describe(value)}); "
+                "[campaign.disperse] draws numbers"
+            )
+        if isinstance(value, list):
+            if not all(_is_number(x) for x in value):
+                raise CampaignError(
+                    f"{where}: {d.key} is not numeric (its value is {describe(value)}); "
+                    "[campaign.disperse] draws numbers"
+                )
+            if size is not None and size != len(value):
+                raise CampaignError(
+                    f"{where}: {d.key} has {len(value)} values in scenario {str(path)!r}, the "
+                    f"bounds have {size}"
+                )
+            size = len(value)
+        elif d.distribution == "angle" and value is None:
+            base = _lookup(resolved, "robot.base", "planar")
+            size = 3 if base == "free-flyer" else None
+        if d.distribution == "angle" and size not in (None, 3):
+            raise CampaignError(
+                f"{where}: {d.key} = {{ angle = ... }} draws a rotation (3 numbers, or a planar "
+                f"angle); the key has {size} values"
+            )
+        out[d.key] = size
+    return out
+
+
+def _takes_number(doc: Mapping, d: Disperse, path: Path) -> bool:
+    """Whether the scenario validation accepts a number drawn for ``d`` (a key whose value is
+    a word, like ``actuators.torque_limit = "none"``)."""
+    trial = copy.deepcopy(dict(doc))
+    first = d.params[0]
+    _assign(trial, d.key, float(first[0] if isinstance(first, list) else first), "")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            scenario_from_dict(trial, source=path)
+    except FfsmError:
+        return False
+    return True
+
+
+def _schema_key(key: str, where: str) -> None:
+    """CampaignError unless ``key`` is a key of the scenario file (docs/cli.md); the free
+    tables (``controller.params``, ``robot.locked_joints``) take any name."""
+    model: Any = ScenarioModel
+    parts = key.split(".")
+    for i, part in enumerate(parts):
+        fields = model.model_fields
+        if part not in fields:
+            at = ".".join(parts[:i]) or "the top level"
+            raise CampaignError(
+                f"{where}: {key} is not a scenario key ({part!r} unknown in {at}"
+                f"{did_you_mean(part, fields)}; valid keys: {choices_text(fields)})"
+            )
+        annotation = fields[part].annotation
+        inner = model_in(annotation)
+        if inner is None:
+            if i < len(parts) - 1 and not _is_free_table(annotation):
+                raise CampaignError(f"{where}: {key}: {'.'.join(parts[: i + 1])} is a value")
+            return
+        model = inner
+    raise CampaignError(f"{where}: {key} is a table, not a value")
+
+
+def _is_free_table(annotation: Any) -> bool:
+    """A ``dict[str, ...]`` table whose keys are free (parameters, locked joints)."""
+    return getattr(annotation, "__origin__", None) is dict or "dict[" in str(annotation)
+
+
+def _check_arrived(case: Case, drawn: Mapping[str, Any], source: str) -> None:
+    """Every dispersed value must be in the case's resolved scenario, as drawn (a value that
+    the scenario does not use, or holds in another form, is refused: no silent dispersion)."""
+    resolved = tomllib.loads(case.scenario_toml)
+    for key, value in drawn.items():
+        got = _lookup(resolved, key)
+        want = (
+            value
+            if isinstance(value, list)
+            else [value] * (len(got) if isinstance(got, list) else 1)
+        )
+        have = got if isinstance(got, list) else [got]
+        ok = len(have) == len(want) and all(
+            _is_number(h) and float(h) == float(w) for h, w in zip(have, want, strict=True)
+        )
+        if not ok:
+            raise CampaignError(
+                f"{source}: case {case.index}: campaign.disperse {key} drew {value}, but the "
+                f"case's resolved scenario holds {got!r}; this key cannot be dispersed"
+            )
 
 
 def _seed_of(doc: Mapping) -> int:

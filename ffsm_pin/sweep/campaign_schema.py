@@ -1,9 +1,11 @@
-"""The campaign file (docs/campaigns.md) as pydantic v2 models: ``[campaign]``, ``[[vary]]``,
-``[[sample]]`` (one model per distribution). Errors become one line through
-:func:`ffsm_pin.scenario.schema.first_error`, like the scenario file's."""
+"""The campaign file (docs/campaigns.md) as pydantic v2 models: ``[campaign]`` (with
+``[campaign.disperse]``), ``[[vary]]``, ``[[sample]]`` (one model per distribution). Errors
+become one line through :func:`ffsm_pin.scenario.schema.first_error`, like the scenario
+file's."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
@@ -104,6 +106,84 @@ def _repeat(value: Any) -> Any:
     return value
 
 
+#: ``[campaign.disperse]`` forms: a key's value drawn per case (docs/campaigns.md).
+DISPERSIONS = {
+    "uniform": "[low, high]",
+    "normal": "[mean, std]",
+    "angle": "an angle [rad] in a random direction",
+}
+
+
+def _is_num(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _bound(x: Any, at: tuple, what: str) -> Any:
+    """A number or a non-empty list of numbers (an element-wise bound)."""
+    if _is_num(x) or (isinstance(x, list) and x and all(_is_num(v) for v in x)):
+        return x
+    fail(at, f": {what} must be a finite number or a list of them, got {describe(x)}")
+
+
+def _dispersion(key: str, spec: Any) -> dict[str, Any]:
+    """One ``[campaign.disperse]`` entry checked: ``{ uniform = [a, b] }``,
+    ``{ normal = [mean, std] }`` or ``{ angle = a }``."""
+    at: tuple = (key,)
+    if not isinstance(spec, Mapping) or len(spec) != 1:
+        fail(at, f": expected one of {{ uniform = [low, high] }}, {{ normal = [mean, std] }} or "
+             f"{{ angle = a }}, got {describe(spec)}")  # fmt: skip
+    ((dist, params),) = spec.items()
+    if dist not in DISPERSIONS:
+        fail(at, f": unknown distribution {dist!r}{did_you_mean(str(dist), DISPERSIONS)}; "
+             f"valid choices: {choices_text(DISPERSIONS)}")  # fmt: skip
+    at = (key, dist)
+    if dist == "angle":
+        if not (_is_num(params) and 0 < params <= math.pi):
+            fail(at, f" = {params!r}: must be an angle in (0, pi] [rad]")
+        return {"distribution": dist, "params": (float(params),)}
+    names = DISPERSIONS[dist]
+    if not (isinstance(params, list) and len(params) == 2):
+        fail(at, f": expected {names}, got {describe(params)}")
+    a, b = (_bound(x, at, n) for x, n in zip(params, names[1:-1].split(", "), strict=True))
+    sizes = {len(x) for x in (a, b) if isinstance(x, list)}
+    if len(sizes) > 1:
+        fail(at, f": {names} have {' and '.join(str(n) for n in sorted(sizes))} values; give "
+             "lists of one length (or numbers, used for every component)")  # fmt: skip
+    n = sizes.pop() if sizes else 0
+    lo = a if isinstance(a, list) else [a] * max(n, 1)
+    hi = b if isinstance(b, list) else [b] * max(n, 1)
+    for i, (x, y) in enumerate(zip(lo, hi, strict=True)):
+        where = f"[{i}]" if n else ""
+        if dist == "uniform" and not x < y:
+            fail(at, f": bounds in the wrong order: low{where} = {x} must be < high{where} = {y}")
+        if dist == "normal" and not y > 0:
+            fail(at, f": std{where} = {y} must be > 0")
+    return {"distribution": dist, "params": (a, b)}
+
+
+def _disperse(table: Any) -> Any:
+    """``[campaign.disperse]``: dotted keys (quoted, or nested tables) to their dispersions."""
+    if not isinstance(table, Mapping):
+        fail((), f": expected a table of key = {{ distribution = ... }}, got {describe(table)}")
+    out: dict[str, Any] = {}
+
+    def walk(node: Mapping, prefix: str) -> None:
+        for k, v in node.items():
+            full = f"{prefix}.{k}" if prefix else str(k)
+            nested = (
+                isinstance(v, Mapping) and v and all(isinstance(x, Mapping) for x in v.values())
+            )
+            if nested:
+                walk(v, full)
+            elif full in out:
+                fail((), f": {full} given twice")
+            else:
+                out[full] = _dispersion(full, v)
+
+    walk(table, "")
+    return out
+
+
 class CampaignTable(_Table):
     """``[campaign]``: the scenario(s), per-scenario overrides and the run settings."""
 
@@ -126,6 +206,8 @@ class CampaignTable(_Table):
     duration: Pos | None = None  # [s]
     dt: Pos | None = None  # [s]
     set: Annotated[dict[str, Any], AfterValidator(flatten)] = {}
+    # {dotted key: {"distribution", "params"}}: drawn per case from the key's own stream
+    disperse: Annotated[dict[str, Any], BeforeValidator(_disperse)] = {}
 
     @model_validator(mode="after")
     def auto_keys(self):
@@ -203,7 +285,7 @@ class CampaignModel(_Table):
                      f"valid choices: {choices_text(names)}")  # fmt: skip
             varied = {v.key for v in self.vary}
             for key in keys:
-                if key in c.set or key == SEED_KEY or key in varied:
+                if key in c.set or key == SEED_KEY or key in varied or key in c.disperse:
                     why = ": also set for every case (campaign.set, [[vary]] or the seed)"
                     fail(("campaign", "set_for", name, key), why)
         self._per_controller(where_set_for={
@@ -213,6 +295,7 @@ class CampaignModel(_Table):
             *((k, "campaign.set") for k in c.set),
             *((v.key, "[[vary]]") for v in self.vary),
             *((s.key, "[[sample]]") for s in self.sample),
+            *((k, "campaign.disperse") for k in c.disperse),
         ]:
             if key in where:
                 fail((key,), f": given twice (in {where[key]} and in {place})")
@@ -231,7 +314,12 @@ class CampaignModel(_Table):
         that a scenario's table sets too, or ``controller.type`` itself (which controller types
         the campaign has is checked where its scenario files are read)."""
         c = self.campaign
-        everywhere = {*c.set, *(v.key for v in self.vary), *(s.key for s in self.sample)}
+        everywhere = {
+            *c.set,
+            *c.disperse,
+            *(v.key for v in self.vary),
+            *(s.key for s in self.sample),
+        }
         for opt in ("duration", "dt"):
             if getattr(c, opt) is not None:
                 everywhere.add(f"sim.{opt}")
@@ -243,7 +331,7 @@ class CampaignModel(_Table):
                          "set it in [[vary]], campaign.set or the scenario")  # fmt: skip
                 if key in everywhere or key == SEED_KEY:
                     why = (": also set for every case (campaign.set, [[vary]], [[sample]], "
-                           "campaign.duration / dt or the seed)")  # fmt: skip
+                           "[campaign.disperse], campaign.duration / dt or the seed)")  # fmt: skip
                     fail((*at, key), why)
                 if key in where_set_for:
                     scenario = toml_key(where_set_for[key])
