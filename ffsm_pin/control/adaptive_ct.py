@@ -70,8 +70,8 @@ class AdaptiveCtGains:
         """k_z and k_s as gjm-ct's k_z and k_v (:meth:`~.gjm_ct.GjmGains.derived`, with the
         drift term: without it the 5-link robot leaves its funnel at 7 s while theta_z-hat
         adapts); the adaptation gains are the scenario's gamma_1, gamma_2, gamma_3."""
-        g = GjmGains.derived(scenario.controller.funnel_z, dt, m2, n_task, drift)
-        p = scenario.controller.gains
+        g = GjmGains.derived(scenario.performance.funnel_z, dt, m2, n_task, drift)
+        p = scenario.controller.lu_jia.gains  # the paper's adaptation gains, as defaults
         return cls(g.k_z, g.k_v, p.gamma_1, p.gamma_2, p.gamma_3)
 
 
@@ -86,6 +86,9 @@ class AdaptiveComputedTorque:
     """
 
     needs_estimates = True
+    # [controller.params]: the fields of AdaptiveCtGains
+    params_keys = ("k_z", "k_s", "gamma_b", "gamma_z", "gamma_d")
+    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         sc = ctx.scenario
@@ -100,7 +103,7 @@ class AdaptiveComputedTorque:
         self._k_z = np.array(self.gains.k_z)
         self.dt = ctx.dt
         self.reference = sc.reference
-        self.threshold = sc.controller.singularity.threshold
+        self.threshold = sc.performance.singularity_threshold  # damped below the run's
         self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
         self.signal_shapes = {

@@ -6,7 +6,9 @@ Layers inside (imports run downwards only):
   rest-to-rest waypoints) as one piecewise-polynomial table;
 * :mod:`~ffsm_pin.scenario.devices`: the ``[actuators]`` and ``[sensors]`` options;
 * :mod:`~ffsm_pin.scenario.spec`: the scenario's dataclasses (:class:`Scenario`, its robot,
-  initial condition, reference and controller) with their defaults;
+  initial condition, reference, controller and performance specification) with their
+  defaults (the lu-jia controller's own parameters are declared by it,
+  :mod:`ffsm_pin.control.lu_jia_params`);
 * :mod:`~ffsm_pin.scenario.schema`: the scenario file's pydantic models, which validate a
   file once and turn the first problem into one ``ScenarioError`` line naming its TOML key (a
   scenario built in Python goes through the same models, :func:`check_scenario`); they read
@@ -40,6 +42,7 @@ from .spec import (
     Estimates,
     Harmonic,
     InitialCondition,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
@@ -54,6 +57,7 @@ __all__ = [
     "Estimates",
     "Harmonic",
     "InitialCondition",
+    "Performance",
     "Reference",
     "ReferenceData",
     "RobotSpec",

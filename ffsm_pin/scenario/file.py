@@ -13,16 +13,18 @@ Optional keys and their defaults (everything else in docs/cli.md is required):
 * ``[initial]``: ``com_at_origin = false``, ``joint_rates`` = zeros;
 * ``[reference]``: ``task = "pose"`` (or ``"position"``: the m2 position components only),
   ``base_attitude`` = zeros (1 angle planar, 3 MRP components spatial);
-* ``[controller]``: ``k_b`` and ``k_z`` derived from the funnels and dt
-  (:func:`~ffsm_pin.control.gains.derived_gain`, docs/gains.md), the paper's other gains,
-  funnels and Table 2 estimates (``scheme = "ppc"``);
-  a funnel entry may be a single number, used for every component; spatial robots and the
-  position task have no default funnels (the paper's are planar pose funnels);
+* ``[controller]``: ``type = "lu-jia"``, Table 2 estimates; the run's performance
+  specification (:class:`~ffsm_pin.scenario.spec.Performance`): the paper's funnels (a funnel
+  entry may be a single number, used for every component; spatial robots and the position task
+  have no default funnels: the paper's are planar pose funnels) and the singularity threshold;
+  the lu-jia controller's own keys (:mod:`ffsm_pin.control.lu_jia_params`, accepted for every
+  type): ``scheme = "ppc"``, ``k_b`` and ``k_z`` derived from the funnels and dt
+  (:func:`~ffsm_pin.control.gains.derived_gain`, docs/gains.md), the paper's other gains;
 * ``[controller.null_space]`` (beyond the paper): ``objective = "none"`` (the paper's Eq. 36),
   ``gain = 1.0``, ``center`` = the initial joint angles,
   :class:`~ffsm_pin.control.null_space.NullSpace`;
-* ``[controller.singularity]``: ``threshold`` [m] and ``max_damped_time`` [s], default
-  :class:`~ffsm_pin.control.gains.SingularityPolicy`;
+* ``[controller.singularity]``: ``threshold`` [m] (the run's) and ``max_damped_time`` [s]
+  (the lu-jia controller's), default :class:`~ffsm_pin.control.gains.SingularityPolicy`;
 * ``[sim]``: ``duration = 30.0`` [s], ``dt = 0.001`` [s], ``integrator = "semi-implicit"``
   (or ``"rk4"``), ``substeps = 1`` (plant steps per control step, torque held).
 
@@ -52,7 +54,7 @@ from typing import Any
 import numpy as np
 
 from ..control.funnel import FunnelParams
-from ..control.gains import ATTITUDE_RATE_SQUARED, Gains, SingularityPolicy, derived_gain
+from ..control.lu_jia_params import GAIN_KEYS, LuJiaParams
 from ..control.null_space import NullSpace
 from ..control.registry import resolved_type
 from ..errors import ParameterError, ScenarioError, choices_text, did_you_mean, not_a_file
@@ -64,6 +66,7 @@ from .spec import (
     Estimates,
     Harmonic,
     InitialCondition,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
@@ -228,10 +231,11 @@ def scenario_to_toml(scenario: Scenario) -> str:
     kind = c.type  # a registry name, or a file path resolved to an absolute one
     if isinstance(kind, str):
         kind = resolved_type(kind, scenario.source.parent if scenario.source else None)
-    lines += ["", "[controller]", f"type = {_param_toml(kind)}", f"scheme = {_toml(c.scheme)}"]
-    lines += [f"{k} = {_toml(getattr(c.gains, k))}" for k in schema.GAIN_KEYS]
+    p, perf = c.lu_jia, scenario.performance
+    lines += ["", "[controller]", f"type = {_param_toml(kind)}", f"scheme = {_toml(p.scheme)}"]
+    lines += [f"{k} = {_toml(getattr(p.gains, k))}" for k in GAIN_KEYS]
     lines += ["", "[controller.funnel]"]
-    for fun, tag in ((c.funnel_b, "b"), (c.funnel_z, "z")):
+    for fun, tag in ((perf.funnel_b, "b"), (perf.funnel_z, "z")):
         lines += [
             f"rho_{tag}0 = {_toml(fun.rho0)}",
             f"rho_{tag}inf = {_toml(fun.rhoinf)}",
@@ -252,9 +256,9 @@ def scenario_to_toml(scenario: Scenario) -> str:
     lines += [
         "",
         "[controller.singularity]",
-        f"threshold = {_toml(c.singularity.threshold)}",
-        f"max_damped_time = {_toml(c.singularity.max_damped_time)}",
-        *_null_space_lines(c.null_space),
+        f"threshold = {_toml(perf.singularity_threshold)}",
+        f"max_damped_time = {_toml(p.max_damped_time)}",
+        *_null_space_lines(p.null_space),
         *_params_lines(c.params),
         "",
         "[sim]",
@@ -290,11 +294,13 @@ def scenario_to_toml(scenario: Scenario) -> str:
 def _build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
     """The dataclasses from a validated document (every check is in :mod:`.schema`)."""
     _, n_b, n_ee = m.sizes
+    performance = _performance(m.controller, n_ee, n_b)
     return Scenario(
         robot=_robot(m.robot, src),
         initial=_initial(m.initial),
         reference=_reference(m.reference, n_b, n_ee, src),
-        controller=_controller(m.controller, n_ee, n_b, m.sim.dt),
+        controller=_controller(m.controller, performance, n_b, m.sim.dt),
+        performance=performance,
         duration=m.sim.duration,
         dt=m.sim.dt,
         name=m.name or (src.stem if src is not None else "scenario"),
@@ -502,36 +508,35 @@ def _is_float(text: str) -> bool:
     return True
 
 
-def _controller(c: schema.ControllerModel, n_ee: int, n_b: int, dt: float) -> ControllerSpec:
-    dflt = ControllerSpec()
+def _performance(c: schema.ControllerModel, n_ee: int, n_b: int) -> Performance:
+    """The run's performance specification: ``[controller.funnel]`` and
+    ``[controller.singularity] threshold``."""
+    dflt = Performance()
     planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
-    funnels = [
+    funnel_b, funnel_z = (
         FunnelParams(**schema.funnel_arrays(c.funnel, tag, n, default if planar else None))
         for tag, n, default in (("b", n_b, dflt.funnel_b), ("z", n_ee, dflt.funnel_z))
-    ]
-    gains = {k: getattr(c, k) for k in schema.GAIN_KEYS}
-    if gains["k_b"] is None:  # omitted: derived from the funnel and dt (docs/gains.md)
-        gains["k_b"] = derived_gain(funnels[0], dt, ATTITUDE_RATE_SQUARED[n_b])
-    if gains["k_z"] is None:
-        gains["k_z"] = derived_gain(funnels[1], dt)
-    e, ns = c.estimates, c.null_space
+    )
+    return Performance(
+        funnel_b=funnel_b, funnel_z=funnel_z, singularity_threshold=c.singularity.threshold
+    )
+
+
+def _controller(
+    c: schema.ControllerModel, performance: Performance, n_b: int, dt: float
+) -> ControllerSpec:
+    e = c.estimates
     return ControllerSpec(
-        scheme=c.scheme,
-        gains=Gains(**gains),
-        funnel_b=funnels[0],
-        funnel_z=funnels[1],
+        type=c.type,
+        params=dict(c.params),
         estimates=Estimates(
             initial=e.initial,
             spread=e.spread,
             seed=e.seed,
             **{k: _vec(getattr(e, k)) for k in ("theta_z", "theta_d", "theta_b")},
         ),
-        singularity=SingularityPolicy(
-            threshold=c.singularity.threshold, max_damped_time=c.singularity.max_damped_time
-        ),
-        null_space=NullSpace(objective=ns.objective, gain=ns.gain, center=_vec(ns.center)),
-        type=c.type,
-        params=dict(c.params),
+        # the lu-jia controller's keys, as it declares them (k_b, k_z derived when omitted)
+        lu_jia=LuJiaParams.from_keys(c, performance.funnel_b, performance.funnel_z, dt, n_b),
     )
 
 

@@ -14,17 +14,15 @@ validator. :func:`first_error` turns a ``pydantic.ValidationError`` into the one
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import re
 from collections.abc import Mapping
-from typing import Annotated, Any, Literal, NoReturn
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     AfterValidator,
     BaseModel,
     BeforeValidator,
-    ConfigDict,
     Discriminator,
     Field,
     Tag,
@@ -32,12 +30,10 @@ from pydantic import (
     field_validator,
     model_validator,
 )
-from pydantic_core import PydanticCustomError
 
-from ..control.controller import SCHEMES
-from ..control.gains import Gains, SingularityPolicy
+from .._schema import Num, Pos, Vec, _is_number, _numbers, _Table, default, describe, fail
 from ..control.kinematic import TASKS
-from ..control.null_space import OBJECTIVES, NullSpace
+from ..control.lu_jia_params import LuJiaKeys, LuJiaSingularityKeys
 from ..errors import InertiaError, ScenarioError, choices_text, did_you_mean
 from ..robot.geometry import check_inertia
 from ..robot.payload import Payload
@@ -49,6 +45,7 @@ from .spec import (
     ORIGINS,
     ControllerSpec,
     Estimates,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
@@ -56,50 +53,11 @@ from .spec import (
 
 #: For each supported base: (m2 end-effector position components, m3 attitude components).
 TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
-GAIN_KEYS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
 FUNNEL_KEYS = ("rho0", "rhoinf", "beta", "sigma")  # FunnelParams fields; TOML rho_b0, ...
 MAX_STEPS = 1e12  # control steps of a run (sim.duration / sim.dt): more is no run at all
 
 
-# ------------------------------------------------------------------------------ errors
-def fail(at: tuple, text: str) -> NoReturn:
-    """Raise a validation error at ``loc + at``; the message is the key path followed by
-    ``text`` (``": 2 values, expected 3"``, ``" = 1.5: must be in (0, 1]"``)."""
-    raise PydanticCustomError("scenario", "{text}", {"text": text, "at": at})
-
-
-def describe(x: Any) -> str:
-    """A value and its TOML kind, shortened: ``'fast' (string)``."""
-    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list"}
-    kind = names.get(type(x), "table" if isinstance(x, Mapping) else type(x).__name__)
-    text = repr(x)
-    return f"{text[:60] + '...' if len(text) > 60 else text} ({kind})"
-
-
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def default(cls: type, name: str) -> Any:
-    """The default of field ``name`` of the dataclass ``cls``: the dataclasses of
-    :mod:`.spec` (and :mod:`.devices`, :class:`~ffsm_pin.robot.Satellite`) hold every default
-    once, the file's models read them from there (a tuple as the list TOML has)."""
-    f: Any = {f.name: f for f in dataclasses.fields(cls)}[name]
-    value = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-    return list(value) if isinstance(value, tuple) else value
-
-
 # ------------------------------------------------------------------------------ value types
-Num = Annotated[float, Field(allow_inf_nan=False)]  # int accepted, bool and str are not
-Pos = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-
-
-def _numbers(value: Any) -> Any:
-    if not isinstance(value, list) or not all(_is_number(x) for x in value):
-        fail((), f": expected a list of numbers, got {describe(value)}")
-    return value
-
-
 def _number_or_numbers(value: Any) -> Any:
     if not _is_number(value):
         _numbers(value)
@@ -126,9 +84,6 @@ def _tables(value: Any) -> Any:
             f"got {describe(value)}",
         )
     return value
-
-
-Vec = Annotated[list[Num], BeforeValidator(_numbers)]
 
 
 def vec(n: int) -> Any:
@@ -180,10 +135,6 @@ def _torque_limit(value: Any) -> Any:
 
 Fraction = Annotated[Num, interval("[0, 1)", lambda x: 0 <= x < 1)]
 Sigma = Annotated[Num, interval("(0, 1]", lambda x: 0 < x <= 1)]
-
-
-class _Table(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 
 
 # ------------------------------------------------------------------------------ sections
@@ -342,7 +293,9 @@ class ReferenceModel(_Table):
 
 
 class FunnelModel(_Table):
-    """``[controller.funnel]``: a number is used for every component."""
+    """``[controller.funnel]``: the run's performance specification (every controller is
+    judged by these funnels; the lu-jia controller's transformation uses them); a number is
+    used for every component."""
 
     rho_b0: or_list(Pos) | None = None
     rho_binf: NumOrVec | None = None  # 0 < rho_inf < rho_0: ScenarioModel's check
@@ -379,54 +332,27 @@ class EstimatesModel(_Table):
         return self
 
 
-_SP = SingularityPolicy()
+class SingularityModel(LuJiaSingularityKeys):
+    """``[controller.singularity]``: ``threshold``, the run's singularity measure (the
+    performance specification's: sigma_min of the inverted task Jacobian below it is near
+    singular, where the built-in controllers damp their pseudo-inverse), and the lu-jia
+    controller's ``max_damped_time``."""
+
+    threshold: Pos = default(Performance, "singularity_threshold")  # [m]
 
 
-class SingularityModel(_Table):
-    """``[controller.singularity]``: the damped pseudo-inverse policy."""
-
-    threshold: Pos = _SP.threshold  # [m]
-    max_damped_time: Pos = _SP.max_damped_time  # [s]
-
-
-class NullSpaceModel(_Table):
-    """Beyond the paper: the null-space term added to Eq. (36)."""
-
-    objective: Literal[OBJECTIVES] = NullSpace.objective
-    gain: Annotated[Num, Field(ge=0)] = NullSpace.gain
-    center: Vec | None = None  # [rad], joint-centering only
-
-    @model_validator(mode="after")
-    def center_with_centering(self):
-        """``center`` applies to the joint-centering objective only."""
-        if self.center is not None and self.objective != "joint-centering":
-            fail(
-                ("center",),
-                f": only used with objective = 'joint-centering' (objective is {self.objective!r})",
-            )
-        return self
-
-
-_G = Gains()
-
-
-class ControllerModel(_Table):
-    """``[controller]``: the controller type, its params, the paper's gains and funnels."""
+class ControllerModel(LuJiaKeys):
+    """``[controller]``: the controller type and its free ``params`` table, the run's
+    performance specification (``funnel``, ``singularity.threshold``) and initial
+    ``estimates``; the paper's keys (``scheme``, gains, ``null_space``,
+    ``singularity.max_damped_time``) are the lu-jia controller's own, declared by it
+    (:class:`~ffsm_pin.control.lu_jia_params.LuJiaKeys`), accepted for every type."""
 
     type: Annotated[str, Field(min_length=1)] = default(ControllerSpec, "type")  # registry
     params: dict[str, Any] = {}  # free table for the controller (docs/controllers.md)
-    scheme: Literal[SCHEMES] = default(ControllerSpec, "scheme")
-    k_b: Pos | None = None  # None: derived from the funnel and dt (gains.derived_gain)
-    k_z: Pos | None = None
-    k_de: Pos = _G.k_de
-    k_d: Pos = _G.k_d
-    gamma_1: Pos = _G.gamma_1
-    gamma_2: Pos = _G.gamma_2
-    gamma_3: Pos = _G.gamma_3
     funnel: FunnelModel = FunnelModel()
     estimates: EstimatesModel = EstimatesModel()
     singularity: SingularityModel = SingularityModel()
-    null_space: NullSpaceModel = NullSpaceModel()
 
 
 class SimModel(_Table):
@@ -548,7 +474,7 @@ class ScenarioModel(_Table):
                     f"{ref.task!r} task: {', '.join(names[:n_ee])})",
                 )
         planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
-        dflt = ControllerSpec()
+        dflt = Performance()
         funnel = self.controller.funnel
         funnel_arrays(funnel, "b", n_b, dflt.funnel_b if planar else None)
         funnel_arrays(funnel, "z", n_ee, dflt.funnel_z if planar else None)

@@ -28,7 +28,8 @@ class CheckReport:
     sigma_min : float | None
         Smallest singular value of J_m-hat U-hat (or J_m-hat) at t = 0 [-].
     threshold : float | None
-        The controller's singularity threshold (``controller.singularity.threshold``).
+        The run's singularity threshold (``controller.singularity.threshold``, the
+        performance specification's).
     reach_horizon : float | None
         Time the reference leaves the reach under the CoM drift [s]; None if never.
     authority : float | None
@@ -165,7 +166,7 @@ def check(scenario: Scenario) -> CheckReport:
     # distance to singularity, for controllers that invert a task Jacobian
     singular_value = getattr(setup.controller, "singular_value", None)
     sigma = None if singular_value is None else float(singular_value(meas))
-    thr = float(scenario.controller.singularity.threshold)
+    thr = float(scenario.performance.singularity_threshold)
     if sigma is not None and not sigma > thr:
         problems.append(
             f"singular start: sigma_min of the task Jacobian at t = 0 is {sigma:.4g} <= "

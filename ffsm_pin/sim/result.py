@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
 from .recorder import Signals, Thinned, write_npz
 
@@ -85,7 +86,7 @@ class RunResult:
     :data:`EXTRA_KEYS` to an array (time along axis 0 for the per-sample keys).
     """
 
-    scheme: str | None  # the paper's controller's variant; None for other controllers
+    scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
     robot: str
     dt: float
     duration: float  # requested horizon [s]
@@ -105,7 +106,9 @@ class RunResult:
     rhoinf_z: tuple[float, ...] | None = None
     damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
     description: str = ""
-    controller: str = "lu-jia"  # the controller type ([controller] type)
+    controller: str = DEFAULT_TYPE  # the controller type ([controller] type)
+    # what the controller's sigma_min is the smallest singular value of (its sigma_measure)
+    sigma_measure: str | None = None
     saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
     # per joint: control periods with that joint at its torque limit (None: not counted)
     saturation_per_joint: list[float] | None = None
@@ -297,7 +300,9 @@ class RunResult:
             "stop_cause": self.stop_cause,
             "stop_funnel": self.stop_funnel,
             "min_sigma": scan.min_sigma,
-            "min_sigma_of": _sigma_measure(self) if scan.min_sigma is not None else None,
+            "min_sigma_of": (self.sigma_measure or OWN_SIGMA)
+            if scan.min_sigma is not None
+            else None,
             "damping_threshold": self.damping_threshold,
             "damped_fraction": scan.damped / n if n else 0.0,
             "max_abs_F_r": scan.max_F_r,
@@ -394,19 +399,9 @@ def _stop_component(reason: str | None) -> int | None:
     return 0 if "base attitude error =" in reason else None
 
 
-#: What each built-in controller's ``sigma_min`` signal (summary ``min_sigma``) is the smallest
-#: singular value of; ``min_sigma_of`` in summary.json.
-SIGMA_MEASURES = {
-    "lu-jia": "J_m-hat U-hat",  # Eqs. (25), (36); "no-attitude" (Eq. 81): J_m-hat
-    "gjm-ct": "J*-hat",  # the generalized Jacobian of the estimated model
-    "adaptive-ct": "J*-hat",
-}
-
-
-def _sigma_measure(res: RunResult) -> str:
-    if res.controller == "lu-jia" and res.scheme == "no-attitude":
-        return "J_m-hat"
-    return SIGMA_MEASURES.get(res.controller, "sigma_min (the controller's own)")
+#: ``min_sigma_of`` of a controller that reports ``sigma_min`` without saying of what
+#: (its ``sigma_measure``, docs/controllers.md).
+OWN_SIGMA = "sigma_min (the controller's own)"
 
 
 def _final_norm(s: Mapping[str, np.ndarray], name: str) -> float | None:

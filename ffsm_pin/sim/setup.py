@@ -26,7 +26,14 @@ from ..control.interface import (
 )
 from ..control.kinematic import task_errors, task_size
 from ..control.registry import controller_class
-from ..errors import ControllerLoadError, FfsmError, ScenarioError
+from ..errors import (
+    ControllerLoadError,
+    FfsmError,
+    ParameterError,
+    ScenarioError,
+    choices_text,
+    did_you_mean,
+)
 from ..model import ReducedModel, State, make_model
 from ..robot import Robot, load_robot
 from ..scenario.file import check_scenario
@@ -90,6 +97,7 @@ def prepare(scenario: Scenario) -> Setup:
         urdf_limits(robot.effort_limits, robot.n_joints, robot.joint_names)
     ctrl, ref = scenario.controller, scenario.reference
     cls = controller_class(ctrl.type, scenario.source.parent if scenario.source else None)
+    check_params(cls, ctrl.type, ctrl.params)  # the keys its class declares, if it does
     model = make_model(robot)
     m3 = model.m3
     n_task = task_size(model.m2, m3, ref.task)
@@ -123,7 +131,8 @@ def prepare(scenario: Scenario) -> Setup:
         scenario = dataclasses.replace(scenario, reference=ref)
     q_bd = np.array(ref.base_attitude, dtype=float)
     err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
-    funnels = {"b": Funnel(ctrl.funnel_b, err_b), "z": Funnel(ctrl.funnel_z, err_z)}
+    perf = scenario.performance  # what every run is judged by
+    funnels = {"b": Funnel(perf.funnel_b, err_b), "z": Funnel(perf.funnel_z, err_z)}
     for label, key, funnel, err in (
         ("base attitude", "rho_b0", funnels["b"], err_b),
         ("end-effector", "rho_z0", funnels["z"], err_z),
@@ -180,6 +189,23 @@ def prepare(scenario: Scenario) -> Setup:
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
         funnels["b"], funnels["z"], drawn,
     )  # fmt: skip
+
+
+def check_params(cls: type, kind: str, params) -> None:
+    """Refuse a ``[controller.params]`` key that the controller's class does not declare in
+    its ``params_keys`` (docs/controllers.md; nothing is checked for a class without it): one
+    line naming the key, the type and the valid keys."""
+    accepted = getattr(cls, "params_keys", None)
+    if accepted is None:
+        return
+    accepted = [str(k) for k in accepted]
+    for key in params:
+        if key not in accepted:
+            raise ParameterError(
+                f"controller.params.{key}: unknown for controller.type {kind!r}"
+                f"{did_you_mean(str(key), accepted)}; valid keys: "
+                f"{choices_text(accepted) or 'none'}"
+            )
 
 
 def _constant(value):

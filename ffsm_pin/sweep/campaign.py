@@ -1,8 +1,10 @@
 """Campaign files (TOML, docs/campaigns.md) -> a validated :class:`Campaign` -> its cases.
 
 A campaign names a scenario (built-in name or file) or several, a root seed, a number of repeats
-per grid point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``) and
-for one scenario's cases (``[campaign.set_for.<scenario>]``), grid axes
+per grid point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``),
+for one scenario's cases (``[campaign.set_for.<scenario>]``) and for the cases of one controller
+type (``[campaign.set_for_controller."<type>"]``: a controller's own ``[controller.params]``
+beside other controllers that would refuse them), grid axes
 (``[[vary]]``: a dotted scenario key and its values) and randomly sampled keys (``[[sample]]``:
 a dotted key and a distribution) and dispersed keys (``[campaign.disperse]``: any numeric
 scenario key drawn per case, each from its own stream, read back from the case's resolved
@@ -16,7 +18,9 @@ scenario). :func:`expand` turns it into cases:
 * cases 1.. are the Cartesian product of the ``[[vary]]`` axes (in file order, the last axis
   fastest) times ``repeat`` draws, repeats innermost. Each case sets
   ``controller.estimates.seed`` and draws its sampled keys from its own random stream
-  (:mod:`ffsm_pin.sweep.seeds`).
+  (:mod:`ffsm_pin.sweep.seeds`); a case whose ``controller.type`` (varied, set, or its
+  scenario's, as written) has a ``set_for_controller`` table gets its keys too. A table for a
+  type that none of these cases has is bad input.
 
 Every case's scenario is the scenario file's TOML document with the keys replaced, validated by
 :func:`ffsm_pin.scenario.file.scenario_from_dict` exactly like a file; the case records the
@@ -45,6 +49,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from .. import __version__
+from ..control.registry import DEFAULT_TYPE
 from ..errors import FfsmError, choices_text, did_you_mean
 from ..scenario.file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
 from ..scenario.schema import ScenarioModel, describe, first_error, model_in
@@ -78,9 +83,11 @@ __all__ = [
 
 #: The column of the scenario in a campaign over several scenarios.
 SCENARIO_COLUMN = "scenario"
+#: The scenario key that names a case's controller (``[campaign.set_for_controller]``).
+TYPE_KEY = "controller.type"
 #: Grid axes that do not change a case's random draws (estimates, samples, dispersions): the
 #: cases of every scenario and every controller type at one grid point and repeat draw alike.
-COMMON_DRAWS = (SCENARIO_COLUMN, "controller.type")
+COMMON_DRAWS = (SCENARIO_COLUMN, TYPE_KEY)
 
 
 class CampaignError(FfsmError, ValueError):
@@ -198,6 +205,8 @@ class Campaign:
     set_for: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # per scenario
     auto: AutoRepeat | None = None  # repeat = "auto"; ``repeat`` is then the current batch's
     disperse: tuple[Disperse, ...] = ()  # [campaign.disperse], drawn per case
+    # per controller type (as written in controller.type)
+    set_for_controller: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     @property
     def scenario(self) -> str:
@@ -299,6 +308,17 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         raise CampaignError(first_error(exc, schema.CampaignModel)) from None
     c = m.campaign
     scenarios = tuple(c.scenario) if isinstance(c.scenario, list) else (c.scenario,)
+    paths = tuple(_scenario_path(x, path) for x in scenarios)
+    if c.set_for_controller:
+        kinds = _controller_types(scenarios, paths, c.set, c.set_for, m.vary)
+        for kind in c.set_for_controller:
+            if kind not in kinds:
+                raise CampaignError(
+                    f"campaign.set_for_controller.{schema.toml_key(kind)}: not a controller type "
+                    f"of this campaign's cases{did_you_mean(kind, kinds)}; valid choices: "
+                    f"{choices_text(kinds)} (controller.type as the campaign or its scenarios "
+                    "write it)"
+                )
     auto, repeat = None, c.repeat
     if c.repeat == "auto":
         default = AutoRepeat()
@@ -310,8 +330,9 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
     return Campaign(
         name=c.name or path.stem,
         scenarios=scenarios,
-        scenario_paths=tuple(_scenario_path(x, path) for x in scenarios),
+        scenario_paths=paths,
         set_for={k: dict(v) for k, v in c.set_for.items()},
+        set_for_controller={k: dict(v) for k, v in c.set_for_controller.items()},
         seed=c.seed,
         repeat=int(repeat),
         duration=c.duration,
@@ -333,6 +354,35 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
             for key, spec in c.disperse.items()
         ),
     )
+
+
+def _controller_types(scenarios, paths, common, set_for, vary) -> list[str]:
+    """The ``controller.type`` of the campaign's grid cases, as written: the varied values,
+    else ``[campaign.set_for.<scenario>]``'s, ``[campaign.set]``'s or the scenario file's (the
+    default type when it names none), in the order first met."""
+    kinds: list[str] = []
+    varied = next((v.values for v in vary if v.key == TYPE_KEY), None)
+    for name, path in zip(scenarios, paths, strict=True):
+        if varied is not None:
+            found = list(varied)
+        elif TYPE_KEY in set_for.get(name, {}):
+            found = [set_for[name][TYPE_KEY]]
+        elif TYPE_KEY in common:
+            found = [common[TYPE_KEY]]
+        else:
+            found = [_type_of(path)]
+        kinds += [k for k in found if isinstance(k, str) and k not in kinds]
+    return kinds
+
+
+def _type_of(path: Path) -> Any:
+    """The ``controller.type`` a scenario file writes (the default when none; None when the
+    file cannot be read: expanding the campaign says why)."""
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    return _lookup(doc, TYPE_KEY, DEFAULT_TYPE)
 
 
 def _scenario_path(scenario: str, campaign_path: Path) -> Path:
@@ -401,6 +451,10 @@ def expand(campaign: Campaign) -> list[Case]:
                     stream = case_stream(campaign.seed, draws, r, "disperse:" + d.key)
                     drawn[d.key] = d.draw(np.random.default_rng(stream), sizes[d.key])
                 keys.update(drawn)
+                # the keys of this case's controller type (disjoint from the others: schema)
+                kind = keys.get(TYPE_KEY, _lookup(base, TYPE_KEY, DEFAULT_TYPE))
+                if isinstance(kind, str):
+                    keys.update(campaign.set_for_controller.get(kind, {}))
                 index = len(cases)
                 point_index = p + len(points) * which
                 case = _case(campaign, base, path, index, point_index, r, point, keys, seed)
@@ -599,7 +653,13 @@ def check_cases(cases: list[Case], source: str) -> None:
                 warnings.simplefilter("ignore")
                 prepare(case.scenario)
         except FfsmError as exc:
-            raise CampaignError(f"{source}: case {case.index} ({case.label()}): {exc}") from None
+            text = str(exc)
+            if text.startswith("controller.params.") and "unknown for controller.type" in text:
+                text += (  # another type's keys, set for every case?
+                    "; a campaign sets the keys of one controller type's cases in "
+                    '[campaign.set_for_controller."<type>"]'
+                )
+            raise CampaignError(f"{source}: case {case.index} ({case.label()}): {text}") from None
 
 
 # ------------------------------------------------------------------------------ helpers

@@ -78,10 +78,22 @@ def _scenarios(value: Any) -> Any:
     return value
 
 
-def _set_for(table: Any) -> Any:
-    if not isinstance(table, Mapping) or not all(isinstance(v, Mapping) for v in table.values()):
-        fail((), f": expected a table of tables (one per scenario), got {describe(table)}")
-    return {name: flatten(v) for name, v in table.items()}
+def _tables_per(what: str):
+    """A table of tables (one per ``what``), each flattened to dotted keys."""
+
+    def check(table: Any) -> Any:
+        if not isinstance(table, Mapping) or not all(
+            isinstance(v, Mapping) for v in table.values()
+        ):
+            fail((), f": expected a table of tables (one per {what}), got {describe(table)}")
+        return {name: flatten(v) for name, v in table.items()}
+
+    return check
+
+
+def toml_key(name: str) -> str:
+    """``name`` as a TOML key: bare when it may be, else quoted (``"my_ctrl.py:MyController"``)."""
+    return name if name and name.replace("_", "").replace("-", "").isalnum() else f'"{name}"'
 
 
 def _repeat(value: Any) -> Any:
@@ -178,7 +190,11 @@ class CampaignTable(_Table):
     # a built-in scenario name or a file (relative to the campaign file), or a list of them
     scenario: Annotated[str | list[str], BeforeValidator(_scenarios)]
     # {scenario: {dotted key: value}}: overrides for that scenario's cases only
-    set_for: Annotated[dict[str, dict[str, Any]], BeforeValidator(_set_for)] = {}
+    set_for: Annotated[dict[str, dict[str, Any]], BeforeValidator(_tables_per("scenario"))] = {}
+    # {controller type: {dotted key: value}}: overrides for the cases of that controller.type
+    set_for_controller: Annotated[
+        dict[str, dict[str, Any]], BeforeValidator(_tables_per("controller type"))
+    ] = {}
     name: str | None = None  # default: the file's stem
     description: str = ""
     seed: Annotated[int, Field(ge=0)] = 0
@@ -272,6 +288,9 @@ class CampaignModel(_Table):
                 if key in c.set or key == SEED_KEY or key in varied or key in c.disperse:
                     why = ": also set for every case (campaign.set, [[vary]] or the seed)"
                     fail(("campaign", "set_for", name, key), why)
+        self._per_controller(where_set_for={
+            key: name for name, keys in c.set_for.items() for key in keys
+        })  # fmt: skip
         for key, place in [
             *((k, "campaign.set") for k in c.set),
             *((v.key, "[[vary]]") for v in self.vary),
@@ -289,3 +308,31 @@ class CampaignModel(_Table):
                 if key == full and getattr(c, opt) is not None:
                     fail((key,), f": given twice (in {place} and as campaign.{opt})")
         return self
+
+    def _per_controller(self, where_set_for: Mapping[str, str]) -> None:
+        """Refuse a key of ``[campaign.set_for_controller."<type>"]`` that every case sets,
+        that a scenario's table sets too, or ``controller.type`` itself (which controller types
+        the campaign has is checked where its scenario files are read)."""
+        c = self.campaign
+        everywhere = {
+            *c.set,
+            *c.disperse,
+            *(v.key for v in self.vary),
+            *(s.key for s in self.sample),
+        }
+        for opt in ("duration", "dt"):
+            if getattr(c, opt) is not None:
+                everywhere.add(f"sim.{opt}")
+        for kind, keys in c.set_for_controller.items():
+            at = ("campaign", "set_for_controller", toml_key(kind))
+            for key in keys:
+                if key == "controller.type":
+                    fail((*at, key), ": the controller type is what picks this table's cases; "
+                         "set it in [[vary]], campaign.set or the scenario")  # fmt: skip
+                if key in everywhere or key == SEED_KEY:
+                    why = (": also set for every case (campaign.set, [[vary]], [[sample]], "
+                           "[campaign.disperse], campaign.duration / dt or the seed)")  # fmt: skip
+                    fail((*at, key), why)
+                if key in where_set_for:
+                    scenario = toml_key(where_set_for[key])
+                    fail((*at, key), f": given twice (also in campaign.set_for.{scenario})")

@@ -59,7 +59,7 @@ def test_thirty_percent_parameter_error(case):
     q = len(err) // 4
     rms_first, rms_last = (np.sqrt(np.mean(e**2)) for e in (err[:q], err[-q:]))
     assert rms_last < 0.5 * rms_first
-    assert rms_last < min(sc.controller.funnel_z.rhoinf)
+    assert rms_last < min(sc.performance.funnel_z.rhoinf)
 
 
 def test_passing_the_fold_of_case1_does_not_blow_up():

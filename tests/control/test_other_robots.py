@@ -32,6 +32,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import load_robot
 from ffsm_pin.scenario.spec import (
@@ -40,6 +41,7 @@ from ffsm_pin.scenario.spec import (
     Estimates,
     Harmonic,
     InitialCondition,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
@@ -87,11 +89,13 @@ def scenario(name: str, seed: int) -> Scenario:
         base_attitude=(0.0,),
     )
     ctrl = ControllerSpec(
-        scheme="ppc",
-        funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)),
+        lu_jia=LuJiaParams(scheme="ppc"),
         estimates=Estimates("perturbed", spread=SPREAD, seed=seed),
     )
-    return Scenario(RobotSpec(urdf=urdf), init, ref, ctrl, duration=DURATION, dt=1e-3)
+    perf = Performance(funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)))
+    return Scenario(
+        RobotSpec(urdf=urdf), init, ref, ctrl, duration=DURATION, dt=1e-3, performance=perf
+    )
 
 
 @pytest.fixture(scope="module", params=[(n, s) for n in ROBOTS for s in SEEDS], ids=str)
@@ -140,16 +144,16 @@ def test_both_funnels_kept_for_30_s(run):
     for value in result.signals.values():
         assert np.all(np.isfinite(value))
     # Theorem 1 / Remark 3: the errors end inside rho_inf
-    ctrl = setup.scenario.controller
-    assert np.all(np.abs(result["err_b"][-1]) < np.array(ctrl.funnel_b.rhoinf))
-    assert np.all(np.abs(result["err_z"][-1]) < np.array(ctrl.funnel_z.rhoinf))
+    perf = setup.scenario.performance
+    assert np.all(np.abs(result["err_b"][-1]) < np.array(perf.funnel_b.rhoinf))
+    assert np.all(np.abs(result["err_z"][-1]) < np.array(perf.funnel_z.rhoinf))
 
 
 def test_arm_stays_away_from_folds(run):
     """The start and reference were chosen so that the arm is well-conditioned all along:
     sigma_min of J_m-hat U-hat never reaches the damping threshold (no damping, no warning)."""
     _, setup, _, result, caught = run
-    threshold = setup.scenario.controller.singularity.threshold
+    threshold = setup.scenario.performance.singularity_threshold
     assert np.min(result["sigma_min"]) > threshold
     assert np.all(result["damping"] == 0)
     assert not any("singularity" in str(w.message) for w in caught)

@@ -237,7 +237,7 @@ def perturbed(draw):
         est["seed"] = draw(st.integers(0, 2**31))
     f = c.setdefault("funnel", {})
     sc = builtin_scenario(name)
-    for tag, params in (("b", sc.controller.funnel_b), ("z", sc.controller.funnel_z)):
+    for tag, params in (("b", sc.performance.funnel_b), ("z", sc.performance.funnel_z)):
         n = params.size
         rho0 = draw(st.lists(st.floats(0.01, 10.0), min_size=n, max_size=n))
         frac = draw(st.lists(st.floats(0.01, 0.99), min_size=n, max_size=n))

@@ -170,9 +170,9 @@ def test_values_are_read_back_from_the_resolved_scenario(campaign_file):
         sc = scenario_from_toml(c.scenario_toml)
         assert c.values["controller.estimates.spread"] == sc.controller.estimates.spread
         assert isinstance(c.values["controller.estimates.spread"], float)
-        assert sc.controller.funnel_b.rho0 == (c.values["controller.funnel.rho_b0"],)
+        assert sc.performance.funnel_b.rho0 == (c.values["controller.funnel.rho_b0"],)
         k_z = c.values["controller.k_z"]
-        assert k_z == sc.controller.gains.k_z and 0.01 <= k_z <= 0.1
+        assert k_z == sc.controller.lu_jia.gains.k_z and 0.01 <= k_z <= 0.1
     # the nominal case records what the scenario file itself uses
     assert cases[0].values["controller.k_z"] == 0.04
     assert cases[0].values["controller.funnel.rho_b0"] == 1.0

@@ -72,8 +72,8 @@ def test_the_drawn_values_are_the_resolved_scenarios(campaign_file):
     cases = expand(_campaign(campaign_file, [K_Z, LIMIT, GAMMA]))
     for c in cases[1:]:
         sc = scenario_from_toml(c.scenario_toml)  # what the worker runs
-        assert sc.controller.gains.k_z == c.values["controller.k_z"]
-        assert sc.controller.gains.gamma_1 == c.values["controller.gamma_1"]
+        assert sc.controller.lu_jia.gains.k_z == c.values["controller.k_z"]
+        assert sc.controller.lu_jia.gains.gamma_1 == c.values["controller.gamma_1"]
         assert sc.actuators.torque_limit == c.values["actuators.torque_limit"]
         assert 20.0 <= sc.actuators.torque_limit <= 60.0
 
@@ -88,7 +88,7 @@ def test_vectors_are_drawn_element_wise(campaign_file):
     for c in cases[1:]:
         rho = c.values["controller.funnel.rho_z0"]
         assert len(rho) == 3 and len(set(rho)) == 3 and all(1.2 <= x <= 1.5 for x in rho)
-        assert scenario_from_toml(c.scenario_toml).controller.funnel_z.rho0 == tuple(rho)
+        assert scenario_from_toml(c.scenario_toml).performance.funnel_z.rho0 == tuple(rho)
         joints = np.array(c.values["initial.joints"])
         assert np.all(np.abs(joints - [0.1, 0.2, 0.3, 0.4]) < 0.06)
 
