@@ -10,6 +10,7 @@ import shutil
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -252,3 +253,59 @@ def test_two_copies_of_the_package_share_the_compiled_kernels(tmp_path):
     assert first[0].startswith(str(a)) and second[0].startswith(str(b))
     assert first[1:] == [0, 1]  # compiled in a ...
     assert second[1:] == [1, 0]  # ... loaded in b
+
+
+SECOND_PATH = (
+    "import json, sys\n"
+    "import ffsm_pin\n"  # first: the package's numba settings before numba loads
+    "from numba.core import event\n"
+    "compiled = []\n"
+    "class Compiled(event.Listener):\n"
+    "    def on_start(self, ev):\n"
+    "        d = ev.data or {}\n"
+    "        f = d['dispatcher'].py_func if 'dispatcher' in d else None\n"
+    "        compiled.append(f.__qualname__ if f else str(d))\n"
+    "    def on_end(self, ev):\n"
+    "        pass\n"
+    "event.register('numba:compile', Compiled())\n"
+    "from ffsm_pin.sim.cli import main\n"
+    "from ffsm_pin.control._first_compile import finish\n"
+    "code = main(sys.argv[2:])\n"
+    "finish()\n"
+    "with open(sys.argv[1], 'w') as f:\n"
+    "    json.dump({'file': ffsm_pin.__file__, 'code': code, 'compiled': compiled}, f)\n"
+)
+
+
+@pytest.mark.slow
+def test_a_second_import_path_compiles_nothing(tmp_path):
+    """15-90 s (one first compilation). A tiny case-1 run from the repository's root
+    (``python -m ffsm_pin.sim`` imports ``./ffsm_pin``), then the same run from another folder
+    with the package as pip installs it elsewhere: the second compiles nothing, neither in its
+    process (numba's compile events) nor in a second process (no cache file written)."""
+    from ffsm_pin.sim.compile_note import MESSAGE
+
+    repo = Path(__file__).resolve().parents[1]
+    xdg = tmp_path / "xdg"
+    run = ["--case", "case1", "--duration", "0.01", "--no-plots", "--no-html"]
+    env = {**os.environ, "XDG_CACHE_HOME": str(xdg)}
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("PYTHONPATH", None)
+    cmd = [sys.executable, "-m", "ffsm_pin.sim", *run, "--out", tmp_path / "a"]
+    first = subprocess.run(cmd, cwd=repo, env=env, capture_output=True, text=True, timeout=900)
+    assert first.returncode == 0, first.stderr
+    assert MESSAGE in first.stderr  # an empty cache: compiled, and announced
+
+    def files() -> dict:
+        return {p: p.stat().st_mtime_ns for p in xdg.rglob("*") if p.is_file()}
+
+    cached = files()
+    assert any(p.match("*/control/period/*.nbi") for p in cached)
+    site = _copy_installed(tmp_path, "site")
+    report = tmp_path / "second.json"
+    second = _in_copy(site, xdg, SECOND_PATH, report, *run, "--out", tmp_path / "b")
+    got = json.loads(report.read_text())
+    assert got["file"].startswith(str(site)) and got["code"] == 0
+    assert got["compiled"] == []
+    assert MESSAGE not in second.stderr
+    assert files() == cached  # nor did a second process compile anything
