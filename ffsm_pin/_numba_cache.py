@@ -17,11 +17,12 @@ Imported first by ``ffsm_pin/__init__.py``, before anything imports numba:
   per place. :func:`install_locator` puts a locator of the package's own kernels first in
   numba's list: the entries of ``<package>/control/period.py`` are in
   ``<NUMBA_CACHE_DIR>/control/period``, whatever folder the package is in, stamped with a
-  digest of the file's bytes (numba before 0.6x stamps modification time and size), so every
-  copy with the same bytes shares every entry. It is used only in the folder this module
-  chose (per kernel-source digest: never a stale kernel); with a ``NUMBA_CACHE_DIR`` of your
-  own, or numba internals this module does not know (another numba version), numba's own
-  locators apply, as before.
+  digest of the file's bytes (numba 0.68 hashes the bytes too; older versions stamp the
+  modification time and size), so every copy with the same bytes shares every entry. It is
+  used only in the folder this module chooses (per kernel-source digest: never a stale
+  kernel), also when a process inherits it in ``NUMBA_CACHE_DIR`` (a first run's second
+  process, a campaign's workers); with a ``NUMBA_CACHE_DIR`` of your own, or numba internals
+  this module does not know (another numba version), numba's own locators apply, as before.
 * ``NUMBA_OPT = 2`` and ``NUMBA_LOOP_VECTORIZE = 0`` (numba's defaults are 3 and 1): LLVM's
   level-3 passes and its loop vectoriser cost about a fifth of a first run's compilation
   (case 1 27.6 -> 22.2 s, spatial 31.4 -> 27.8 s) and buy nothing on the kernels' arrays of a
@@ -76,6 +77,13 @@ def prune(folder: Path, keep: str, days: float = PRUNE_AFTER_DAYS) -> None:
             pass
 
 
+def cache_home() -> Path:
+    """``$XDG_CACHE_HOME/ffsm-pin/numba`` (default ``~/.cache/ffsm-pin/numba``): the parent of
+    the per-source folders."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "ffsm-pin" / "numba"
+
+
 def numba_cache_dir(package: Path = PACKAGE) -> str | None:
     """``$XDG_CACHE_HOME/ffsm-pin/numba/<kernel_digest>`` (default ``~/.cache/ffsm-pin/numba/...``);
     touched, and the other sources' folders unused for :data:`PRUNE_AFTER_DAYS` days removed.
@@ -83,8 +91,7 @@ def numba_cache_dir(package: Path = PACKAGE) -> str | None:
     None when the folder cannot be created or written (numba then keeps its default, next to
     the sources).
     """
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    parent = Path(base) / "ffsm-pin" / "numba"
+    parent = cache_home()
     digest = kernel_digest(package)
     folder = parent / digest
     try:
@@ -141,7 +148,7 @@ LOCATOR: type | None = None
 def install_locator(caching: Any = None) -> type | None:
     """Register the package's cache locator first in numba's list of locators and return it;
     None, with numba's list unchanged, when numba's private names (``_CacheLocator``,
-    ``CacheImpl._locator_classes``, or ``_CacheImpl`` before numba 0.6x) are not there.
+    ``CacheImpl._locator_classes``, or ``_CacheImpl`` in older numba versions) are not there.
 
     The locator takes the kernels of the package's own source files when numba's cache folder
     is :data:`CACHE_DIR` (see the module docstring); for every other file, or if anything about
@@ -216,8 +223,15 @@ def cache_folder(py_file: Path) -> Path:
     return Path(cache) / f"{os.path.basename(folder)}_{hashlib.sha1(folder.encode()).hexdigest()}"
 
 
-if "NUMBA_CACHE_DIR" not in os.environ:
+_given = os.environ.get("NUMBA_CACHE_DIR")
+if _given is None:
     CACHE_DIR = numba_cache_dir()
     if CACHE_DIR is not None:
         os.environ["NUMBA_CACHE_DIR"] = CACHE_DIR
-        LOCATOR = install_locator()
+elif _given == str(cache_home() / kernel_digest()):
+    # inherited from a process that imported this package (a first run's second process, a
+    # campaign's workers): the same folder, so the same layout, or the entries of one would
+    # be lost to the other
+    CACHE_DIR = _given
+if CACHE_DIR is not None:
+    LOCATOR = install_locator()

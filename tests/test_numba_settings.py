@@ -137,12 +137,14 @@ def _copy_installed(tmp_path, name):
     return site
 
 
-def _in_copy(site, xdg, code, *args, hide=""):
+def _in_copy(site, xdg, code, *args, hide="", numba_cache_dir=None):
     """Run ``code`` in a Python importing the package from ``site`` (working folder: site's
     parent), with the package's cache under ``xdg``; ``hide``: a name to remove from
     ``numba.core.caching`` as it loads (another numba version)."""
     env = {**os.environ, "PYTHONPATH": str(site), "XDG_CACHE_HOME": str(xdg)}
     env.pop("NUMBA_CACHE_DIR", None)
+    if numba_cache_dir is not None:
+        env["NUMBA_CACHE_DIR"] = str(numba_cache_dir)
     if hide:
         code = (
             "import importlib.abc, importlib.machinery, sys\n"
@@ -201,6 +203,32 @@ def test_without_numbas_private_names_numbas_own_locators_apply(tmp_path):
     assert got["period"] == os.path.join(got["cache"], numbas)
     assert got["note"] == got["period"]  # the compile note follows numba's layout
     assert got["cache"].startswith(str(tmp_path / "xdg"))  # the per-user folder is kept
+
+
+@pytest.mark.parametrize("inherited", [True, False], ids=["the-packages", "the-users"])
+def test_an_inherited_cache_folder_keeps_the_packages_layout(tmp_path, inherited):
+    """A process started by one that imported the package (the first run's second process, a
+    campaign's workers) inherits its ``NUMBA_CACHE_DIR``: that folder is the package's, and
+    its kernels must be filed the same way there, or the parent does not find what the child
+    compiled. A folder of the user's own keeps numba's layout."""
+    from ffsm_pin._numba_cache import kernel_digest
+
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "outside.py").write_text("")
+    site = _copy_installed(tmp_path, "site")
+    xdg = tmp_path / "xdg"
+    folder = xdg / "ffsm-pin" / "numba" / kernel_digest(site / "ffsm_pin")
+    given = folder if inherited else tmp_path / "mine"
+    code = PLACES.replace("import outside\n", "").replace("outside.f._cache.cache_path", "''")
+    code = code.replace("'cache': m.CACHE_DIR", "'cache': os.environ['NUMBA_CACHE_DIR']")
+    code = code.replace("import ffsm_pin, ", "import ffsm_pin, os, ")
+    proc = _in_copy(site, xdg, code, tmp_path / "elsewhere", numba_cache_dir=given)
+    got = json.loads(proc.stdout)
+    assert got["cache"] == str(given) and got["first"] == inherited
+    if inherited:
+        assert got["period"] == os.path.join(given, "control", "period")
+    else:
+        assert os.path.basename(got["period"]).startswith("control_")
 
 
 @pytest.mark.parametrize(
@@ -309,3 +337,6 @@ def test_a_second_import_path_compiles_nothing(tmp_path):
     assert got["compiled"] == []
     assert MESSAGE not in second.stderr
     assert files() == cached  # nor did a second process compile anything
+    # the first run's second process filed its kernels as the first did (it inherits the
+    # package's NUMBA_CACHE_DIR), not in numba's folders per source path, <name>_<sha1>
+    assert not [p for p in xdg.rglob("*_*") if p.is_dir() and len(p.name.rsplit("_", 1)[1]) == 40]
