@@ -52,9 +52,10 @@ from .. import __version__
 from .._schema import describe, first_error, model_in
 from ..control.registry import DEFAULT_TYPE
 from ..errors import FfsmError, choices_text, did_you_mean
-from ..scenario.file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
+from ..scenario.file import BUILTIN, builtin_path, scenario_from_dict
 from ..scenario.schema import ScenarioModel
 from ..scenario.spec import Scenario
+from ..scenario.writer import scenario_to_toml
 from . import campaign_schema as schema
 from .campaign_schema import DISTRIBUTIONS, SEED_KEY
 from .seeds import case_stream, estimates_seed
