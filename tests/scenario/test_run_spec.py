@@ -27,7 +27,8 @@ from ffsm_pin.scenario.file import BUILTIN, builtin_path, load_scenario, scenari
 from ffsm_pin.scenario.sections import ControllerModel
 from ffsm_pin.scenario.spec import Performance
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sweep.campaign import BUILTIN_CAMPAIGNS, expand, load_campaign
+from ffsm_pin.sweep.campaign import BUILTIN_CAMPAIGNS, load_campaign
+from ffsm_pin.sweep.cases import expand
 
 if sys.version_info >= (3, 11):
     import tomllib
