@@ -17,19 +17,15 @@ from __future__ import annotations
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .meshes import ReplayWarning
 from .result import RunResult
-from .scene import (
-    DEFAULT_BASE_SIZE,
-    MAX_MESH_MB,
-    ROOT,
-    ReplayRobot,
-    _dims,
-    _path_extent,
-    build_scene,
-)
+from .scene import DEFAULT_BASE_SIZE, MAX_MESH_MB, ROOT, _dims, _path_extent, build_scene
 from .scene_recorder import SceneRecorder
+
+if TYPE_CHECKING:
+    from .scene import ReplayRobot
 
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
     warnings.simplefilter("ignore", DeprecationWarning)
