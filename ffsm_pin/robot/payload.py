@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ParameterError, choices_text, did_you_mean
+from ..errors import ParameterError, check_keys
 from .geometry import check_inertia
 
 
@@ -42,13 +42,7 @@ class Payload:
     def from_mapping(cls, table: Mapping) -> Payload:
         """Build from a dict (e.g. a scenario's ``[robot.payload]`` table); unknown keys are
         errors."""
-        valid = ("mass", "inertia", "com", "known")
-        for key in table:
-            if key not in valid:
-                raise ParameterError(
-                    f"payload: unknown key {key!r}{did_you_mean(key, valid)}; "
-                    f"valid keys: {choices_text(valid)}"
-                )
+        check_keys(table, ("mass", "inertia", "com", "known"), "payload")
         return cls(**dict(table))
 
     def inertia_matrix(self) -> np.ndarray:

@@ -53,7 +53,7 @@ def write_outputs(
         A file could not be written (full disk, file-size limit, permissions): the message
         names it; the folder keeps the earlier run.
     """
-    from ..scenario.file import scenario_to_toml
+    from ..scenario.writer import scenario_to_toml
 
     warn = warn or (lambda message: print(f"warning: {message}", file=sys.stderr))
     with held_interrupt(warn), RunFolder(folder) as out:

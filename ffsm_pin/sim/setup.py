@@ -36,7 +36,7 @@ from ..errors import (
 )
 from ..model import ReducedModel, State, make_model
 from ..robot import Robot, load_robot
-from ..scenario.file import check_scenario
+from ..scenario.check import check_scenario
 from ..scenario.spec import Scenario
 from .actuators import Actuators, urdf_limits
 from .estimates import initial_estimates

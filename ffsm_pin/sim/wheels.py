@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ParameterError, choices_text, did_you_mean
+from ..errors import ParameterError, check_keys
 from .plant import Plant
 
 _KEYS = ("axes", "inertia", "max_torque", "max_momentum")
@@ -107,12 +107,7 @@ class Wheels:
         """From a dict (e.g. a scenario's ``[robot.satellite.wheels]``): ``axes`` (default
         ``"xyz"``), ``inertia`` (required), ``max_torque`` and ``max_momentum`` (default: no
         limit); a number stands for every wheel. Unknown keys are errors."""
-        for key in table:
-            if key not in _KEYS:
-                raise ParameterError(
-                    f"wheels: unknown key {key!r}{did_you_mean(key, _KEYS)}; valid keys: "
-                    f"{choices_text(_KEYS)}"
-                )
+        check_keys(table, _KEYS, "wheels")
         if "inertia" not in table:
             raise ParameterError("wheels: 'inertia' (each wheel's spin inertia, kg m^2) is missing")
         return cls(

@@ -19,7 +19,8 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from .campaign import Campaign, Case, expand
+from .campaign import Campaign
+from .cases import Case, expand
 from .stats import runs_for_half_width, wilson_half_width
 
 __all__ = ["counts", "grow", "next_repeat", "resumed", "status_text"]

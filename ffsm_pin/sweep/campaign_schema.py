@@ -1,6 +1,6 @@
 """The campaign file (docs/campaigns.md) as pydantic v2 models: ``[campaign]`` (with
 ``[campaign.disperse]``), ``[[vary]]``, ``[[sample]]`` (one model per distribution). Errors
-become one line through :func:`ffsm_pin.scenario.schema.first_error`, like the scenario
+become one line through :func:`ffsm_pin._schema.first_error`, like the scenario
 file's."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, model_validator
 
+from .._schema import Num, Pos, _Table, describe, fail
 from ..errors import choices_text, did_you_mean
-from ..scenario.schema import Num, Pos, _Table, describe, fail
 
 SEED_KEY = "controller.estimates.seed"
 DISTRIBUTIONS = {

@@ -23,7 +23,9 @@ from typing import TYPE_CHECKING
 
 from .._cli import Parser, UsageError, fail, positive_int
 from ..errors import FfsmError
-from .campaign import BUILTIN_CAMPAIGNS, Campaign, Case, check_cases, expand, load_campaign
+from .campaign import BUILTIN_CAMPAIGNS, Campaign, load_campaign
+from .cases import Case, expand
+from .check import check_cases
 from .folder import (
     CAMPAIGN_FILE,
     CampaignFolderError,

@@ -40,7 +40,7 @@ import dask
 from distributed import Client, LocalCluster, as_completed
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from .campaign import Case
+from .cases import Case
 
 __all__ = [
     "QUIET_WORKERS",

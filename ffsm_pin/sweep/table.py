@@ -25,7 +25,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..sim.files import replaced_file
-from .campaign import Case
+from .cases import Case
 from .explain import SIGNALS
 from .signals_file import SignalsFile
 

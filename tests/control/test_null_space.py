@@ -27,12 +27,7 @@ from ffsm_pin.control.kinematic import KinematicInputs
 from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.control.null_space import OBJECTIVES, NullSpace
 from ffsm_pin.errors import FfsmError, ParameterError, ScenarioError
-from ffsm_pin.scenario.file import (
-    builtin_path,
-    load_scenario,
-    scenario_from_toml,
-    scenario_to_toml,
-)
+from ffsm_pin.scenario.file import builtin_path, load_scenario, scenario_from_toml
 from ffsm_pin.scenario.spec import (
     ComponentReference,
     ControllerSpec,
@@ -44,6 +39,7 @@ from ffsm_pin.scenario.spec import (
     RobotSpec,
     Scenario,
 )
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
 
 DATA = Path(__file__).resolve().parents[1] / "data"

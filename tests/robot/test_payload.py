@@ -15,8 +15,9 @@ import pytest
 from ffsm_pin.errors import InertiaError, ParameterError, ScenarioError
 from ffsm_pin.model import State, make_model
 from ffsm_pin.robot import Payload, load_robot, resolve_urdf
-from ffsm_pin.scenario.file import builtin_path, scenario_from_toml, scenario_to_toml
+from ffsm_pin.scenario.file import builtin_path, scenario_from_toml
 from ffsm_pin.scenario.spec import Estimates
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.setup import prepare
 

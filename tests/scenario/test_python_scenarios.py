@@ -12,7 +12,8 @@ import pytest
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario import builtin_scenario, scenario_to_toml
-from ffsm_pin.scenario.file import check_scenario, scenario_document, scenario_from_dict
+from ffsm_pin.scenario.check import check_scenario, scenario_document
+from ffsm_pin.scenario.file import scenario_from_dict
 from ffsm_pin.scenario.spec import Estimates
 from ffsm_pin.sim.run import prepare
 

@@ -24,10 +24,11 @@ from ffsm_pin.control.registry import BUILTIN as CONTROLLER_TYPES
 from ffsm_pin.errors import FfsmError, ScenarioError
 from ffsm_pin.scenario import builtin_scenario, scenario_from_toml, scenario_to_toml
 from ffsm_pin.scenario.file import BUILTIN, builtin_path, load_scenario, scenario_from_dict
-from ffsm_pin.scenario.schema import ControllerModel
+from ffsm_pin.scenario.sections import ControllerModel
 from ffsm_pin.scenario.spec import Performance
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sweep.campaign import BUILTIN_CAMPAIGNS, expand, load_campaign
+from ffsm_pin.sweep.campaign import BUILTIN_CAMPAIGNS, load_campaign
+from ffsm_pin.sweep.cases import expand
 
 if sys.version_info >= (3, 11):
     import tomllib

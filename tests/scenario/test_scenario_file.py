@@ -19,8 +19,8 @@ from ffsm_pin.scenario.file import (
     load_scenario,
     scenario_from_dict,
     scenario_from_toml,
-    scenario_to_toml,
 )
+from ffsm_pin.scenario.writer import scenario_to_toml
 
 if sys.version_info >= (3, 11):
     import tomllib

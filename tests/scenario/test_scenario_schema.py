@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from ffsm_pin._schema import key_path
 from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario.file import (
@@ -22,9 +23,9 @@ from ffsm_pin.scenario.file import (
     builtin_scenario,
     scenario_from_dict,
     scenario_from_toml,
-    scenario_to_toml,
 )
-from ffsm_pin.scenario.schema import ScenarioModel, key_path
+from ffsm_pin.scenario.schema import ScenarioModel
+from ffsm_pin.scenario.writer import scenario_to_toml
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -16,13 +16,8 @@ import pytest
 from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import FfsmError
 from ffsm_pin.robot import urdf_dir
-from ffsm_pin.scenario.file import (
-    BUILTIN,
-    builtin_path,
-    builtin_scenario,
-    scenario_from_toml,
-    scenario_to_toml,
-)
+from ffsm_pin.scenario.file import BUILTIN, builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import initial_state, prepare
 
 SPATIAL_TEXT = builtin_path("spatial").read_text()

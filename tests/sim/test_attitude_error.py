@@ -12,7 +12,8 @@ import pytest
 
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.robot import load_robot
-from ffsm_pin.scenario.file import builtin_path, scenario_from_toml, scenario_to_toml
+from ffsm_pin.scenario.file import builtin_path, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.initial import initial_state
 
 

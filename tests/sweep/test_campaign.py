@@ -13,10 +13,10 @@ from ffsm_pin.sweep.campaign import (
     BUILTIN_CAMPAIGNS,
     CampaignError,
     campaign_from_toml,
-    check_cases,
-    expand,
     load_campaign,
 )
+from ffsm_pin.sweep.cases import expand
+from ffsm_pin.sweep.check import check_cases
 
 TWO = SMALL.replace('scenario = "case1"', 'scenario = ["case1", "planar5"]') + (
     '\n[campaign.set_for.planar5]\n"actuators.torque_limit" = 100.0\n'

@@ -92,7 +92,7 @@ def test_per_scenario_controller_table_equals_numpy(tmp_path):
 def test_builtin_comparison_campaign_is_valid():
     """compare-controllers: the three controllers on case 1, the 5-link robot and the
     realistic spatial case, every case valid."""
-    from ffsm_pin.sweep.campaign import expand
+    from ffsm_pin.sweep.cases import expand
 
     c = load_campaign("compare-controllers")
     kinds = next(v.values for v in c.vary if v.key == "controller.type")

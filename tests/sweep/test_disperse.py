@@ -17,7 +17,8 @@ from ffsm_pin.scenario.file import scenario_from_toml
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.setup import prepare
 from ffsm_pin.sweep import cli
-from ffsm_pin.sweep.campaign import CampaignError, expand, load_campaign
+from ffsm_pin.sweep.campaign import CampaignError, load_campaign
+from ffsm_pin.sweep.cases import expand
 
 HEAD = """\
 [campaign]

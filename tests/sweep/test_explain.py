@@ -13,9 +13,11 @@ import pytest
 from sweep_cases import SMALL
 
 from ffsm_pin.model.state import State
-from ffsm_pin.scenario.file import builtin_scenario, scenario_to_toml
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
-from ffsm_pin.sweep.campaign import expand, load_campaign
+from ffsm_pin.sweep.campaign import load_campaign
+from ffsm_pin.sweep.cases import expand
 from ffsm_pin.sweep.engine import run_case
 from ffsm_pin.sweep.explain import MAX_ROWS, SIGNAL_KEYS, case_extras, kept_rows
 from ffsm_pin.sweep.table import ResultsTable

@@ -8,7 +8,8 @@ import pytest
 from sweep_cases import SMALL
 
 from ffsm_pin.scenario.file import load_scenario
-from ffsm_pin.sweep.campaign import expand, load_campaign
+from ffsm_pin.sweep.campaign import load_campaign
+from ffsm_pin.sweep.cases import expand
 from ffsm_pin.sweep.report import RATE_SQL, query, sql, write_report
 from ffsm_pin.sweep.table import ResultsTable
 

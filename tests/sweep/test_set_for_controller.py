@@ -12,7 +12,9 @@ import pytest
 from ffsm_pin.scenario.file import builtin_path
 from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sweep import cli
-from ffsm_pin.sweep.campaign import CampaignError, check_cases, expand, load_campaign
+from ffsm_pin.sweep.campaign import CampaignError, load_campaign
+from ffsm_pin.sweep.cases import expand
+from ffsm_pin.sweep.check import check_cases
 from ffsm_pin.sweep.engine import run_case
 
 # a user's controller that, like the baselines, declares the keys it accepts (params_keys:

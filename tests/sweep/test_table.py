@@ -10,7 +10,8 @@ import pytest
 from sweep_cases import SMALL
 
 from ffsm_pin.sweep import table as table_mod
-from ffsm_pin.sweep.campaign import expand, load_campaign
+from ffsm_pin.sweep.campaign import load_campaign
+from ffsm_pin.sweep.cases import expand
 from ffsm_pin.sweep.table import ResultsTable
 
 CONTRACT = (
