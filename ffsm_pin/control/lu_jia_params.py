@@ -12,7 +12,7 @@ them (docs/cli.md), at the ``[controller]`` level::
 
 and ``[controller.params] backend`` chooses its backend (:func:`~.lu_jia.backend_from`).
 :class:`LuJiaKeys` is their schema: the scenario file's ``[controller]`` table is this model
-with the run's own keys added (:class:`ffsm_pin.scenario.schema.ControllerModel`), so its
+with the run's own keys added (:class:`ffsm_pin.scenario.sections.ControllerModel`), so its
 errors are one line naming the key, with the valid choices.
 
 What the scenario holds for *every* controller is not here: the funnels of

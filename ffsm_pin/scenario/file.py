@@ -58,10 +58,6 @@ from . import schema
 from .builder import build
 from .spec import Scenario
 
-# ffsm_pin/sim/loop.py (rewritten elsewhere now, not to be edited here) still imports the
-# writer from this module: move that import to .writer, then drop this line.
-from .writer import scenario_to_toml  # noqa: F401, I001
-
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover

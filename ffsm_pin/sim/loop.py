@@ -79,7 +79,7 @@ def recording_size(setup: Setup) -> tuple[int, int]:
 def spool_header(setup: Setup, record_every: int) -> dict:
     """What a run's spool records before its rows (:mod:`ffsm_pin.sim.recover`): the scenario
     as run, the recording interval [steps] and the step [s]."""
-    from ..scenario.file import scenario_to_toml
+    from ..scenario.writer import scenario_to_toml
 
     return {
         "scenario_toml": scenario_to_toml(setup.scenario),
