@@ -4,21 +4,24 @@ Each sample is one ``python -m ffsm_pin.sim --case C --no-plots --no-html --quie
 process with ``XDG_CACHE_HOME`` pointing to an empty folder (so the package's numba cache,
 ``$XDG_CACHE_HOME/ffsm-pin/numba``, starts empty), timed from the process start to its exit:
 what a user waits for after ``pip install``. Then the same run once more with that cache
-warm. With ``--baseline REV`` the same is done, interleaved, for a git revision checked out
-beside this one (default: none).
+warm, and once more from a copy of the package in another folder (``ffsm_pin/``, with
+``urdf/`` as ``ffsm_pin/urdf`` as pip installs it) with the same cache: a second import path,
+which should compile nothing (column ``copy``). With ``--baseline REV`` the same is done,
+interleaved, for a git revision checked out beside this one (default: none).
 
 Usage::
 
     python benchmarks/bench_first_run.py                       # case 1 and spatial, 2 samples
     python benchmarks/bench_first_run.py --cases case1 --repeat 3 --baseline 411cfc5
 
-Printed per case and side: the median cold and warm wall times [s] and the samples.
+Printed per case and side: the median cold, warm and copy wall times [s] and the cold samples.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -45,6 +48,15 @@ def timed_run(case: str, source: Path, xdg: Path, out: Path) -> float:
     return wall
 
 
+def installed_copy(source: Path, dest: Path) -> Path:
+    """``source``'s package copied to ``dest`` as pip installs it (``urdf/`` inside); ``dest``."""
+    if not dest.exists():
+        skip = shutil.ignore_patterns("__pycache__")
+        shutil.copytree(source / "ffsm_pin", dest / "ffsm_pin", ignore=skip)
+        shutil.copytree(source / "urdf", dest / "ffsm_pin" / "urdf", ignore=skip)
+    return dest
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cases", nargs="+", default=["case1", "spatial"])
@@ -67,15 +79,19 @@ def main() -> int:
             for case in args.cases:
                 cold: dict[str, list[float]] = {s: [] for s in sides}
                 warm: dict[str, list[float]] = {s: [] for s in sides}
+                copy: dict[str, list[float]] = {s: [] for s in sides}
                 for k in range(args.repeat):
                     for label, source in sides.items():
                         xdg = tmp / f"xdg-{case}-{label}-{k}"
                         xdg.mkdir()
                         cold[label].append(timed_run(case, source, xdg, tmp / "run"))
                         warm[label].append(timed_run(case, source, xdg, tmp / "run"))
+                        other = installed_copy(source, tmp / f"copy-{label}")
+                        copy[label].append(timed_run(case, other, xdg, tmp / "run"))
                 for label in sides:
                     print(f"{case:10s} {label:>10s}  cold {statistics.median(cold[label]):6.1f} s"
-                          f"  warm {statistics.median(warm[label]):6.1f} s   cold samples "
+                          f"  warm {statistics.median(warm[label]):6.1f} s"
+                          f"  copy {statistics.median(copy[label]):6.1f} s   cold samples "
                           + " ".join(f"{x:.1f}" for x in cold[label]), flush=True)  # fmt: skip
         finally:
             if args.baseline:

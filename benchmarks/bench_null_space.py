@@ -38,7 +38,8 @@ def _planar5(objective: str):
     sc = load_scenario(builtin_path("planar5"))
     urdf = REPO / "urdf" / "ffsm_planar5.urdf"  # the repository's copy (see docs/null_space.md)
     robot = dataclasses.replace(sc.robot, urdf=str(urdf)) if urdf.is_file() else sc.robot
-    ctrl = dataclasses.replace(sc.controller, null_space=NullSpace(objective, 1.0))
+    lu_jia = dataclasses.replace(sc.controller.lu_jia, null_space=NullSpace(objective, 1.0))
+    ctrl = dataclasses.replace(sc.controller, lu_jia=lu_jia)
     return dataclasses.replace(sc, robot=robot, controller=ctrl)
 
 

@@ -102,7 +102,8 @@ def scenario_file(scenario: str, params: dict, folder: Path) -> Path:
     """The built-in ``scenario`` with ``[controller.params]`` set to ``params``, as a file."""
     import dataclasses
 
-    from ffsm_pin.scenario.file import builtin_scenario, scenario_to_toml
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.scenario.writer import scenario_to_toml
 
     sc = builtin_scenario(scenario)
     sc = dataclasses.replace(sc, controller=dataclasses.replace(sc.controller, params=params))

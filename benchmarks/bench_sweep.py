@@ -88,7 +88,8 @@ def write_campaign(folder: Path, n_cases: int, seed: int) -> Path:
 def serial(path: Path) -> float:
     from ffsm_pin.scenario.file import scenario_from_toml
     from ffsm_pin.sim.run import prepare, simulate
-    from ffsm_pin.sweep.campaign import expand, load_campaign
+    from ffsm_pin.sweep.campaign import load_campaign
+    from ffsm_pin.sweep.cases import expand
 
     cases = expand(load_campaign(path))
     # thread_time: this thread only (the idle clusters' scheduler threads live in this process)
@@ -120,7 +121,8 @@ def _pool_case(scenario_toml: str) -> float:
 
 def processes(path: Path, pool) -> tuple[float, float]:
     """Wall time and the cases' CPU time of the cases on a pool of plain processes."""
-    from ffsm_pin.sweep.campaign import expand, load_campaign
+    from ffsm_pin.sweep.campaign import load_campaign
+    from ffsm_pin.sweep.cases import expand
 
     tomls = [case.scenario_toml for case in expand(load_campaign(path))]
     t0 = time.perf_counter()
@@ -194,7 +196,8 @@ def _one_case(scenario_toml: str) -> dict[str, float]:
 def paired(path: Path, clients: dict) -> None:
     """Per-case CPU of the same cases in this process and on 1-worker clusters, interleaved
     case by case (shuffled order), and the worker processes' CPU outside their cases."""
-    from ffsm_pin.sweep.campaign import expand, load_campaign
+    from ffsm_pin.sweep.campaign import load_campaign
+    from ffsm_pin.sweep.cases import expand
 
     tomls = [case.scenario_toml for case in expand(load_campaign(path))]
     rows: dict[str, list[dict[str, float]]] = {"this process": [], **{m: [] for m in clients}}

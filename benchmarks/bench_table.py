@@ -25,7 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _timing import time_call  # noqa: E402
 
-from ffsm_pin.sweep.campaign import builtin_campaign_path, expand, load_campaign  # noqa: E402
+from ffsm_pin.sweep.campaign import builtin_campaign_path, load_campaign  # noqa: E402
+from ffsm_pin.sweep.cases import expand  # noqa: E402
 from ffsm_pin.sweep.table import ResultsTable  # noqa: E402
 
 OUTCOME = {

@@ -74,7 +74,7 @@ def one_run(job):
         estimates=(
             Estimates(initial="true") if seed < 0 else dataclasses.replace(c.estimates, seed=seed)
         ),
-        null_space=NullSpace(objective=objective, gain=gain),
+        lu_jia=dataclasses.replace(c.lu_jia, null_space=NullSpace(objective=objective, gain=gain)),
     )
     sc = dataclasses.replace(sc, controller=c, duration=duration)
     t0 = time.perf_counter()

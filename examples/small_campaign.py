@@ -7,6 +7,7 @@ cluster, results.parquet, report.md, then one query of your own and its figure.
 """
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -45,7 +46,8 @@ key = "controller.estimates.spread"
 values = [0.1, 0.3]
 """)
 cmd = [sys.executable, "-m", "ffsm_pin.sweep", str(campaign), "--out", str(out), "--quiet"]
-subprocess.run(cmd + ["--workers", "2"], check=True)
+workers = max(1, min(4, os.cpu_count() or 1))  # this machine's cores (at most 4 for a demo)
+subprocess.run(cmd + ["--workers", str(workers)], check=True)
 print("report:", out / "report.md")
 
 rows = duckdb.sql(f"""

@@ -8,7 +8,7 @@ choices, lists them. Subclasses also derive from the matching builtin
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 
@@ -88,6 +88,17 @@ def did_you_mean(name: str, choices: Iterable[str]) -> str:
 def choices_text(choices: Iterable[str]) -> str:
     """Format valid choices for an error message."""
     return ", ".join(repr(c) for c in choices)
+
+
+def check_keys(table: Iterable[str], valid: Sequence[str], what: str) -> None:
+    """:class:`ParameterError` for the first key of ``table`` that is not ``valid``:
+    ``"<what>: unknown key 'x' (did you mean 'y'?); valid keys: ..."``."""
+    for key in table:
+        if key not in valid:
+            raise ParameterError(
+                f"{what}: unknown key {key!r}{did_you_mean(key, valid)}; "
+                f"valid keys: {choices_text(valid)}"
+            )
 
 
 def expected_count(n: int) -> str:

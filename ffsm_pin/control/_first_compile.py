@@ -157,7 +157,13 @@ def compile_in_parallel(
         return
     root = str(Path(__file__).resolve().parents[2])  # the folder that holds ffsm_pin/
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([root, os.environ.get("PYTHONPATH", "")])}
-    code = "from ffsm_pin.control._first_compile import _child_main as f; f()"
+    # this copy of the package, first: `python -c` puts the working folder before PYTHONPATH,
+    # and `ffsm-sim` run from a checkout's root with the package installed would otherwise
+    # compile the checkout's kernels in the second process
+    code = (
+        f"import sys; sys.path.insert(0, {root!r}); "
+        "from ffsm_pin.control._first_compile import _child_main as f; f()"
+    )
     try:
         child = subprocess.Popen(
             [sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,

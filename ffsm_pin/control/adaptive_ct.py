@@ -71,8 +71,8 @@ class AdaptiveCtGains:
         """k_z and k_s as gjm-ct's k_z and k_v (:func:`~.resolved_motion.rate_gains`, with the
         drift term: without it the 5-link robot leaves its funnel at 7 s while theta_z-hat
         adapts); the adaptation gains are the scenario's gamma_1, gamma_2, gamma_3."""
-        k_z, k_s = rate_gains(scenario.controller.funnel_z, dt, m2, n_task, drift)
-        p = scenario.controller.gains
+        k_z, k_s = rate_gains(scenario.performance.funnel_z, dt, m2, n_task, drift)
+        p = scenario.controller.lu_jia.gains  # the paper's adaptation gains, as defaults
         return cls(k_z, k_s, p.gamma_1, p.gamma_2, p.gamma_3)
 
 
@@ -87,6 +87,9 @@ class AdaptiveComputedTorque(CompiledController):
     """
 
     needs_estimates = True
+    # [controller.params]: the fields of AdaptiveCtGains
+    params_keys = ("k_z", "k_s", "gamma_b", "gamma_z", "gamma_d")
+    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
     theta_z = state_field("theta_z", "theta_z-hat (Eq. 42), advanced in place by the kernels")
     theta_d = state_field("theta_d", "theta_d-hat (the gradient law)")
     theta_b = state_field("theta_b", "theta_b-hat (Eq. 28)")
@@ -104,7 +107,7 @@ class AdaptiveComputedTorque(CompiledController):
         self._k_z = np.array(self.gains.k_z)
         self.dt = ctx.dt
         self.reference = sc.reference
-        self.threshold = sc.controller.singularity.threshold
+        self.threshold = sc.performance.singularity_threshold  # damped below the run's
         self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
         self.signal_shapes = {

@@ -70,6 +70,8 @@ class GjmComputedTorque(CompiledController):
     """
 
     needs_estimates = True
+    params_keys = ("k_z", "k_v")  # [controller.params]: the fields of GjmGains
+    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
     theta_z = state_field("theta_z", "theta_z-hat, the scenario's estimate")
     theta_d = state_field("theta_d", "theta_d-hat, the scenario's estimate")
     theta_b = state_field("theta_b", "theta_b-hat, the scenario's estimate")
@@ -81,12 +83,12 @@ class GjmComputedTorque(CompiledController):
         self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
         self.state = Estimates(*(np.array(x) for x in ctx.required_estimates()))  # not adapted
         drift = drift_bound(ctx, self.theta_z)
-        derived = GjmGains.derived(sc.controller.funnel_z, ctx.dt, self.m2, self.nt, drift)
+        derived = GjmGains.derived(sc.performance.funnel_z, ctx.dt, self.m2, self.nt, drift)
         self.gains = GjmGains(**gains_from(ctx, derived))
         self._k_z = np.array(self.gains.k_z)
         self.reference = sc.reference
         self.q_bd = np.asarray(ctx.base_attitude_reference, dtype=float)
-        self.threshold = sc.controller.singularity.threshold
+        self.threshold = sc.performance.singularity_threshold  # damped below the run's
         # spatial: H_bb, H_bm of complex-step arguments through the real model
         self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []

@@ -13,9 +13,16 @@ A controller is any class with
 
 and optionally the attributes
 
-* ``needs_funnels`` (bool, default False): the controller uses the scenario's funnels itself
-  (the paper's transformation); a run whose initial errors are not strictly inside them is
-  refused before it starts.
+* ``needs_funnels`` (bool, default False): the controller uses the run's funnels itself
+  (``ctx.scenario.performance``; the paper's transformation); a run whose initial errors are
+  not strictly inside them is refused before it starts.
+* ``params_keys`` (collection of str): the ``[controller.params]`` keys it accepts; any other
+  is bad input before the controller is built (one line naming the key and the valid ones).
+  Without it the table is handed over unchecked.
+* ``scheme`` (str): the controller's variant, reported as ``scheme`` in summary.json (the
+  paper's controller: its scheme); the run loop asks the controller, it names none.
+* ``sigma_measure`` (str): the matrix whose smallest singular value its ``sigma_min`` signal
+  is (``min_sigma_of`` in summary.json).
 * ``needs_estimates`` (bool, default False): ``[controller.estimates]`` are drawn and checked
   while the run is prepared (else when ``ctx.estimates`` is first read);
 * ``needs_dynamics`` (bool, default False): ``meas.M`` and ``meas.h`` carry the true reduced
@@ -41,11 +48,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
 from ..errors import ParameterError
+
+if TYPE_CHECKING:  # for the annotations only: the scenario is a layer above the controllers
+    from ..model import ReducedModel
+    from ..robot import Robot
+    from ..scenario.spec import Scenario
 
 # Signals a controller may report under their own names (units in docs/cli.md):
 STANDARD_SIGNALS = {
@@ -110,7 +122,10 @@ class ControllerContext:
     initial:
         The exact measurement at t = 0.
     scenario:
-        The whole scenario (built-in controllers read their own keys from it).
+        The whole scenario: ``scenario.performance`` is what the run is judged by (the
+        funnels and the singularity threshold, :class:`~ffsm_pin.scenario.spec.Performance`),
+        ``scenario.controller.lu_jia`` the paper's controller's own parameters (which another
+        controller may read where it uses them).
     estimates:
         Initial parameter estimates (theta_z, theta_d, theta_b) from ``[controller.estimates]``,
         drawn when first read (a scenario's estimates matter only to a controller that reads
@@ -129,10 +144,10 @@ class ControllerContext:
     params: Mapping[str, Any]
     reference: Callable[[float], ReferenceSample]
     base_attitude_reference: np.ndarray
-    robot: Any
-    model: Any
+    robot: Robot
+    model: ReducedModel
     initial: Measurement
-    scenario: Any = None
+    scenario: Scenario
     estimates_source: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
     truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 

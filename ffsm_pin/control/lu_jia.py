@@ -15,6 +15,7 @@ from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
 from .interface import ControllerContext, Measurement, SignalRow
 from .kinematic import KinematicInputs
+from .lu_jia_params import LuJiaParams
 
 
 def backend_from(ctx: ControllerContext, backend: str = "auto") -> str:
@@ -54,50 +55,53 @@ class LuJiaController:
 
     needs_funnels = True  # the transformation (21) is undefined outside a funnel
     needs_estimates = True  # [controller.estimates] checked early, before the funnels
+    params_model = LuJiaParams  # its own parameters: scenario.controller.lu_jia
 
     @staticmethod
     def check_task(scenario, n_joints: int, n_task: int, m3: int) -> None:
         """Refuse, before anything is built, a robot with too few joints for the scheme
         (:func:`~.controller.check_feasibility`)."""
-        check_feasibility(n_joints, scenario.controller.scheme, n_task=n_task, m3=m3)
+        check_feasibility(n_joints, scenario.controller.lu_jia.scheme, n_task=n_task, m3=m3)
 
     @staticmethod
     def check_gains(scenario, m3: int) -> list[str]:
         """The discrete-time conditions the scenario's gains violate at its dt, one message
         each naming the gain and a value that satisfies it (:func:`~.gains.step_problems`)."""
-        c = scenario.controller
-        attitude = c.scheme != "no-attitude"
-        found = step_problems(c.gains, c.funnel_b, c.funnel_z, scenario.dt, m3, attitude)
+        p, perf = scenario.controller.lu_jia, scenario.performance
+        attitude = p.scheme != "no-attitude"
+        found = step_problems(p.gains, perf.funnel_b, perf.funnel_z, scenario.dt, m3, attitude)
         return [p.text for p in found]
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.context = ctx
         backend = backend_from(ctx, backend)
         sc = ctx.scenario
-        c = sc.controller
+        p, perf = sc.controller.lu_jia, sc.performance  # its own parameters; the run's funnels
         estimates = ctx.required_estimates()
         if ctx.truth is None:
             raise ValueError("the lu-jia controller needs the context's truth (for Eq. 54's e)")
         self.law = CoordinatedController(
             ctx.model,
-            scheme=c.scheme,
-            gains=c.gains,
-            funnel_b=c.funnel_b,
-            funnel_z=c.funnel_z,
+            scheme=p.scheme,
+            gains=p.gains,
+            funnel_b=perf.funnel_b,  # the transformation (21) on the run's funnels
+            funnel_z=perf.funnel_z,
             reference=sc.reference,
             base_attitude_ref=ctx.base_attitude_reference,
-            singularity=c.singularity,
+            singularity=p.policy(perf.singularity_threshold),
             theta_z0=estimates[0],
             theta_d0=estimates[1],
             theta_b0=estimates[2],
             initial=ctx.initial,
-            null_space=c.null_space,
+            null_space=p.null_space,
             task=ctx.task,
             backend=backend,
             theta_d_true=ctx.truth[1],  # for Eq. (54)'s e alone
         )
         law = self.law
-        self.scheme = c.scheme
+        self.scheme = p.scheme  # reported as summary.json's scheme
+        # what sigma_min is the smallest singular value of (summary.json's min_sigma_of)
+        self.sigma_measure = "J_m-hat" if p.scheme == "no-attitude" else "J_m-hat U-hat"
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt

@@ -92,6 +92,13 @@ def controller_class(kind: str, base_dir: str | Path | None = None) -> type:
     return _checked(kind, cls)
 
 
+def controller_label(kind: str) -> str:
+    """A short name for controller type ``kind`` (tables, legends, folder names): a built-in
+    or installed type's name, a user class's name (``"path/my_ctrl.py:MyController"`` ->
+    ``"MyController"``)."""
+    return kind.rpartition(":")[2] if ":" in kind else kind
+
+
 def resolved_type(kind: str, base_dir: str | Path | None) -> str:
     """``kind`` with a relative ``file.py`` made absolute (for the saved scenario.toml)."""
     where, sep, name = kind.rpartition(":")

@@ -52,6 +52,11 @@ class ReducedModel(Protocol):
         """theta_b = col(A_0, theta_d), A_0 (m3) about the CoM [kg m^2/s] (Eq. 14)."""
         ...
 
+    def parameters_of(self, geometry: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(V_0..V_n, theta_d) of Eqs. (4, 12) for the masses, CoMs and inertias of
+        ``geometry`` (a geometry of the same chain), in this model's layout."""
+        ...
+
     def ee_offset(self, theta_z, q_b: Any, q_m) -> np.ndarray:
         """p_e - p_com (m2) [m], inertial frame."""
         ...

@@ -37,6 +37,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._arrays import read_only
+from ..errors import ParameterError
 from ..robot import PlanarGeometry
 from ._common import BarycentricCommon, barycentric_vectors
 
@@ -154,23 +155,12 @@ class BarycentricModel(BarycentricCommon):
         self._ee_angle_offset = cum_yaw[m] + g.ee_yaw
         self._ee_row = S[m].copy()
 
-        # rotate each body's vectors into its line frame (alpha) for the collinear form
-        def to_line(vec, k):
-            c, s = np.cos(alpha[k]), np.sin(alpha[k])
-            return np.array([c * vec[0] + s * vec[1], -s * vec[0] + c * vec[1]])
-
-        Wl = np.array([[to_line(W[i, k], k) for k in range(nb)] for i in range(nb)])
-        Vl = np.array([to_line(V[k], k) for k in range(nb)])
-        dc = np.einsum("i,ikd,ild->kl", g.masses, Wl, Wl) + np.diag(g.inertias)
-        ds = np.einsum("i,ik,il->kl", g.masses, Wl[..., 0], Wl[..., 1])
-        ds = ds - ds.T  # sum_i m_i (W_ik x W_il)
         self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
         self._P = len(self._K)
-        theta_d = [np.diag(dc), dc[self._K, self._L]]
-        if not collinear:
-            theta_d.append(ds[self._K, self._L])
-        self.theta_d = read_only(np.concatenate(theta_d))
-        self._V_body = read_only(Vl[:, 0].copy() if collinear else Vl.reshape(-1).copy())
+        Wl, Vl = self._line_vectors(W, V)
+        V_body, theta_d = self._parameters(g, Wl, Vl)
+        self.theta_d = read_only(theta_d)
+        self._V_body = read_only(V_body)
         self.barycentric_W = read_only(Wl)
         self.barycentric_V = read_only(Vl)
 
@@ -180,6 +170,45 @@ class BarycentricModel(BarycentricCommon):
         self._ps_cols = nb + self._P + np.arange(self._P)
         self._ar = np.arange(nb)
         self._memo: dict = {}
+
+    def _line_vectors(self, W, V) -> tuple[np.ndarray, np.ndarray]:
+        """W_ik and V_k rotated into each body's line frame (alpha_k; the identity for the
+        general layout, where every alpha_k = 0)."""
+        c, s = np.cos(self.direction_angles), np.sin(self.direction_angles)
+        rot = np.stack((np.stack((c, s), -1), np.stack((-s, c), -1)), -2)  # (nb, 2, 2)
+        return np.einsum("kde,ike->ikd", rot, W), np.einsum("kde,ke->kd", rot, V)
+
+    def _parameters(self, g: PlanarGeometry, Wl, Vl) -> tuple[np.ndarray, np.ndarray]:
+        """(V, theta_d) of Eqs. (4, 12) in this model's layout from line-frame vectors."""
+        dc = np.einsum("i,ikd,ild->kl", g.masses, Wl, Wl) + np.diag(g.inertias)
+        ds = np.einsum("i,ik,il->kl", g.masses, Wl[..., 0], Wl[..., 1])
+        ds = ds - ds.T  # sum_i m_i (W_ik x W_il)
+        theta_d = [np.diag(dc), dc[self._K, self._L]]
+        if not self.layout.collinear:
+            theta_d.append(ds[self._K, self._L])
+        V_body = Vl[:, 0].copy() if self.layout.collinear else Vl.reshape(-1).copy()
+        return V_body, np.concatenate(theta_d)
+
+    def parameters_of(self, geometry: PlanarGeometry) -> tuple[np.ndarray, np.ndarray]:
+        """(V, theta_d), the kinematic and dynamic parameters of Eqs. (4, 12), of another
+        robot with this model's chain (joints and end effector) and the masses, CoMs and
+        inertias of ``geometry``, written in this model's layout: the parameters a
+        controller with this model has for that robot (e.g. drawn estimates,
+        :mod:`ffsm_pin.sim.estimates`). A collinear layout needs every CoM of ``geometry`` on
+        its body's line (ParameterError otherwise)."""
+        _, W, V = barycentric_vectors(geometry, 2)
+        if geometry.n_joints != self.n_joints or geometry.ee_body != self.geometry.ee_body:
+            raise ParameterError("parameters_of: the geometry is not this model's chain")
+        Wl, Vl = self._line_vectors(W, V)
+        if self.layout.collinear:
+            scale = max(1.0, float(np.abs(Wl).max()))
+            off = max(float(np.abs(Wl[..., 1]).max()), float(np.abs(Vl[:, 1]).max()))
+            if off > 1e-9 * scale:
+                raise ParameterError(
+                    f"parameters_of: a CoM is {off:.3g} m off its body's line; the collinear "
+                    "layout (no Ds_kl) cannot hold these parameters"
+                )
+        return self._parameters(geometry, Wl, Vl)
 
     def kernel_constants(self) -> PlanarKernelConstants:
         """The constant arrays of this robot that the compiled kernels take."""

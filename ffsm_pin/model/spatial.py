@@ -198,18 +198,9 @@ class SpatialBarycentricModel(BarycentricCommon):
         self.n_joints = n
         self.layout = SpatialParameterLayout(n_bodies=nb)
         _, W, V = barycentric_vectors(g, 3)
-        D = np.einsum("i,ikx,ily->klxy", g.masses, W, W)  # D_kl = sum_i m_i W_ik W_il^T
-        Jbar = (
-            g.inertias
-            + np.trace(D[np.arange(nb), np.arange(nb)], axis1=1, axis2=2)[:, None, None] * np.eye(3)
-            - D[np.arange(nb), np.arange(nb)]
-        )
         self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
         self._P = len(self._K)
-        rows, cols = zip(*_SYM6, strict=True)
-        self.theta_d = read_only(
-            np.concatenate((Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1)))
-        )
+        self.theta_d = read_only(self._theta_d(g, W))
         self.barycentric_W = read_only(W)
         self.barycentric_V = read_only(V)
         self._V_body = read_only(V.ravel().copy())
@@ -229,6 +220,28 @@ class SpatialBarycentricModel(BarycentricCommon):
         self._ee_rot_c = np.ascontiguousarray(self._ee_rot, dtype=float)
         self._Vc = np.ascontiguousarray(V, dtype=float)
         self._nd, self._nz, self._ee_body = self.layout.n_d, self.layout.n_z, g.ee_body
+
+    def _theta_d(self, g: SpatialGeometry, W: np.ndarray) -> np.ndarray:
+        """theta_d of Eq. (12) from the masses and inertias of ``g`` and its vectors W."""
+        nb = self.layout.n_bodies
+        D = np.einsum("i,ikx,ily->klxy", g.masses, W, W)  # D_kl = sum_i m_i W_ik W_il^T
+        Jbar = (
+            g.inertias
+            + np.trace(D[np.arange(nb), np.arange(nb)], axis1=1, axis2=2)[:, None, None] * np.eye(3)
+            - D[np.arange(nb), np.arange(nb)]
+        )
+        rows, cols = zip(*_SYM6, strict=True)
+        return np.concatenate((Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1)))
+
+    def parameters_of(self, geometry: SpatialGeometry) -> tuple[np.ndarray, np.ndarray]:
+        """(V, theta_d), the kinematic and dynamic parameters of Eqs. (4, 12), of another
+        robot with this model's chain (joints and end effector) and the masses, CoMs and
+        inertias of ``geometry``: the parameters a controller with this model has for that
+        robot (e.g. drawn estimates, :mod:`ffsm_pin.sim.estimates`)."""
+        if geometry.n_joints != self.n_joints or geometry.ee_body != self.geometry.ee_body:
+            raise ParameterError("parameters_of: the geometry is not this model's chain")
+        _, W, V = barycentric_vectors(geometry, 3)
+        return V.ravel().copy(), self._theta_d(geometry, W)
 
     def kernel_constants(self) -> SpatialKernelConstants:
         """The constant arrays of this robot that the compiled kernels take."""

@@ -6,6 +6,7 @@
   free-flying base;
 * :mod:`.geometry`: the chain's geometry read from Pinocchio, and its checks;
 * :mod:`.satellite`: a satellite body added under an arm-only URDF;
+* :mod:`.payload`: a payload held by the end effector;
 * :mod:`.robot`: the :class:`Robot` class; :mod:`.loader`: :func:`load_robot`.
 
 ``FreeFloatingRobot`` and ``SpatialRobot`` are the names of the planar and spatial robot
@@ -14,6 +15,7 @@ classes of 0.1.0; both are now :class:`Robot` (``robot.base`` tells them apart).
 
 from .geometry import PlanarGeometry, SpatialGeometry, check_inertia
 from .loader import load_robot, load_spatial_robot
+from .payload import Payload
 from .robot import Robot
 from .roots import ROOTS, SUPPORTED_BASES, RootJoint
 from .satellite import Satellite
@@ -36,6 +38,7 @@ __all__ = [
     "ROOTS",
     "SUPPORTED_BASES",
     "FreeFloatingRobot",
+    "Payload",
     "PlanarGeometry",
     "Robot",
     "RootJoint",

@@ -7,6 +7,7 @@ and zero gravity, lock joints, find the end effector, refuse branches, read the 
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
@@ -15,8 +16,9 @@ from pathlib import Path
 import pinocchio as pin
 
 from ..errors import UnsupportedJointError, UrdfError, choices_text, did_you_mean
-from ._capture import native_output
 from .geometry import body_names, check_serial, end_effector_frame
+from .native import native_call
+from .payload import Payload
 from .robot import Robot
 from .roots import ROOTS, SUPPORTED_BASES
 from .satellite import Satellite
@@ -41,6 +43,7 @@ def load_robot(
     relative_to: str | Path | None = None,
     locked_joints: Mapping[str, float] | None = None,
     satellite: Satellite | Mapping | None = None,
+    payload: Payload | Mapping | None = None,
 ) -> Robot:
     """Load and validate a free-floating manipulator.
 
@@ -62,6 +65,10 @@ def load_robot(
     satellite:
         Free-flyer only: a :class:`Satellite` (or its dict) added as the new root body under
         the URDF's root link, for arm-only URDFs.
+    payload:
+        A :class:`Payload` (or its dict) held by the end effector: a rigid body fixed to the
+        end-effector frame, added to the body of the frame's joint. The robot's model and
+        geometry include it; ``robot.unloaded`` is the robot without it.
 
     Returns
     -------
@@ -107,7 +114,7 @@ def load_robot(
             "satellite=...)"
         )
     geometry = root.geometry(model, fid, names, source, **extra)
-    return Robot(
+    robot = Robot(
         model=model,
         root=root,
         urdf_path=path,
@@ -121,27 +128,34 @@ def load_robot(
         package_dirs=package_dirs,
         no_effort_limit=tuple(j for j in no_effort if j not in locked),
     )
+    if payload is None:
+        return robot
+    if isinstance(payload, Mapping):
+        payload = Payload.from_mapping(payload)
+    loaded = payload.attach(model, fid)
+    return dataclasses.replace(
+        robot,
+        model=loaded,
+        geometry=root.geometry(loaded, fid, names, source),
+        payload=payload,
+        unloaded=robot,
+    )
 
 
 def _build_model(xml: str, joint_model, source: str) -> pin.Model:
     """``pin.buildModelFromXML`` with what urdfdom prints captured: an ``Error:`` it prints
     (it may still return a model, e.g. with a mass it could not read set to zero) is a
     :class:`UrdfError` quoting it in one line; other output is one :class:`UrdfWarning`."""
-    failure = None
-    with native_output() as said:
-        try:
-            model = pin.buildModelFromXML(xml, joint_model)
-        except (RuntimeError, ValueError) as exc:
-            failure = " ".join(str(exc).split())
-    told = said.summary()
-    if failure is not None:
-        also = f" (urdfdom: {told})" if told and told not in failure else ""
-        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {failure}{also}")
+    call = native_call(pin.buildModelFromXML, xml, joint_model)
+    said, told = call.output, call.output.summary()
+    if call.failure is not None:
+        also = f" (urdfdom: {told})" if told and told not in call.failure else ""
+        raise UrdfError(f"{source}: Pinocchio cannot parse this URDF: {call.failure}{also}")
     if said.has_errors:
         raise UrdfError(f"{source}: Pinocchio's URDF parser (urdfdom) reports: {told}")
     if told:
         warnings.warn(f"{source}: Pinocchio's URDF parser says: {told}", UrdfWarning, stacklevel=3)
-    return model
+    return call.value
 
 
 def _prepared_xml(

@@ -11,6 +11,7 @@ import pinocchio as pin
 
 from ..errors import ParameterError
 from .geometry import PlanarGeometry, SpatialGeometry
+from .payload import Payload
 from .roots import RootJoint
 
 
@@ -32,6 +33,10 @@ class Robot:
         Manipulator joints whose URDF gives no effort limit (no ``<limit>``, or one without
         ``effort``): the model's effort limit of these joints is a placeholder the URDF repair
         wrote for Pinocchio's parser, never a torque limit (:attr:`effort_limits`).
+    payload:
+        A :class:`~ffsm_pin.robot.payload.Payload` held by the end effector, or None. The
+        model and the geometry include it (the plant's robot); :attr:`unloaded` is the robot
+        without it.
     """
 
     model: pin.Model
@@ -46,6 +51,16 @@ class Robot:
     locked_joints: Mapping[str, float] = field(default_factory=dict)
     package_dirs: tuple[Path, ...] = ()  # where package:// mesh paths resolve
     no_effort_limit: tuple[str, ...] = ()  # joints without <limit effort> in the file
+    payload: Payload | None = None  # held by the end effector, included in model and geometry
+    unloaded: Robot | None = field(default=None, repr=False, compare=False)  # without payload
+
+    @property
+    def estimated(self) -> Robot:
+        """The robot a controller's estimates are made from: this one, or :attr:`unloaded`
+        when the payload is not known to the controller (``payload.known`` false)."""
+        if self.payload is not None and not self.payload.known and self.unloaded is not None:
+            return self.unloaded
+        return self
 
     @property
     def effort_limits(self) -> np.ndarray:

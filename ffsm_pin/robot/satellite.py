@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError, UrdfError, choices_text, did_you_mean
+from ..errors import ParameterError, UrdfError, check_keys
 
 
 @dataclass(frozen=True)
@@ -40,12 +40,7 @@ class Satellite:
         """Build from a dict (e.g. a scenario's ``[robot.satellite]`` table); unknown keys are
         errors."""
         valid = ("mass", "inertia", "size", "mount_xyz", "mount_rpy", "name")
-        for key in table:
-            if key not in valid:
-                raise ParameterError(
-                    f"satellite: unknown key {key!r}{did_you_mean(key, valid)}; "
-                    f"valid keys: {choices_text(valid)}"
-                )
+        check_keys(table, valid, "satellite")
         return cls(**dict(table))
 
     def inertia_matrix(self) -> np.ndarray:

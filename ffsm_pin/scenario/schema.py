@@ -1,463 +1,41 @@
-"""The scenario file (docs/cli.md) as pydantic v2 models, and one ScenarioError line per error.
+"""The scenario file (docs/cli.md) as one pydantic v2 model, and one ScenarioError line per error.
 
-The models declare the keys of every table (``extra="forbid"``), their types (strict: a string
-is no number, a boolean no integer; an integer is accepted for a number), lengths, ranges and
-choices. Checks that need the robot and the task (lengths of funnel arrays, base pose and
-velocities; MRP on the |s| <= 1 branch; rho_inf < rho_0) are the :class:`ScenarioModel`
-validator. :func:`first_error` turns a ``pydantic.ValidationError`` into the one-line
-:class:`~ffsm_pin.errors.ScenarioError` message that starts with the TOML key path
+:class:`ScenarioModel` is the whole file: its sections are the models of
+:mod:`ffsm_pin.scenario.sections` (keys, types, lengths, ranges and choices of every table), and
+its validator checks what needs the robot and the task (lengths of funnel arrays, base pose and
+velocities; MRP on the |s| <= 1 branch; rho_inf < rho_0). :func:`validate` turns the first
+problem into the one-line :class:`~ffsm_pin.errors.ScenarioError` message of
+:func:`ffsm_pin._schema.first_error`, which starts with the TOML key path
 (``controller.funnel.rho_b0[0]: ...``), with the valid choices or keys and a did-you-mean hint.
 """
 
-# mypy: disable-error-code="valid-type"
-# (the field types are built at run time, vec(n) and Literal over tables; pydantic checks them)
-
 from __future__ import annotations
 
-import dataclasses
 import math
-import re
 from collections.abc import Mapping
-from typing import Annotated, Any, Literal, NoReturn
+from typing import Any
 
-from pydantic import (
-    AfterValidator,
-    BaseModel,
-    BeforeValidator,
-    ConfigDict,
-    Discriminator,
-    Field,
-    Tag,
-    ValidationError,
-    field_validator,
-    model_validator,
+from pydantic import Field, ValidationError, model_validator
+
+from .._schema import Table, fail, first_error
+from ..errors import ScenarioError
+from .sections import (
+    TASK_SIZE,
+    ActuatorsModel,
+    ControllerModel,
+    FunnelModel,
+    InitialModel,
+    ReferenceModel,
+    RobotModel,
+    SensorsModel,
+    SimModel,
 )
-from pydantic_core import PydanticCustomError
+from .spec import Performance
 
-from ..control.controller import SCHEMES
-from ..control.gains import Gains, SingularityPolicy
-from ..control.kinematic import TASKS
-from ..control.null_space import OBJECTIVES, NullSpace
-from ..errors import ScenarioError, choices_text, did_you_mean
-from ..robot.satellite import Satellite
-from .devices import LIMIT_WORDS, ActuatorSpec, SensorSpec
-from .spec import (
-    ESTIMATE_KINDS,
-    INTEGRATORS,
-    ORIGINS,
-    ControllerSpec,
-    Estimates,
-    Reference,
-    RobotSpec,
-    Scenario,
-)
-
-#: For each supported base: (m2 end-effector position components, m3 attitude components).
-TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
-GAIN_KEYS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
 FUNNEL_KEYS = ("rho0", "rhoinf", "beta", "sigma")  # FunnelParams fields; TOML rho_b0, ...
-MAX_STEPS = 1e12  # control steps of a run (sim.duration / sim.dt): more is no run at all
 
 
-# ------------------------------------------------------------------------------ errors
-def fail(at: tuple, text: str) -> NoReturn:
-    """Raise a validation error at ``loc + at``; the message is the key path followed by
-    ``text`` (``": 2 values, expected 3"``, ``" = 1.5: must be in (0, 1]"``)."""
-    raise PydanticCustomError("scenario", "{text}", {"text": text, "at": at})
-
-
-def describe(x: Any) -> str:
-    """A value and its TOML kind, shortened: ``'fast' (string)``."""
-    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list"}
-    kind = names.get(type(x), "table" if isinstance(x, Mapping) else type(x).__name__)
-    text = repr(x)
-    return f"{text[:60] + '...' if len(text) > 60 else text} ({kind})"
-
-
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def default(cls: type, name: str) -> Any:
-    """The default of field ``name`` of the dataclass ``cls``: the dataclasses of
-    :mod:`.spec` (and :mod:`.devices`, :class:`~ffsm_pin.robot.Satellite`) hold every default
-    once, the file's models read them from there (a tuple as the list TOML has)."""
-    f: Any = {f.name: f for f in dataclasses.fields(cls)}[name]
-    value = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-    return list(value) if isinstance(value, tuple) else value
-
-
-# ------------------------------------------------------------------------------ value types
-Num = Annotated[float, Field(allow_inf_nan=False)]  # int accepted, bool and str are not
-Pos = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-
-
-def _numbers(value: Any) -> Any:
-    if not isinstance(value, list) or not all(_is_number(x) for x in value):
-        fail((), f": expected a list of numbers, got {describe(value)}")
-    return value
-
-
-def _number_or_numbers(value: Any) -> Any:
-    if not _is_number(value):
-        _numbers(value)
-    return value
-
-
-def _pairs(value: Any) -> Any:
-    if not isinstance(value, list):
-        fail((), f": expected a list of [amplitude, frequency] pairs, got {describe(value)}")
-    for j, term in enumerate(value):
-        if not (isinstance(term, list) and len(term) == 2 and all(_is_number(x) for x in term)):
-            fail(
-                (j,),
-                f": expected [amplitude, angular_frequency] (two numbers), got {describe(term)}",
-            )
-    return value
-
-
-def _tables(value: Any) -> Any:
-    if not isinstance(value, list) or not all(isinstance(x, Mapping) for x in value):
-        fail(
-            (),
-            ": expected a list of tables like { c = 3.9, cos = [[0.1, 0.35]] }, "
-            f"got {describe(value)}",
-        )
-    return value
-
-
-Vec = Annotated[list[Num], BeforeValidator(_numbers)]
-
-
-def vec(n: int) -> Any:
-    """A list of exactly n finite numbers."""
-    return Annotated[Vec, Field(min_length=n, max_length=n)]
-
-
-def or_list(item: Any) -> Any:
-    """``item`` or a list of them (funnel entries broadcast, planar/spatial rates); the union's
-    tags "<...>" are left out of error paths."""
-    return Annotated[
-        Annotated[item, Tag("<number>")] | Annotated[list[item], Tag("<list>")],
-        Discriminator(lambda v: "<list>" if isinstance(v, list) else "<number>"),
-        BeforeValidator(_number_or_numbers),
-    ]
-
-
-def interval(text: str, inside) -> AfterValidator:
-    """A range check, ``inside(x)`` true, with the message "must be in <text>"."""
-
-    def check(x: float) -> float:
-        if not inside(x):
-            fail((), f" = {x}: must be in {text}")
-        return x
-
-    return AfterValidator(check)
-
-
-NumOrVec = or_list(Num)
-NonNeg = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-NonNegOrVec = or_list(NonNeg)
-
-
-def _torque_limit(value: Any) -> Any:
-    if isinstance(value, str):
-        if value not in LIMIT_WORDS:
-            fail(
-                (),
-                f" = {value!r} unknown{did_you_mean(value, LIMIT_WORDS)}; valid choices: "
-                "'none', 'urdf', a number or one number per joint [N m]",
-            )
-        return value
-    _number_or_numbers(value)
-    for x in value if isinstance(value, list) else [value]:
-        if not (x > 0 and math.isfinite(x)):
-            fail((), f" = {value}: every limit must be a finite number > 0 [N m]")
-    return value
-
-
-Fraction = Annotated[Num, interval("[0, 1)", lambda x: 0 <= x < 1)]
-Sigma = Annotated[Num, interval("(0, 1]", lambda x: 0 < x <= 1)]
-
-
-class _Table(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
-
-
-# ------------------------------------------------------------------------------ sections
-class SatelliteModel(_Table):
-    """``[robot.satellite]``, :class:`~ffsm_pin.robot.Satellite` (defaults there)."""
-
-    mass: Pos = default(Satellite, "mass")  # [kg]
-    inertia: vec(6) = default(Satellite, "inertia")  # [kg m^2]
-    size: vec(3) = default(Satellite, "size")  # [m]
-    mount_xyz: vec(3) = default(Satellite, "mount_xyz")  # [m]
-    mount_rpy: vec(3) = default(Satellite, "mount_rpy")  # [rad]
-    name: str = default(Satellite, "name")
-
-
-class RobotModel(_Table):
-    """``[robot]``: the URDF, its root (planar or free-flyer), end effector, satellite."""
-
-    urdf: str = default(RobotSpec, "urdf")
-    base: Literal[tuple(TASK_SIZE)] = default(RobotSpec, "base")
-    end_effector: str = default(RobotSpec, "end_effector")
-    locked_joints: dict[str, Num] = {}  # [rad or m], free-flyer only
-    satellite: SatelliteModel | None = None  # free-flyer only
-
-    @model_validator(mode="after")
-    def spatial_only(self):
-        """Refuse locked joints and a satellite body on a planar robot."""
-        if (self.locked_joints or self.satellite is not None) and self.base != "free-flyer":
-            fail(("locked_joints",), " and [robot.satellite] apply only to base = 'free-flyer'")
-        return self
-
-
-def _unit_quaternion(q: list[float]) -> list[float]:
-    norm = math.sqrt(sum(x * x for x in q))
-    if not abs(norm - 1.0) < 1e-6:
-        fail((), f": (x, y, z, w) must have unit norm, got {norm:.6g}")
-    return q
-
-
-class InitialModel(_Table):
-    """``[initial]``: the initial base pose, joints and rates."""
-
-    base_pose: Vec  # planar x, y, q_b [m, rad]; spatial x, y, z [m] + MRP (or rpy / quaternion)
-    base_attitude_rpy: vec(3) | None = None  # [rad], free-flyer only
-    base_attitude_quaternion: vec(4) | None = None  # (x, y, z, w), free-flyer only
-    com_at_origin: bool = False
-    joints: Annotated[Vec, Field(min_length=1)]  # [rad]
-    joint_rates: Vec | None = None  # [rad/s], default zeros
-    base_twist: Vec | None = None  # [m/s, rad/s]
-    com_velocity: Vec | None = None  # [m/s]
-    base_rate: NumOrVec | None = None  # [rad/s]
-    angular_momentum: NumOrVec | None = None  # [kg m^2/s]
-
-    @field_validator("base_attitude_quaternion")
-    @classmethod
-    def unit_quaternion(cls, q: list[float] | None) -> list[float] | None:
-        """Refuse a quaternion that is not of unit norm."""
-        return q if q is None else _unit_quaternion(q)
-
-    @model_validator(mode="after")
-    def rates_and_attitude(self):
-        """Refuse two initial base attitudes."""
-        # the lengths of joints and joint_rates are checked against the robot's joint count
-        # where the robot is known (run.initial_state), so the list that is wrong is blamed
-        if self.base_attitude_rpy is not None and self.base_attitude_quaternion is not None:
-            fail(("base_attitude_rpy",), " and initial.base_attitude_quaternion: give one of them")
-        return self
-
-
-class HarmonicsModel(_Table):
-    """One entry of ``reference.ee``: c + sum a cos(w t) + sum b sin(w t)."""
-
-    c: Num = 0.0
-    cos: Annotated[list[vec(2)], BeforeValidator(_pairs)] = []  # [[amplitude, w [rad/s]], ...]
-    sin: Annotated[list[vec(2)], BeforeValidator(_pairs)] = []
-
-
-class WaypointModel(_Table):
-    """One entry of ``reference.ee_waypoints``: a time [s] and a task pose."""
-
-    t: Num
-    z: Vec
-
-
-class SamplesModel(_Table):
-    """``reference.ee_samples``: the inline form of ``ee_file`` (times [s], one row each)."""
-
-    t: Annotated[Vec, Field(min_length=2)]
-    z: list[Vec]
-
-
-#: The keys that give the end-effector reference; exactly one is needed.
-EE_KEYS = ("ee", "ee_file", "ee_samples", "ee_waypoints")
-
-
-class ReferenceModel(_Table):
-    """``[reference]``: the task and its end-effector reference (one of the EE keys)."""
-
-    task: Literal[TASKS] = default(Reference, "task")
-    # origin "initial": c and base_attitude relative to the start pose
-    origin: Literal[ORIGINS] = default(Reference, "origin")
-    base_attitude: Vec | None = None  # planar angle [rad], spatial MRP; default zeros
-    ee: Annotated[list[HarmonicsModel], BeforeValidator(_tables)] | None = None
-    ee_file: str | None = None  # CSV "t, <one column per component>", C2 spline
-    ee_samples: SamplesModel | None = None
-    ee_waypoints: Annotated[list[WaypointModel], BeforeValidator(_tables)] | None = None
-
-    @model_validator(mode="after")
-    def one_reference(self):
-        """Exactly one of ``ee``, ``ee_file``, ``ee_samples``, ``ee_waypoints``."""
-        given = [k for k in EE_KEYS if getattr(self, k) is not None]
-        if not given:
-            fail(("ee",), f": missing; give one of {choices_text(EE_KEYS)}")
-        if len(given) > 1:
-            what = " and ".join(f"reference.{k}" for k in given)
-            fail((), f": give exactly one of {choices_text(EE_KEYS)} (got {what})")
-        if self.ee_waypoints is not None and len(self.ee_waypoints) < 2:
-            fail(("ee_waypoints",), f": {len(self.ee_waypoints)} waypoint(s), at least 2 needed")
-        if self.ee_samples is not None and len(self.ee_samples.z) != len(self.ee_samples.t):
-            n_z, n_t = len(self.ee_samples.z), len(self.ee_samples.t)
-            fail(("ee_samples", "z"), f": {n_z} rows, expected {n_t} (one per time in t)")
-        return self
-
-    def widths(self) -> list[tuple[tuple, int]]:
-        """(key path, components) of every pose given inline (the file is read later)."""
-        if self.ee is not None:
-            return [(("ee",), len(self.ee))]
-        if self.ee_samples is not None:
-            return [(("ee_samples", "z", i), len(z)) for i, z in enumerate(self.ee_samples.z)]
-        if self.ee_waypoints is not None:
-            return [(("ee_waypoints", i, "z"), len(w.z)) for i, w in enumerate(self.ee_waypoints)]
-        return []
-
-
-class FunnelModel(_Table):
-    """``[controller.funnel]``: a number is used for every component."""
-
-    rho_b0: or_list(Pos) | None = None
-    rho_binf: NumOrVec | None = None  # 0 < rho_inf < rho_0: ScenarioModel's check
-    beta_b: or_list(Pos) | None = None  # [1/s]
-    sigma_b: or_list(Sigma) | None = None
-    rho_z0: or_list(Pos) | None = None
-    rho_zinf: NumOrVec | None = None
-    beta_z: or_list(Pos) | None = None  # [1/s]
-    sigma_z: or_list(Sigma) | None = None
-
-
-class EstimatesModel(_Table):
-    """``[controller.estimates]``: how the initial parameter estimates are made."""
-
-    initial: Literal[ESTIMATE_KINDS] = default(Estimates, "initial")
-    spread: Fraction = default(Estimates, "spread")
-    seed: int = default(Estimates, "seed")
-    theta_z: Vec | None = None
-    theta_d: Vec | None = None
-    theta_b: Vec | None = None
-
-    @model_validator(mode="after")
-    def explicit_thetas(self):
-        """``initial = "explicit"`` needs all three thetas, and only then."""
-        p, thetas = "controller.estimates", ("theta_z", "theta_d", "theta_b")
-        missing = [k for k in thetas if getattr(self, k) is None]
-        if self.initial == "explicit" and missing:
-            needs = ", ".join(f"{p}.{k}" for k in missing)
-            fail((), f": initial = 'explicit' needs {needs}")
-        given = [k for k in thetas if getattr(self, k) is not None]
-        if self.initial != "explicit" and given:
-            why = f"only used with initial = 'explicit' (initial is {self.initial!r})"
-            fail((given[0],), f": {why}")
-        return self
-
-
-_SP = SingularityPolicy()
-
-
-class SingularityModel(_Table):
-    """``[controller.singularity]``: the damped pseudo-inverse policy."""
-
-    threshold: Pos = _SP.threshold  # [m]
-    max_damped_time: Pos = _SP.max_damped_time  # [s]
-
-
-class NullSpaceModel(_Table):
-    """Beyond the paper: the null-space term added to Eq. (36)."""
-
-    objective: Literal[OBJECTIVES] = NullSpace.objective
-    gain: Annotated[Num, Field(ge=0)] = NullSpace.gain
-    center: Vec | None = None  # [rad], joint-centering only
-
-    @model_validator(mode="after")
-    def center_with_centering(self):
-        """``center`` applies to the joint-centering objective only."""
-        if self.center is not None and self.objective != "joint-centering":
-            fail(
-                ("center",),
-                f": only used with objective = 'joint-centering' (objective is {self.objective!r})",
-            )
-        return self
-
-
-_G = Gains()
-
-
-class ControllerModel(_Table):
-    """``[controller]``: the controller type, its params, the paper's gains and funnels."""
-
-    type: Annotated[str, Field(min_length=1)] = default(ControllerSpec, "type")  # registry
-    params: dict[str, Any] = {}  # free table for the controller (docs/controllers.md)
-    scheme: Literal[SCHEMES] = default(ControllerSpec, "scheme")
-    k_b: Pos | None = None  # None: derived from the funnel and dt (gains.derived_gain)
-    k_z: Pos | None = None
-    k_de: Pos = _G.k_de
-    k_d: Pos = _G.k_d
-    gamma_1: Pos = _G.gamma_1
-    gamma_2: Pos = _G.gamma_2
-    gamma_3: Pos = _G.gamma_3
-    funnel: FunnelModel = FunnelModel()
-    estimates: EstimatesModel = EstimatesModel()
-    singularity: SingularityModel = SingularityModel()
-    null_space: NullSpaceModel = NullSpaceModel()
-
-
-class SimModel(_Table):
-    """``[sim]``: duration, step, integrator."""
-
-    duration: Pos = default(Scenario, "duration")  # [s]
-    dt: Pos = default(Scenario, "dt")  # [s]
-    integrator: Literal[INTEGRATORS] = default(Scenario, "integrator")
-    substeps: Annotated[int, Field(ge=1)] = default(Scenario, "substeps")  # per control step
-
-    @model_validator(mode="after")
-    def dt_within_duration(self):
-        """Refuse a step longer than the run, and a run of absurdly many steps."""
-        if self.dt > self.duration:
-            fail(("dt",), f" = {self.dt} is longer than sim.duration = {self.duration}")
-        steps = self.duration / self.dt
-        if not steps <= MAX_STEPS:  # also inf (the quotient overflowed)
-            fail(
-                ("duration",),
-                f" = {self.duration:g} s at sim.dt = {self.dt:g} s is {steps:.3g} control steps; "
-                f"at most {MAX_STEPS:.0e} (shorten sim.duration or lengthen sim.dt)",
-            )
-        return self
-
-
-class ActuatorsModel(_Table):
-    """``[actuators]``, :class:`~ffsm_pin.scenario.devices.ActuatorSpec` (docs/controllers.md)."""
-
-    torque_limit: Annotated[Any, BeforeValidator(_torque_limit)] = default(
-        ActuatorSpec, "torque_limit"
-    )
-    rate_limit: NonNegOrVec = default(ActuatorSpec, "rate_limit")  # [N m/s]
-    time_constant: NonNeg = default(ActuatorSpec, "time_constant")  # [s]
-    torque_noise: NonNegOrVec = default(ActuatorSpec, "torque_noise")  # [N m]
-    seed: Annotated[int, Field(ge=0)] = default(ActuatorSpec, "seed")
-
-
-class NoiseModel(_Table):
-    """``[sensors.noise]``: standard deviations, a number or one per component."""
-
-    joints: NonNegOrVec = 0.0  # [rad]
-    joint_rates: NonNegOrVec = 0.0  # [rad/s]
-    base_attitude: NonNegOrVec = 0.0  # [rad] or [MRP]
-    base_rate: NonNegOrVec = 0.0  # [rad/s]
-    ee_pose: NonNegOrVec = 0.0  # [m, rad or MRP]
-    ee_velocity: NonNegOrVec = 0.0  # [m/s, rad/s or 1/s]
-
-
-class SensorsModel(_Table):
-    """``[sensors]``, :class:`~ffsm_pin.scenario.devices.SensorSpec` (docs/controllers.md)."""
-
-    seed: Annotated[int, Field(ge=0)] = default(SensorSpec, "seed")
-    delay: Annotated[int, Field(ge=0)] = default(SensorSpec, "delay")  # [control periods]
-    noise: NoiseModel = NoiseModel()  # per key 0: no noise (SensorSpec.noise lists the others)
-
-
-class ScenarioModel(_Table):
+class ScenarioModel(Table):
     """A whole scenario file; the validator checks what depends on the robot and the task."""
 
     name: str | None = None
@@ -502,7 +80,7 @@ class ScenarioModel(_Table):
             check_mrp(ini.base_pose[3:], ("initial", "base_pose"), "[3:6]")
         for key, n in (("base_twist", 6 if spatial else 3), ("com_velocity", 3 if spatial else 2)):
             _length(getattr(ini, key), n, ("initial", key))
-        for key in ("base_rate", "angular_momentum"):
+        for key in ("base_rate", "angular_momentum", "attitude_error"):
             value = getattr(ini, key)
             if value is not None and isinstance(value, list) != spatial:
                 fail(("initial", key), f": expected {'3 numbers' if spatial else 'a number'}")
@@ -522,7 +100,7 @@ class ScenarioModel(_Table):
                     f"{ref.task!r} task: {', '.join(names[:n_ee])})",
                 )
         planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
-        dflt = ControllerSpec()
+        dflt = Performance()
         funnel = self.controller.funnel
         funnel_arrays(funnel, "b", n_b, dflt.funnel_b if planar else None)
         funnel_arrays(funnel, "z", n_ee, dflt.funnel_z if planar else None)
@@ -585,137 +163,6 @@ def funnel_arrays(model: FunnelModel, tag: str, n: int, default) -> dict[str, tu
             why = f"must satisfy 0 < rho_inf < rho_0 = {r0} ({k['rho0']}[{i}])"
             fail(("controller", "funnel", keys["rhoinf"], i), f" = {ri}: {why}")
     return vals
-
-
-# ------------------------------------------------------------------------------ translation
-def key_path(loc: tuple) -> str:
-    """``("controller", "funnel", "rho_b0", 0)`` -> ``controller.funnel.rho_b0[0]``."""
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        elif not part.startswith("<"):  # union tags of NumOrVec
-            out += f".{part}" if out else part
-    return out
-
-
-def _model_at(loc: tuple, root: type[BaseModel]) -> type[BaseModel] | None:
-    """The model class of the table at ``loc`` (for the valid keys of an unknown key); a part
-    ``"<tag>"`` picks the member of a tagged union."""
-    model: Any = root
-    annotation: Any = None
-    for part in loc:
-        if isinstance(part, int):
-            continue
-        if part.startswith("<"):
-            model = _model_in(annotation, part)
-        else:
-            field = model.model_fields.get(part) if model is not None else None
-            if field is None:
-                return None
-            annotation = field.annotation
-            model = _model_in(annotation)
-    return model
-
-
-def _model_in(annotation: Any, tag: str | None = None) -> type[BaseModel] | None:
-    """The first model class in an annotation (or the union member tagged ``tag``)."""
-    if tag is None and isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    if tag is not None and any(
-        isinstance(m, Tag) and m.tag == tag for m in getattr(annotation, "__metadata__", ())
-    ):
-        return _model_in(annotation.__args__[0])
-    for arg in getattr(annotation, "__args__", ()):
-        found = _model_in(arg, tag)
-        if found is not None:
-            return found
-    return None
-
-
-def _hint(name: str, choices) -> str:
-    """Did-you-mean text: a valid key that the name starts with (or that starts with the name)
-    first, else the closest spelling."""
-    for choice in choices:
-        if len(choice) >= 3 and (name.startswith(choice) or choice.startswith(name)):
-            return f" (did you mean '{choice}'?)"
-    return did_you_mean(name, choices)
-
-
-_NUMBER = {"float_type", "float_parsing", "int_from_float"}
-_WORDS = {
-    "int_type": "an integer",
-    "bool_type": "true or false",
-    "string_type": "a string",
-    "dict_type": "a table of name = value",
-    "list_type": "a list",
-}
-_BOUND = {
-    "greater_than": ">",
-    "greater_than_equal": ">=",
-    "less_than": "<",
-    "less_than_equal": "<=",
-}
-
-
-def message(err: Mapping[str, Any], root: type[BaseModel]) -> str:
-    """One line for one pydantic error (a ``ValidationError.errors()`` entry) of a document
-    validated by the model ``root``."""
-    kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
-    loc = tuple(err["loc"]) + tuple(ctx.get("at", ()))
-    path = key_path(loc)
-    if kind == "scenario":
-        return f"{path}{ctx['text']}"
-    if kind == "extra_forbidden":
-        where, key = loc[:-1], str(loc[-1])
-        model = _model_at(where, root)
-        keys = list(model.model_fields) if model is not None else []
-        what = "section" if isinstance(value, Mapping) else "key"
-        place = f"in [{key_path(where)}]" if where else "at the top level"
-        return f"{path}: unknown {what} {place}{_hint(key, keys)}; valid keys: {choices_text(keys)}"
-    if kind == "missing":
-        return f"{path}: missing (required key)"
-    if kind == "literal_error":
-        if not isinstance(value, str):
-            return f"{path}: expected a string, got {describe(value)}"
-        choices = re.findall(r"'([^']*)'", ctx.get("expected", ""))
-        verb = "is not supported" if path == "robot.base" else "unknown"
-        return (
-            f"{path} = {value!r} {verb}{did_you_mean(value, choices)}; "
-            f"valid choices: {choices_text(choices)}"
-        )
-    if kind in _NUMBER:
-        if loc and isinstance(loc[-1], int):
-            at = key_path(loc[:-1])
-            return f"{at}: expected a list of numbers, [{loc[-1]}] is {describe(value)}"
-        return f"{path}: expected a number, got {describe(value)}"
-    if kind == "finite_number":
-        return f"{path} = {value}: must be finite"
-    if kind in _BOUND:
-        bound = next(iter(ctx.values()))
-        bound = f"{bound:g}" if _is_number(bound) else bound
-        return f"{path} = {value}: must be {_BOUND[kind]} {bound}"
-    if kind in ("too_short", "too_long"):
-        n = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
-        if kind == "too_short" and n == 1:
-            return f"{path}: empty; give at least one value"
-        return f"{path}: {ctx.get('actual_length')} values, expected {n}"
-    if kind == "model_type":
-        return f"{path}: expected a table [{path}], got {describe(value)}"
-    if kind in _WORDS:
-        return f"{path}: expected {_WORDS[kind]}, got {describe(value)}"
-    return f"{path}: {err.get('msg', 'invalid value')}"  # pragma: no cover - a new pydantic type
-
-
-def first_error(exc: ValidationError, root: type[BaseModel]) -> str:
-    """The first error as one line (unknown keys first, like a reader scanning the file), and
-    how many more there are."""
-    errors = exc.errors(include_url=False)
-    errors.sort(key=lambda e: e["type"] != "extra_forbidden")
-    text = message(errors[0], root)
-    if len(errors) > 1:
-        text += f" (and {len(errors) - 1} more)"
-    return text.replace("\n", " ")
 
 
 def validate(d: Mapping[str, Any]) -> ScenarioModel:

@@ -1,8 +1,10 @@
 """What a run needs, as frozen dataclasses (the TOML form is in :mod:`ffsm_pin.scenario.file`).
 
-A :class:`Scenario` names a robot, an initial condition, a reference, a controller (scheme,
-gains, funnels, initial estimates, singularity policy) and the simulation horizon. The
-paper's cases are scenario files shipped in ``ffsm_pin/scenario/builtin/``.
+A :class:`Scenario` describes a run: a robot, an initial condition, a reference, the
+controller that runs (its type, its own parameters, the initial estimates it is handed), the
+run's performance specification (:class:`Performance`: the funnels and the singularity
+threshold every controller is judged by) and the simulation horizon. The paper's cases are
+scenario files shipped in ``ffsm_pin/scenario/builtin/``.
 
 The dataclasses hold the defaults; the rules a value must follow (choices, ranges, sizes for
 the robot and the task) are checked once, by the scenario file's schema
@@ -24,8 +26,8 @@ import numpy as np
 
 from ..attitude import mrp
 from ..control.funnel import FunnelParams
-from ..control.gains import Gains, SingularityPolicy
-from ..control.null_space import NullSpace
+from ..control.gains import SingularityPolicy
+from ..control.lu_jia_params import LuJiaParams
 from ..errors import ParameterError
 from .devices import ActuatorSpec, SensorSpec
 from .trajectory import PiecewisePolynomial, ReferenceData
@@ -211,7 +213,8 @@ class Reference:
 class RobotSpec:
     """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
     optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
-    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root)."""
+    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root); ``payload``, a
+    :class:`~ffsm_pin.robot.Payload` held by the end effector (either base)."""
 
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
     base: str = "planar"
@@ -219,6 +222,7 @@ class RobotSpec:
     relative_to: str | None = None  # folder of the scenario file
     locked_joints: tuple[tuple[str, float], ...] = ()
     satellite: Any = None  # ffsm_pin.robot.Satellite | None
+    payload: Any = None  # ffsm_pin.robot.Payload | None, held by the end effector
 
 
 @dataclass(frozen=True)
@@ -233,6 +237,10 @@ class InitialCondition:
       * base_twist = (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s];
       * com_velocity = v_0 (2 / 3) [m/s] with base_rate = w_b (number / 3) [rad/s];
       * com_velocity with angular_momentum = A_0 about the system CoM (number / 3) [kg m^2/s].
+    attitude_error: an initial base attitude error applied on top of base_pose's attitude:
+        planar an angle added to q_b [rad]; spatial a rotation vector (axis times angle)
+        [rad] about inertial axes, R(0) = exp([e]x) R(base_pose). A campaign draws it in a
+        random direction with a given angle (docs/campaigns.md, ``{ angle = ... }``).
     """
 
     base_pose: tuple[float, ...]
@@ -243,6 +251,7 @@ class InitialCondition:
     com_velocity: tuple[float, ...] | None = None
     base_rate: float | tuple[float, ...] | None = None
     angular_momentum: float | tuple[float, ...] | None = None
+    attitude_error: float | tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         by_twist = self.base_twist is not None
@@ -268,9 +277,10 @@ class InitialCondition:
 class Estimates:
     """Initial parameter estimates: 'paper' (Table 2), 'true', 'perturbed' or 'explicit'.
 
-    'perturbed': every true parameter times 1 + U(-spread, spread), from a generator seeded
-    with ``seed``; a draw of theta_d with an indefinite inertia M-hat is redrawn from the same
-    stream (see :func:`ffsm_pin.sim.estimates.perturbed_estimates`).
+    'perturbed': every body's mass, centre of mass and rotational inertia drawn as a rigid body
+    within ``spread`` of the truth, from a generator seeded with ``seed``, the barycentric
+    estimates derived from the drawn bodies (:func:`ffsm_pin.sim.estimates.perturb_body`,
+    docs/model.md section 6).
     """
 
     initial: str = "paper"
@@ -281,27 +291,56 @@ class Estimates:
     theta_b: tuple[float, ...] | None = None
 
 
+def _paper_funnel_b() -> FunnelParams:
+    return FunnelParams((0.4,), (0.03,), (0.22,), (0.8,))
+
+
+def _paper_funnel_z() -> FunnelParams:
+    return FunnelParams((1.0, 1.0, 0.2), (0.08, 0.08, 0.05), (0.22,) * 3, (0.8,) * 3)
+
+
+@dataclass(frozen=True)
+class Performance:
+    """The run's performance specification: what every run is judged by, whatever its
+    controller (docs/controllers.md). In the file: ``[controller.funnel]`` and
+    ``[controller.singularity] threshold``.
+
+    Attributes
+    ----------
+    funnel_b, funnel_z:
+        The base attitude and end-effector task funnels (Eqs. 16, 17): ``funnel_ok_b``,
+        ``funnel_ok_z``, ``rho_b``, ``rho_z``, the bounds and the settle times judge the true
+        errors by them. Defaults: the paper's planar pose funnels. A controller that uses
+        funnels itself (``needs_funnels``, the lu-jia controller's transformation) uses these.
+    singularity_threshold:
+        The singularity measure's threshold [m]: sigma_min of the inverted task Jacobian below
+        it is near singular (``damping_threshold`` in summary.json, ``--check``); the
+        built-in controllers damp their pseudo-inverse below it.
+    """
+
+    funnel_b: FunnelParams = field(default_factory=_paper_funnel_b)
+    funnel_z: FunnelParams = field(default_factory=_paper_funnel_z)
+    singularity_threshold: float = SingularityPolicy.threshold
+
+
 @dataclass(frozen=True)
 class ControllerSpec:
-    """``[controller]``: which controller (``type``), its free ``params`` table, and the
-    paper's controller's keys; the funnels are the performance specification of every run
-    (docs/controllers.md)."""
+    """``[controller]``: which controller runs (``type``), its free ``params`` table, the
+    initial ``estimates`` it is handed (``ctx.estimates``), and the lu-jia controller's own
+    parameters, ``lu_jia`` (the paper's keys at the ``[controller]`` level of the file; other
+    controllers may read them where they use them, docs/controllers.md). What the run is judged
+    by is not here: :attr:`Scenario.performance`."""
 
-    scheme: str = "ppc"
-    gains: Gains = field(default_factory=Gains)
-    funnel_b: FunnelParams = field(
-        default_factory=lambda: FunnelParams((0.4,), (0.03,), (0.22,), (0.8,))
-    )
-    funnel_z: FunnelParams = field(
-        default_factory=lambda: FunnelParams(
-            (1.0, 1.0, 0.2), (0.08, 0.08, 0.05), (0.22,) * 3, (0.8,) * 3
-        )
-    )
-    estimates: Estimates = field(default_factory=Estimates)
-    singularity: SingularityPolicy = field(default_factory=SingularityPolicy)
-    null_space: NullSpace = field(default_factory=NullSpace)  # beyond the paper, Eq. (36)
     type: str = "lu-jia"  # a built-in, installed or user controller (control.registry)
     params: Mapping[str, Any] = field(default_factory=dict)  # [controller.params]
+    estimates: Estimates = field(default_factory=Estimates)
+    lu_jia: LuJiaParams = field(default_factory=LuJiaParams)  # scheme, gains, null space
+
+    @property
+    def scheme(self) -> str:
+        """The lu-jia controller's scheme (``lu_jia.scheme``); ``"known-model"`` also makes the
+        run's initial estimates the truth, for any controller (sim/estimates.py)."""
+        return self.lu_jia.scheme
 
 
 @dataclass(frozen=True)
@@ -321,3 +360,4 @@ class Scenario:
     substeps: int = 1  # plant steps per control step dt, joint torque held over dt
     actuators: ActuatorSpec = field(default_factory=ActuatorSpec)  # ideal by default
     sensors: SensorSpec = field(default_factory=SensorSpec)  # exact by default
+    performance: Performance = field(default_factory=Performance)  # what the run is judged by

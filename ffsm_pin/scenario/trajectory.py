@@ -5,7 +5,7 @@ The interpolants are SciPy's (:class:`scipy.interpolate.CubicSpline`, not-a-knot
 :meth:`scipy.interpolate.BPoly.from_derivatives` with zero velocity and acceleration at every
 waypoint); this module stores them in one layout that a numpy evaluation
 (:meth:`PiecewisePolynomial.derivative`, complex-step safe) and the compiled controller
-periods (``_shared_kernels._piecewise``) read alike. Before the first time the first value is
+periods (``reference_kernels``) read alike. Before the first time the first value is
 held, after the last time the last value (the velocity and acceleration are zero there).
 """
 

@@ -130,6 +130,7 @@ class Actuators:
         self._row = BLOCK  # next row of the current block of torque noise (none drawn yet)
         self._zeros = np.zeros(n)
         self.last_saturated = False  # some joint at its limit in the last applied period
+        self.saturated_periods = np.zeros(n, dtype=np.int64)  # per joint: periods at its limit
         self._kernel = actuate  # the compiled step (numba)
         if not self.ideal:  # compile (or load) it before the run
             self._kernel(
@@ -149,6 +150,8 @@ class Actuators:
             np.asarray(u_cmd, dtype=float), self.x, self.limit, self.alpha, self.lagged,
             self.max_change, self.rate_limited, self._next_noise(), out,
         )  # fmt: skip
+        if self.last_saturated:  # (the kernel's test, joint by joint)
+            self.saturated_periods += np.abs(out) >= self.limit
         return out
 
     def _next_noise(self) -> np.ndarray:
@@ -175,6 +178,11 @@ class Actuators:
             return y
         u = y + self._next_noise()
         return np.minimum(np.maximum(u, self._low), self.limit) if self.limited else u
+
+    def saturation_per_joint(self, periods: int) -> list[float]:
+        """Per joint, the share of ``periods`` control periods it spent at its torque limit
+        (counted by :meth:`apply`)."""
+        return (self.saturated_periods / max(periods, 1)).tolist()
 
     def saturated(self, u_m: np.ndarray) -> bool:
         """Some joint's applied torque is at its limit."""

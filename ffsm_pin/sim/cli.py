@@ -12,23 +12,21 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime as _dt
-import math
 import signal
 import sys
 import time
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TextIO
-
-import numpy as np
 
 from .._cli import Parser, UsageError, fail, positive_float, positive_int
-from ..errors import FfsmError, OutputError
+from ..errors import FfsmError, OutputError, ScenarioError
 from ..scenario.file import BUILTIN, builtin_scenario, load_scenario
 from ..scenario.spec import Scenario
 from .compile_note import note_compilation
-from .outputs import RunFolder, check_writable, output_error, write_outputs
+from .console import Console, result_table, stop_line
+from .files import RunFolder, check_writable, output_error
+from .outputs import write_outputs
 from .result import FIGURE_ROWS, RunResult
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_OUTPUT, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
@@ -78,15 +76,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     what.add_argument(
         "--compare",
-        nargs="?",
-        const="planar",
+        nargs="*",
         default=None,
-        choices=tuple(COMPARE_SETS),
-        metavar="SET",
-        help="run cases 1, 2 and 3 (SET 'planar', the default) or the spatial cases spatial, "
-        "spatial-no-ppc and spatial-no-attitude (SET 'spatial') and overlay their figures",
+        metavar="WHAT",
+        help="run several scenarios and overlay their figures; each WHAT is a set ('planar': "
+        "cases 1, 2 and 3, the default; 'spatial': spatial, spatial-no-ppc, "
+        "spatial-no-attitude), a built-in case or a scenario file",
     )
     what.add_argument("--scenario", metavar="FILE.toml", help="run a scenario file")
+    p.add_argument(
+        "--controllers",
+        metavar="A,B,...",
+        type=_controller_list,
+        help="run each scenario once per controller type (built-in names, 'file.py:Class' "
+        "relative to the current folder, 'package.module:Class') and overlay them",
+    )
     what.add_argument(
         "--recover",
         metavar="DIR",
@@ -209,6 +213,9 @@ def _check(scenarios: list[Scenario]) -> int:
 
     status = EXIT_OK
     for sc in scenarios:
+        loads = _user_code(sc)
+        if loads:
+            print(f"{sc.name}: controller: {loads}")
         rep = check(sc)
         fmt = lambda v, u="": "n/a" if v is None else f"{v:.4g}{u}"  # noqa: E731
         print(
@@ -217,17 +224,82 @@ def _check(scenarios: list[Scenario]) -> int:
             f", base attitude error = {fmt(rep.attitude_error, ' rad')} "
             f"(authority {fmt(rep.authority, ' rad')})"
         )
+        if rep.resolved:
+            print(f"{sc.name}: {rep.resolved}")
         for problem in rep.problems:
             status = fail(problem)
     return status
 
 
+def _user_code(sc: Scenario) -> str | None:
+    """What a ``file.py:Class`` controller type will run, for ``--check``; None otherwise."""
+    from ..control.registry import resolved_type
+
+    kind = sc.controller.type
+    where, sep, name = kind.rpartition(":")
+    if not sep or not where.endswith(".py"):
+        return None
+    path = resolved_type(kind, sc.source.parent if sc.source else None).rpartition(":")[0]
+    return f"loads and runs {path} (class {name})"
+
+
 def _scenarios(args: argparse.Namespace) -> list[Scenario]:
-    if args.compare:
-        return [builtin_scenario(name) for name in COMPARE_SETS[args.compare]]
-    if args.scenario:
-        return [load_scenario(args.scenario)]
-    return [builtin_scenario(args.case or "case1")]
+    if args.compare is not None:
+        found = [sc for item in args.compare or ["planar"] for sc in _compare_item(item)]
+    elif args.scenario:
+        found = [load_scenario(args.scenario)]
+    else:
+        found = [builtin_scenario(args.case or "case1")]
+    if args.controllers:
+        found = [_with_controller(sc, kind) for sc in found for kind in args.controllers]
+    names = [sc.name for sc in found]
+    if len(set(names)) < len(names):
+        twice = sorted({n for n in names if names.count(n) > 1})
+        raise ScenarioError(
+            f"--compare: scenarios named alike ({', '.join(twice)}); name them apart"
+        )
+    return found
+
+
+def _compare_item(item: str) -> list[Scenario]:
+    """A ``--compare`` item: a set of built-in cases, a built-in case, or a scenario file."""
+    if item in COMPARE_SETS:
+        return [builtin_scenario(name) for name in COMPARE_SETS[item]]
+    name = _CASE_ALIASES.get(item, item)
+    if name in BUILTIN:
+        return [builtin_scenario(name)]
+    if Path(item).suffix == ".toml" or Path(item).exists():
+        return [load_scenario(item)]
+    raise ScenarioError(
+        f"--compare {item!r}: not a set ({', '.join(COMPARE_SETS)}), a built-in case "
+        f"({_case_choices()}) or a scenario file"
+    )
+
+
+def _controller_list(text: str) -> list[str]:
+    """``--controllers a,b,c``: controller types; a relative ``file.py`` made absolute."""
+    kinds = [k.strip() for k in text.split(",") if k.strip()]
+    if not kinds:
+        raise argparse.ArgumentTypeError("expected controller types separated by commas")
+    out = []
+    for kind in kinds:
+        where, sep, name = kind.rpartition(":")
+        if sep and where.endswith(".py"):
+            kind = f"{Path(where).resolve()}:{name}"
+        out.append(kind)
+    if len(set(out)) < len(out):
+        raise argparse.ArgumentTypeError(f"a controller type given twice in {text!r}")
+    return out
+
+
+def _with_controller(sc: Scenario, kind: str) -> Scenario:
+    """``sc`` run by controller type ``kind``, named ``<name>-<label>``."""
+    from ..control.registry import controller_label
+
+    controller = dataclasses.replace(sc.controller, type=kind)
+    return dataclasses.replace(
+        sc, controller=controller, name=f"{sc.name}-{controller_label(kind)}"
+    )
 
 
 def _override(sc: Scenario, args: argparse.Namespace) -> Scenario:
@@ -326,179 +398,7 @@ def _serve(robot, results: list[RunResult]) -> None:
         signal.signal(signal.SIGTERM, previous)
 
 
-# ------------------------------------------------------------------------------ reporting
-def stop_line(result: RunResult) -> str:
-    """One line: at which time the run stopped, and why."""
-    t = result.stop_time
-    if t is None and len(result["t"]):
-        t = float(result["t"][-1])
-    reason = (result.stop_reason or "unknown reason").replace("\n", " ")
-    when = f"t = {t:.4g} s" if t is not None else "an unknown time"
-    if reason.startswith("t ="):
-        return f"run stopped early: {reason}"
-    return f"run stopped early at {when}: {reason}"
-
-
-def result_table(results: Sequence[RunResult], folders: Sequence[Path]) -> str:
-    """The short table printed at the end: one column per run."""
-    columns = [_column(r, f) for r, f in zip(results, folders, strict=True)]
-    keys = list(columns[0])
-    if len(results) == 1:
-        keys.remove("scenario")
-    width = max(len(k) for k in keys)
-    cols = [max(len(c[k]) for k in keys) for c in columns]
-    lines = []
-    for key in keys:
-        cells = "  ".join(c[key].ljust(w) for c, w in zip(columns, cols, strict=True))
-        lines.append(f"{key.ljust(width)}  {cells}".rstrip())
-    return "\n".join(lines)
-
-
-def _column(r: RunResult, folder: Path) -> dict[str, str]:
-    s = r.summary()
-    spatial = np.asarray(r["err_b"]).shape[-1] == 3  # (rows, m3), rows may be 0
-    n_z = np.asarray(r["err_z"]).shape[-1]
-    b_unit = "MRP" if spatial else "rad"
-    z_unit = ("m" if n_z == 3 else "m,MRP") if spatial else ("m" if n_z == 2 else "m,m,rad")
-    settle = f"{_num(s['settle_time_b'], '{:.2f}')} / {_num(s['settle_time_z'], '{:.2f}')}"
-    return {
-        "scenario": r.scenario_name,
-        "controller": r.controller + (f" ({r.scheme})" if r.scheme else ""),
-        "completed": _completed(r),
-        "funnel b / z": f"{_kept(s['funnel_ok_b'])} / {_kept(s['funnel_ok_z'])}",
-        "first violation [s]": _num(s["first_violation_t"], "{:.3f}"),
-        f"final err_b [{b_unit}]": _vec(s["final_err_b"]),
-        f"final err_z [{z_unit}]": _vec(s["final_err_z"]),
-        "settle b / z [s]": settle,
-        "max |u_m| [N m]": _num(s["max_abs_u"], "{:.4g}"),
-        "max |F_r| [N m]": _num(s.get("max_abs_F_r"), "{:.4g}"),
-        "min sigma_min [m]": _num(s.get("min_sigma"), "{:.3g}"),
-        "drift P [kg m/s]": _num(s["drift_P"], "{:.2e}"),
-        "drift L [kg m^2/s]": _num(s["drift_L"], "{:.2e}"),
-        "simulated [s]": f"{s['simulated_time']:.3f} of {r.duration:g}",
-        "wall time [s]": f"{r.wall_time_s:.2f}",
-        "steps per second": _num(s["steps_per_s"], "{:.0f}"),
-        "output": str(folder),
-    }
-
-
-def _completed(r: RunResult) -> str:
-    if r.completed:
-        return "yes"
-    t = r.stop_time if r.stop_time is not None else (float(r["t"][-1]) if len(r["t"]) else 0)
-    return f"no, stopped at {t:.3f} s"
-
-
-def _kept(ok: bool) -> str:
-    return "kept" if ok else "LEFT"
-
-
-def _num(x, fmt: str) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "-" if x is None else str(x)
-    return fmt.format(x)
-
-
-def _vec(values) -> str:
-    if not values:
-        return "-"
-    return "[" + ", ".join(f"{v:.2e}" for v in values) + "]"
-
-
-class Console:
-    """Progress bar (tqdm, on stderr, erased at the end) and ``warning: ...`` lines."""
-
-    def __init__(self, quiet: bool = False, stream: TextIO | None = None, width: int = 24):
-        self.quiet = quiet
-        self.stream = stream if stream is not None else sys.stderr
-        self.width = width
-        self._bar = None
-        self._dt = 1.0
-        self._seen: set[str] = set()
-        self.context = ""  # prefix of warnings (the run they belong to)
-        self._interval = 0.1 if _isatty(self.stream) else 2.0  # [s] between redraws
-
-    def start(self, name: str, duration: float, dt: float) -> None:
-        """Open the progress bar of a run of ``duration`` [s] in steps of ``dt`` [s]."""
-        from tqdm import tqdm  # the same progress library as the campaigns (ffsm_pin.sweep)
-
-        self._close()
-        if self.quiet:
-            return
-        self._dt = dt
-        self._bar = tqdm(
-            total=duration,
-            desc=name,
-            file=self.stream,
-            leave=False,
-            mininterval=self._interval,
-            ascii=".#",
-            postfix="     0 steps/s",
-            bar_format=f"{{desc}} [{{bar:{self.width}}}] {{n:6.2f}}/{{total:g}} s  {{postfix}}  "
-            "ETA {remaining}",
-        )
-        self.progress(0.0)
-
-    def progress(self, t: float) -> None:
-        """Callback for :func:`ffsm_pin.sim.loop.simulate`: t = simulated time [s]."""
-        bar = self._bar
-        if bar is None:
-            return
-        elapsed = bar.format_dict["elapsed"]
-        rate = t / self._dt / elapsed if elapsed > 0 else 0.0
-        bar.set_postfix_str(f"{rate:6.0f} steps/s", refresh=False)
-        bar.update(min(t, bar.total) - bar.n)
-
-    def clear(self) -> None:
-        """Erase the bar (it is drawn again at the next progress update of an unfinished run)."""
-        if self._bar is None:
-            return
-        if self._bar.n >= self._bar.total:
-            self._close()
-        else:
-            self._bar.clear()
-
-    def _close(self) -> None:
-        if self._bar is not None:
-            try:
-                self._bar.close()
-            except (OSError, ValueError):  # closed pipe: progress is best effort
-                pass
-            self._bar = None
-
-    def warn(self, message: str) -> None:
-        """Print a ``warning:`` line without breaking the progress bar (unless quiet)."""
-        if self.quiet:
-            return
-        self.clear()
-        self._write(f"warning: {message}\n")
-
-    def show_warning(self, message, category, filename, lineno, file=None, line=None) -> None:
-        """Replacement for :func:`warnings.showwarning`: one ``warning: ...`` line."""
-        text = " ".join(str(message).split())
-        if self.context:
-            text = f"{self.context}: {text}"
-        if text in self._seen:
-            return
-        self._seen.add(text)
-        self.warn(text)
-
-    def _write(self, text: str) -> None:
-        try:
-            self.stream.write(text)
-            self.stream.flush()
-        except (OSError, ValueError):  # closed pipe: progress is best effort
-            pass
-
-
 # ------------------------------------------------------------------------------ helpers
-def _isatty(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):
-        return False
-
-
 def _out_dir(out: str | None) -> Path:
     if out is not None:
         path = Path(out)

@@ -22,7 +22,10 @@ def _initial_state_planar(robot: Robot, init: InitialCondition) -> tuple[np.ndar
     model = robot.model
     data = model.createData()
     _check_joint_lists(robot, init)
-    q = robot.configuration(init.base_pose, init.joints)
+    pose = np.array(init.base_pose, dtype=float)
+    if init.attitude_error is not None:  # an angle added to q_b
+        pose[2] += float(np.asarray(init.attitude_error, dtype=float).reshape(-1)[0])
+    q = robot.configuration(pose, init.joints)
     if init.com_at_origin:
         com = pin.centerOfMass(model, data, q)
         q[0] -= com[0]
@@ -82,6 +85,9 @@ def _initial_state_spatial(robot: Robot, init: InitialCondition):
             f"initial.base_pose: attitude MRP {pose[3:].tolist()} has |s| > 1; give the "
             "shadow MRP -s / |s|^2 (|s| <= 1)"
         )
+    if init.attitude_error is not None:  # R(0) = exp([e]x) R(base_pose), MRP |s| <= 1
+        turn = pin.exp3(_sized(init.attitude_error, 3, "attitude_error"))
+        pose = np.concatenate((pose[:3], mrp.from_rotation(turn @ mrp.to_rotation(pose[3:]))))
     q = robot.configuration(pose, init.joints)
     if init.com_at_origin:
         q[:3] -= pin.centerOfMass(model, data, q)

@@ -79,7 +79,7 @@ def recording_size(setup: Setup) -> tuple[int, int]:
 def spool_header(setup: Setup, record_every: int) -> dict:
     """What a run's spool records before its rows (:mod:`ffsm_pin.sim.recover`): the scenario
     as run, the recording interval [steps] and the step [s]."""
-    from ..scenario.file import scenario_to_toml
+    from ..scenario.writer import scenario_to_toml
 
     return {
         "scenario_toml": scenario_to_toml(setup.scenario),
@@ -435,6 +435,7 @@ def simulate(
         stop_funnel=stop_funnel,
         events=setup.events + list(getattr(controller, "events", [])),
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
+        saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
     )
 
 
@@ -459,10 +460,12 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
     """The :class:`RunResult` of a run of ``setup`` with the recorded ``signals``;
     ``outcome``: the fields the run decided (steps, wall time, completion and stop, events,
     saturation)."""
-    sc = setup.scenario
-    kind = sc.controller.type
+    sc, perf = setup.scenario, setup.scenario.performance
+    # what the controller says of itself: its variant, what its sigma_min measures
+    scheme = getattr(setup.controller, "scheme", None)
+    measure = getattr(setup.controller, "sigma_measure", None)
     return RunResult(
-        scheme=sc.controller.scheme if kind == "lu-jia" else None,
+        scheme=scheme if isinstance(scheme, str) else None,
         robot=setup.robot.name,
         dt=sc.dt,
         duration=sc.duration,
@@ -470,10 +473,12 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         scenario_name=sc.name,
         integrator=sc.integrator,
         substeps=sc.substeps,
-        rhoinf_b=sc.controller.funnel_b.rhoinf,
-        rhoinf_z=sc.controller.funnel_z.rhoinf,
-        damping_threshold=sc.controller.singularity.threshold,
+        rhoinf_b=perf.funnel_b.rhoinf,
+        rhoinf_z=perf.funnel_z.rhoinf,
+        damping_threshold=perf.singularity_threshold,
         description=sc.description,
-        controller=kind,
+        controller=sc.controller.type,
+        sigma_measure=measure if isinstance(measure, str) else None,
+        estimates=dict(setup.drawn_estimates) or None,
         **outcome,
     )

@@ -32,7 +32,7 @@ import pinocchio as pin
 from yourdfpy.urdf import filename_handler_magic, filename_handler_meta
 
 from ..errors import UrdfError
-from ..robot._capture import native_output
+from ..robot.native import native_call
 
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
     warnings.simplefilter("ignore", DeprecationWarning)
@@ -107,21 +107,18 @@ def _build_visuals(model: pin.Model, xml: str, urdf_path: str | Path | None) -> 
     what those C++ libraries print captured: a failure is a :class:`UrdfError` quoting it in one
     line, other output one :class:`ReplayWarning`."""
     source = Path(urdf_path).name if urdf_path is not None else "URDF"
-    failure = None
-    with native_output() as said:
-        try:
-            gmodel = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL)
-        except (RuntimeError, ValueError) as exc:
-            failure = " ".join(str(exc).split())
-    told = said.summary()
-    if failure is not None:
-        also = f" ({told})" if told and told not in failure else ""
-        raise UrdfError(f"{source}: Pinocchio cannot read the visual geometry: {failure}{also}")
+    call = native_call(pin.buildGeomFromUrdfString, model, xml, pin.GeometryType.VISUAL)
+    told = call.output.summary()
+    if call.failure is not None:
+        also = f" ({told})" if told and told not in call.failure else ""
+        raise UrdfError(
+            f"{source}: Pinocchio cannot read the visual geometry: {call.failure}{also}"
+        )
     if told:
         warnings.warn(
             f"replay: {source}: the URDF and mesh readers say: {told}", ReplayWarning, stacklevel=3
         )
-    return gmodel
+    return call.value
 
 
 def resolve_mesh(filename: str, base_dir: Path | None, package_dirs: Sequence[Path]) -> Path | None:

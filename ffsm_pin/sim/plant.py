@@ -191,12 +191,21 @@ class Plant:
         self._tau[self.n_base :] = u_m
         return pin.aba(self.model, self.data, q, v, self._tau).copy()
 
-    def step(self, q, v, u_m, dt: float) -> StepResult:
-        """Advance (q, v) by ``dt`` [s] with joint torques ``u_m`` held constant."""
+    def step(self, q, v, u_m, dt: float, base_wrench=None) -> StepResult:
+        """Advance (q, v) by ``dt`` [s] with joint torques ``u_m`` held constant.
+
+        ``base_wrench``: a generalized force on the root joint held over the step (default
+        none), Pinocchio's convention: free-flyer (force, torque) [N, N m] in the base frame,
+        planar (f_x, f_y, torque_z) in the base frame; reaction wheels apply their torque on
+        the bus through it (:mod:`.wheels`). It changes the momentum, so the projection, which
+        restores :attr:`momentum0`, belongs to the caller then (``project_momentum=False`` and
+        :meth:`project` with the momentum to keep)."""
         if self.momentum0 is None:
             self.reset(q, v)
         model, data, tau = self.model, self.data, self._tau
         tau[self.n_base :] = u_m
+        if base_wrench is not None:
+            tau[: self.n_base] = base_wrench
         if self.integrator == "rk4":
             q_new, v_new, a = rkmk4_step(model, data, q, v, tau, dt, self._chart_block)
         else:
@@ -211,17 +220,20 @@ class Plant:
                 self.momentum0,  # type: ignore[arg-type]  # set by reset() above
                 self._rows,
             )
+        if base_wrench is not None:
+            tau[: self.n_base] = 0.0  # the free base again for the next call
         return StepResult(q_new, v_new, a)
 
-    def advance(self, q, v, u_m, dt: float, substeps: int = 1) -> StepResult:
+    def advance(self, q, v, u_m, dt: float, substeps: int = 1, base_wrench=None) -> StepResult:
         """Advance (q, v) by one control step ``dt`` [s] in ``substeps`` plant steps of
-        ``dt / substeps``, ``u_m`` [N m] held. ``a`` is the acceleration at the start."""
+        ``dt / substeps``, ``u_m`` [N m] (and ``base_wrench``, :meth:`step`) held. ``a`` is the
+        acceleration at the start."""
         if substeps < 1:
             raise ParameterError(f"plant: substeps must be >= 1, got {substeps}")
-        res = self.step(q, v, u_m, dt if substeps == 1 else dt / substeps)
+        res = self.step(q, v, u_m, dt if substeps == 1 else dt / substeps, base_wrench)
         a = res.a
         for _ in range(substeps - 1):
-            res = self.step(res.q, res.v, u_m, dt / substeps)
+            res = self.step(res.q, res.v, u_m, dt / substeps, base_wrench)
         return StepResult(res.q, res.v, a)
 
     def state_status(self, q, v, rate_limit: float) -> int:
@@ -231,14 +243,16 @@ class Plant:
         ``rate_limit`` [rad/s], else :data:`STATE_OK`."""
         return _state_status(q, v, self.n_linear, rate_limit)
 
-    def project(self, q, v) -> np.ndarray:
+    def project(self, q, v, momentum=None) -> np.ndarray:
         """Base twist that restores the conserved momentum at q, joint rates unchanged (a new
-        array; v is not modified)."""
+        array; v is not modified). ``momentum``: the conserved rows to restore instead of
+        :attr:`momentum0` (reaction wheels: :mod:`.wheels`)."""
         out = np.array(v, dtype=float)
+        target = self.momentum0 if momentum is None else np.asarray(momentum, dtype=float)
         _project_base(
             pin.computeCentroidalMap(self.model, self.data, q),
             out,
-            self.momentum0,  # type: ignore[arg-type]  # the run calls reset() first
+            target,  # type: ignore[arg-type]  # the run calls reset() first
             self._rows,
         )
         return out

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import FfsmError, ScenarioError
-from .outputs import pid_alive
+from .files import pid_alive
 from .recorder import SPOOL_FORMAT, SPOOL_HEADER, SPOOL_PREFIX, Signals
 from .result import RunResult
 from .setup import Setup

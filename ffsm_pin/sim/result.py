@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .recorder import Signals, Thinned
+from ..control.registry import DEFAULT_TYPE
+from .files import RunFolder, held_interrupt, output_error, strict_json
+from .recorder import Signals, Thinned, write_npz
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
@@ -38,10 +41,13 @@ class _Scan:
     """Reductions over every recorded row (:meth:`RunResult._scan`)."""
 
     outside: dict[str, int | None]  # first row outside funnel b / z, None if none
+    # the first component outside funnel b / z at that row (the lowest index if several)
+    component: dict[str, int | None] = field(default_factory=lambda: {"b": None, "z": None})
     rows: int = 0
     drift_P: float = 0.0
     drift_L: float = 0.0
-    max_u: float = 0.0
+    max_u: float = 0.0  # largest Euclidean norm of u_m
+    max_u_joint: float = 0.0  # largest |u_m[i]| of any joint
     max_u_cmd: float = 0.0
     min_sigma: float | None = None
     damped: int = 0  # rows with damping > 0
@@ -80,7 +86,7 @@ class RunResult:
     :data:`EXTRA_KEYS` to an array (time along axis 0 for the per-sample keys).
     """
 
-    scheme: str | None  # the paper's controller's variant; None for other controllers
+    scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
     robot: str
     dt: float
     duration: float  # requested horizon [s]
@@ -100,8 +106,12 @@ class RunResult:
     rhoinf_z: tuple[float, ...] | None = None
     damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
     description: str = ""
-    controller: str = "lu-jia"  # the controller type ([controller] type)
+    controller: str = DEFAULT_TYPE  # the controller type ([controller] type)
+    # what the controller's sigma_min is the smallest singular value of (its sigma_measure)
+    sigma_measure: str | None = None
     saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
+    # per joint: control periods with that joint at its torque limit (None: not counted)
+    saturation_per_joint: list[float] | None = None
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -135,10 +145,22 @@ class RunResult:
     def first_violation_time(self) -> float | None:
         """First recorded sample outside a funnel, or the time of a funnel stop; None if
         neither happened [s]."""
-        first = [i for i in self._scan().outside.values() if i is not None]
-        if first:
-            return float(self.signals["t"][min(first)])
-        return self.stop_time if self.stop_funnel is not None else None
+        return self.first_violation()[2]
+
+    def first_violation(self) -> tuple[str | None, int | None, float | None]:
+        """(funnel, component, time) of the first departure from a funnel: the first recorded
+        sample outside funnel "b" or "z" (at a tie "z"; the lowest component outside at that
+        sample), or else the funnel, component and time of a funnel stop (the paper's
+        controller stops before it records the sample outside; the component is the one its
+        stop reason names). (None, None, None) if neither happened."""
+        scan = self._scan()
+        rows = {w: i for w, i in scan.outside.items() if i is not None}
+        if rows:
+            which = min(rows, key=lambda w: (rows[w], w == "b"))
+            return which, scan.component[which], float(self.signals["t"][rows[which]])
+        if self.stop_funnel is None:
+            return None, None, None
+        return self.stop_funnel, _stop_component(self.stop_reason), self.stop_time
 
     def settle_time(self, which: str, rhoinf) -> float | None:
         """Time after which ``|err|`` stays inside rho_inf (all components), None if never."""
@@ -209,12 +231,14 @@ class RunResult:
                 bad = np.flatnonzero(~_inside(b, which))
                 if bad.size and scan.outside[which] is None:
                     scan.outside[which] = n + int(bad[0])
+                    scan.component[which] = _first_outside(b, which, int(bad[0]))
             if P0 is None:
                 P0, L0 = b["P"][0], b["L"][0]
             # np.max / np.min, not max(): a NaN propagates as it would over the whole run
             scan.drift_P = _max(scan.drift_P, np.linalg.norm(b["P"] - P0, axis=1))
             scan.drift_L = _max(scan.drift_L, np.abs(b["L"] - L0))
             scan.max_u = _max(scan.max_u, np.linalg.norm(b["u_m"], axis=1))
+            scan.max_u_joint = _max(scan.max_u_joint, np.abs(b["u_m"]))
             if "u_cmd" in b:
                 scan.max_u_cmd = _max(scan.max_u_cmd, np.linalg.norm(b["u_cmd"], axis=1))
             if "sigma_min" in b:
@@ -235,6 +259,7 @@ class RunResult:
         s = self.signals
         scan = self._scan()
         drift_P, drift_L = scan.drift_P, scan.drift_L
+        first = self.first_violation()
         n = len(s["t"])
         out = {
             "scheme": self.scheme,
@@ -254,9 +279,16 @@ class RunResult:
             "first_violation_t": self.first_violation_time(),
             "final_err_b": s["err_b"][-1].tolist() if n else [],
             "final_err_z": s["err_z"][-1].tolist() if n else [],
+            "first_violation_funnel": first[0],
+            "first_violation_component": first[1],
             "max_abs_u": scan.max_u,
+            "max_torque_norm": scan.max_u,
+            "max_joint_torque": scan.max_u_joint,
             "max_abs_u_cmd": scan.max_u_cmd,
             "saturation_fraction": self.saturation_fraction,
+            "saturation_per_joint": (
+                None if self.saturation_per_joint is None else list(self.saturation_per_joint)
+            ),
             "controller": self.controller,
             "drift_P": drift_P,
             "drift_L": drift_L,
@@ -268,6 +300,9 @@ class RunResult:
             "stop_cause": self.stop_cause,
             "stop_funnel": self.stop_funnel,
             "min_sigma": scan.min_sigma,
+            "min_sigma_of": (self.sigma_measure or OWN_SIGMA)
+            if scan.min_sigma is not None
+            else None,
             "damping_threshold": self.damping_threshold,
             "damped_fraction": scan.damped / n if n else 0.0,
             "max_abs_F_r": scan.max_F_r,
@@ -296,8 +331,9 @@ class RunResult:
         """Write ``trajectory.npz`` and ``summary.json`` into ``out_dir``; return the summary.
 
         The files replace an earlier run's in ``out_dir`` as a whole, once both are complete
-        (:func:`ffsm_pin.sim.outputs.write_outputs`); ``summary.json`` is strict JSON
-        (non-finite numbers as ``null``).
+        (:class:`~ffsm_pin.sim.files.RunFolder`); ``summary.json`` is strict JSON (non-finite
+        numbers as ``null``). ``python -m ffsm_pin.sim`` writes its folder the same way,
+        with the scenario and the replay (:func:`ffsm_pin.sim.outputs.write_outputs`).
 
         Parameters
         ----------
@@ -316,14 +352,56 @@ class RunResult:
         OutputError
             A file could not be written; ``out_dir`` keeps what it held.
         """
-        from .outputs import write_outputs
+        with held_interrupt(), RunFolder(out_dir) as out:
+            try:
+                summary = self.write_data(out, compress=compress)
+                if figures:
+                    from .figures import write_figures  # matplotlib only when asked for
 
-        return write_outputs(out_dir, self, figures=figures, compress=compress)
+                    write_figures(self.thinned(FIGURE_ROWS), out.staging)
+            except OSError as exc:
+                raise output_error(exc, Path(out_dir)) from None
+            out.commit()
+        return summary
+
+    def write_data(self, out: RunFolder, *, compress: bool = False) -> dict:
+        """Write the recording into a staged run folder ``out``: ``trajectory.npz``,
+        ``summary.json`` and, when the estimates were drawn, ``estimates.json``; return the
+        summary; :meth:`save` and :func:`ffsm_pin.sim.outputs.write_outputs` commit it."""
+        write_npz(out.path("trajectory.npz"), self.signals, compress=compress)
+        summary = self.summary()
+        out.path("summary.json").write_text(strict_json(summary), encoding="utf-8")
+        if self.estimates is not None:
+            out.path("estimates.json").write_text(strict_json(self.estimates), encoding="utf-8")
+        return summary
 
 
 def _max(so_far: float, values: np.ndarray) -> float:
     """max(so_far, max(values)), NaN-propagating as ``np.max``."""
     return float(np.max((so_far, np.max(values))))
+
+
+def _first_outside(b: Mapping[str, np.ndarray], which: str, row: int) -> int:
+    """The lowest component of err_<which> outside its funnel at ``row`` of block ``b``."""
+    err = b[f"err_{which}"][row]
+    ok = (err > b[f"bound_{which}_lower"][row]) & (err < b[f"bound_{which}_upper"][row])
+    return int(np.flatnonzero(~ok)[0])
+
+
+def _stop_component(reason: str | None) -> int | None:
+    """The component a funnel stop's reason names ("... error component 1 (y) = ..."; a
+    planar attitude error has one, 0)."""
+    if not reason:
+        return None
+    found = re.search(r"error component (\d+)", reason)
+    if found:
+        return int(found.group(1))
+    return 0 if "base attitude error =" in reason else None
+
+
+#: ``min_sigma_of`` of a controller that reports ``sigma_min`` without saying of what
+#: (its ``sigma_measure``, docs/controllers.md).
+OWN_SIGMA = "sigma_min (the controller's own)"
 
 
 def _final_norm(s: Mapping[str, np.ndarray], name: str) -> float | None:

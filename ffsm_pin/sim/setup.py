@@ -26,10 +26,17 @@ from ..control.interface import (
 )
 from ..control.kinematic import task_errors, task_size
 from ..control.registry import controller_class
-from ..errors import ControllerLoadError, FfsmError, ScenarioError
+from ..errors import (
+    ControllerLoadError,
+    FfsmError,
+    ParameterError,
+    ScenarioError,
+    choices_text,
+    did_you_mean,
+)
 from ..model import ReducedModel, State, make_model
 from ..robot import Robot, load_robot
-from ..scenario.file import check_scenario
+from ..scenario.check import check_scenario
 from ..scenario.spec import Scenario
 from .actuators import Actuators, urdf_limits
 from .estimates import initial_estimates
@@ -58,6 +65,9 @@ class Setup:
     sensors: Sensors | None = None  # between the plant and the controller (exact: None)
     funnel_b: Funnel | None = None  # the performance specification, sides fixed at t = 0
     funnel_z: Funnel | None = None
+    # what the initial estimates were made from (sim.estimates.bodies_record), filled when
+    # they are drawn; empty for Table 2, explicit vectors, or estimates never read
+    drawn_estimates: dict = dataclasses.field(default_factory=dict)
 
     @property
     def n_task(self) -> int:
@@ -75,13 +85,19 @@ def prepare(scenario: Scenario) -> Setup:
     if spatial:
         options = {"locked_joints": dict(spec.locked_joints) or None, "satellite": spec.satellite}
     robot = load_robot(
-        spec.urdf, spec.end_effector, base=spec.base, relative_to=spec.relative_to, **options
+        spec.urdf,
+        spec.end_effector,
+        base=spec.base,
+        relative_to=spec.relative_to,
+        payload=spec.payload,
+        **options,
     )
     # URDF torque limits that the file does not give: refused before the (slow) controller
     if isinstance(limit := scenario.actuators.torque_limit, str) and limit == "urdf":
         urdf_limits(robot.effort_limits, robot.n_joints, robot.joint_names)
     ctrl, ref = scenario.controller, scenario.reference
     cls = controller_class(ctrl.type, scenario.source.parent if scenario.source else None)
+    check_params(cls, ctrl.type, ctrl.params)  # the keys its class declares, if it does
     model = make_model(robot)
     m3 = model.m3
     n_task = task_size(model.m2, m3, ref.task)
@@ -99,8 +115,12 @@ def prepare(scenario: Scenario) -> Setup:
         np.array(model.true_theta_b(st.angular_momentum)),
     )
 
+    drawn: dict = {}  # what the estimates were made from (estimates.json), once drawn
+
     def estimates():  # drawn when the controller first reads ctx.estimates
-        return initial_estimates(scenario, model, truth)
+        made = initial_estimates(scenario, model, truth, robot, q0, v0)
+        drawn.update(made.record or {})
+        return made.theta_z, made.theta_d, made.theta_b
 
     if getattr(cls, "needs_estimates", False):  # checked before the funnels, as they are read
         estimates = _constant(estimates())
@@ -111,7 +131,8 @@ def prepare(scenario: Scenario) -> Setup:
         scenario = dataclasses.replace(scenario, reference=ref)
     q_bd = np.array(ref.base_attitude, dtype=float)
     err_b, err_z = task_errors(ref, q_bd, 0.0, meas0.q_b, meas0.z_e, m3)
-    funnels = {"b": Funnel(ctrl.funnel_b, err_b), "z": Funnel(ctrl.funnel_z, err_z)}
+    perf = scenario.performance  # what every run is judged by
+    funnels = {"b": Funnel(perf.funnel_b, err_b), "z": Funnel(perf.funnel_z, err_z)}
     for label, key, funnel, err in (
         ("base attitude", "rho_b0", funnels["b"], err_b),
         ("end-effector", "rho_z0", funnels["z"], err_z),
@@ -166,8 +187,25 @@ def prepare(scenario: Scenario) -> Setup:
     return Setup(
         scenario, robot, model, q0, v0, *truth, controller, horizon, events,
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
-        funnels["b"], funnels["z"],
+        funnels["b"], funnels["z"], drawn,
     )  # fmt: skip
+
+
+def check_params(cls: type, kind: str, params) -> None:
+    """Refuse a ``[controller.params]`` key that the controller's class does not declare in
+    its ``params_keys`` (docs/controllers.md; nothing is checked for a class without it): one
+    line naming the key, the type and the valid keys."""
+    accepted = getattr(cls, "params_keys", None)
+    if accepted is None:
+        return
+    accepted = [str(k) for k in accepted]
+    for key in params:
+        if key not in accepted:
+            raise ParameterError(
+                f"controller.params.{key}: unknown for controller.type {kind!r}"
+                f"{did_you_mean(str(key), accepted)}; valid keys: "
+                f"{choices_text(accepted) or 'none'}"
+            )
 
 
 def _constant(value):

@@ -1,38 +1,23 @@
-"""Campaign files (TOML, docs/campaigns.md) -> a validated :class:`Campaign` -> its cases.
+"""Campaign files (TOML, docs/campaigns.md) -> a validated :class:`Campaign`.
 
 A campaign names a scenario (built-in name or file) or several, a root seed, a number of repeats
-per grid point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``) and
-for one scenario's cases (``[campaign.set_for.<scenario>]``), grid axes
+per grid point, optional overrides for every case (``[campaign.set]``, ``duration``, ``dt``),
+for one scenario's cases (``[campaign.set_for.<scenario>]``) and for the cases of one controller
+type (``[campaign.set_for_controller."<type>"]``: a controller's own ``[controller.params]``
+beside other controllers that would refuse them), grid axes
 (``[[vary]]``: a dotted scenario key and its values) and randomly sampled keys (``[[sample]]``:
-a dotted key and a distribution). :func:`expand` turns it into cases:
-
-* with several scenarios, each gets the cases below in turn (its own nominal case first), and
-  the column ``scenario`` says which; the grid's seeds are the same for every scenario;
-* case 0 is the nominal scenario: the scenario file as it is, with only the run length and
-  step applied (``duration``/``dt``, or ``sim.duration``/``sim.dt`` of ``[campaign.set]``;
-  no other set, varied or sampled key, its own estimates seed);
-* cases 1.. are the Cartesian product of the ``[[vary]]`` axes (in file order, the last axis
-  fastest) times ``repeat`` draws, repeats innermost. Each case sets
-  ``controller.estimates.seed`` and draws its sampled keys from its own random stream
-  (:mod:`ffsm_pin.sweep.seeds`).
-
-Every case's scenario is the scenario file's TOML document with the keys replaced, validated by
-:func:`ffsm_pin.scenario.file.scenario_from_dict` exactly like a file; the case records the
-value each key has in the resolved scenario (read back from its TOML form). Its ``case_hash``
-hashes that scenario's TOML text and the package version.
+a dotted key and a distribution) and dispersed keys (``[campaign.disperse]``: any numeric
+scenario key drawn per case, each from its own stream, read back from the case's resolved
+scenario). :func:`ffsm_pin.sweep.cases.expand` turns it into cases.
 
 The file's keys, types and ranges are the pydantic models of
-:mod:`ffsm_pin.sweep.campaign_schema`; this module builds the :class:`Campaign` and its cases.
+:mod:`ffsm_pin.sweep.campaign_schema`; this module builds the :class:`Campaign`.
 """
 
 from __future__ import annotations
 
-import copy
-import hashlib
-import itertools
 import math
 import sys
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -42,14 +27,13 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from .. import __version__
+from .._schema import first_error
+from ..control.registry import DEFAULT_TYPE
 from ..errors import FfsmError, choices_text, did_you_mean
-from ..scenario.file import BUILTIN, builtin_path, scenario_from_dict, scenario_to_toml
-from ..scenario.schema import first_error
-from ..scenario.spec import Scenario
+from ..scenario.file import BUILTIN, builtin_path
 from . import campaign_schema as schema
-from .campaign_schema import DISTRIBUTIONS, SEED_KEY
-from .seeds import case_stream, estimates_seed
+from .campaign_schema import DISTRIBUTIONS
+from .stats import runs_for_half_width
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -58,21 +42,23 @@ else:  # pragma: no cover
 
 __all__ = [
     "BUILTIN_CAMPAIGNS",
+    "AutoRepeat",
     "Campaign",
     "CampaignError",
-    "Case",
+    "Disperse",
     "SCENARIO_COLUMN",
     "Sample",
     "Vary",
     "builtin_campaign_path",
-    "check_cases",
-    "expand",
+    "campaign_from_toml",
     "load_campaign",
 ]
 
 
 #: The column of the scenario in a campaign over several scenarios.
 SCENARIO_COLUMN = "scenario"
+#: The scenario key that names a case's controller (``[campaign.set_for_controller]``).
+TYPE_KEY = "controller.type"
 
 
 class CampaignError(FfsmError, ValueError):
@@ -125,6 +111,52 @@ class Sample:
 
 
 @dataclass(frozen=True)
+class AutoRepeat:
+    """``repeat = "auto"``: batches of repeats until the 95 % Wilson interval of every grid
+    point's funnel-keeping rate is no wider than +- ``target_half_width``, or ``max_repeat``
+    draws per grid point (:mod:`ffsm_pin.sweep.auto_repeat`)."""
+
+    target_half_width: float = 0.05
+    max_repeat: int = 400  # +- 0.05 at a rate of 1/2 takes 381 runs
+
+    def first_batch(self) -> int:
+        """The first batch: the fewest runs whose Wilson interval can be as narrow as the
+        target."""
+        return min(self.max_repeat, runs_for_half_width(0.0, self.target_half_width))
+
+
+@dataclass(frozen=True)
+class Disperse:
+    """A key of ``[campaign.disperse]`` drawn per case: ``uniform`` (low, high), ``normal``
+    (mean, std), element-wise where a bound is a list or the key's value is one, or ``angle``
+    (a rotation of this angle [rad] about a uniformly random axis: a 3-vector, or a planar
+    angle of random sign)."""
+
+    key: str
+    distribution: str
+    params: tuple[Any, ...]
+
+    def draw(self, rng: np.random.Generator, size: int | None) -> float | list[float]:
+        """One value from ``rng``: a number (``size`` None) or ``size`` numbers."""
+        if self.distribution == "angle":
+            (angle,) = self.params
+            if size is None:
+                return float(angle * rng.choice((-1.0, 1.0)))
+            axis = rng.normal(size=size)
+            return [float(x) for x in angle * axis / np.linalg.norm(axis)]
+        a, b = (np.asarray(x, dtype=float) for x in self.params)
+        shape = () if size is None else (size,)
+        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
+        x = rng.uniform(a, b) if self.distribution == "uniform" else rng.normal(a, b)
+        return float(x) if size is None else [float(v) for v in np.atleast_1d(x)]
+
+    def size(self) -> int | None:
+        """The number of values a list bound asks for (None: numbers only)."""
+        sizes = {len(x) for x in self.params if isinstance(x, list)}
+        return sizes.pop() if sizes else None
+
+
+@dataclass(frozen=True)
 class Campaign:
     """A parsed, validated campaign file."""
 
@@ -142,6 +174,10 @@ class Campaign:
     text: str  # the campaign file's text
     description: str = ""
     set_for: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)  # per scenario
+    auto: AutoRepeat | None = None  # repeat = "auto"; ``repeat`` is then the current batch's
+    disperse: tuple[Disperse, ...] = ()  # [campaign.disperse], drawn per case
+    # per controller type (as written in controller.type)
+    set_for_controller: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     @property
     def scenario(self) -> str:
@@ -162,8 +198,8 @@ class Campaign:
     @property
     def columns(self) -> tuple[str, ...]:
         """Keys that get a column in results.parquet (``scenario`` when there are several,
-        the varied keys, then the sampled ones)."""
-        return self.axes + tuple(s.key for s in self.sample)
+        the varied keys, the sampled ones, then the dispersed ones)."""
+        return self.axes + tuple(s.key for s in self.sample) + tuple(d.key for d in self.disperse)
 
     @property
     def n_cases(self) -> int:
@@ -171,28 +207,6 @@ class Campaign:
         ``repeat``."""
         grid = math.prod(len(v.values) for v in self.vary) * self.repeat
         return len(self.scenarios) * (1 + grid)
-
-
-@dataclass(frozen=True)
-class Case:
-    """One run of a campaign."""
-
-    index: int  # position in the campaign (0 = nominal)
-    nominal: bool
-    point_index: int | None  # grid point number (None for the nominal case)
-    repeat: int | None  # repeat index within the grid point (None for the nominal case)
-    point: Mapping[str, Any]  # grid point {dotted key: value as written in the campaign}
-    values: dict[str, Any]  # {column: value the resolved scenario uses}
-    estimates_seed: int
-    scenario_toml: str  # the resolved scenario (loads with scenario_from_toml)
-    case_hash: str
-    scenario: Scenario = field(repr=False, compare=False)
-
-    def label(self) -> str:
-        """The case's grid point in words, as the report shows it."""
-        if self.nominal:
-            return "nominal" + "".join(f" {v}" for v in self.point.values())
-        return ", ".join(f"{k} = {_fmt(v)}" for k, v in self.point.items()) or "all"
 
 
 # ------------------------------------------------------------------------------ loading
@@ -243,13 +257,33 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         raise CampaignError(first_error(exc, schema.CampaignModel)) from None
     c = m.campaign
     scenarios = tuple(c.scenario) if isinstance(c.scenario, list) else (c.scenario,)
+    paths = tuple(_scenario_path(x, path) for x in scenarios)
+    if c.set_for_controller:
+        kinds = _controller_types(scenarios, paths, c.set, c.set_for, m.vary)
+        for kind in c.set_for_controller:
+            if kind not in kinds:
+                raise CampaignError(
+                    f"campaign.set_for_controller.{schema.toml_key(kind)}: not a controller type "
+                    f"of this campaign's cases{did_you_mean(kind, kinds)}; valid choices: "
+                    f"{choices_text(kinds)} (controller.type as the campaign or its scenarios "
+                    "write it)"
+                )
+    auto, repeat = None, c.repeat
+    if c.repeat == "auto":
+        default = AutoRepeat()
+        auto = AutoRepeat(
+            default.target_half_width if c.target_half_width is None else c.target_half_width,
+            default.max_repeat if c.max_repeat is None else c.max_repeat,
+        )
+        repeat = auto.first_batch()
     return Campaign(
         name=c.name or path.stem,
         scenarios=scenarios,
-        scenario_paths=tuple(_scenario_path(x, path) for x in scenarios),
+        scenario_paths=paths,
         set_for={k: dict(v) for k, v in c.set_for.items()},
+        set_for_controller={k: dict(v) for k, v in c.set_for_controller.items()},
         seed=c.seed,
-        repeat=c.repeat,
+        repeat=int(repeat),
         duration=c.duration,
         dt=c.dt,
         set=c.set,
@@ -263,7 +297,41 @@ def _campaign(d: Mapping, path: Path, text: str) -> Campaign:
         source=str(path),
         text=text,
         description=c.description,
+        auto=auto,
+        disperse=tuple(
+            Disperse(key, spec["distribution"], tuple(spec["params"]))
+            for key, spec in c.disperse.items()
+        ),
     )
+
+
+def _controller_types(scenarios, paths, common, set_for, vary) -> list[str]:
+    """The ``controller.type`` of the campaign's grid cases, as written: the varied values,
+    else ``[campaign.set_for.<scenario>]``'s, ``[campaign.set]``'s or the scenario file's (the
+    default type when it names none), in the order first met."""
+    kinds: list[str] = []
+    varied = next((v.values for v in vary if v.key == TYPE_KEY), None)
+    for name, path in zip(scenarios, paths, strict=True):
+        if varied is not None:
+            found = list(varied)
+        elif TYPE_KEY in set_for.get(name, {}):
+            found = [set_for[name][TYPE_KEY]]
+        elif TYPE_KEY in common:
+            found = [common[TYPE_KEY]]
+        else:
+            found = [_type_of(path)]
+        kinds += [k for k in found if isinstance(k, str) and k not in kinds]
+    return kinds
+
+
+def _type_of(path: Path) -> Any:
+    """The ``controller.type`` a scenario file writes (the default when none; None when the
+    file cannot be read: expanding the campaign says why)."""
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    return _lookup(doc, TYPE_KEY, DEFAULT_TYPE)
 
 
 def _scenario_path(scenario: str, campaign_path: Path) -> Path:
@@ -281,141 +349,6 @@ def _scenario_path(scenario: str, campaign_path: Path) -> Path:
     return path
 
 
-# ------------------------------------------------------------------------------ expansion
-def expand(campaign: Campaign) -> list[Case]:
-    """Every case of the campaign, validated (see the module docstring).
-
-    Raises
-    ------
-    CampaignError
-        A scenario file that does not load, or a value the scenario validation refuses (the
-        message names the campaign file, the key and the value).
-    """
-    several = len(campaign.scenarios) > 1
-    common = {}  # run length and step, also for the nominal case (comparable rows)
-    for opt, full in (("duration", "sim.duration"), ("dt", "sim.dt")):
-        if getattr(campaign, opt) is not None:
-            common[full] = getattr(campaign, opt)
-        elif full in campaign.set:
-            common[full] = campaign.set[full]
-    cases: list[Case] = []
-    points = list(itertools.product(*(v.values for v in campaign.vary)))
-    scenarios = zip(campaign.scenarios, campaign.scenario_paths, strict=True)
-    for which, (name, path) in enumerate(scenarios):
-        try:
-            base = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-            raise CampaignError(f"{campaign.source}: scenario {str(path)!r}: {exc}") from None
-        own = campaign.set_for.get(name, {})
-        tag = {SCENARIO_COLUMN: name} if several else {}
-        index = len(cases)
-        label = f"nominal scenario {name}" if several else "nominal scenario"
-        cases.append(
-            _case(campaign, base, path, index, None, None, tag, common, _seed_of(base), label)
-        )
-        for p, values in enumerate(points):
-            point = {**tag, **{v.key: x for v, x in zip(campaign.vary, values, strict=True)}}
-            # every scenario draws the same seeds (common random numbers; a campaign over one
-            # scenario draws what it drew before campaigns could have several)
-            grid = {k: v for k, v in point.items() if k != SCENARIO_COLUMN}
-            for r in range(campaign.repeat):
-                seed = estimates_seed(campaign.seed, grid, r)
-                keys = {**common, **campaign.set, **own, **grid, SEED_KEY: seed}
-                for s in campaign.sample:
-                    stream = case_stream(campaign.seed, grid, r, "sample:" + s.key)
-                    keys[s.key] = s.draw(np.random.default_rng(stream))
-                index = len(cases)
-                point_index = p + len(points) * which
-                cases.append(_case(campaign, base, path, index, point_index, r, point, keys, seed))
-    for col in campaign.columns:  # one type per column: lists if any case resolves to a list
-        if any(isinstance(c.values[col], list) for c in cases):
-            for c in cases:
-                c.values[col] = _lookup(tomllib.loads(c.scenario_toml), col, c.values[col])
-    hashes: dict[str, int] = {}
-    for case in cases:
-        if case.case_hash in hashes:
-            raise CampaignError(
-                f"{campaign.source}: cases {hashes[case.case_hash]} and {case.index} resolve to "
-                "the same scenario (a varied value that the scenario does not use?)"
-            )
-        hashes[case.case_hash] = case.index
-    return cases
-
-
-def _seed_of(doc: Mapping) -> int:
-    seed = doc.get("controller", {}).get("estimates", {}).get("seed", 0)
-    return seed if isinstance(seed, int) else 0
-
-
-def _case(campaign, base, path, index, p, r, point, keys, seed, label=None) -> Case:
-    doc = copy.deepcopy(base)
-    for key, value in keys.items():
-        _assign(doc, key, value, campaign.source)
-    what = label or ", ".join(
-        f"{k} = {_fmt(v)}" for k, v in {**point, **keys}.items() if k != SEED_KEY
-    )
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            scenario = scenario_from_dict(doc, source=path)
-    except FfsmError as exc:
-        raise CampaignError(f"{campaign.source}: case {index} ({what}): {exc}") from None
-    text = scenario_to_toml(scenario)
-    resolved = tomllib.loads(text)
-    values = {}
-    for col in campaign.columns:
-        if col == SCENARIO_COLUMN:
-            values[col] = point[col]
-            continue
-        given = keys.get(col) if col in keys else _lookup(doc, col)
-        values[col] = _readback(_lookup(resolved, col, default=given), given)
-    digest = hashlib.sha256(f"ffsm-pin {__version__}\n{text}".encode()).hexdigest()[:16]
-    return Case(
-        index=index,
-        nominal=p is None,
-        point_index=p,
-        repeat=r,
-        point=dict(point),
-        values=values,
-        estimates_seed=scenario.controller.estimates.seed,
-        scenario_toml=text,
-        case_hash=digest,
-        scenario=scenario,
-    )
-
-
-def check_cases(cases: list[Case], source: str) -> None:
-    """Run :func:`ffsm_pin.sim.setup.prepare` (robot, feasibility, initial errors inside the
-    funnels, estimates) on the nominal case and on the first case of every grid point, so a
-    value that only the run set-up refuses is bad input before anything runs."""
-    from ..sim.run import prepare
-
-    checked: set[int | None] = set()
-    for case in cases:
-        if case.point_index in checked and not case.nominal:
-            continue
-        checked.add(case.point_index)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                prepare(case.scenario)
-        except FfsmError as exc:
-            raise CampaignError(f"{source}: case {case.index} ({case.label()}): {exc}") from None
-
-
-# ------------------------------------------------------------------------------ helpers
-def _assign(doc: dict, key: str, value: Any, source: str) -> None:
-    parts = key.split(".")
-    node = doc
-    for i, part in enumerate(parts[:-1]):
-        nxt = node.setdefault(part, {})
-        if not isinstance(nxt, dict):
-            prefix = ".".join(parts[: i + 1])
-            raise CampaignError(f"{source}: {key}: {prefix} is a value, not a table")
-        node = nxt
-    node[parts[-1]] = copy.deepcopy(value)
-
-
 def _lookup(doc: Mapping, key: str, default: Any = None) -> Any:
     node: Any = doc
     for part in key.split("."):
@@ -423,23 +356,3 @@ def _lookup(doc: Mapping, key: str, default: Any = None) -> Any:
             return default
         node = node[part]
     return node
-
-
-def _readback(resolved: Any, given: Any) -> Any:
-    """A per-component key (funnel entries) whose components are all equal, as a number given
-    for it resolves to: record the number (:func:`expand` turns a column back into lists when
-    some case's components differ)."""
-    if isinstance(resolved, list) and resolved and all(_is_number(x) for x in resolved):
-        if all(float(x) == float(resolved[0]) for x in resolved):
-            return float(resolved[0])
-    if isinstance(resolved, int) and not isinstance(resolved, bool) and isinstance(given, float):
-        return float(resolved)
-    return resolved
-
-
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def _fmt(v: Any) -> str:
-    return f"{v:g}" if isinstance(v, float) else repr(v) if isinstance(v, str) else str(v)

@@ -2,7 +2,11 @@
 
 * :func:`start_client`: a :class:`~distributed.LocalCluster` of ``n_workers`` single-threaded
   worker processes (default: one per core) started with :data:`QUIET_WORKERS`, or a client of a
-  running scheduler.
+  running scheduler. The cluster's threads and processes (also a worker started later in place
+  of a dead one) block SIGINT: a Ctrl-C in the terminal, which the terminal sends to every
+  process of the campaign, interrupts the campaign process alone, which then stops the cluster.
+* :func:`shutdown`: close the client and the cluster without a word (no Dask traceback or log
+  of the cancelled tasks and closed connections, also after a Ctrl-C).
 * :class:`WarmUp`: a worker plugin that runs a few steps of the campaign's scenario when a
   worker starts (also a worker that replaces a dead one), so the numba kernels are compiled or
   loaded from their on-disk cache once per worker, not once per case.
@@ -16,14 +20,19 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import dataclasses
 import logging
 import os
+import signal
+import threading
 import time
 import traceback
 import uuid
 import warnings
 from collections.abc import Iterable, Iterator
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Any
 
@@ -31,9 +40,17 @@ import dask
 from distributed import Client, LocalCluster, as_completed
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from .campaign import Case
+from .cases import Case
 
-__all__ = ["QUIET_WORKERS", "WarmUp", "run_case", "run_cases", "start_client", "summary_scalars"]
+__all__ = [
+    "QUIET_WORKERS",
+    "WarmUp",
+    "run_case",
+    "run_cases",
+    "shutdown",
+    "start_client",
+    "summary_scalars",
+]
 
 WARMUP_STEPS = 20
 
@@ -58,22 +75,95 @@ QUIET_WORKERS: dict[str, Any] = {
 def start_client(
     n_workers: int | None = None, scheduler: str | None = None, quiet: bool = False
 ) -> tuple[Client, LocalCluster | None]:
-    """A client of a new LocalCluster (``n_workers`` processes of one thread; default one per
-    core) or of the scheduler at ``scheduler`` (``tcp://host:port``)."""
+    """A client of a new LocalCluster or of a running scheduler.
+
+    Parameters
+    ----------
+    n_workers:
+        Worker processes of the new LocalCluster, one thread each (default: one per core).
+    scheduler:
+        Address of a running scheduler (``tcp://host:port``) instead of a new cluster.
+    quiet:
+        Silence the cluster's logs below CRITICAL (else below ERROR).
+
+    Returns
+    -------
+    tuple
+        The client and the cluster (None for a running scheduler). The cluster's threads and
+        processes block SIGINT (module docstring); a Ctrl-C while it starts takes effect once
+        it has started, and it is closed again.
+    """
     if scheduler is not None:
         return Client(scheduler, timeout="20s"), None
     n = n_workers or os.cpu_count() or 1
-    with warnings.catch_warnings():  # "port 8787 in use" when another cluster runs: harmless
-        warnings.simplefilter("ignore")
-        with dask.config.set(QUIET_WORKERS):  # the nannies pass this config to their workers
-            cluster = LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.CRITICAL if quiet else logging.ERROR,
-            )
-    return Client(cluster), cluster
+    cluster = None
+    try:
+        with warnings.catch_warnings():  # "port 8787 in use" when another cluster runs: harmless
+            warnings.simplefilter("ignore")
+            # the nannies pass this config to their workers
+            with _sigint_blocked(), dask.config.set(QUIET_WORKERS):
+                cluster = LocalCluster(
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.CRITICAL if quiet else logging.ERROR,
+                )
+        return Client(cluster), cluster
+    except BaseException:
+        if cluster is not None:
+            shutdown(None, cluster)
+        raise
+
+
+def _sigint_blocked() -> AbstractContextManager[object]:
+    """Block SIGINT in the calling (main) thread for the ``with`` block.
+
+    A thread inherits the signal mask of the thread that starts it and a process that of the
+    thread that forks it, across ``exec`` too: the cluster's event-loop thread, started in the
+    block, and every worker process it ever spawns never see SIGINT (otherwise each worker
+    prints a traceback of its interrupted event loop on Ctrl-C). A SIGINT that arrives in the
+    block is delivered to this thread when the block ends.
+    """
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not (
+        threading.main_thread()
+    ):
+        return contextlib.nullcontext()
+    # multiprocessing's resource tracker, started by the first queue of the cluster, unblocks
+    # SIGINT in the thread that starts it: started now, it has nothing left to unblock
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    stack = contextlib.ExitStack()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    if signal.SIGINT not in old:
+        stack.callback(signal.pthread_sigmask, signal.SIG_UNBLOCK, {signal.SIGINT})
+    return stack
+
+
+def shutdown(client: Client | None, cluster: LocalCluster | None) -> None:
+    """Close ``client`` and then ``cluster`` (either may be None) without a word.
+
+    Dask logs (or raises) ``CancelledError``, ``CommClosedError`` and the like while tasks are
+    cancelled and connections close, e.g. after a Ctrl-C; those are silenced here: the
+    ``distributed``, ``tornado`` and ``asyncio`` loggers of this process and (for a cluster of
+    our own) of its workers stay silent from now on. A second Ctrl-C while closing still
+    interrupts (the cluster's processes end with this one).
+    """
+    _silence_logs()
+    if client is not None and cluster is not None:  # our own workers: they log as they close
+        with contextlib.suppress(Exception, asyncio.CancelledError):
+            client.run(_silence_logs, on_error="ignore")
+    for close in (getattr(client, "close", None), getattr(cluster, "close", None)):
+        if close is not None:
+            with contextlib.suppress(Exception, asyncio.CancelledError):
+                close()
+
+
+def _silence_logs() -> None:
+    """No more logs from Dask and its event loop in this process (a worker's, or ours)."""
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 class WarmUp(WorkerPlugin):
@@ -117,6 +207,7 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     """
     from ..scenario.file import scenario_from_toml
     from ..sim.run import prepare, simulate
+    from .explain import case_extras
 
     wall0, cpu0 = time.perf_counter(), time.thread_time()
     try:
@@ -126,6 +217,7 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
             setup = prepare(scenario)
             result = simulate(setup)
         summary = result.summary()
+        extras = case_extras(setup, result, summary)  # lists, min_sigma_gjm, signals
         if keep_dir is not None:
             from ..sim.outputs import write_outputs
 
@@ -135,7 +227,8 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
         text = f"{type(exc).__name__}: {exc} ({Path(where.filename).name}:{where.lineno})"
         return {"status": "error", "error": " ".join(text.split()), **_cost(wall0, cpu0)}
     status = "completed" if result.completed else "stopped"
-    return {"status": status, "error": None, **summary_scalars(summary), **_cost(wall0, cpu0)}
+    scalars = summary_scalars(summary)
+    return {"status": status, "error": None, **scalars, **extras, **_cost(wall0, cpu0)}
 
 
 def _cost(wall0: float, cpu0: float) -> dict[str, float]:
@@ -183,5 +276,6 @@ def run_cases(
             yield case, outcome
     finally:
         left = [futures[k][0] for k in pending]
-        if left:
-            client.cancel(left, force=True)
+        if left:  # the client may be closing already (Ctrl-C): nothing to cancel then
+            with contextlib.suppress(Exception, asyncio.CancelledError):
+                client.cancel(left, force=True)

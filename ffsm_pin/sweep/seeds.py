@@ -6,7 +6,9 @@ the list of cases: adding a value to a ``[[vary]]`` axis, or a new repeat, leave
 earlier case's stream (hence its scenario and its ``case_hash``) exactly as it was.
 
 Within a case, each purpose gets its own child: ``"estimates"`` (the integer written to
-``controller.estimates.seed``) and one per sampled key (named by its dotted path).
+``controller.estimates.seed``), one per sampled key (``"sample:"`` and its dotted path) and one
+per dispersed key (``"disperse:"`` and its dotted path): adding a key leaves the others' draws
+unchanged.
 """
 
 from __future__ import annotations

@@ -16,7 +16,6 @@ again (docs/campaigns.md).
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -25,7 +24,10 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .campaign import Case
+from ..sim.files import replaced_file
+from .cases import Case
+from .explain import SIGNALS
+from .signals_file import SignalsFile
 
 __all__ = ["HEAD", "SUMMARY_TYPES", "ResultsTable", "case_columns"]
 
@@ -54,9 +56,15 @@ SUMMARY_TYPES = {
     "funnel_ok_b": pa.bool_(),
     "funnel_ok_z": pa.bool_(),
     "first_violation_t": pa.float64(),
+    "first_violation_funnel": pa.string(),  # "b" | "z"
+    "first_violation_component": pa.int64(),
     "max_abs_u": pa.float64(),
+    "max_torque_norm": pa.float64(),  # = max_abs_u: max over time of the norm of u_m
+    "max_joint_torque": pa.float64(),  # max over time and joints of |u_m[i]|
     "max_abs_u_cmd": pa.float64(),
     "saturation_fraction": pa.float64(),
+    "saturation_per_joint": pa.list_(pa.float64()),
+    "joint_torque_limits": pa.list_(pa.float64()),  # [N m], null: none
     "controller": pa.string(),
     "drift_P": pa.float64(),
     "drift_L": pa.float64(),
@@ -65,7 +73,11 @@ SUMMARY_TYPES = {
     "completed": pa.bool_(),
     "stop_reason": pa.string(),
     "stop_time": pa.float64(),
+    "stop_cause": pa.string(),
+    "stop_funnel": pa.string(),
     "min_sigma": pa.float64(),
+    "min_sigma_of": pa.string(),  # what min_sigma is the sigma_min of (the controller's own)
+    "min_sigma_gjm": pa.float64(),  # the true generalized Jacobian's, for every controller
     "damping_threshold": pa.float64(),
     "damped_fraction": pa.float64(),
     "max_abs_F_r": pa.float64(),
@@ -94,7 +106,9 @@ def case_columns(case: Case) -> dict[str, Any]:
 
 
 class ResultsTable:
-    """The rows of a campaign, by case hash, and their Parquet file."""
+    """The rows of a campaign, by case hash, and their Parquet file; the cases' decimated
+    signals (an outcome's ``"signals"`` entry) go to ``signals.parquet`` beside it
+    (:class:`~ffsm_pin.sweep.signals_file.SignalsFile`), written with it."""
 
     def __init__(
         self,
@@ -105,6 +119,7 @@ class ResultsTable:
         write_share: float = 0.01,
     ):
         self.path = Path(path)
+        self.signals = SignalsFile(self.path.with_name("signals.parquet"))
         self.key_columns = list(key_columns)
         self.rows: dict[str, dict[str, Any]] = {}
         self.min_interval_s = min_interval_s  # [s] between two rewrites (write_due)
@@ -124,6 +139,8 @@ class ResultsTable:
     def add(self, case: Case, outcome: Mapping[str, Any], write: bool = True) -> dict[str, Any]:
         """Record one case's outcome (replacing a row of the same hash); rewrite the file if
         ``write``."""
+        outcome = dict(outcome)
+        self.signals.add(case.case_hash, outcome.pop(SIGNALS, None))
         row = {**case_columns(case), **{k: None for k in SUMMARY_TYPES}, **outcome}
         row.update(case.values)  # a case column the summary also has (scenario) is the case's
         row["scenario_toml"] = case.scenario_toml
@@ -164,15 +181,12 @@ class ResultsTable:
             self.write()
 
     def write(self) -> None:
-        """Write the file atomically: a temporary file in the same folder, then a rename."""
+        """Write the file atomically: a temporary file in the same folder, then a rename
+        (``signals.parquet`` first, the same way)."""
         start = time.perf_counter()
-        tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        try:
+        self.signals.write({h: row["case"] for h, row in self.rows.items()})
+        with replaced_file(self.path) as tmp:
             pq.write_table(self.table(), tmp)
-            os.replace(tmp, self.path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
         self.dirty = False
         self._last_end = time.perf_counter()
         self._last_cost = self._last_end - start

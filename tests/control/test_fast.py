@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.errors import ParameterError, SimulationError
 from ffsm_pin.model.state import State as FloatingBaseState
@@ -25,6 +26,7 @@ from ffsm_pin.scenario.spec import (
     Estimates,
     Harmonic,
     InitialCondition,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
@@ -38,7 +40,8 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 def _paper(scheme: str) -> Scenario:
     """The shipped case 1 (Table 2, Eq. 80, rho_b0 = 1.0) with another scheme, 0.5 s."""
     case1 = builtin_scenario("case1")
-    ctrl = dataclasses.replace(case1.controller, scheme=scheme)
+    lu_jia = dataclasses.replace(case1.controller.lu_jia, scheme=scheme)
+    ctrl = dataclasses.replace(case1.controller, lu_jia=lu_jia)
     return dataclasses.replace(case1, controller=ctrl, duration=0.5)
 
 
@@ -66,12 +69,11 @@ def _offaxis(scheme: str, null_space: NullSpace | None = None) -> Scenario:
         )
     )
     ctrl = ControllerSpec(
-        scheme=scheme,
-        funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)),
+        lu_jia=LuJiaParams(scheme=scheme, null_space=null_space or NullSpace()),
         estimates=Estimates(initial="perturbed", spread=0.3, seed=1),
-        null_space=null_space or NullSpace(),
     )
-    return Scenario(robot, init, ref, ctrl, duration=0.5, dt=1e-3)
+    perf = Performance(funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)))
+    return Scenario(robot, init, ref, ctrl, duration=0.5, dt=1e-3, performance=perf)
 
 
 def _trajectory(scenario: Scenario, backend: str):
@@ -119,10 +121,10 @@ def _offaxis_position(scheme: str, null_space: NullSpace | None = None) -> Scena
     """The 5-link robot of :func:`_offaxis` with the position task (x, y: two task rows)."""
     sc = _offaxis(scheme, null_space)
     ref = dataclasses.replace(sc.reference, ee=sc.reference.ee[:2], task="position")
-    fz = sc.controller.funnel_z  # the paper's end-effector funnels, x and y
+    fz = sc.performance.funnel_z  # the paper's end-effector funnels, x and y
     funnel_z = FunnelParams(*(tuple(getattr(fz, f.name)[:2]) for f in dataclasses.fields(fz)))
-    ctrl = dataclasses.replace(sc.controller, funnel_z=funnel_z)
-    return dataclasses.replace(sc, reference=ref, controller=ctrl)
+    perf = dataclasses.replace(sc.performance, funnel_z=funnel_z)
+    return dataclasses.replace(sc, reference=ref, performance=perf)
 
 
 @pytest.mark.parametrize("scheme", ["ppc", "no-ppc", "no-attitude"])

@@ -55,6 +55,37 @@ def test_a_warm_cache_starts_no_second_process(monkeypatch, geo):
     assert started == []
 
 
+def test_the_second_process_imports_this_copy_of_the_package(monkeypatch, tmp_path):
+    """``python -c`` puts its working folder first on sys.path: run from a checkout's root
+    with the package installed (``ffsm-sim``), the second process would compile the checkout's
+    kernels, into another cache."""
+    started = []
+
+    class Stop(Exception):
+        pass
+
+    def popen(cmd, **kwargs):
+        started.append(cmd)
+        raise Stop
+
+    with monkeypatch.context() as patch, pytest.raises(Stop):
+        patch.setattr(_first_compile, "cold", lambda dispatcher: True)
+        patch.setattr(subprocess, "Popen", popen)
+        _first_compile.compile_in_parallel("m", (), [object()], lambda: None)
+    decoy = tmp_path / "ffsm_pin"
+    decoy.mkdir()
+    (decoy / "__init__.py").write_text("raise SystemExit('the decoy was imported')\n")
+    code = started[0][-1].replace(
+        "_child_main as f; f()", "_child_main; print(sys.modules['ffsm_pin'].__file__)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, check=True)  # fmt: skip
+    assert (
+        Path(out.stdout.strip())
+        == Path(_first_compile.__file__).resolve().parents[1] / "__init__.py"
+    )
+
+
 def test_the_period_goes_on_when_its_kernels_are_ready_and_the_run_waits_for_the_rest(
     monkeypatch, tmp_path
 ):
@@ -119,7 +150,8 @@ def test_a_run_from_an_empty_cache_equals_a_run_from_a_warm_one(
     assert MESSAGE in cold_err  # a fresh cache: compilation really happens, and is announced
     # the second process's kernels are cached
     assert any(cache.rglob(f"*{second_process_kernel}*.nbi"))
-    assert any(cache.glob("*/control_*/*.nbi"))  # <cache>/<kernel digest>/<module folder>
+    # <cache>/<kernel digest>/<module path>: ffsm_pin/_numba_cache.py's locator
+    assert any(cache.glob("*/control/period/*.nbi"))
     # the built-in cases run without the null-space term: its gradient is not compiled
     # (null_space_term gives None, which numba's branch pruning sees)
     assert not any(cache.rglob("*_null_space_gradient*.nbi"))

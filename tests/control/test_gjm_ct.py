@@ -75,7 +75,7 @@ def test_derived_gains_follow_the_funnel_the_drift_and_the_step():
 
 
 @pytest.mark.parametrize(
-    "params, words", [({"kz": 1.0}, ["kz", "k_z, k_v"]), ({"k_v": -1.0}, ["k_v", "> 0"]),
+    "params, words", [({"kz": 1.0}, ["kz", "'k_z', 'k_v'"]), ({"k_v": -1.0}, ["k_v", "> 0"]),
                       ({"k_z": [1.0, 2.0]}, ["k_z", "expected 1 or 3"])],
 )  # fmt: skip
 def test_bad_params_name_the_key(params, words):

@@ -18,9 +18,11 @@ import pytest
 
 from ffsm_pin.control.kinematic import KinematicInputs
 from ffsm_pin.control.lu_jia import LuJiaController
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.scenario.spec import (
     ControllerSpec,
+    Performance,
     RobotSpec,
     Scenario,
 )
@@ -31,7 +33,7 @@ DT = 1e-3
 # The paper's case as shipped (Table 2 initial state, Eq. 80 reference, rho_b0 = 1.0), so the
 # tests also guard the built-in scenario file.
 CASE1 = builtin_scenario("case1")
-EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.controller.funnel_b
+EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.performance.funnel_b
 SAMPLES = 9  # times along the trajectory where the identities are checked
 
 
@@ -40,9 +42,10 @@ def _run(scheme: str, backend: str):
         RobotSpec(),
         TABLE2,
         EQ80,
-        ControllerSpec(scheme=scheme, funnel_b=FUNNEL_B),
+        ControllerSpec(lu_jia=LuJiaParams(scheme=scheme)),
         duration=DURATION,
         dt=DT,
+        performance=Performance(funnel_b=FUNNEL_B),
     )
     setup = prepare(sc)
     # the same controller (estimates, funnels, gains, initial measurement) on `backend`
@@ -107,8 +110,8 @@ def shifted(x: KinematicInputs, rates: KinematicInputs, h: float) -> KinematicIn
 # ------------------------------------------------------------------------- Eqs. (26), (37)
 def test_eq26_and_eq37_hold_along_the_closed_loop(ppc_run):
     setup, result = ppc_run
-    s, model, g = result.signals, setup.model, setup.scenario.controller.gains
-    fz, fb = setup.scenario.controller.funnel_z, setup.scenario.controller.funnel_b
+    s, model, g = result.signals, setup.model, setup.scenario.controller.lu_jia.gains
+    fz, fb = setup.scenario.performance.funnel_z, setup.scenario.performance.funnel_b
     side_z, side_b = s["err_z"][0] >= 0, s["err_b"][0] >= 0  # Eq. (16)/(17): sign at t = 0
     checked = 0
     for k in range(0, len(s["t"]), 50):
@@ -137,8 +140,8 @@ def test_eq26_and_eq37_hold_along_the_closed_loop(ppc_run):
 def test_eq81_holds_along_case_3(case3_run):
     """Case 3, Eq. (81): J_m-hat w_mc = -v0bar-hat + dz_ed/dt - J_b-hat w_b - k_z Phi_z psi_z."""
     setup, result = case3_run
-    s, model, g = result.signals, setup.model, setup.scenario.controller.gains
-    sigma = np.array(setup.scenario.controller.funnel_z.sigma)
+    s, model, g = result.signals, setup.model, setup.scenario.controller.lu_jia.gains
+    sigma = np.array(setup.scenario.performance.funnel_z.sigma)
     side = s["err_z"][0] >= 0
     checked = 0
     for k in range(0, len(s["t"]), 50):

@@ -24,24 +24,22 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.kinematic import KinematicInputs
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.control.null_space import OBJECTIVES, NullSpace
 from ffsm_pin.errors import FfsmError, ParameterError, ScenarioError
-from ffsm_pin.scenario.file import (
-    builtin_path,
-    load_scenario,
-    scenario_from_toml,
-    scenario_to_toml,
-)
+from ffsm_pin.scenario.file import builtin_path, load_scenario, scenario_from_toml
 from ffsm_pin.scenario.spec import (
     ComponentReference,
     ControllerSpec,
     Estimates,
     Harmonic,
     InitialCondition,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
 )
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -68,17 +66,18 @@ def _scenario(ns: NullSpace, scheme: str = "ppc", seed: int = 2) -> Scenario:
         )
     )
     ctrl = ControllerSpec(
-        scheme=scheme,
+        lu_jia=LuJiaParams(scheme=scheme, null_space=ns),
         estimates=Estimates(initial="perturbed", spread=0.3, seed=seed),
-        null_space=ns,
     )
     # funnels wide enough for any random state below
-    ctrl = dataclasses.replace(
-        ctrl,
-        funnel_b=dataclasses.replace(ctrl.funnel_b, rho0=(50.0,)),
-        funnel_z=dataclasses.replace(ctrl.funnel_z, rho0=(50.0, 50.0, 50.0)),
+    perf = Performance()
+    perf = dataclasses.replace(
+        perf,
+        funnel_b=dataclasses.replace(perf.funnel_b, rho0=(50.0,)),
+        funnel_z=dataclasses.replace(perf.funnel_z, rho0=(50.0, 50.0, 50.0)),
     )
-    return Scenario(RobotSpec(urdf=str(DATA / "planar5_offaxis.urdf")), init, ref, ctrl)
+    robot = RobotSpec(urdf=str(DATA / "planar5_offaxis.urdf"))
+    return Scenario(robot, init, ref, ctrl, performance=perf)
 
 
 def _controller(ns: NullSpace, backend: str):
@@ -180,7 +179,7 @@ def test_term_keeps_eqs_26_and_37_and_is_the_projected_gradient(objective, backe
         w0, _, d0 = _w_mc(paper, x)
         w1, _, d1 = _w_mc(ctrl, x)
         sigma, J_m, H_bm = _sigma_min(model, x)
-        if sigma < 2 * setup.scenario.controller.singularity.threshold:
+        if sigma < 2 * setup.scenario.performance.singularity_threshold:
             continue  # damped (or close): Eqs. (26), (37) are not claimed there
         assert d0 == d1 == 0.0
         checked += 1
@@ -245,7 +244,7 @@ def test_none_is_the_paper_law():
     setup, paper = _controller(NullSpace(), "numpy")
     _, none = _controller(NullSpace("none", 5.0), "numpy")
     _, zero = _controller(NullSpace("manipulability", 0.0), "numpy")
-    assert paper.null_space == ControllerSpec().null_space
+    assert paper.null_space == ControllerSpec().lu_jia.null_space
     for x, _ in _random_states(setup.model, paper.theta_b, paper.theta_z, n_states=4):
         w0 = _w_mc(paper, x)[0]
         np.testing.assert_array_equal(_w_mc(none, x)[0], w0)
@@ -294,7 +293,7 @@ def _from_toml(extra: str):
 
 
 def test_scenario_keys_round_trip():
-    assert _from_toml("").controller.null_space == NullSpace()
+    assert _from_toml("").controller.lu_jia.null_space == NullSpace()
     for extra, expected in (
         ('[controller.null_space]\nobjective = "manipulability"\ngain = 0.5',
          NullSpace("manipulability", 0.5)),
@@ -303,8 +302,8 @@ def test_scenario_keys_round_trip():
          NullSpace("joint-centering", 2.0, (0.1, 0.2, 0.3, 0.4, 0.5))),
     ):  # fmt: skip
         sc = _from_toml(extra)
-        assert sc.controller.null_space == expected
-        assert scenario_from_toml(scenario_to_toml(sc)).controller.null_space == expected
+        assert sc.controller.lu_jia.null_space == expected
+        assert scenario_from_toml(scenario_to_toml(sc)).controller.lu_jia.null_space == expected
     # the paper's law writes no table (saved scenario files of existing cases unchanged)
     assert "null_space" not in scenario_to_toml(_from_toml(""))
 
@@ -331,7 +330,8 @@ def _planar5(seed: int | None, ns: NullSpace | None = None) -> Scenario:
     sc = load_scenario(builtin_path("planar5"))
     c = sc.controller
     est = Estimates("true") if seed is None else dataclasses.replace(c.estimates, seed=seed)
-    c = dataclasses.replace(c, estimates=est, null_space=ns or NullSpace())
+    lu_jia = dataclasses.replace(c.lu_jia, null_space=ns or NullSpace())
+    c = dataclasses.replace(c, estimates=est, lu_jia=lu_jia)
     robot = dataclasses.replace(sc.robot, urdf=str(PLANAR5_URDF))
     return dataclasses.replace(sc, robot=robot, controller=c)
 
@@ -340,7 +340,7 @@ def test_planar5_scenario_shape():
     sc = _planar5(0)
     assert sc.controller.estimates.initial == "perturbed"
     assert sc.controller.estimates.spread == 0.3
-    assert sc.controller.null_space == NullSpace()  # the paper's scheme
+    assert sc.controller.lu_jia.null_space == NullSpace()  # the paper's scheme
     setup = prepare(sc)
     assert setup.robot.n_joints == 5 and not setup.model.layout.collinear
 
@@ -356,7 +356,7 @@ def test_planar5_is_a_fair_test_with_true_parameters():
     assert res.completed, res.stop_reason
     assert res.funnel_inside_b.all() and res.funnel_inside_z.all()
     assert np.all(res["damping"] == 0)
-    assert res["sigma_min"].min() > _planar5(None).controller.singularity.threshold
+    assert res["sigma_min"].min() > _planar5(None).performance.singularity_threshold
 
 
 @pytest.mark.slow

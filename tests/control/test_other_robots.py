@@ -1,9 +1,9 @@
 """The same controller, with no code change, on two other planar robots with a spare joint
 (m_1 = 5 > 4): ``tests/data/planar5_collinear.urdf`` (every CoM on its joint line: the paper's
 scalar parameter layout) and ``tests/data/planar5_offaxis.urdf`` (CoMs and a tip off the joint
-lines: the 2-vector layout). Initial estimates are the truth perturbed by up to 30 % (three
-seeds each); the task is reachable: system CoM at the origin and at rest, small angular
-momentum, rho_b0 = 1.0, and a 0.1 m circle centred on the end effector's initial position.
+lines: the 2-vector layout). Initial estimates are those of the robot's bodies perturbed by up
+to 30 % (three seeds each); the task is reachable: system CoM at the origin and at rest, small
+angular momentum, rho_b0 = 1.0, and a 0.1 m circle centred on the end effector's initial position.
 
 Choice of the initial arm shape (investigated, see below): relative turns
 (+0.8, +0.8, -0.8, +0.8, +0.8) rad between consecutive bodies, i.e. q_j = turn_j * s_j with
@@ -12,7 +12,8 @@ alternating, gives on the collinear robot (whose link 3 turns about -z) the rela
 (+, -, -, -, +). From there, with this reference, sigma_min of J_m-hat U-hat fell below the
 damping threshold (down to ~1e-4) in every run tried: true parameters and seeds 0-4, with
 A_0 = 0.1 and with A_0 = 0, damping starting between 0 s (seed 1, whose perturbed estimate
-is near-singular from the start) and 12.6 s, and most of those runs left the end-effector
+is near-singular from the start) and 12.6 s (estimates of 0.1.x: each parameter perturbed
+alone), and most of those runs left the end-effector
 funnel (stopping cleanly, as designed). Since it happens with the true parameters and with
 zero angular momentum, it is neither the adaptation nor the momentum-forced drift: the
 minimum-norm resolution of the single spare joint steers the arm into a singularity of the
@@ -31,6 +32,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.model.state import State as FloatingBaseState
 from ffsm_pin.robot import load_robot
 from ffsm_pin.scenario.spec import (
@@ -39,10 +41,12 @@ from ffsm_pin.scenario.spec import (
     Estimates,
     Harmonic,
     InitialCondition,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
 )
+from ffsm_pin.sim.estimates import estimates_from_record
 from ffsm_pin.sim.run import initial_state, prepare, simulate
 
 pytestmark = pytest.mark.slow
@@ -85,11 +89,13 @@ def scenario(name: str, seed: int) -> Scenario:
         base_attitude=(0.0,),
     )
     ctrl = ControllerSpec(
-        scheme="ppc",
-        funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)),
+        lu_jia=LuJiaParams(scheme="ppc"),
         estimates=Estimates("perturbed", spread=SPREAD, seed=seed),
     )
-    return Scenario(RobotSpec(urdf=urdf), init, ref, ctrl, duration=DURATION, dt=1e-3)
+    perf = Performance(funnel_b=FunnelParams((1.0,), (0.03,), (0.22,), (0.8,)))
+    return Scenario(
+        RobotSpec(urdf=urdf), init, ref, ctrl, duration=DURATION, dt=1e-3, performance=perf
+    )
 
 
 @pytest.fixture(scope="module", params=[(n, s) for n in ROBOTS for s in SEEDS], ids=str)
@@ -116,14 +122,18 @@ def test_layouts(name):
     assert setup.robot.n_joints == 5
 
 
-def test_estimates_are_perturbed_truth(run):
+def test_estimates_are_those_of_perturbed_bodies(run):
+    """The estimates are the parameters of the drawn bodies (each within the spread of the
+    true one) in the robot's own layout, not the truth."""
     _, setup, (tz_hat, td_hat), _, _ = run
-    for hat, truth in ((tz_hat, setup.theta_z), (td_hat, setup.theta_d)):
-        nz = truth != 0
-        rel = hat[nz] / truth[nz] - 1
-        assert np.all(np.abs(rel) <= SPREAD + 1e-12)
-        assert np.max(np.abs(rel)) > SPREAD / 2  # a real perturbation, not the truth
-        np.testing.assert_array_equal(hat[~nz], 0.0)  # zero parameters stay zero (v_0 = 0)
+    record = setup.drawn_estimates
+    assert record["spread"] == SPREAD
+    tz, td, _ = estimates_from_record(record, setup.robot, setup.model, setup.q0, setup.v0)
+    np.testing.assert_array_equal(tz, tz_hat)
+    np.testing.assert_array_equal(td, td_hat)
+    for body, j in zip(record["bodies"], range(1, setup.robot.model.njoints), strict=True):
+        assert abs(body["mass"] / setup.robot.model.inertias[j].mass - 1) <= SPREAD
+    assert np.max(np.abs(td_hat / setup.theta_d - 1)) > SPREAD / 4  # a real perturbation
 
 
 def test_both_funnels_kept_for_30_s(run):
@@ -134,16 +144,16 @@ def test_both_funnels_kept_for_30_s(run):
     for value in result.signals.values():
         assert np.all(np.isfinite(value))
     # Theorem 1 / Remark 3: the errors end inside rho_inf
-    ctrl = setup.scenario.controller
-    assert np.all(np.abs(result["err_b"][-1]) < np.array(ctrl.funnel_b.rhoinf))
-    assert np.all(np.abs(result["err_z"][-1]) < np.array(ctrl.funnel_z.rhoinf))
+    perf = setup.scenario.performance
+    assert np.all(np.abs(result["err_b"][-1]) < np.array(perf.funnel_b.rhoinf))
+    assert np.all(np.abs(result["err_z"][-1]) < np.array(perf.funnel_z.rhoinf))
 
 
 def test_arm_stays_away_from_folds(run):
     """The start and reference were chosen so that the arm is well-conditioned all along:
     sigma_min of J_m-hat U-hat never reaches the damping threshold (no damping, no warning)."""
     _, setup, _, result, caught = run
-    threshold = setup.scenario.controller.singularity.threshold
+    threshold = setup.scenario.performance.singularity_threshold
     assert np.min(result["sigma_min"]) > threshold
     assert np.all(result["damping"] == 0)
     assert not any("singularity" in str(w.message) for w in caught)

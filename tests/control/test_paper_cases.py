@@ -21,9 +21,11 @@ import pytest
 
 from ffsm_pin.control.controller import SingularityWarning
 from ffsm_pin.control.funnel import FunnelParams
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.scenario.spec import (
     ControllerSpec,
+    Performance,
     RobotSpec,
     Scenario,
 )
@@ -35,25 +37,26 @@ DURATION = 30.0  # [s]
 # The paper's case as shipped (Table 2 initial state, Eq. 80 reference, rho_b0 = 1.0), so the
 # tests also guard the built-in scenario file.
 CASE1 = builtin_scenario("case1")
-EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.controller.funnel_b
+EQ80, TABLE2, FUNNEL_B = CASE1.reference, CASE1.initial, CASE1.performance.funnel_b
 
 
 class Run:
     """A finished run with the warnings it emitted."""
 
     def __init__(self, scheme: str, rho_b0: float = 1.0, dt: float = 1e-3):
-        ctrl = ControllerSpec(
-            scheme=scheme, funnel_b=FunnelParams((rho_b0,), (0.03,), (0.22,), (0.8,))
+        ctrl = ControllerSpec(lu_jia=LuJiaParams(scheme=scheme))
+        perf = Performance(funnel_b=FunnelParams((rho_b0,), (0.03,), (0.22,), (0.8,)))
+        self.scenario = Scenario(
+            RobotSpec(), TABLE2, EQ80, ctrl, duration=DURATION, dt=dt, performance=perf
         )
-        self.scenario = Scenario(RobotSpec(), TABLE2, EQ80, ctrl, duration=DURATION, dt=dt)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             self.setup = prepare(self.scenario)
             self.result = simulate(self.setup)
         self.warnings = caught
-        self.policy = ctrl.singularity
-        self.rhoinf_b = np.array(ctrl.funnel_b.rhoinf)
-        self.rhoinf_z = np.array(ctrl.funnel_z.rhoinf)
+        self.policy = ctrl.lu_jia.policy(perf.singularity_threshold)
+        self.rhoinf_b = np.array(perf.funnel_b.rhoinf)
+        self.rhoinf_z = np.array(perf.funnel_z.rhoinf)
 
     def __getitem__(self, key):
         return self.result[key]
@@ -173,6 +176,9 @@ def test_paper_funnel_stops_cleanly_at_the_fold(case1_paper_funnel):
     assert r.funnel_inside_z.all()
     s = r.summary()
     assert s["funnel_ok_z"] is False and s["first_violation_t"] == r.stop_time
+    # which component: the one the stop names ("end-effector error component i (name)")
+    named = int(r.stop_reason.split("error component ")[1].split()[0])
+    assert (s["first_violation_funnel"], s["first_violation_component"]) == ("z", named)
 
 
 def test_paper_funnel_no_blow_up_before_the_stop(case1_paper_funnel):

@@ -40,8 +40,8 @@ def test_known_model_keeps_funnels_and_converges(known):
     setup, res = known
     assert res.completed, res.stop_reason
     assert res.funnel_kept("b") and res.funnel_kept("z")
-    rho_b = np.array(setup.scenario.controller.funnel_b.rhoinf)
-    rho_z = np.array(setup.scenario.controller.funnel_z.rhoinf)
+    rho_b = np.array(setup.scenario.performance.funnel_b.rhoinf)
+    rho_z = np.array(setup.scenario.performance.funnel_z.rhoinf)
     assert np.all(np.abs(res["err_b"][-1]) < 0.01 * rho_b)
     assert np.all(np.abs(res["err_z"][-1]) < 0.01 * rho_z)
 
@@ -52,8 +52,8 @@ def test_adaptive_case_keeps_funnels_with_plausible_torques(adaptive):
     assert res.completed, res.stop_reason
     assert res.funnel_kept("b") and res.funnel_kept("z")
     assert np.all(np.abs(res["u_m"]).max(axis=0) < PANDA_TORQUE_LIMITS)
-    rho_b = np.array(setup.scenario.controller.funnel_b.rhoinf)
-    rho_z = np.array(setup.scenario.controller.funnel_z.rhoinf)
+    rho_b = np.array(setup.scenario.performance.funnel_b.rhoinf)
+    rho_z = np.array(setup.scenario.performance.funnel_z.rhoinf)
     assert np.all(np.abs(res["err_b"][-1]) < rho_b)
     assert np.all(np.abs(res["err_z"][-1]) < rho_z)
     drift_P, drift_L = res.drift()
@@ -79,5 +79,5 @@ def test_pose_case_keeps_funnels():
     assert res.completed, res.stop_reason
     assert res.funnel_kept("b") and res.funnel_kept("z")
     assert np.abs(res["u_m"]).max() < 10.0
-    rho_z = np.array(setup.scenario.controller.funnel_z.rhoinf)
+    rho_z = np.array(setup.scenario.performance.funnel_z.rhoinf)
     assert np.all(np.abs(res["err_z"][-1]) < rho_z)

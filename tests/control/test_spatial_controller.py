@@ -272,7 +272,7 @@ def test_e_decays_as_eq55(short_run):
     15 %), and below 1 % of |e(0)| at the case's dt = 2 ms over 0.4 s."""
     setup, res = short_run
     assert res.completed, res.stop_reason
-    k_de = setup.scenario.controller.gains.k_de
+    k_de = setup.scenario.controller.lu_jia.gains.k_de
     half = simulate(prepare(dataclasses.replace(setup.scenario, dt=setup.scenario.dt / 2)))
     dev = []
     for r in (res, half):

@@ -12,7 +12,7 @@ import pytest
 
 from ffsm_pin.errors import RobotFileError, ScenarioError, UrdfError
 from ffsm_pin.robot import load_robot, urdf_dir
-from ffsm_pin.robot._capture import native_output, summary
+from ffsm_pin.robot.native import native_output, summary
 from ffsm_pin.robot.urdf import UrdfWarning, resolve_urdf
 from ffsm_pin.sim.actuators import urdf_limits
 

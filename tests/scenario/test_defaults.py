@@ -9,12 +9,14 @@ import dataclasses
 import pytest
 
 from ffsm_pin.control.gains import Gains, SingularityPolicy
+from ffsm_pin.control.lu_jia_params import LuJiaParams
 from ffsm_pin.control.null_space import NullSpace
 from ffsm_pin.robot import Satellite
 from ffsm_pin.scenario import (
     ActuatorSpec,
     ControllerSpec,
     Estimates,
+    Performance,
     Reference,
     RobotSpec,
     Scenario,
@@ -60,7 +62,7 @@ def _fields(obj, names) -> dict:
 @pytest.mark.parametrize("base", list(MINIMAL))
 def test_a_minimal_file_gets_the_dataclass_defaults(base):
     sc = scenario_from_dict(MINIMAL[base])
-    top = _defaults(Scenario, "name", "source")
+    top = _defaults(Scenario, "name", "source", *(["performance"] if base != "planar" else []))
     assert _fields(sc, top) == top  # duration, dt, description, integrator, substeps, devices
     assert sc.actuators == ActuatorSpec() and sc.sensors == SensorSpec()
     robot = _defaults(
@@ -76,15 +78,19 @@ def test_a_minimal_file_gets_the_dataclass_defaults(base):
     )
     assert _fields(sc.reference, ref) == ref
     c = sc.controller
-    ctrl = _defaults(
-        ControllerSpec, "gains", *(["funnel_b", "funnel_z"] if base != "planar" else [])
-    )
-    assert _fields(c, ctrl) == ctrl  # scheme, type, params, estimates, singularity, null space
-    assert c.estimates == Estimates() and c.singularity == SingularityPolicy()
-    assert c.null_space == NullSpace()
+    ctrl = _defaults(ControllerSpec, "lu_jia")
+    assert _fields(c, ctrl) == ctrl  # type, params, estimates
+    assert c.estimates == Estimates()
+    perf = _defaults(Performance, *(["funnel_b", "funnel_z"] if base != "planar" else []))
+    assert _fields(sc.performance, perf) == perf  # the paper's funnels (planar), the threshold
+    assert sc.performance.singularity_threshold == SingularityPolicy().threshold
+    lu_jia = _defaults(LuJiaParams, "gains")  # scheme, null space, max_damped_time
+    assert _fields(c.lu_jia, lu_jia) == lu_jia
+    assert c.lu_jia.null_space == NullSpace()
+    assert c.lu_jia.policy(sc.performance.singularity_threshold) == SingularityPolicy()
     # k_b and k_z are derived when omitted (docs/gains.md); the other gains are the dataclass's
     gains = _defaults(Gains, "k_b", "k_z")
-    assert _fields(c.gains, gains) == gains
+    assert _fields(c.lu_jia.gains, gains) == gains
 
 
 def test_every_default_of_the_python_api_is_a_valid_file_value():

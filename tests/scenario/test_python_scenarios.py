@@ -12,7 +12,8 @@ import pytest
 from ffsm_pin.control.funnel import FunnelParams
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario import builtin_scenario, scenario_to_toml
-from ffsm_pin.scenario.file import check_scenario, scenario_document, scenario_from_dict
+from ffsm_pin.scenario.check import check_scenario, scenario_document
+from ffsm_pin.scenario.file import scenario_from_dict
 from ffsm_pin.scenario.spec import Estimates
 from ffsm_pin.sim.run import prepare
 
@@ -20,20 +21,23 @@ from ffsm_pin.sim.run import prepare
 def _planar_with(**changes):
     sc = builtin_scenario("case1")
     ctrl = changes.pop("controller", {})
+    lu_jia = dataclasses.replace(sc.controller.lu_jia, **changes.pop("lu_jia", {}))
     ref = changes.pop("reference", {})
     ini = changes.pop("initial", {})
+    perf = changes.pop("performance", {})
     return dataclasses.replace(
         sc,
-        controller=dataclasses.replace(sc.controller, **ctrl),
+        controller=dataclasses.replace(sc.controller, lu_jia=lu_jia, **ctrl),
         reference=dataclasses.replace(sc.reference, **ref),
         initial=dataclasses.replace(sc.initial, **ini),
+        performance=dataclasses.replace(sc.performance, **perf),
         **changes,
     )
 
 
 BAD = {  # what a Python user can build but a file may not say -> start of the message
     "funnel size": (
-        {"controller": {"funnel_b": FunnelParams((1.0, 1.0), (0.1, 0.1), (0.2,) * 2, (0.8,) * 2)}},
+        {"performance": {"funnel_b": FunnelParams((1.0, 1.0), (0.1, 0.1), (0.2,) * 2, (0.8,) * 2)}},
         "controller.funnel.rho_b0",
     ),
     "base attitude size": (
@@ -51,7 +55,11 @@ BAD = {  # what a Python user can build but a file may not say -> start of the m
     # the rules the dataclasses checked themselves before: now the schema's alone
     "task": ({"reference": {"task": "bogus"}}, "reference.task = 'bogus' unknown"),
     "origin": ({"reference": {"origin": "bogus"}}, "reference.origin = 'bogus' unknown"),
-    "scheme": ({"controller": {"scheme": "bogus"}}, "controller.scheme = 'bogus' unknown"),
+    "scheme": ({"lu_jia": {"scheme": "bogus"}}, "controller.scheme = 'bogus' unknown"),
+    "threshold": ({"performance": {"singularity_threshold": -1.0}},
+                  "controller.singularity.threshold = -1.0: must be > 0"),
+    "max damped time": ({"lu_jia": {"max_damped_time": 0.0}},
+                        "controller.singularity.max_damped_time = 0.0: must be > 0"),
     "empty type": ({"controller": {"type": ""}}, "controller.type"),
     "type not a string": ({"controller": {"type": 3}}, "controller.type: expected a string"),
     "estimates kind": (

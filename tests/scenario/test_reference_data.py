@@ -13,15 +13,10 @@ from scipy.interpolate import CubicSpline
 
 from ffsm_pin.control.reference_kernels import piecewise
 from ffsm_pin.errors import ParameterError, ScenarioError
-from ffsm_pin.scenario.file import (
-    builtin_path,
-    builtin_scenario,
-    load_scenario,
-    scenario_from_toml,
-    scenario_to_toml,
-)
+from ffsm_pin.scenario.file import builtin_path, builtin_scenario, load_scenario, scenario_from_toml
 from ffsm_pin.scenario.spec import Reference
 from ffsm_pin.scenario.trajectory import ReferenceData
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import Sensor, prepare, simulate
 
 H = 1e-20  # complex step

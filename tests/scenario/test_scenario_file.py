@@ -19,8 +19,8 @@ from ffsm_pin.scenario.file import (
     load_scenario,
     scenario_from_dict,
     scenario_from_toml,
-    scenario_to_toml,
 )
+from ffsm_pin.scenario.writer import scenario_to_toml
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -73,12 +73,12 @@ def test_builtin_cases_follow_the_paper_and_model_md():
     assert c1.initial.base_pose[2] == paper.Q_B0
     assert c1.initial.joints == pytest.approx(paper.Q_M0)
     assert c1.controller.estimates.initial == "paper"
-    assert c1.controller.funnel_b.rho0 == (1.0,)
-    assert paper1.controller.funnel_b.rho0 == (0.4,)
+    assert c1.performance.funnel_b.rho0 == (1.0,)
+    assert paper1.performance.funnel_b.rho0 == (0.4,)
     # everything else of case1-paper equals case1
     assert paper1.initial == c1.initial and paper1.reference == c1.reference
-    assert paper1.controller.funnel_z == c1.controller.funnel_z
-    assert paper1.controller.gains == c1.controller.gains
+    assert paper1.performance.funnel_z == c1.performance.funnel_z
+    assert paper1.controller.lu_jia.gains == c1.controller.lu_jia.gains
     # the reason for rho_b0 = 1.0 is written in the file
     text = CASE1.read_text()
     assert "docs/model.md section 7" in text and "12-13 s" in text and "18 %" in text
@@ -163,7 +163,7 @@ def test_initial_velocity_by_momenta():
 def test_scalar_funnel_entry_is_broadcast():
     d = case1_dict()
     d["controller"]["funnel"]["sigma_z"] = 0.5
-    assert scenario_from_dict(d).controller.funnel_z.sigma == (0.5, 0.5, 0.5)
+    assert scenario_from_dict(d).performance.funnel_z.sigma == (0.5, 0.5, 0.5)
 
 
 # ------------------------------------------------------------------------------ bad input
@@ -267,7 +267,10 @@ def test_estimates():
 def test_singularity_section():
     d = case1_dict()
     d["controller"]["singularity"] = {"threshold": 0.02, "max_damped_time": 1.0}
-    pol = scenario_from_dict(d).controller.singularity
+    sc = scenario_from_dict(d)
+    assert sc.performance.singularity_threshold == 0.02  # the run's singularity measure
+    assert sc.controller.lu_jia.max_damped_time == 1.0  # the lu-jia controller's own key
+    pol = sc.controller.lu_jia.policy(sc.performance.singularity_threshold)
     assert (pol.threshold, pol.max_damped_time) == (0.02, 1.0)
     d["controller"]["singularity"] = {"threshold": -0.02}
     refused(d, "controller.singularity.threshold", "must be > 0")

@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from ffsm_pin._schema import key_path
 from ffsm_pin.attitude import mrp
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario.file import (
@@ -22,9 +23,9 @@ from ffsm_pin.scenario.file import (
     builtin_scenario,
     scenario_from_dict,
     scenario_from_toml,
-    scenario_to_toml,
 )
-from ffsm_pin.scenario.schema import ScenarioModel, key_path
+from ffsm_pin.scenario.schema import ScenarioModel
+from ffsm_pin.scenario.writer import scenario_to_toml
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -237,7 +238,7 @@ def perturbed(draw):
         est["seed"] = draw(st.integers(0, 2**31))
     f = c.setdefault("funnel", {})
     sc = builtin_scenario(name)
-    for tag, params in (("b", sc.controller.funnel_b), ("z", sc.controller.funnel_z)):
+    for tag, params in (("b", sc.performance.funnel_b), ("z", sc.performance.funnel_z)):
         n = params.size
         rho0 = draw(st.lists(st.floats(0.01, 10.0), min_size=n, max_size=n))
         frac = draw(st.lists(st.floats(0.01, 0.99), min_size=n, max_size=n))

@@ -11,7 +11,8 @@ import pytest
 
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario import ActuatorSpec
-from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.actuators import Actuators
 from ffsm_pin.sim.run import prepare, simulate
 

@@ -6,6 +6,7 @@ import sys
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ffsm_pin.robot import urdf_dir
@@ -157,3 +158,58 @@ def test_other_warnings_of_the_setup_still_show(monkeypatch):
         report = check(builtin_scenario("case1"))
     assert report.problems == ["k_z breaks a condition"]
     assert not [w for w in shown if w.category is GainWarning]
+
+
+def test_check_names_the_file_a_user_controller_runs(capsys):
+    """A .py controller type is code: --check says which file it loads (CONTRACT, Nothing lost)."""
+    examples = Path(__file__).resolve().parents[2] / "examples"
+    assert main(["--check", "--scenario", str(examples / "joint_pd_planar.toml")]) == 0
+    out = capsys.readouterr().out
+    assert f"loads and runs {(examples / 'joint_pd.py').resolve()} (class JointPD)" in out
+    assert main(["--check", "--case", "1"]) == 0
+    assert "loads and runs" not in capsys.readouterr().out  # built-in types run no user file
+
+
+def _spatial_with_reference_attitude(tmp_path: Path, q_bd: str) -> Path:
+    text = (SCEN / "spatial.toml").read_text()
+    for old, new in (
+        ("base_attitude = [0.0, 0.0, 0.0]", f"base_attitude = {q_bd}"),
+        ("rho_b0 = [0.1, 0.1, 0.1]", "rho_b0 = [1.0, 1.0, 1.0]"),
+    ):
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "turn.toml"
+    path.write_text(text)
+    return path
+
+
+def test_authority_is_judged_along_the_error(tmp_path, capsys):
+    """A 90 degree turn of the Panda's bus about z: the arm's largest gain (the old bound,
+    sigma_max(H_bb^-1 H_bm) x joint travel) would allow it, but the reactionless motion that
+    turns the base about that axis reaches a joint limit first (issue 41)."""
+    from ffsm_pin.scenario.file import load_scenario
+    from ffsm_pin.sim.check import authority_along, check
+    from ffsm_pin.sim.setup import prepare
+
+    path = _spatial_with_reference_attitude(tmp_path, "[0.0, 0.0, 0.4142]")  # tan(90 deg / 4)
+    assert main(["--check", "--scenario", str(path)]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+    assert len(err) == 1 and "authority" in err[0] and "limit of joint" in err[0], err
+    rep = check(load_scenario(path))
+    assert rep.authority is not None and rep.attitude_error is not None
+    assert rep.authority < rep.attitude_error
+    # the reach is a property of the motion, not of the step it is followed in: steps four
+    # times finer (midpoint rule, second order) agree to 5e-3 rad about each axis
+    setup = prepare(load_scenario(path))
+    for axis in np.eye(3):
+        for sign in (1.0, -1.0):
+            coarse = authority_along(setup.robot, setup.q0, sign * axis, 2.0)
+            fine = authority_along(setup.robot, setup.q0, sign * axis, 2.0, step=0.00125)
+            # (where a joint limit and the fold come within a step, either may be named)
+            assert coarse.why and fine.why and abs(coarse.angle - fine.angle) < 5e-3
+
+
+def test_origin_initial_prints_the_resolved_references(capsys):
+    assert main(["--check", "--case", "spatial-realistic"]) == 0
+    out = capsys.readouterr().out
+    assert "reference.origin = 'initial' resolves to base_attitude" in out

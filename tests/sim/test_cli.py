@@ -204,6 +204,32 @@ def test_compare_overlays(tmp_path):
     assert re.search(r"scenario\s+case1\s+case2\s+case3", proc.stdout)
 
 
+def test_compare_takes_files_and_cases_and_controllers(tmp_path):
+    """--compare with a built-in case and a scenario file; --controllers runs each scenario
+    once per controller type, a user's class labelled by its name (issue 41)."""
+    pd = Path(__file__).resolve().parents[2] / "examples" / "joint_pd_planar.toml"
+    proc = sim("--compare", "2", str(pd), "--duration", "0.1", "--no-html", "--no-plots",
+               "--out", "a", cwd=tmp_path)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert {p.name for p in (tmp_path / "a").iterdir()} == {"case2", "joint-pd-planar"}
+    user = f"{pd.parent / 'joint_pd.py'}:JointPD"
+    proc = sim("--case", "1", "--controllers", f"lu-jia,gjm-ct,{user}", "--duration", "0.1",
+               "--no-html", "--out", "b", cwd=tmp_path)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    runs = {"case1-lu-jia", "case1-gjm-ct", "case1-JointPD"}
+    assert runs <= {p.name for p in (tmp_path / "b").iterdir()}
+    for run in runs:
+        summary = json.loads((tmp_path / "b" / run / "summary.json").read_text())
+        assert summary["controller"] == {"case1-lu-jia": "lu-jia", "case1-gjm-ct": "gjm-ct"}.get(
+            run, user
+        )
+    for name in FIGURES:
+        assert (tmp_path / "b" / name).is_file()  # overlaid
+    assert re.search(r"controller\s+lu-jia \(ppc\)\s+gjm-ct\s+JointPD\s", proc.stdout)
+    bad = sim("--compare", "nothing-like-this", cwd=tmp_path)
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "--compare" in bad.stderr
+
+
 def test_scenario_option_and_overrides(tmp_path):
     path = scenario_file(tmp_path, "mine.toml", name='name = "mine"', dt="dt = 0.002")
     proc = sim(

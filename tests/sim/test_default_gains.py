@@ -28,8 +28,9 @@ def test_omitted_gains_keep_the_shipped_funnels(name):
     for key in LU_JIA_GAINS:
         doc["controller"].pop(key, None)
     sc = scenario_from_dict(doc, source=path)
-    c = sc.controller
-    assert step_problems(c.gains, c.funnel_b, c.funnel_z, sc.dt, len(c.funnel_b.rho0)) == []
+    c, perf = sc.controller, sc.performance
+    m3 = len(perf.funnel_b.rho0)
+    assert step_problems(c.lu_jia.gains, perf.funnel_b, perf.funnel_z, sc.dt, m3) == []
     run = simulate(prepare(sc), record_every=50)
     assert run.stop_cause is None
     summary = run.summary()
@@ -40,7 +41,7 @@ def test_omitted_gains_keep_the_shipped_funnels(name):
 def test_explicit_gains_are_kept():
     path = builtin_path("spatial")
     sc = scenario_from_dict(tomllib.loads(path.read_text()), source=path)
-    assert (sc.controller.gains.k_b, sc.controller.gains.k_z) == (2.5e-3, 1.6e-4)
+    assert (sc.controller.lu_jia.gains.k_b, sc.controller.lu_jia.gains.k_z) == (2.5e-3, 1.6e-4)
 
 
 # ----------------------------------------------------------------- command line

@@ -24,9 +24,10 @@ import pytest
 
 from ffsm_pin.errors import OutputError
 from ffsm_pin.scenario.file import load_scenario
-from ffsm_pin.sim import outputs as outputs_module
-from ffsm_pin.sim import recorder as recorder_module
-from ffsm_pin.sim.outputs import RunFolder, strict_json, write_outputs
+from ffsm_pin.sim import files as files_module
+from ffsm_pin.sim import result as result_module
+from ffsm_pin.sim.files import RunFolder, strict_json
+from ffsm_pin.sim.outputs import write_outputs
 from ffsm_pin.sim.result import CONTRACT_KEYS
 from ffsm_pin.sim.run import prepare, simulate
 
@@ -90,13 +91,13 @@ def test_a_failed_write_keeps_the_earlier_run(tmp_path, monkeypatch):
     before = _earlier_run(folder)
     assert {"trajectory.npz", "summary.json", "scenario.toml", "fig_errors.png"} <= set(before)
     result = simulate(prepare(_short(EXAMPLE)))
-    real = recorder_module.write_npz
+    real = result_module.write_npz
 
     def full_disk(path, signals, compress=False):
         real(path, {k: signals[k] for k in ("t", "q")}, compress)  # part of it reaches the disk
         raise OSError(errno.ENOSPC, "No space left on device", str(path))
 
-    monkeypatch.setattr(recorder_module, "write_npz", full_disk)
+    monkeypatch.setattr(result_module, "write_npz", full_disk)
     with pytest.raises(OutputError, match="trajectory.npz.*No space left on device"):
         write_outputs(folder, result, figures=True)
     _unchanged(folder, before)
@@ -159,18 +160,18 @@ def test_an_unwritable_folder_is_refused_before_the_run(tmp_path):
 def test_run_folder_commits_summary_last_and_cleans_dead_staging(tmp_path):
     """Unit: an abandoned RunFolder leaves nothing; a staging folder of a dead process is
     removed by the next one; the commit renames summary.json last."""
-    (tmp_path / f"{outputs_module.STAGING_PREFIX}999999999-x").mkdir()
+    (tmp_path / f"{files_module.STAGING_PREFIX}999999999-x").mkdir()
     with RunFolder(tmp_path) as out:
         out.path("summary.json").write_text("{}")
         out.path("trajectory.npz").write_bytes(b"npz")
-        assert not (tmp_path / f"{outputs_module.STAGING_PREFIX}999999999-x").exists()
+        assert not (tmp_path / f"{files_module.STAGING_PREFIX}999999999-x").exists()
         order = []
         real = os.replace
-        outputs_module.os.replace = lambda a, b: (order.append(Path(b).name), real(a, b))[1]
+        files_module.os.replace = lambda a, b: (order.append(Path(b).name), real(a, b))[1]
         try:
             out.commit()
         finally:
-            outputs_module.os.replace = real
+            files_module.os.replace = real
     assert order == ["trajectory.npz", "summary.json"]
     with RunFolder(tmp_path / "b") as out:
         out.path("summary.json").write_text("{}")  # no commit: abandoned
@@ -419,3 +420,24 @@ def test_summary_json_is_strict_after_a_blow_up(tmp_path):
 def test_strict_json_turns_non_finite_numbers_into_null():
     text = strict_json({"a": float("inf"), "b": [1.0, float("nan")], "c": {"d": -float("inf")}})
     assert json.loads(text) == {"a": None, "b": [1.0, None], "c": {"d": None}}
+
+
+SHADOWS = (
+    PD
+    + """
+    def step(self, meas):
+        bogus = {"t": -1.0, "q": [9.0] * 8, "err_z": [9.0] * 3, "ctrl_t": 5.0, "u_m": [7.0] * 4}
+        return self.torque(meas), bogus
+"""
+)
+
+
+def test_a_controller_cannot_shadow_the_standard_outputs(tmp_path):
+    """Signals named like the run's own outputs are saved under ctrl_ names; the outputs keep
+    the run's values (compared with the same law reporting nothing)."""
+    shadow = simulate(prepare(_short(_controller_scenario(tmp_path, SHADOWS, "shadow"), 0.05)))
+    honest = simulate(prepare(_short(_controller_scenario(tmp_path, HONEST, "honest"), 0.05)))
+    for key in ("t", "q", "err_z", "u_m"):
+        assert np.array_equal(shadow[key], honest[key]), key
+    assert np.all(shadow["ctrl_t"] == -1.0) and np.all(shadow["ctrl_ctrl_t"] == 5.0)
+    assert np.all(shadow["ctrl_u_m"] == 7.0)

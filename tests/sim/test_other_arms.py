@@ -1,10 +1,12 @@
 """A user's own arm in a shipped scenario (docs/cli.md, [reference] origin): the built-in
 'spatial-realistic' case, whose reference is relative to the start, runs for a UR5, an xArm7
 and a Kinova arm from example-robot-data with only [robot] and the [initial] joints changed:
-no refused start and a clean --check. The paper's controller keeps the file's gains, which
-were derived for the Panda (the file says how): on the xArm7 and the Kinova it stops within
-0.2 s (its theta_d-hat loses positive definiteness; measured, not asserted). gjm-ct, whose
-gains are derived from the scenario itself (docs/baselines.md), tracks with every arm."""
+no refused start and a clean --check, but for the Kinova, whose weakest direction of base
+rotation is the error's axis chosen for the Panda (--check says the arm folds along it). The
+paper's controller keeps the file's gains, which were derived for the Panda (the file says
+how): on the xArm7 and the Kinova it stops within 0.2 s (its theta_d-hat loses positive
+definiteness; measured, not asserted). gjm-ct, whose gains are derived from the scenario
+itself (docs/baselines.md), tracks with every arm."""
 
 from __future__ import annotations
 
@@ -44,7 +46,12 @@ def test_a_shipped_spatial_scenario_runs_with_another_arm(name):
         warnings.simplefilter("ignore")  # the Kinova's continuous joints are announced
         sc = scenario_from_toml(_with_arm(name))
         report = check(sc)
-        assert report.ok, report.problems
+        if name == "kinova":  # the Panda's error axis is the Kinova's weakest: 1600 rad of
+            # joint motion per rad of base rotation in its pose (the Panda's 13): --check says
+            # so, and nothing else
+            assert len(report.problems) == 1 and "folds" in report.problems[0], report.problems
+        else:
+            assert report.ok, report.problems
         setup = prepare(sc)  # no refused start: the reference starts where this arm's hand is
         assert setup.robot.n_joints == len(ARMS[name][1])
         res = simulate(prepare(dataclasses.replace(sc, duration=0.02)))  # it runs

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from ffsm_pin.attitude import mrp
-from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import Sensor, prepare, simulate
 
 

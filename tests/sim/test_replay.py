@@ -17,12 +17,8 @@ with warnings.catch_warnings():
     import umsgpack
 
 from ffsm_pin.robot import load_robot
-from ffsm_pin.sim.replay import (
-    close_visualizer,
-    frame_indices,
-    serve_replay,
-    write_replay_html,
-)
+from ffsm_pin.sim.replay import close_visualizer, serve_replay, write_replay_html
+from ffsm_pin.sim.scene import frame_indices
 
 _COMMAND = re.compile(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)')
 

@@ -23,7 +23,8 @@ with warnings.catch_warnings():
 
 from ffsm_pin.robot import load_robot
 from ffsm_pin.sim.meshes import ReplayWarning
-from ffsm_pin.sim.replay import SceneRecorder, write_replay_html
+from ffsm_pin.sim.replay import write_replay_html
+from ffsm_pin.sim.scene_recorder import SceneRecorder
 
 
 def _chromium() -> str | None:

@@ -26,7 +26,8 @@ with warnings.catch_warnings():
     import umsgpack
 
 from ffsm_pin.sim.meshes import ReplayWarning, resolve_mesh
-from ffsm_pin.sim.replay import BASE_BOX, close_visualizer, serve_replay, write_replay_html
+from ffsm_pin.sim.replay import close_visualizer, serve_replay, write_replay_html
+from ffsm_pin.sim.scene import BASE_BOX
 
 _COMMAND = re.compile(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)')
 ROBOT = "/meshcat/ffsm/robot"

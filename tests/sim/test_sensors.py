@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from ffsm_pin.scenario.devices import NOISE_KEYS, SensorSpec
-from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml, scenario_to_toml
+from ffsm_pin.scenario.file import builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
 
 CASES = [("case1", 0.4), ("spatial", 0.1)]

@@ -9,13 +9,9 @@ import numpy as np
 import pytest
 
 from ffsm_pin.errors import ScenarioError
-from ffsm_pin.scenario.file import (
-    builtin_path,
-    builtin_scenario,
-    check_scenario,
-    scenario_from_toml,
-    scenario_to_toml,
-)
+from ffsm_pin.scenario.check import check_scenario
+from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
 
 

@@ -19,7 +19,8 @@ import pytest
 from ffsm_pin.control.registry import controller_class, known_types
 from ffsm_pin.errors import ControllerLoadError
 from ffsm_pin.scenario import SensorSpec
-from ffsm_pin.scenario.file import load_scenario, scenario_from_toml, scenario_to_toml
+from ffsm_pin.scenario.file import load_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
 from ffsm_pin.sim.run import prepare, simulate
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

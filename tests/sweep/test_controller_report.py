@@ -92,7 +92,7 @@ def test_per_scenario_controller_table_equals_numpy(tmp_path):
 def test_builtin_comparison_campaign_is_valid():
     """compare-controllers: the three controllers on case 1, the 5-link robot and the
     realistic spatial case, every case valid."""
-    from ffsm_pin.sweep.campaign import expand
+    from ffsm_pin.sweep.cases import expand
 
     c = load_campaign("compare-controllers")
     kinds = next(v.values for v in c.vary if v.key == "controller.type")
@@ -104,7 +104,7 @@ def test_builtin_comparison_campaign_is_valid():
 def test_rate_figure_with_rates_of_zero_and_one(tmp_path):
     """A rate of 0 (or 1) whose Wilson bound differs from it by rounding (n = 3: 4.9e-17)
     used to give matplotlib a negative error bar; the figure is drawn."""
-    from ffsm_pin.sweep.report import RATE_SQL, _figures, _sql, query
+    from ffsm_pin.sweep.report import RATE_SQL, figures, query, sql
 
     rows = [{"case": i + 1, "nominal": False, "x": float(i // 3), "status": "completed",
              "funnel_ok_b": i // 3 == 1, "funnel_ok_z": True, "max_abs_u": 1.0,
@@ -112,9 +112,9 @@ def test_rate_figure_with_rates_of_zero_and_one(tmp_path):
             for i in range(6)]  # fmt: skip
     path = tmp_path / "results.parquet"
     pq.write_table(pa.Table.from_pylist(rows), path)
-    rates = query(_sql(RATE_SQL, path, ["x"]))
+    rates = query(sql(RATE_SQL, path, ["x"]))
     assert [r["rate"] for r in rates] == [0.0, 1.0]
-    files = _figures(tmp_path, ["x"], rates, rows)
+    files = figures(tmp_path, ["x"], rates, rows)
     assert (tmp_path / files["rate"]).stat().st_size > 0
 
 

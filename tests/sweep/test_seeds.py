@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sweep_cases import SMALL
 
-from ffsm_pin.sweep.campaign import campaign_from_toml, expand
+from ffsm_pin.sweep.campaign import campaign_from_toml
+from ffsm_pin.sweep.cases import expand
 from ffsm_pin.sweep.seeds import case_stream, estimates_seed
 
 points = st.dictionaries(

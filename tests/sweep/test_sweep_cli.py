@@ -23,7 +23,8 @@ import pytest
 from sweep_cases import SMALL
 
 from ffsm_pin.sweep import cli
-from ffsm_pin.sweep.campaign import expand, load_campaign
+from ffsm_pin.sweep.campaign import load_campaign
+from ffsm_pin.sweep.cases import expand
 
 pytestmark = pytest.mark.slow
 REPO = Path(__file__).resolve().parents[2]

@@ -16,8 +16,9 @@ import os
 import re
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 MAX_SUMMARY = 300  # characters of a summary (the rest is elided)
 #: urdfdom's trailer lines ("at line 380 in /project/urdfdom/.../link.cpp") and level prefixes
@@ -104,3 +105,27 @@ def native_output() -> Iterator[NativeOutput]:
             os.close(saved[1])
             sink.seek(0)
             captured.text = sink.read().decode("utf-8", errors="replace")
+
+
+@dataclass
+class NativeCall:
+    """What :func:`native_call` gives back: the value (None on failure), the failure's text
+    (a ``RuntimeError``/``ValueError`` the binding raised, on one line) and the captured
+    output."""
+
+    value: Any
+    failure: str | None
+    output: NativeOutput
+
+
+def native_call(fn: Callable[..., Any], *args: Any) -> NativeCall:
+    """``fn(*args)`` (a C++ binding: Pinocchio's URDF or geometry parsers) with what the C/C++
+    code prints captured (:func:`native_output`) and its ``RuntimeError``/``ValueError`` caught
+    as text, for the caller's one-line error."""
+    value, failure = None, None
+    with native_output() as said:
+        try:
+            value = fn(*args)
+        except (RuntimeError, ValueError) as exc:
+            failure = " ".join(str(exc).split())
+    return NativeCall(value, failure, said)

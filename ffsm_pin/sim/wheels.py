@@ -1,0 +1,242 @@
+"""Reaction wheels on the bus (issue 40, ``[robot.satellite.wheels]``): a pure-momentum device
+outside Pinocchio's model (docs/capture.md, "Reaction wheels").
+
+The state of N wheels is h (N,) [N m s]: each wheel's absolute angular momentum about its axis
+(column i of A, 3 x N, unit vectors in the bus frame). A motor torque tau_i on wheel i changes
+h_i at the rate tau_i; the bus feels the opposite, plus the gyroscopic torque of the wheels'
+momentum turning with the bus:
+
+    dh/dt = tau_w,        torque on the bus (bus frame) = -(A tau_w + w_b x A h)
+
+with w_b the bus's angular velocity (bus frame). The total angular momentum (world, about the
+system CoM) is then
+
+    L_total = L_robot + R_b A h,
+
+L_robot Pinocchio's centroidal momentum of the robot's model, R_b the bus attitude; the
+linear momentum is the robot's alone (a wheel is a couple). These are the equations of a
+gyrostat (a rigid body carrying axisymmetric rotors; Hughes, "Spacecraft Attitude Dynamics",
+1986). They are exact, not an approximation, when the robot's model holds each rotor's mass
+and its inertia except the axial moment J_s, which h carries: h_i = J_s,i (a_i . w_b +
+Omega_i), Omega_i the spin relative to the bus (:meth:`Wheels.spin_rates`). An axisymmetric
+rotor's axial momentum changes only by the motor torque, whatever the bus does.
+
+:class:`WheeledPlant` steps a :class:`~.plant.Plant` with the bus torque as a base wrench held
+over each step and restores L_total (not the robot's own momentum) by the plant's projection,
+so L_total is kept to rounding; the held bus torque makes the trajectory first order in dt
+(tests/sim/test_wheels.py compares it with the wheels as Pinocchio bodies).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ParameterError, check_keys
+from .plant import Plant
+
+_KEYS = ("axes", "inertia", "max_torque", "max_momentum")
+
+
+def _per_wheel(value, n: int, key: str, *, positive: bool = True) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ParameterError(f"wheels.{key}: expected one number or {n}, got shape {arr.shape}")
+    if np.isnan(arr).any() or (positive and not (arr > 0).all()):
+        raise ParameterError(f"wheels.{key}: every value must be > 0, got {arr.tolist()}")
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Wheels:
+    """N reaction wheels fixed in the bus.
+
+    Attributes
+    ----------
+    axes:
+        (3, N) spin axes in the bus (root joint) frame, unit vectors (``"xyz"``: the three
+        frame axes; other columns are normalised, a zero column is refused).
+    inertia:
+        (N,) spin (axial) inertias J_s [kg m^2], > 0.
+    max_torque:
+        (N,) motor torque limits [N m], > 0 (``inf``: none).
+    max_momentum:
+        (N,) momentum capacities, ``abs(h_i) <= max_momentum`` [N m s], > 0 (``inf``: none).
+    """
+
+    axes: np.ndarray
+    inertia: np.ndarray
+    max_torque: np.ndarray = np.inf  # type: ignore[assignment]  # a number stands for all
+    max_momentum: np.ndarray = np.inf  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        axes = self.axes
+        if isinstance(axes, str):
+            if axes != "xyz":
+                raise ParameterError(
+                    f"wheels.axes: {axes!r} unknown; give 'xyz' or a 3 x N matrix of axes"
+                )
+            axes = np.eye(3)
+        axes = np.array(axes, dtype=float)
+        if axes.ndim != 2 or axes.shape[0] != 3 or axes.shape[1] < 1:
+            raise ParameterError(
+                f"wheels.axes: expected 'xyz' or a 3 x N matrix (one column per wheel), got "
+                f"shape {axes.shape}"
+            )
+        norms = np.linalg.norm(axes, axis=0)
+        if not (np.isfinite(norms).all() and (norms > 1e-12).all()):
+            bad = [i for i, x in enumerate(norms) if not (np.isfinite(x) and x > 1e-12)]
+            raise ParameterError(f"wheels.axes: wheel(s) {bad} have a zero or non-finite axis")
+        axes = axes / norms
+        axes.setflags(write=False)
+        n = axes.shape[1]
+        object.__setattr__(self, "axes", axes)
+        object.__setattr__(self, "inertia", _per_wheel(self.inertia, n, "inertia"))
+        object.__setattr__(self, "max_torque", _per_wheel(self.max_torque, n, "max_torque"))
+        object.__setattr__(self, "max_momentum", _per_wheel(self.max_momentum, n, "max_momentum"))
+
+    @classmethod
+    def from_mapping(cls, table: Mapping) -> Wheels:
+        """From a dict (e.g. a scenario's ``[robot.satellite.wheels]``): ``axes`` (default
+        ``"xyz"``), ``inertia`` (required), ``max_torque`` and ``max_momentum`` (default: no
+        limit); a number stands for every wheel. Unknown keys are errors."""
+        check_keys(table, _KEYS, "wheels")
+        if "inertia" not in table:
+            raise ParameterError("wheels: 'inertia' (each wheel's spin inertia, kg m^2) is missing")
+        return cls(
+            axes=table.get("axes", "xyz"),
+            inertia=table["inertia"],
+            max_torque=table.get("max_torque", np.inf),
+            max_momentum=table.get("max_momentum", np.inf),
+        )
+
+    @property
+    def n(self) -> int:
+        """The number of wheels."""
+        return int(self.axes.shape[1])
+
+    def limit(self, h, tau, dt: float) -> np.ndarray:
+        """The torques [N m] the wheels apply for commanded ``tau`` over ``dt`` [s] from
+        momenta ``h``: clipped to +-max_torque, then so that ``abs(h + tau dt) <= max_momentum``
+        (a wheel at its capacity gives no more torque that way)."""
+        h, tau = np.asarray(h, dtype=float), np.asarray(tau, dtype=float)
+        out = np.clip(tau, -self.max_torque, self.max_torque)
+        return np.clip(out, (-self.max_momentum - h) / dt, (self.max_momentum - h) / dt)
+
+    def momentum_bus(self, h) -> np.ndarray:
+        """A h: the wheels' angular momentum in the bus frame [N m s]."""
+        return self.axes @ np.asarray(h, dtype=float)
+
+    def bus_torque(self, h, tau, w_bus) -> np.ndarray:
+        """The torque on the bus [N m], bus frame: -(A tau + w_bus x A h)."""
+        return -(self.axes @ np.asarray(tau, float) + np.cross(w_bus, self.momentum_bus(h)))
+
+    def spin_rates(self, h, w_bus) -> np.ndarray:
+        """Each wheel's spin relative to the bus [rad/s]: h_i / J_s,i - a_i . w_bus."""
+        return np.asarray(h, float) / self.inertia - self.axes.T @ np.asarray(w_bus, float)
+
+
+class WheelStep(NamedTuple):
+    """State after one :meth:`WheeledPlant.advance`."""
+
+    q: np.ndarray  # robot configuration
+    v: np.ndarray  # robot velocity
+    h: np.ndarray  # wheel momenta [N m s]
+    a: np.ndarray  # ABA acceleration at the start (with the wheels' torque on the bus)
+    tau_w: np.ndarray  # wheel torques applied in the last plant step (after the limits) [N m]
+
+
+class WheeledPlant:
+    """A :class:`~.plant.Plant` whose bus carries :class:`Wheels`; L_total is kept.
+
+    Parameters
+    ----------
+    robot:
+        As for :class:`~.plant.Plant` (planar or free-flyer root; on a planar root only the
+        z component of the wheels' momentum and torque acts).
+    wheels:
+        The wheels, axes in the root joint's frame.
+    integrator:
+        The plant's integrator.
+    project_momentum:
+        Restore L_total after each step (default); off only to measure the bare drift.
+    """
+
+    def __init__(
+        self,
+        robot,
+        wheels: Wheels,
+        *,
+        integrator: str = "semi-implicit",
+        project_momentum: bool = True,
+    ):
+        self.plant = Plant(robot, integrator=integrator, project_momentum=False)
+        self.wheels = wheels
+        self.project_momentum = project_momentum
+        self._planar = self.plant.root == "JointModelPlanar"
+        self._root_rotation = np.array(self.plant.model.jointPlacements[1].rotation)
+        self.total0: np.ndarray | None = None
+
+    def bus_rotation(self, q) -> np.ndarray:
+        """R_b: the bus (root joint) frame's attitude in the world."""
+        q = np.asarray(q, dtype=float)
+        if self._planar:
+            c, s = q[2], q[3]
+            rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        else:
+            rot = pin.Quaternion(q[6], q[3], q[4], q[5]).normalized().matrix()
+        return self._root_rotation @ rot
+
+    def bus_rate(self, v) -> np.ndarray:
+        """w_b: the bus's angular velocity in its own frame [rad/s]."""
+        v = np.asarray(v, dtype=float)
+        return np.array([0.0, 0.0, v[2]]) if self._planar else v[3:6].copy()
+
+    def stored(self, q, h) -> np.ndarray:
+        """The wheels' share of the plant's conserved rows: free-flyer (0, 0, 0, R_b A h),
+        planar (0, 0, (R_b A h)_z)."""
+        L = self.bus_rotation(q) @ self.wheels.momentum_bus(h)
+        return np.array([0.0, 0.0, L[2]]) if self._planar else np.concatenate((np.zeros(3), L))
+
+    def total_momentum(self, q, v, h) -> np.ndarray:
+        """The plant's conserved rows of robot plus wheels (P, L_total)."""
+        return self.plant.momentum(q, v) + self.stored(q, h)
+
+    def reset(self, q, v, h) -> None:
+        """Set the total momentum to keep from the initial state."""
+        self.plant.reset(q, v)
+        self.total0 = self.total_momentum(q, v, h)
+
+    def _wrench(self, torque: np.ndarray) -> np.ndarray:
+        if self._planar:
+            return np.array([0.0, 0.0, torque[2]])
+        return np.concatenate((np.zeros(3), torque))
+
+    def advance(self, q, v, h, u_m, tau_w, dt: float, substeps: int = 1) -> WheelStep:
+        """Advance by one control step ``dt`` [s] in ``substeps`` plant steps, joint torques
+        ``u_m`` [N m] and commanded wheel torques ``tau_w`` [N m] held (each plant step
+        limits them, :meth:`Wheels.limit`, and holds the bus torque over the step)."""
+        if substeps < 1:
+            raise ParameterError(f"wheels: substeps must be >= 1, got {substeps}")
+        if self.total0 is None:
+            self.reset(q, v, h)
+        h = np.asarray(h, dtype=float)
+        dt_s = dt / substeps
+        a = None
+        for _ in range(substeps):
+            tau = self.wheels.limit(h, tau_w, dt_s)
+            torque = self.wheels.bus_torque(h, tau, self.bus_rate(v))
+            res = self.plant.step(q, v, u_m, dt_s, base_wrench=self._wrench(torque))
+            a = res.a if a is None else a
+            h = h + dt_s * tau
+            q, v = res.q, res.v
+            if self.project_momentum:
+                v = self.plant.project(q, v, self.total0 - self.stored(q, h))
+        return WheelStep(q, v, h, a, tau)  # type: ignore[arg-type]  # substeps >= 1

@@ -1,0 +1,87 @@
+"""What a campaign case adds to its row beyond the run's summary, so that the report can say
+why and how a run failed (docs/campaigns.md, "Output folder").
+
+* ``saturation_per_joint``: per joint, the share of control periods at its torque limit (the
+  summary's list, which :func:`~ffsm_pin.sweep.engine.summary_scalars` leaves out);
+* ``joint_torque_limits``: the applied torque limit of each joint [N m] (null: none);
+* ``min_sigma_gjm``: the smallest singular value of the generalized Jacobian's task rows,
+  ``J* = J_m - J_b H_bb^-1 H_bm`` (Umetani & Yoshida 1989) of the **true** model at the
+  recorded joint angles, the same measure for every controller (each controller's own
+  ``min_sigma`` is of the matrix it inverts, with its estimates: ``min_sigma_of``). It is
+  evaluated on the rows kept for ``signals.parquet`` (at most :data:`MAX_ROWS`, evenly spaced,
+  first and last included), not on every recorded row, which keeps it cheap: the minimum
+  over those rows is an upper bound of the minimum over the run;
+* the decimated signals of :data:`SIGNAL_KEYS` on those rows (``signals.parquet``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "MAX_ROWS", "SIGNALS", "SIGNAL_KEYS", "case_extras", "generalized_jacobian_sigma",
+    "kept_rows", "min_sigma_gjm",
+]  # fmt: skip
+
+#: Rows of a case kept in ``signals.parquet`` (at most).
+MAX_ROWS = 500
+#: The per-row signals kept (besides ``t``): errors, funnel widths and bounds, torques.
+SIGNAL_KEYS = (
+    "err_b", "err_z", "rho_b", "rho_z", "bound_b_lower", "bound_b_upper", "bound_z_lower",
+    "bound_z_upper", "u_m", "u_cmd",
+)  # fmt: skip
+#: The key of a case outcome that holds its decimated signals (a dict of arrays), taken out of
+#: the row by :class:`~ffsm_pin.sweep.table.ResultsTable` into ``signals.parquet``.
+SIGNALS = "signals"
+
+
+def kept_rows(n: int, max_rows: int = MAX_ROWS) -> np.ndarray:
+    """At most ``max_rows`` evenly spaced row indices of ``n`` rows, the first and the last
+    included (all of them when ``n <= max_rows``)."""
+    if n <= max_rows:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0, n - 1, max_rows)).astype(np.int64))
+
+
+def generalized_jacobian_sigma(state, n_task: int) -> float:
+    """sigma_min of the task rows of ``J* = J_m - J_b H_bb^-1 H_bm`` at an updated
+    :class:`~ffsm_pin.model.state.State` (the model's units: [m] for positions)."""
+    J_b, J_m = np.asarray(state.J_b)[:n_task], np.asarray(state.J_m)[:n_task]
+    J_star = J_m - J_b @ np.linalg.solve(state.H_bb, state.H_bm)
+    return float(np.linalg.svd(J_star, compute_uv=False)[-1])
+
+
+def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
+    """The smallest :func:`generalized_jacobian_sigma` of the true model (``setup.robot``)
+    over the recorded ``rows`` of ``signals`` (q, v); None without rows."""
+    from ..model.state import State
+
+    if len(rows) == 0:
+        return None
+    state = State(setup.robot)
+    q, v = np.asarray(signals["q"][rows]), np.asarray(signals["v"][rows])
+    rows_qv = zip(q, v, strict=True)
+    return min(generalized_jacobian_sigma(state.update(a, b), setup.n_task) for a, b in rows_qv)
+
+
+def case_extras(setup, result, summary: dict[str, Any]) -> dict[str, Any]:
+    """The entries a case adds to its outcome (module docstring); ``SIGNALS`` holds the
+    decimated signals ``{"t": (r,), key: (r, ...)}``."""
+    s = result.signals
+    rows = kept_rows(len(s["t"]))
+    kept = {"t": np.asarray(s["t"][rows], dtype=float)}
+    for key in SIGNAL_KEYS:
+        source = key if key in s else "u_m" if key == "u_cmd" else None  # (older recordings)
+        if source is not None:
+            kept[key] = np.asarray(s[source][rows], dtype=float).reshape(len(rows), -1)
+    limits = None
+    if setup.actuators is not None and np.any(np.isfinite(setup.actuators.limit)):
+        limits = [float(x) if np.isfinite(x) else None for x in setup.actuators.limit]
+    return {
+        "saturation_per_joint": summary.get("saturation_per_joint"),
+        "joint_torque_limits": limits,
+        "min_sigma_gjm": min_sigma_gjm(setup, s, rows),
+        SIGNALS: kept,
+    }

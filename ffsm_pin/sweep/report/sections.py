@@ -1,0 +1,187 @@
+"""The report's sections that explain and weigh the rates: "Why runs failed", "Paired
+comparison" and "How many runs" (docs/campaigns.md)."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from ..stats import mcnemar_exact, runs_for_half_width, runs_to_separate, wilson_half_width
+from .sql import CONTROLLER_KEY
+from .text import f, relabel, table
+
+__all__ = ["failed_section", "how_many_section", "paired_rows", "paired_section"]
+
+Row = Mapping[str, Any]
+
+
+def _left(r: Row) -> str:
+    if r.get("funnel") is None:
+        return "-"
+    component = r.get("component")
+    return f"{r['funnel']}[{component}]" if component is not None else str(r["funnel"])
+
+
+def failed_section(
+    failed: list[dict[str, Any]],
+    runs: Sequence[Row],
+    by: tuple[str, ...],
+    labels: Mapping[str, str],
+) -> list[str]:
+    """The section "Why runs failed": the rows of FAILED_SQL, each with its share of the
+    controller's runs (``runs``: every run, RUNS_SQL)."""
+    totals: dict[tuple, int] = {}
+    for r in runs:
+        key = (*(r[c] for c in by), r["controller"])
+        totals[key] = totals.get(key, 0) + 1
+    for r in failed:
+        n = totals.get((*(r[c] for c in by), r["controller"]), 0)
+        r["share"] = f"{r['runs']} of {n}" if n else str(r["runs"])
+    relabel(failed, labels, ("controller",))
+    lines = [
+        "## Why runs failed",
+        "",
+        "The runs that did not keep both funnels over the whole horizon, per controller: how "
+        "they ended (`completed`, or `stopped:` and the `stop_cause`), the funnel and component "
+        "first left (`z[i]`: end-effector error component i, position before attitude; "
+        "`b[i]`: base attitude error component i; `-`: none was left) and when "
+        "(`first_violation_t`, or the stop time when no funnel was left).",
+        "",
+    ]
+    if not failed:
+        return [*lines, "Every run kept both funnels.", ""]
+    lines += table(
+        failed,
+        [
+            *((c, c, "{}") for c in by),
+            ("controller", "controller", "{}"),
+            ("outcome", "outcome", "{}"),
+            ("left first", None, None),
+            ("runs", "share", "{}"),
+            ("first at [s]", "first_t", "{:.2f}"),
+            ("median [s]", "median_t", "{:.2f}"),
+        ],
+        extra={"left first": _left},
+    )
+    return [*lines, ""]
+
+
+def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]]:
+    """Per pair of controllers (and scenario): the runs of the same grid point (the other
+    axes' values) and repeat index, both kept / only A / only B / neither, and the exact
+    McNemar p-value; ``common``: every pair drew the same estimates (same seed)."""
+    scen = [c for c in cols if c == "scenario"]
+    others = [c for c in cols if c not in (CONTROLLER_KEY, "scenario")]
+    cells: dict[tuple, dict[str, dict[tuple, Row]]] = {}
+    for r in runs:
+        group = tuple(r[c] for c in scen)
+        key = (*(str(r[c]) for c in others), r["repeat"])
+        cells.setdefault(group, {}).setdefault(r[CONTROLLER_KEY], {})[key] = r
+    out = []
+    for group, per in cells.items():
+        for a, b in itertools.combinations(sorted(per), 2):
+            common = sorted(set(per[a]) & set(per[b]))
+            if not common:
+                continue
+            pairs = [(per[a][k], per[b][k]) for k in common]
+            n = {(x, y): 0 for x in (True, False) for y in (True, False)}
+            for ra, rb in pairs:
+                n[bool(ra["kept"]), bool(rb["kept"])] += 1
+            out.append({
+                **dict(zip(scen, group, strict=True)), "a": a, "b": b, "pairs": len(pairs),
+                "both": n[True, True], "only_a": n[True, False], "only_b": n[False, True],
+                "neither": n[False, False], "p": mcnemar_exact(n[True, False], n[False, True]),
+                "common": all(ra["estimates_seed"] == rb["estimates_seed"] for ra, rb in pairs),
+            })  # fmt: skip
+    return out
+
+
+def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> list[str]:
+    """The section "Paired comparison" from :func:`paired_rows`."""
+    lines = [
+        "## Paired comparison",
+        "",
+        "Controllers A and B compared run by run: the runs of the same grid point and repeat "
+        "index (the same draw when the estimates' seeds agree: `same draws`). `both`, "
+        "`only A`, `only B`, `neither`: pairs by which kept both funnels. p: the exact McNemar "
+        "test on the pairs where they differ (the binomial test of `only A` of `only A + only "
+        "B` against 1/2, two-sided); a small p says the two keep their funnels at different "
+        "rates on the same draws.",
+        "",
+    ]
+    if not rows:
+        return [*lines, "No pairs: the controllers share no grid point and repeat index.", ""]
+    for r in rows:
+        r["a"], r["b"] = labels.get(r["a"], r["a"]), labels.get(r["b"], r["b"])
+    scen = [("scenario", "scenario", "{}")] if rows and "scenario" in rows[0] else []
+    lines += table(
+        rows,
+        [
+            *scen,
+            ("A", "a", "{}"),
+            ("B", "b", "{}"),
+            ("pairs", "pairs", "{}"),
+            ("both", "both", "{}"),
+            ("only A", "only_a", "{}"),
+            ("only B", "only_b", "{}"),
+            ("neither", "neither", "{}"),
+            ("p (McNemar, exact)", "p", "{:.3g}"),
+            ("same draws", None, None),
+        ],
+        extra={"same draws": lambda r: "yes" if r["common"] else "no"},
+    )
+    if not all(r["common"] for r in rows):
+        lines += [
+            "",
+            "`same draws = no`: the estimates' seed comes from the grid point, "
+            "`controller.type` included, so the paired runs drew different estimates; the "
+            "test is still valid for equal rates, without the precision that common draws give.",
+        ]
+    return [*lines, ""]
+
+
+def how_many_section(
+    rates: Sequence[Row], controllers: Sequence[Row], by: tuple[str, ...], auto_text: str
+) -> list[str]:
+    """The section "How many runs": the widest interval now, the runs a target width needs
+    at the observed rates, and the runs that would tell the two closest controllers apart."""
+    lines = ["## How many runs", ""]
+    if auto_text:
+        lines += [auto_text, ""]
+    known = [r for r in rates if r.get("n")]
+    if known:
+        widest = max(wilson_half_width(r["rate"], r["n"]) for r in known)
+        need = {h: max(runs_for_half_width(r["rate"], h) for r in known) for h in (0.1, 0.05)}
+        lines += [
+            f"The widest 95 % Wilson interval of a grid point's rate is +- {widest:.3f} "
+            f"(with {min(r['n'] for r in known)} to {max(r['n'] for r in known)} runs per grid "
+            f"point). At the observed rates, +- 0.10 needs {need[0.1]} runs per grid point and "
+            f'+- 0.05 needs {need[0.05]} (`repeat = "auto"` runs batches until a target is met).',
+            "",
+        ]
+    groups: dict[tuple, list[Row]] = {}
+    for r in controllers:
+        groups.setdefault(tuple(r[c] for c in by), []).append(r)
+    for group, rows in groups.items():
+        if len(rows) < 2:
+            continue
+        a, b = min(
+            itertools.combinations(rows, 2), key=lambda ab: abs(ab[0]["rate"] - ab[1]["rate"])
+        )
+        n = runs_to_separate(a["rate"], b["rate"])
+        where = f" ({', '.join(str(g) for g in group)})" if group else ""
+        head = (
+            f"The two closest controllers{where}: {a['controller']} ({f(a['rate'], '{:.0%}')} "
+            f"of {a['n']} runs) and {b['controller']} ({f(b['rate'], '{:.0%}')} of {b['n']})."
+        )
+        if n is None:
+            tail = " Their observed rates are equal: no number of runs tells them apart."
+        else:
+            tail = (
+                f" To tell rates this far apart from each other (a two-sided test of two "
+                f"proportions, alpha = 0.05, power 0.8, normal approximation) takes about {n} "
+                "runs per controller."
+            )
+        lines += [head + tail, ""]
+    return lines
