@@ -23,6 +23,7 @@ complex numbers (the controller differentiates through it by complex step).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -70,20 +71,24 @@ class FunnelParams:
             raise ParameterError(f"funnel beta must be > 0, got {self.beta}")
         if np.any(s <= 0) or np.any(s > 1):
             raise ParameterError(f"funnel sigma must be in (0, 1], got {self.sigma}")
-        object.__setattr__(self, "_span", r0 - ri)  # arrays for rho_and_rate
-        object.__setattr__(self, "_ri", ri)
-        object.__setattr__(self, "_b", b)
 
     @property
     def size(self) -> int:
         """Number of error components the funnel bounds."""
         return len(self.rho0)
 
+    @cached_property
+    def _decay_terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rho0 - rhoinf, rhoinf, beta) as arrays, computed once for :meth:`rho_and_rate`."""
+        ri = np.array(self.rhoinf)
+        return np.array(self.rho0) - ri, ri, np.array(self.beta)
+
     def rho_and_rate(self, t):
         """(rho(t), d rho/dt), Eqs. (18)-(19); ``t`` may be an array (broadcast against the
         components) or complex (complex step)."""
-        decay = self._span * np.exp(-self._b * t)
-        return decay + self._ri, -self._b * decay
+        span, ri, b = self._decay_terms
+        decay = span * np.exp(-b * t)
+        return decay + ri, -b * decay
 
     def rho(self, t) -> np.ndarray:
         """rho(t), Eq. (18)."""

@@ -222,7 +222,7 @@ _JIT_OPTIONS: Any = {"nopython": True, "cache": True, "no_cpython_wrapper": Fals
 def _overload(stub: Any, cls: type, impl: Any) -> None:
     @overload(stub, jit_options=_JIT_OPTIONS, strict=False)
     def _typed(geo, *args):
-        if isinstance(geo, types.BaseNamedTuple) and geo.instance_class is cls:
+        if isinstance(geo, types.BaseNamedTuple) and getattr(geo, "instance_class", None) is cls:
             return impl
         return None  # another geometry's
 

@@ -40,6 +40,70 @@ class State:
     ----------
     robot:
         A loaded :class:`~ffsm_pin.robot.Robot` (planar or free-flyer root).
+
+    Attributes
+    ----------
+    Sizes: n joints; m2, m3 = 2, 1 (planar) or 3, 3 (free-flyer); nw = m3 + n (the size of
+    w); nv = Pinocchio's velocity size (planar 3 + n, free-flyer 6 + n). The inertial frame
+    is the world frame of the URDF; "about the CoM" is the whole system's centre of mass.
+    Every array is read-only and is set by :meth:`update` (:meth:`update_dynamics`: ``M``,
+    ``h``, ``mass_matrix``, ``nonlinear_effects`` only).
+
+    M : ndarray, shape (nw, nw)
+        The reduced inertia matrix of Eq. (9a) in w, translation eliminated through the
+        conserved linear momentum [kg m^2]; symmetric positive definite.
+    h : ndarray, shape (nw,)
+        C(q, w) w of Eq. (8), so that ``M dw/dt + h = (0, u_m)`` [N m].
+    mass_matrix : ndarray, shape (nv, nv)
+        Pinocchio's CRBA matrix in Pinocchio's velocities (base twist in the base frame).
+    nonlinear_effects : ndarray, shape (nv,)
+        Pinocchio's RNEA(q, v, 0) in Pinocchio's velocities [N, N m].
+    H_bb : ndarray, shape (m3, m3)
+        Base block of the angular momentum about the CoM, Eq. (13), inertial frame [kg m^2].
+    H_bm : ndarray, shape (m3, n)
+        Manipulator block of the same, Eq. (13): ``H_bb w_b + H_bm w_m = A_0`` [kg m^2].
+    J_b : ndarray, shape (m2 + m3, m3)
+        Eq. (3): the end-effector rates (position relative to the CoM [m/s], inertial frame;
+        then the attitude rate: planar the angle [rad/s], spatial the MRP rate [1/s]) per
+        unit of base angular velocity w_b [rad/s].
+    J_m : ndarray, shape (m2 + m3, n)
+        Eq. (3): the same per unit of joint rate [rad/s or m/s].
+    centroidal_map : ndarray, shape (6, nv)
+        Pinocchio's centroidal momentum matrix A_g: (P, L about the CoM) = A_g v, inertial
+        frame.
+    linear_momentum : ndarray, shape (m2,) planar, (3,) free-flyer
+        P, inertial frame [kg m/s].
+    angular_momentum : float (planar) or ndarray, shape (3,)
+        L = A_0 about the CoM, inertial frame [kg m^2/s].
+    com_position : ndarray, shape (2,) planar, (3,) free-flyer
+        The system CoM in the inertial frame [m].
+    com_velocity : ndarray, same shape
+        v_0 = P / m [m/s].
+    base_attitude : float (planar) or ndarray, shape (3,)
+        q_b: planar the base angle in (-pi, pi] [rad]; spatial the base's MRP, base to
+        inertial, |q_b| <= 1 (docs/spatial.md).
+    ee_pose : ndarray, shape (m2 + m3,)
+        z_e = (p_e, q_e): end-effector position in the inertial frame [m], then its angle
+        [rad] (planar) or MRP (spatial).
+    w : ndarray, shape (nw,)
+        The paper's velocity (w_b, w_m): base angular velocity in the inertial frame and joint
+        rates [rad/s].
+    base_twist_world : ndarray, shape (3,) planar, (6,) free-flyer
+        The base origin's linear velocity [m/s] and the base angular velocity [rad/s], both in
+        the inertial frame.
+    M_bb_dot : ndarray, shape (3, 3)
+        Free-flyer only: d H_bb / dt [kg m^2/s], for the reaction torque F_r of Eq. (7).
+    L_b : ndarray, shape (3, 3)
+        Free-flyer only: Eq. (1), d q_b / dt = L_b w_b [1/rad].
+    base_rotation : ndarray, shape (3, 3)
+        Free-flyer only: R_0, base to inertial.
+    ee_rotation : ndarray, shape (3, 3)
+        Free-flyer only: R_e, end-effector frame to inertial.
+    ee_angular_jacobian : ndarray, shape (3, nw)
+        Free-flyer only: the end-effector angular velocity in the inertial frame per unit of
+        w [rad/s per rad/s].
+    base_velocity_world : ndarray, shape (3,)
+        Free-flyer only: the base origin's velocity in the inertial frame [m/s].
     """
 
     # set by update() (update_dynamics(): the first four only); read-only arrays

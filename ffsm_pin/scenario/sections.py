@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal
 
+import numpy as np
 from pydantic import (
     BeforeValidator,
     Field,
@@ -87,7 +88,9 @@ class PayloadModel(Table):
         """Refuse an inertia no rigid body has."""
         xx, yy, zz, xy, xz, yz = self.inertia
         try:
-            check_inertia(self.mass, [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]], "the payload")
+            check_inertia(
+                self.mass, np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]), "the payload"
+            )
         except InertiaError as exc:
             fail(("inertia",), f" = {list(self.inertia)}: {str(exc).removeprefix('the payload ')}")
         return self
