@@ -117,7 +117,7 @@ PLACES = (
     "k = period.period\n"
     "print(json.dumps({'package': m.PACKAGE.as_posix(), 'cache': m.CACHE_DIR,\n"
     "  'first': m.LOCATOR is not None and impl._locator_classes[0] is m.LOCATOR,\n"
-    "  'period': k._cache.cache_path, 'put': a._put._cache.cache_path,\n"
+    "  'period': k._cache.cache_path, 'put': a.put._cache.cache_path,\n"
     "  'stamp': str(k._cache._cache_file._source_stamp),\n"
     "  'digest': hashlib.sha256(Path(k.py_func.__code__.co_filename).read_bytes()).hexdigest(),\n"
     "  'outside': outside.f._cache.cache_path,\n"
@@ -270,10 +270,10 @@ def test_two_copies_of_the_package_share_the_compiled_kernels(tmp_path):
         os.utime(path, (old, old))
     code = (
         "import json, numpy as np, ffsm_pin\n"
-        "from ffsm_pin._array_kernels import _mv\n"
-        "_mv(np.eye(2), np.ones(2))\n"
-        "print(json.dumps([ffsm_pin.__file__, len(_mv.stats.cache_hits),"
-        " len(_mv.stats.cache_misses)]))\n"
+        "from ffsm_pin._array_kernels import mv\n"
+        "mv(np.eye(2), np.ones(2))\n"
+        "print(json.dumps([ffsm_pin.__file__, len(mv.stats.cache_hits),"
+        " len(mv.stats.cache_misses)]))\n"
     )
     xdg = tmp_path / "xdg"
     first = json.loads(_in_copy(a, xdg, code).stdout)

@@ -23,6 +23,9 @@ docs/controllers.md ("Adding a built-in controller") shows the whole pattern, an
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import Any
 
 import numpy as np
@@ -75,6 +78,25 @@ def state_field(name: str, doc: str) -> Any:
         self.state = self.state._replace(**{name: value})
 
     return property(get, put, doc=doc)
+
+
+#: False inside :func:`no_warm_up`: controllers built then skip the warm-up.
+_WARM_UP: ContextVar[bool] = ContextVar("ffsm_pin_warm_up", default=True)
+
+
+@contextmanager
+def no_warm_up() -> Iterator[None]:
+    """Build controllers without warming their compiled step up (nothing is compiled).
+
+    For a caller that builds a run but never steps it (``--check``): a controller built
+    inside takes its backend and bundles as usual, and its first compiled step, if one ever
+    runs, compiles (or loads from the cache) then.
+    """
+    token = _WARM_UP.set(False)
+    try:
+        yield
+    finally:
+        _WARM_UP.reset(token)
 
 
 class CompiledController:
@@ -141,7 +163,7 @@ class CompiledController:
         of a step); then bind :meth:`step`. Returns the backend. The last call of a
         subclass's constructor."""
         self.backend = self.choose(backend)  # (the kernels' bundles made on "numba"; bound)
-        if self.backend == "numba":
+        if self.backend == "numba" and _WARM_UP.get():
             self.warm_up(initial, *args)
         return self.backend
 
@@ -173,4 +195,4 @@ class CompiledController:
         return self.step_numpy(meas, *args)
 
 
-__all__ = ["CompiledController", "copied", "kernel_measurement", "state_field"]
+__all__ = ["CompiledController", "copied", "kernel_measurement", "no_warm_up", "state_field"]

@@ -14,7 +14,7 @@
 Linear algebra without a controller's meaning (products by loops, complex products, a solve,
 positive definiteness) lives in :mod:`ffsm_pin._array_kernels`; the reference's compiled
 evaluation in :mod:`.reference_kernels`. Each kernel is checked against its numpy reference
-(``tests/control/test_shared_kernels.py`` and through the periods).
+(``tests/control/test_kernels.py`` and through the periods).
 """
 
 from __future__ import annotations

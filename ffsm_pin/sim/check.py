@@ -143,16 +143,17 @@ def authority_along(
 
 def check(scenario: Scenario) -> CheckReport:
     """Build the scenario (``prepare``) and evaluate the t = 0 conditions; never simulates."""
+    from ..control.compiled import no_warm_up
     from ..control.gains import GainWarning
     from .measurement import Sensor
     from .reach import ReachWarning
     from .setup import prepare
 
     try:
-        with warnings.catch_warnings(record=True) as caught:
+        with warnings.catch_warnings(record=True) as caught, no_warm_up():
             warnings.simplefilter("ignore", ReachWarning)
             warnings.simplefilter("always", GainWarning)
-            setup = prepare(scenario)
+            setup = prepare(scenario)  # the controller's compiled step is not compiled
     except FfsmError as exc:
         return CheckReport(scenario.name, problems=[str(exc)])
     # gains that violate a discrete-time condition (a warning on a run) are problems here;

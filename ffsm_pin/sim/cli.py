@@ -168,9 +168,9 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     from .storage import check_storage
 
     scenarios = [_override(sc, args) for sc in _scenarios(args)]
-    note_compilation(args.quiet)
-    if args.check:
+    if args.check:  # compiles no controller (ffsm_pin.control.compiled.no_warm_up)
         return _check(scenarios)
+    note_compilation(args.quiet)
     setups = []
     for sc in scenarios:  # every bad input before any simulation
         console.context = sc.name if len(scenarios) > 1 else ""

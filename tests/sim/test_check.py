@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 from importlib import resources
 from pathlib import Path
@@ -9,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import ffsm_pin
 from ffsm_pin.robot import urdf_dir
 from ffsm_pin.robot.writer import chain_from_table, write_urdf
 from ffsm_pin.scenario.file import BUILTIN
@@ -213,3 +216,27 @@ def test_origin_initial_prints_the_resolved_references(capsys):
     assert main(["--check", "--case", "spatial-realistic"]) == 0
     out = capsys.readouterr().out
     assert "reference.origin = 'initial' resolves to base_attitude" in out
+
+
+@pytest.mark.parametrize("case", ["1", "spatial"])
+def test_check_compiles_no_control_kernel(tmp_path, case):
+    """``--check`` builds the run but never steps it, so it compiles none of the controller's
+    kernels (issue 38): from an empty numba cache, no cache entry of a ``ffsm_pin/control``
+    module appears (the sensor's and the model's kernels, which the check evaluates, may)."""
+    control = Path(ffsm_pin.__file__).parent / "control"
+    stems = {p.stem for p in control.glob("*.py")}
+    cache = tmp_path / "numba-cache"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    proc = subprocess.run(
+        [sys.executable, "-m", "ffsm_pin.sim", "--case", case, "--check"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    entries = [p.name for p in cache.rglob("*.nbi")]
+    compiled_control = sorted(n for n in entries if n.split(".")[0] in stems)
+    assert compiled_control == [], compiled_control
+    assert "compiling the controller kernels" not in proc.stderr

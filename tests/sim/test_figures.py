@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import matplotlib.image
 import numpy as np
 import pytest
@@ -19,15 +17,14 @@ def _check_png(path):
     assert img[..., :3].std() > 0.05  # not a blank page
 
 
-def test_one_run_writes_every_figure_quickly(tmp_path):
+def test_one_run_writes_every_figure(tmp_path):
+    # how long the figures take is measured in benchmarks/, not asserted here (no wall clock in
+    # a test: it fails on a loaded machine, not on a slow change)
     result = synthetic_result(duration=30.0, dt=1e-3)  # 30001 samples
-    t0 = time.perf_counter()
     paths = write_figures(result, tmp_path)
-    elapsed = time.perf_counter() - t0
     assert [p.name for p in paths] == list(FIGURE_NAMES)
     for p in paths:
         _check_png(p)
-    assert elapsed < 10.0  # budget ~5 s on a normal machine
 
 
 def test_overlay_of_several_runs(tmp_path):
