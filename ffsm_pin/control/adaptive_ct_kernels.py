@@ -23,7 +23,9 @@ from numba import njit
 
 from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
-from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms, y_z, ym
+from ..model._spatial_kinematics_kernels import kinematics, y_z
+from ..model._spatial_mass_kernels import mass_matrix, ym
+from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import fast, fast_spatial
 from .interface import Measurement
 from .kernels import COMPLEX_STEP, Estimates, theta_z_step

@@ -11,9 +11,12 @@ suite checks that both give the same outputs and trajectories
 (``tests/control/test_fast_spatial.py``).
 
 * Regressors, M-hat and the Jacobians come from the compiled spatial kernels
-  (:mod:`ffsm_pin.model._spatial_kernels`); the kinematic law is evaluated once with complex
-  arguments ``x + i h dx/dt`` (the dtype-generic kinematics, Jacobian and mass-matrix kernels),
-  so that ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part over h.
+  (:mod:`ffsm_pin.model._spatial_kinematics_kernels`,
+  :mod:`~ffsm_pin.model._spatial_mass_kernels`,
+  :mod:`~ffsm_pin.model._spatial_velocity_kernels`); the kinematic law is evaluated once with
+  complex arguments ``x + i h dx/dt`` (the dtype-generic kinematics, Jacobian and mass-matrix
+  kernels), so that ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part
+  over h.
 * Schemes ``ppc``, ``no-ppc``, ``no-attitude`` and ``known-model`` (``adaptive = False``:
   Pinocchio's M and C w passed in, no adaptation); tasks ``pose`` (6 rows) and
   ``position`` (3 rows); null-space objectives none, manipulability, joint-centering.
@@ -40,16 +43,9 @@ from .._array_kernels import (
 )
 from .._arrays import contiguous_rows as _rows
 from ..attitude._mrp_kernels import l_matrix
-from ..model._spatial_kernels import (
-    attitude_rows,
-    kinematics,
-    mass_matrix,
-    position_jacobian,
-    subtract_dT,
-    velocity_terms,
-    y_z,
-    ym,
-)
+from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
+from ..model._spatial_mass_kernels import mass_matrix, ym
+from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from .kernels import (
     COMPLEX_STEP,
     JOINT_CENTERING,

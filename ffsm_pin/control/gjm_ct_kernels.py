@@ -7,8 +7,9 @@ on the estimates' model. The numpy reference is
 :meth:`~ffsm_pin.control.gjm_ct.GjmComputedTorque.step_numpy`; the two are tested against each
 other (``tests/control/test_gjm_ct.py``, ``tests/control/test_conformance.py``). The building
 blocks are the models' compiled kernels (the barycentric Jacobian, momentum rows, mass matrix
-and velocity regressors of :mod:`ffsm_pin.model._planar_kernels` and
-:mod:`ffsm_pin.model._spatial_kernels`).
+and velocity regressors of :mod:`ffsm_pin.model._planar_kernels` and of the spatial
+:mod:`ffsm_pin.model._spatial_kinematics_kernels`, :mod:`ffsm_pin.model._spatial_mass_kernels`
+and :mod:`ffsm_pin.model._spatial_velocity_kernels`).
 
 A period takes named bundles: the model's kernel constants, :class:`GjmKernelGains`, the
 reference (:class:`~.reference_kernels.ReferenceArrays`), the measurement
@@ -28,7 +29,9 @@ from numba import njit
 
 from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
-from ..model._spatial_kernels import kinematics, mass_matrix, subtract_dT, velocity_terms
+from ..model._spatial_kinematics_kernels import kinematics
+from ..model._spatial_mass_kernels import mass_matrix
+from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from .interface import Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .reference_kernels import ReferenceArrays

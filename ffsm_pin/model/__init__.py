@@ -7,8 +7,11 @@ parameterisation, planar and spatial side by side.
   of one plant state from Pinocchio, for either root;
 * :mod:`.planar`: :class:`BarycentricModel` (m2 = 2, m3 = 1), theta_z, theta_d, theta_b and
   their regressors;
-* :mod:`.spatial`: :class:`SpatialBarycentricModel` (m2 = m3 = 3, MRP attitudes), its numpy
-  reference and its compiled kernels (:mod:`._spatial_kernels`).
+* :mod:`.spatial`: :class:`SpatialBarycentricModel` (m2 = m3 = 3, MRP attitudes), with its
+  parameter layout (:mod:`._spatial_layout`), numpy reference (:mod:`._spatial_reference`),
+  controller terms (:mod:`._spatial_terms`) and compiled kernels
+  (:mod:`._spatial_kinematics_kernels`, :mod:`._spatial_mass_kernels`,
+  :mod:`._spatial_velocity_kernels`).
 
 :func:`make_model` builds the barycentric model that fits a robot's root joint.
 """

@@ -34,12 +34,23 @@ same bilinear expressions: the tangents of R_k and z_j are closed-form (``dR_k =
 ``dz_j = w_j x z_j``; ``dR_k/dq_j = [z_j]x R_k`` for k >= j) and are carried as the imaginary
 part of a complex step, which for these polynomial expressions is exact to rounding (numpy
 reference); the compiled kernels carry the same tangents as (value, tangent) pairs in real
-arithmetic (:func:`ffsm_pin.model._spatial_kernels.velocity_terms`).
+arithmetic (:func:`ffsm_pin.model._spatial_velocity_kernels.velocity_terms`).
+
+This module holds the model class; its pieces, by concern:
+
+* :mod:`._spatial_layout`: the parameter vectors' sizes and entry names
+  (:class:`~._spatial_layout.SpatialParameterLayout`);
+* :mod:`._spatial_reference`: the vectorised numpy reference (S_k, the tangents, the bilinear
+  cores), a base class of the model;
+* :mod:`._spatial_terms`: one controller period's terms (:class:`~._spatial_terms.ControllerTerms`)
+  and their compiled all-in-one call;
+* the compiled (numba) kernels: :mod:`._spatial_kinematics_kernels` (rotations, J, Y_z, the
+  attitude rows), :mod:`._spatial_mass_kernels` (M, Y_M) and :mod:`._spatial_velocity_kernels`
+  (Y_Mdot, Y_h).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -48,115 +59,17 @@ from .._arrays import read_only
 from ..attitude import mrp
 from ..errors import ParameterError
 from ..robot import SpatialGeometry
-from . import _spatial_kernels as kern
-from ._common import BarycentricCommon, barycentric_vectors
+from . import _spatial_kinematics_kernels as kkin
+from . import _spatial_mass_kernels as kmass
+from . import _spatial_terms as kterms
+from . import _spatial_velocity_kernels as kvel
+from ._common import barycentric_vectors
+from ._spatial_layout import SYM6, SpatialParameterLayout
+from ._spatial_reference import Kinematics, SpatialReference, skew_batch
+from ._spatial_terms import ControllerTerms, TermsBuffers
 from ._state_spatial import reaction_torque as _reaction_torque
 
 _H = 1e-20  # complex step (exact for the bilinear expressions here)
-_SYM6 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))  # (xx, xy, xz, yy, yz, zz)
-
-
-@dataclass(frozen=True)
-class SpatialParameterLayout:
-    """Sizes and meaning of the spatial parameter vectors."""
-
-    n_bodies: int  # n + 1
-
-    @property
-    def n_pairs(self) -> int:
-        """Number of body pairs k < l (the off-diagonal D_kl)."""
-        return self.n_bodies * (self.n_bodies - 1) // 2
-
-    @property
-    def n_z(self) -> int:
-        """n_1, size of theta_z."""
-        return 3 + 3 * self.n_bodies
-
-    @property
-    def n_d(self) -> int:
-        """n_2, size of theta_d."""
-        return 6 * self.n_bodies + 9 * self.n_pairs
-
-    @property
-    def n_b(self) -> int:
-        """n_3, size of theta_b."""
-        return 3 + self.n_d
-
-    def theta_z_names(self) -> list[str]:
-        """Names of the theta_z entries, in the vector's order (Eq. 4)."""
-        names = ["v0x", "v0y", "v0z"]
-        for k in range(self.n_bodies):
-            names += [f"V{k}{c}" for c in "xyz"]
-        return names
-
-    def theta_d_names(self) -> list[str]:
-        """Names of the theta_d entries, in the vector's order (Eq. 12)."""
-        nb = self.n_bodies
-        names = [f"J{k}{'xyz'[i]}{'xyz'[j]}" for k in range(nb) for i, j in _SYM6]
-        for k in range(nb):
-            for l in range(k + 1, nb):
-                names += [f"D{k}_{l}{'xyz'[i]}{'xyz'[j]}" for i in range(3) for j in range(3)]
-        return names
-
-
-class TermsBuffers(NamedTuple):
-    """Where the compiled ``controller_terms`` writes (the arrays of
-    :class:`ControllerTerms`, J whole)."""
-
-    J: np.ndarray  # (6, n+3)
-    Y_z: np.ndarray
-    Y_b: np.ndarray
-    Y_M: np.ndarray
-    Y_Mdot: np.ndarray
-    Y_h: np.ndarray
-    M: np.ndarray
-
-
-class ControllerTerms(NamedTuple):
-    """Everything the controller needs for one period (see
-    :meth:`SpatialBarycentricModel.controller_terms`)."""
-
-    J_b: np.ndarray  # (6, 3) Eq. (3)
-    J_m: np.ndarray  # (6, n)
-    Y_z: np.ndarray  # (6, n_z) Eq. (4), attitude rows zero
-    Y_b: np.ndarray  # (3, n_b) Eq. (14)
-    Y_M: np.ndarray  # (n+3, n_d): Y_M theta_d = M a
-    Y_Mdot: np.ndarray  # (n+3, n_d): Y theta_d = dM/dt s
-    Y_h: np.ndarray  # (n+3, n_d): Y theta_d = C w, Eq. (8)
-    M: np.ndarray  # (n+3, n+3) M(q, theta_d), Eq. (9a)
-
-
-class Kinematics(NamedTuple):
-    """Rotations of one configuration (see :meth:`SpatialBarycentricModel.kinematics`)."""
-
-    R: np.ndarray  # (n+1, 3, 3) body rotations R_k (body to inertial)
-    z: np.ndarray  # (n, 3) inertial joint axes z_j
-    S: np.ndarray  # (n+1, 3, n+3) S_k: w_k = S_k w
-
-
-def _phi6(beta):
-    """(..., 3) -> (..., 3, 6): Jbar beta = Phi(beta) (xx, xy, xz, yy, yz, zz)."""
-    out = np.zeros((*beta.shape, 6), dtype=beta.dtype)
-    b1, b2, b3 = beta[..., 0], beta[..., 1], beta[..., 2]
-    out[..., 0, 0] = b1
-    out[..., 0, 1] = b2
-    out[..., 1, 1] = b1
-    out[..., 0, 2] = b3
-    out[..., 2, 2] = b1
-    out[..., 1, 3] = b2
-    out[..., 1, 4] = b3
-    out[..., 2, 4] = b2
-    out[..., 2, 5] = b3
-    return out
-
-
-def _skew_batch(v):
-    """(..., 3) -> (..., 3, 3) cross-product matrices."""
-    out = np.zeros((*v.shape, 3), dtype=v.dtype)
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
 
 
 class SpatialKernelConstants(NamedTuple):
@@ -169,7 +82,7 @@ class SpatialKernelConstants(NamedTuple):
     ee_body: int  # body carrying the end effector (1..n)
 
 
-class SpatialBarycentricModel(BarycentricCommon):
+class SpatialBarycentricModel(SpatialReference):
     """The reduced, parametric free-floating model of a spatial serial chain.
 
     Configuration arguments: ``q_b`` the base attitude as an MRP 3-vector, ``q_m`` the joint
@@ -178,9 +91,13 @@ class SpatialBarycentricModel(BarycentricCommon):
     :class:`ffsm_pin.model.planar.BarycentricModel` (the shared interface is
     :class:`ffsm_pin.model.interface.ReducedModel`).
 
-    ``backend="numba"`` (default) evaluates real arguments with the compiled kernels of
-    :mod:`ffsm_pin.model._spatial_kernels`; ``"numpy"`` uses the vectorised numpy reference
-    (also used for complex arguments).
+    ``backend="numba"`` (default) evaluates real arguments with the compiled kernels
+    (:mod:`ffsm_pin.model._spatial_kinematics_kernels`,
+    :mod:`~ffsm_pin.model._spatial_mass_kernels`,
+    :mod:`~ffsm_pin.model._spatial_velocity_kernels`, :mod:`~ffsm_pin.model._spatial_terms`);
+    ``"numpy"`` uses the vectorised numpy reference
+    (:class:`~ffsm_pin.model._spatial_reference.SpatialReference`, also used for complex
+    arguments).
     """
 
     m2 = 3  # end-effector position components
@@ -230,7 +147,7 @@ class SpatialBarycentricModel(BarycentricCommon):
             + np.trace(D[np.arange(nb), np.arange(nb)], axis1=1, axis2=2)[:, None, None] * np.eye(3)
             - D[np.arange(nb), np.arange(nb)]
         )
-        rows, cols = zip(*_SYM6, strict=True)
+        rows, cols = zip(*SYM6, strict=True)
         return np.concatenate((Jbar[:, rows, cols].ravel(), D[self._K, self._L].reshape(-1)))
 
     def parameters_of(self, geometry: SpatialGeometry) -> tuple[np.ndarray, np.ndarray]:
@@ -264,7 +181,7 @@ class SpatialBarycentricModel(BarycentricCommon):
         R = np.empty((nb, 3, 3), dtype=dtype)
         R[0] = mrp.to_rotation(q_b)
         c, s = np.cos(q_m), np.sin(q_m)
-        U = _skew_batch(self._axes)
+        U = skew_batch(self._axes)
         # Rodrigues: rot(u, q) = E + sin q [u]x + (1 - cos q) [u]x^2
         rot = (
             np.eye(3)
@@ -298,96 +215,11 @@ class SpatialBarycentricModel(BarycentricCommon):
             return hit
         R = np.empty((self._nb, 3, 3))
         z = np.empty((self.n_joints, 3))
-        kern.kinematics(q_b, q_m, self._joint_rot_c, self._axes_c, R, z)
+        kkin.kinematics(q_b, q_m, self._joint_rot_c, self._axes_c, R, z)
         if len(self._memo_fast) >= 4:
             self._memo_fast.clear()
         self._memo_fast[key] = (R, z)
         return R, z
-
-    def _s_matrix(self, z, mask=None):
-        """S (..., n+1, 3, n+3) from joint axes z (..., n, 3)."""
-        mask = self._smask if mask is None else mask
-        lead = z.shape[:-2]
-        S = np.zeros((*lead, self._nb, 3, self._N), dtype=z.dtype)
-        S[..., :, :, :3] = np.eye(3)
-        S[..., :, :, 3:] = np.swapaxes(z, -1, -2)[..., None, :, :] * mask[:, None, :]
-        return S
-
-    def _motion_tangent(self, kin: Kinematics, w):
-        """(dR/dt, dS/dt) along w: dR_k = [w_k]x R_k, dz_j = w_j x z_j."""
-        om = kin.S @ w  # (nb, 3) body angular velocities
-        dR = _skew_batch(om) @ kin.R
-        dz = np.cross(om[1:], kin.z)
-        dS = np.zeros_like(kin.S)
-        dS[:, :, 3:] = dz.T[None] * self._smask[:, None, :]
-        return dR, dS
-
-    def _joint_tangents(self, kin: Kinematics):
-        """(dR/dq_j, dS/dq_j) for every joint j, stacked on a leading axis of length n."""
-        Z = _skew_batch(kin.z)  # (n, 3, 3)
-        dR = np.einsum("jxy,kyz->jkxz", Z, kin.R) * self._below[:, :, None, None]
-        dz = np.cross(kin.z[:, None, :], kin.z[None, :, :]) * self._after[:, :, None]
-        dS = np.zeros((self.n_joints, *kin.S.shape), dtype=kin.S.dtype)
-        dS[..., 3:] = np.swapaxes(dz, -1, -2)[:, None, :, :] * self._smask[None, :, None, :]
-        return dR, dS
-
-    # ------------------------------------------------------------------ bilinear cores
-    def _ym_core(self, R, S, a):
-        """Y with Y theta_d = M a, for rotations R and S (real or complex)."""
-        K, L = self._K, self._L
-        b = S @ a  # (nb, 3)
-        beta = np.einsum("kyx,ky->kx", R, b)
-        Yd = R @ _phi6(beta)  # (nb, 3, 6)
-        RK, RL = R[K], R[L]
-        Q = np.einsum("pyi,pyj->pij", RK, RL)
-        bK, bL = b[K], b[L]
-        u = np.einsum("pyi,py->pi", RK, bL)
-        gam = np.einsum("pyj,py->pj", RL, bK)
-        A = Q[:, None] * bL[:, :, None, None] - u[:, None, :, None] * RL[:, :, None, :]
-        Bm = Q[:, None] * bK[:, :, None, None] - gam[:, None, None, :] * RK[:, :, :, None]
-        Y = np.empty((self._N, self.n_d), dtype=A.dtype)
-        Y[:, : 6 * self._nb] = np.einsum("kxn,kxc->nkc", S, Yd).reshape(self._N, -1)
-        Y[:, 6 * self._nb :] = (
-            np.einsum("pxn,pxc->npc", S[K], A.reshape(self._P, 3, 9))
-            + np.einsum("pxn,pxc->npc", S[L], Bm.reshape(self._P, 3, 9))
-        ).reshape(self._N, -1)
-        return Y
-
-    def _energy_core(self, R, S, w):
-        """Row y with y theta_d = T (kinetic energy about the CoM), batched over leading axes."""
-        K, L = self._K, self._L
-        om = np.einsum("...kxn,n->...kx", S, w)
-        beta = np.einsum("...kyx,...ky->...kx", R, om)
-        b1, b2, b3 = beta[..., 0], beta[..., 1], beta[..., 2]
-        diag = np.stack((b1 * b1 / 2, b1 * b2, b1 * b3, b2 * b2 / 2, b2 * b3, b3 * b3 / 2), -1)
-        RK, RL = R[..., K, :, :], R[..., L, :, :]
-        omK, omL = om[..., K, :], om[..., L, :]
-        Q = np.einsum("...pyi,...pyj->...pij", RK, RL)
-        dot = np.einsum("...px,...px->...p", omK, omL)
-        u = np.einsum("...pyi,...py->...pi", RK, omL)
-        gam = np.einsum("...pyj,...py->...pj", RL, omK)
-        pair = Q * dot[..., None, None] - u[..., :, None] * gam[..., None, :]
-        lead = diag.shape[:-2]
-        return np.concatenate((diag.reshape(*lead, -1), pair.reshape(*lead, -1)), axis=-1)
-
-    def _mass_core(self, R, S, theta_d):
-        nb, P = self._nb, self._P
-        j6 = theta_d[: 6 * nb].reshape(nb, 6)
-        J = np.empty((nb, 3, 3), dtype=j6.dtype)
-        for c, (i, j) in enumerate(_SYM6):
-            J[:, i, j] = j6[:, c]
-            J[:, j, i] = j6[:, c]
-        D = theta_d[6 * nb :].reshape(P, 3, 3)
-        RJR = R @ J @ np.swapaxes(R, 1, 2)
-        M = np.einsum("kxn,kxy,kym->nm", S, RJR, S)
-        if P:
-            RK, RL = R[self._K], R[self._L]
-            X = RK @ D @ np.swapaxes(RL, 1, 2)
-            tr = np.trace(X, axis1=1, axis2=2)
-            Kmat = tr[:, None, None] * np.eye(3) - np.swapaxes(X, 1, 2)
-            C = np.einsum("pxn,pxy,pym->nm", S[self._K], Kmat, S[self._L])
-            M = M + C + C.T
-        return M
 
     # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b, q_m) -> np.ndarray:
@@ -425,14 +257,14 @@ class SpatialBarycentricModel(BarycentricCommon):
             R, z = self._rz(q_b, q_m)
             J = np.empty((6, self._N))
             V = np.ascontiguousarray(theta_z[3:].reshape(self._nb, 3))
-            kern.position_jacobian(R, z, V, J[:3])
+            kkin.position_jacobian(R, z, V, J[:3])
             m = self.geometry.ee_body
-            kern.attitude_rows(R[m], self._ee_rot_c, z, m, J[3:])
+            kkin.attitude_rows(R[m], self._ee_rot_c, z, m, J[3:])
             return J[:, :3], J[:, 3:]
         kin = self.kinematics(q_b, q_m)
         r = np.einsum("kxy,ky->kx", kin.R, theta_z[3:].reshape(self._nb, 3))
         J = np.empty((6, self._N), dtype=np.result_type(r, kin.S))
-        J[:3] = -np.einsum("kxy,kyn->xn", _skew_batch(r), kin.S)
+        J[:3] = -np.einsum("kxy,kyn->xn", skew_batch(r), kin.S)
         J[3:] = self._attitude_rows(kin, q_b, q_m)
         return J[:, :3], J[:, 3:]
 
@@ -444,13 +276,13 @@ class SpatialBarycentricModel(BarycentricCommon):
         if self._use_fast(q_b, q_m, w):
             R, z = self._rz(q_b, q_m)
             Y = np.zeros((6, self.n_z))
-            kern.y_z(R, z, np.ascontiguousarray(w, dtype=float), Y[:3])
+            kkin.y_z(R, z, np.ascontiguousarray(w, dtype=float), Y[:3])
             return Y
         kin = self.kinematics(q_b, q_m)
         om = kin.S @ np.asarray(w, dtype=float)
         Y = np.zeros((6, self.n_z))
         Y[:3, :3] = np.eye(3)
-        Y[:3, 3:] = np.swapaxes(_skew_batch(om) @ kin.R, 0, 1).reshape(3, -1)
+        Y[:3, 3:] = np.swapaxes(skew_batch(om) @ kin.R, 0, 1).reshape(3, -1)
         return Y
 
     def ee_attitude_rate(self, w, q_b, q_m) -> np.ndarray:
@@ -465,7 +297,7 @@ class SpatialBarycentricModel(BarycentricCommon):
         if self._use_fast(theta_d, q_b, q_m):
             R, z = self._rz(q_b, q_m)
             M = np.empty((self._N, self._N))
-            kern.mass_matrix(R, z, np.ascontiguousarray(theta_d), M)
+            kmass.mass_matrix(R, z, np.ascontiguousarray(theta_d), M)
             return M
         kin = self.kinematics(q_b, q_m)
         return self._mass_core(kin.R, kin.S, theta_d)
@@ -482,7 +314,7 @@ class SpatialBarycentricModel(BarycentricCommon):
         if self._use_fast(q_b, q_m, a):
             R, z = self._rz(q_b, q_m)
             Y = np.empty((self._N, self.n_d))
-            kern.ym(R, z, np.ascontiguousarray(a, dtype=float), Y, False)
+            kmass.ym(R, z, np.ascontiguousarray(a, dtype=float), Y, False)
             return Y
         kin = self.kinematics(q_b, q_m)
         return self._ym_core(kin.R, kin.S, np.asarray(a))
@@ -510,8 +342,8 @@ class SpatialBarycentricModel(BarycentricCommon):
         N, nd = self._N, self.n_d
         Y_Mdot, Y_h = np.empty((N, nd)), np.empty((N, nd))
         rows = np.empty((3, nd))  # Y_b rows: not used (and Y_M not computed)
-        kern.velocity_terms(R, z, w, w, s_vec, None, Y_Mdot, Y_h, rows)
-        kern.subtract_dT(R, z, w, Y_h)
+        kvel.velocity_terms(R, z, w, w, s_vec, None, Y_Mdot, Y_h, rows)
+        kvel.subtract_dT(R, z, w, Y_h)
         return Y_Mdot, Y_h
 
     def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
@@ -578,7 +410,7 @@ class SpatialBarycentricModel(BarycentricCommon):
         YMdot = np.empty((N, nd))
         Yh = np.empty((N, nd))
         M = np.empty((N, N))
-        kern.controller_terms(
+        kterms.controller_terms(
             self.kernel_constants(), np.ascontiguousarray(q_b, dtype=float),
             np.ascontiguousarray(q_m, dtype=float), np.ascontiguousarray(theta_z, dtype=float),
             np.ascontiguousarray(theta_d, dtype=float), np.ascontiguousarray(w, dtype=float),
@@ -595,7 +427,7 @@ class SpatialBarycentricModel(BarycentricCommon):
         if self._use_fast(q_b, q_m, w):
             R, z = self._rz(q_b, q_m)
             rows = np.empty((3, self.n_d))
-            kern.ym(R, z, np.ascontiguousarray(w, dtype=float), rows, True)
+            kmass.ym(R, z, np.ascontiguousarray(w, dtype=float), rows, True)
             Y[:, 3:] = rows
         else:
             Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]

@@ -215,7 +215,8 @@ def test_velocity_terms_without_some_regressors_keeps_the_others_bits(
     """``velocity_terms`` with Y_M or Y_Mdot None (what the paper's controller, gjm-ct and
     adaptive-ct do not use) writes the other outputs with the bits of the full call, and
     never reads the vector of a regressor it skips (NaN there would show)."""
-    from ffsm_pin.model import _spatial_kernels as kern
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_velocity_kernels import velocity_terms
 
     robot = spatial_chain(n, n % 3)
     s = SpatialState(robot).update(*spatial_state(robot, rng))
@@ -223,14 +224,14 @@ def test_velocity_terms_without_some_regressors_keeps_the_others_bits(
     consts = bm.kernel_constants()
     N, nd = n + 3, bm.n_d
     R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kern.kinematics(s.base_attitude, s.joint_angles, consts.joint_rot, consts.axes, R, z)
+    kinematics(s.base_attitude, s.joint_angles, consts.joint_rot, consts.axes, R, z)
     w, a, sv = s.w, rng.normal(size=N), rng.normal(size=N)
     full = [np.empty((N, nd)) for _ in range(3)] + [np.empty((3, nd))]
-    kern.velocity_terms(R, z, w, a, sv, *full)
+    velocity_terms(R, z, w, a, sv, *full)
     nan = np.full(N, np.nan)
     for skip_ym, skip_ymdot in [(True, False), (False, True), (True, True)]:
         out = [np.full((N, nd), np.nan) for _ in range(3)] + [np.full((3, nd), np.nan)]
-        kern.velocity_terms(
+        velocity_terms(
             R, z, w, nan if skip_ym else a, nan if skip_ymdot else sv,
             None if skip_ym else out[0], None if skip_ymdot else out[1], out[2], out[3],
         )  # fmt: skip
@@ -305,7 +306,8 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     arguments x + i h dx its imaginary part over h is the exact rate: the parameter
     direction plus dM/dt along the motion, i.e. M(theta') + sum_j (Y_Mdot(w, e_j) theta)
     columns (the same kernel serves the complex-step kinematic law of fast_spatial)."""
-    from ffsm_pin.model import _spatial_kernels as kern
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_mass_kernels import mass_matrix
 
     robot = spatial_chain(n, seed % 3)
     rng = np.random.default_rng(seed)
@@ -316,25 +318,25 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     dth = rng.normal(size=bm.n_d)
     full = bm.mass_matrix(th, qb, qm)
     R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kern.kinematics(qb, qm, bm._joint_rot_c, bm._axes_c, R, z)
+    kinematics(qb, qm, bm._joint_rot_c, bm._axes_c, R, z)
     cols = np.empty((n + 3, 3))
-    kern.mass_matrix(R, z, th, cols)
+    mass_matrix(R, z, th, cols)
     assert np.array_equal(cols, full[:, :3])
     block = np.empty((3, 3))  # M_bb alone: the same bits as the base rows of the larger forms
-    kern.mass_matrix(R, z, th, block)
+    mass_matrix(R, z, th, block)
     assert block.tobytes() == full[:3, :3].tobytes()
     h = 1e-30
     qb_rate = mrp.L_matrix(qb) @ w[:3]
     Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
-    kern.kinematics(qb + 1j * h * qb_rate, qm + 1j * h * w[3:], bm._joint_rot_c, bm._axes_c,
-                    Rc, zc)  # fmt: skip
+    kinematics(qb + 1j * h * qb_rate, qm + 1j * h * w[3:], bm._joint_rot_c, bm._axes_c,
+               Rc, zc)  # fmt: skip
     colsc = np.empty((n + 3, 3), complex)
-    kern.mass_matrix(Rc, zc, th + 1j * h * dth, colsc)
+    mass_matrix(Rc, zc, th + 1j * h * dth, colsc)
     rate = bm.mass_matrix(dth, qb, qm)[:, :3] + np.column_stack(
         [bm.Y_Mdot(qb, qm, w, e) @ th for e in np.eye(n + 3)[:3]]
     )
     blockc = np.empty((3, 3), complex)
-    kern.mass_matrix(Rc, zc, th + 1j * h * dth, blockc)
+    mass_matrix(Rc, zc, th + 1j * h * dth, blockc)
     assert blockc.tobytes() == colsc[:3].tobytes()
     assert rel(colsc.real, full[:, :3]) < 1e-14
     assert rel(colsc.imag / h, rate) < 1e-12

@@ -1,12 +1,12 @@
-"""Compiled (numba) kernels of the spatial barycentric model.
+"""Compiled (numba) kernels of the spatial model's velocity regressors: Y_Mdot(w, s) with
+Y_Mdot theta_d = dM/dt s, and Y_h(w) with Y_h theta_d = C(q, w) w (Eq. 8), i.e. its dM/dt w
+part less the dT/dq_m rows (docs/spatial.md section 4).
 
-The same expressions as the numpy reference in :mod:`ffsm_pin.model.spatial` (checked
-against it in tests/model), written as loops over bodies and pairs that exploit the structure
-of ``S_k = [E_3, z_1, ..., z_k, 0, ...]``: ``S_k^T x = (x, z_1 . x, ..., z_k . x, 0, ...)``.
-dM/dt s and the dM/dt w part of C w are taken by forward-mode (value, tangent) pairs with
-the closed-form tangents of R_k and z_j (exact for these bilinear expressions), fused with
-Y_M a and Y_b in :func:`velocity_terms`; dT/dq_m uses the structure of a joint's tangent (see
-:func:`subtract_dT`).
+The same expressions as the numpy reference of :mod:`ffsm_pin.model.spatial` (checked against
+it in tests/model). dM/dt s and the dM/dt w part of C w are taken by forward-mode (value,
+tangent) pairs with the closed-form tangents of R_k and z_j (exact for these bilinear
+expressions), fused with Y_M a and the base rows of Y_M w in :func:`velocity_terms`; dT/dq_m
+uses the structure of a joint's tangent (see :func:`subtract_dT`).
 
 Shapes: R (n+1, 3, 3) body rotations, z (n, 3) inertial joint axes, N = n + 3 velocity
 components, n_d = 6 (n+1) + 9 n (n+1) / 2 dynamic parameters.
@@ -17,326 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True, inline="always")
-def _mm(A, B, out):
-    """Set ``out = A @ B`` for 3x3 (no BLAS call)."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-
-
-@njit(cache=True, inline="always")
-def _mmt(A, B, out):
-    """Set ``out = A @ B^T`` for 3x3."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
-
-
-@njit(cache=True)
-def kinematics(s, q_m, joint_rot, axes, R, z):
-    """Body rotations R_k and inertial joint axes z_j from the base MRP s and joint angles
-    (real or complex: the scratch arrays take the dtype of R)."""
-    ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
-    S = np.zeros((3, 3), dtype=R.dtype)
-    S[0, 1], S[0, 2], S[1, 0], S[1, 2], S[2, 0], S[2, 1] = -s[2], s[1], s[2], -s[0], -s[1], s[0]
-    S2 = np.empty((3, 3), dtype=R.dtype)
-    _mm(S, S, S2)
-    d = (1.0 + ss) ** 2
-    for i in range(3):
-        for j in range(3):
-            R[0, i, j] = (1.0 if i == j else 0.0) + (
-                8.0 * S2[i, j] + 4.0 * (1.0 - ss) * S[i, j]
-            ) / d
-    U = np.zeros((3, 3), dtype=R.dtype)
-    U2 = np.empty((3, 3), dtype=R.dtype)
-    rot = np.empty((3, 3), dtype=R.dtype)
-    tmp = np.empty((3, 3), dtype=R.dtype)
-    for k in range(1, R.shape[0]):
-        u = axes[k - 1]
-        U[0, 1], U[0, 2], U[1, 0], U[1, 2], U[2, 0], U[2, 1] = -u[2], u[1], u[2], -u[0], -u[1], u[0]
-        c, sn = np.cos(q_m[k - 1]), np.sin(q_m[k - 1])
-        _mm(U, U, U2)
-        for i in range(3):
-            for j in range(3):
-                rot[i, j] = (1.0 if i == j else 0.0) + sn * U[i, j] + (1.0 - c) * U2[i, j]
-        _mm(R[k - 1], joint_rot[k - 1], tmp)
-        _mm(tmp, rot, R[k])
-        for i in range(3):
-            z[k - 1, i] = R[k, i, 0] * u[0] + R[k, i, 1] * u[1] + R[k, i, 2] * u[2]
-
-
-@njit(cache=True)
-def body_rates(z, a, out):
-    """out[k] = S_k a (body angular velocities for the rates a)."""
-    out[0, 0], out[0, 1], out[0, 2] = a[0], a[1], a[2]
-    for k in range(1, out.shape[0]):
-        for i in range(3):
-            out[k, i] = out[k - 1, i] + z[k - 1, i] * a[2 + k]
-
-
-@njit(cache=True, inline="always")
-def _add_st(Y, col, k, z, x0, x1, x2, base_only):
-    """Y[:, col] += S_k^T x."""
-    Y[0, col] += x0
-    Y[1, col] += x1
-    Y[2, col] += x2
-    if not base_only:
-        for j in range(k):
-            Y[3 + j, col] += z[j, 0] * x0 + z[j, 1] * x1 + z[j, 2] * x2
-
-
-@njit(cache=True)
-def ym(R, z, a, Y, base_only):
-    """Y with Y theta_d = M a (rows 1-3 only if base_only)."""
-    nb = R.shape[0]
-    Y[:] = 0.0
-    b = np.zeros((nb, 3), dtype=R.dtype)
-    body_rates(z, a, b)
-    for k in range(nb):
-        Rk = R[k]
-        be0 = Rk[0, 0] * b[k, 0] + Rk[1, 0] * b[k, 1] + Rk[2, 0] * b[k, 2]
-        be1 = Rk[0, 1] * b[k, 0] + Rk[1, 1] * b[k, 1] + Rk[2, 1] * b[k, 2]
-        be2 = Rk[0, 2] * b[k, 0] + Rk[1, 2] * b[k, 1] + Rk[2, 2] * b[k, 2]
-        c0 = 6 * k
-        # Phi(beta) columns (xx, xy, xz, yy, yz, zz), mapped by R_k
-        _add_st(Y, c0, k, z, Rk[0, 0] * be0, Rk[1, 0] * be0, Rk[2, 0] * be0, base_only)
-        _add_st(
-            Y, c0 + 1, k, z,
-            Rk[0, 0] * be1 + Rk[0, 1] * be0,
-            Rk[1, 0] * be1 + Rk[1, 1] * be0,
-            Rk[2, 0] * be1 + Rk[2, 1] * be0,
-            base_only,
-        )  # fmt: skip
-        _add_st(
-            Y, c0 + 2, k, z,
-            Rk[0, 0] * be2 + Rk[0, 2] * be0,
-            Rk[1, 0] * be2 + Rk[1, 2] * be0,
-            Rk[2, 0] * be2 + Rk[2, 2] * be0,
-            base_only,
-        )  # fmt: skip
-        _add_st(Y, c0 + 3, k, z, Rk[0, 1] * be1, Rk[1, 1] * be1, Rk[2, 1] * be1, base_only)
-        _add_st(
-            Y, c0 + 4, k, z,
-            Rk[0, 1] * be2 + Rk[0, 2] * be1,
-            Rk[1, 1] * be2 + Rk[1, 2] * be1,
-            Rk[2, 1] * be2 + Rk[2, 2] * be1,
-            base_only,
-        )  # fmt: skip
-        _add_st(Y, c0 + 5, k, z, Rk[0, 2] * be2, Rk[1, 2] * be2, Rk[2, 2] * be2, base_only)
-    col = 6 * nb
-    Q = np.empty((3, 3), dtype=R.dtype)
-    u = np.empty(3, dtype=R.dtype)
-    g = np.empty(3, dtype=R.dtype)
-    for k in range(nb):
-        Rk = R[k]
-        for l in range(k + 1, nb):
-            Rl = R[l]
-            for i in range(3):
-                u[i] = Rk[0, i] * b[l, 0] + Rk[1, i] * b[l, 1] + Rk[2, i] * b[l, 2]
-                g[i] = Rl[0, i] * b[k, 0] + Rl[1, i] * b[k, 1] + Rl[2, i] * b[k, 2]
-                for j in range(3):
-                    Q[i, j] = Rk[0, i] * Rl[0, j] + Rk[1, i] * Rl[1, j] + Rk[2, i] * Rl[2, j]
-            for i in range(3):
-                for j in range(3):
-                    q = Q[i, j]
-                    _add_st(
-                        Y, col, k, z,
-                        q * b[l, 0] - u[i] * Rl[0, j],
-                        q * b[l, 1] - u[i] * Rl[1, j],
-                        q * b[l, 2] - u[i] * Rl[2, j],
-                        base_only,
-                    )  # fmt: skip
-                    _add_st(
-                        Y, col, l, z,
-                        q * b[k, 0] - g[j] * Rk[0, i],
-                        q * b[k, 1] - g[j] * Rk[1, i],
-                        q * b[k, 2] - g[j] * Rk[2, i],
-                        base_only,
-                    )  # fmt: skip
-                    col += 1
-
-
-@njit(cache=True)
-def mass_matrix(R, z, theta, M):
-    """M(q, theta_d) (Eq. 9a), or its first columns when M has fewer columns than rows:
-    with M (N, 3), the base columns, i.e. the transposed momentum rows (H_bb H_bm) of
-    Eq. (13); with M (3, 3), the base block M_bb alone (the same values as those rows of the
-    larger forms: the joint rows are skipped, not reordered). Real or complex (dtype of M: the
-    complex-step evaluation of the kinematic law in :mod:`ffsm_pin.control.fast_spatial` passes
-    complex arguments)."""
-    nb = R.shape[0]
-    M[:] = 0.0
-    N, ncols = z.shape[0] + 3, M.shape[1]
-    base_only = M.shape[0] == 3
-    J = np.empty((3, 3), dtype=M.dtype)
-    sc = np.zeros((N, 3), dtype=M.dtype)  # columns of S: e_0, e_1, e_2, z_1, ..., z_n
-    for i in range(3):
-        sc[i, i] = 1.0
-    for j in range(nb - 1):
-        for i in range(3):  # sc[3 + j] = z[j]; a slice assignment from an array would compile
-            sc[3 + j, i] = z[j, i]  # numba's shape-mismatch message, a second of a first run
-    x = np.empty(3, dtype=M.dtype)
-    T1 = np.empty((3, 3), dtype=M.dtype)
-    B = np.empty((3, 3), dtype=M.dtype)
-    for k in range(nb):
-        t = theta[6 * k : 6 * k + 6]
-        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
-        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
-        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
-        _mm(R[k], J, T1)
-        _mmt(T1, R[k], B)
-        for c in range(min(3 + k, ncols)):
-            for i in range(3):
-                x[i] = B[i, 0] * sc[c, 0] + B[i, 1] * sc[c, 1] + B[i, 2] * sc[c, 2]
-            _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
-    p = 6 * nb
-    D = np.empty((3, 3), dtype=M.dtype)
-    X = np.empty((3, 3), dtype=M.dtype)
-    Km = np.empty((3, 3), dtype=M.dtype)
-    for k in range(nb):
-        for l in range(k + 1, nb):
-            for i in range(3):
-                for j in range(3):
-                    D[i, j] = theta[p + 3 * i + j]
-            p += 9
-            _mm(R[k], D, T1)
-            _mmt(T1, R[l], X)
-            tr = X[0, 0] + X[1, 1] + X[2, 2]
-            for i in range(3):
-                for j in range(3):
-                    Km[i, j] = -X[j, i]
-                Km[i, i] += tr
-            for c in range(min(3 + l, ncols)):  # S_k^T K S_l
-                for i in range(3):
-                    x[i] = Km[i, 0] * sc[c, 0] + Km[i, 1] * sc[c, 1] + Km[i, 2] * sc[c, 2]
-                _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
-            for c in range(min(3 + k, ncols)):  # S_l^T K^T S_k
-                for i in range(3):
-                    x[i] = Km[0, i] * sc[c, 0] + Km[1, i] * sc[c, 1] + Km[2, i] * sc[c, 2]
-                _add_st(M, c, l, z, x[0], x[1], x[2], base_only)
-
-
-@njit(cache=True)
-def position_jacobian(R, z, V, J):
-    """J (3, N) = -sum_k [R_k V_k]x S_k (d(p_e - p_com)/dt = J w); real or complex (dtype of J)."""
-    nb = R.shape[0]
-    J[:] = 0.0
-    r = np.zeros(3, dtype=J.dtype)
-    tot = np.zeros(3, dtype=J.dtype)
-    # column c of S_k is shared by all k >= (c - 2): accumulate r from the tip down
-    for k in range(nb - 1, -1, -1):
-        for i in range(3):
-            r[i] = R[k, i, 0] * V[k, 0] + R[k, i, 1] * V[k, 1] + R[k, i, 2] * V[k, 2]
-        tot += r
-        if k >= 1:  # joint column of z_k multiplies sum_{l >= k} R_l V_l
-            zk = z[k - 1]
-            J[0, 2 + k] = zk[1] * tot[2] - zk[2] * tot[1]
-            J[1, 2 + k] = zk[2] * tot[0] - zk[0] * tot[2]
-            J[2, 2 + k] = zk[0] * tot[1] - zk[1] * tot[0]
-    # base columns: e_c x tot
-    J[0, 1], J[0, 2] = tot[2], -tot[1]
-    J[1, 0], J[1, 2] = -tot[2], tot[0]
-    J[2, 0], J[2, 1] = tot[1], -tot[0]
-
-
-@njit(cache=True)
-def y_z(R, z, w, Y):
-    """Position rows of Y_z: (E_3, [w_k]x R_k for each V_k); Y (3, n_z)."""
-    nb = R.shape[0]
-    om = np.zeros((nb, 3))
-    body_rates(z, w, om)
-    Y[:] = 0.0
-    Y[0, 0] = Y[1, 1] = Y[2, 2] = 1.0
-    for k in range(nb):
-        o0, o1, o2 = om[k, 0], om[k, 1], om[k, 2]
-        for j in range(3):
-            r0, r1, r2 = R[k, 0, j], R[k, 1, j], R[k, 2, j]
-            c = 3 + 3 * k + j
-            Y[0, c] = o1 * r2 - o2 * r1
-            Y[1, c] = o2 * r0 - o0 * r2
-            Y[2, c] = o0 * r1 - o1 * r0
-
-
-@njit(cache=True)
-def attitude_rows(R_m, ee_rot, z, m, out):
-    """Rows 4-6 of Eq. (3): out (3, N) = 1/4 B(q_e) R_e^T S_m with R_e = R_m ee_rot and q_e
-    its MRP on the |s| <= 1 branch (quaternion by Shepperd's method, w >= 0; branches chosen on
-    the real parts, so complex-step arguments pass through). Returns q_e."""
-    Re = np.empty((3, 3), dtype=out.dtype)
-    _mm(R_m, ee_rot, Re)
-    tr = Re[0, 0] + Re[1, 1] + Re[2, 2]
-    if tr.real > 0.0:
-        t = np.sqrt(tr + 1.0) * 2.0
-        qw, qx = 0.25 * t, (Re[2, 1] - Re[1, 2]) / t
-        qy, qz = (Re[0, 2] - Re[2, 0]) / t, (Re[1, 0] - Re[0, 1]) / t
-    elif Re[0, 0].real > Re[1, 1].real and Re[0, 0].real > Re[2, 2].real:
-        t = np.sqrt(1.0 + Re[0, 0] - Re[1, 1] - Re[2, 2]) * 2.0
-        qw, qx = (Re[2, 1] - Re[1, 2]) / t, 0.25 * t
-        qy, qz = (Re[0, 1] + Re[1, 0]) / t, (Re[0, 2] + Re[2, 0]) / t
-    elif Re[1, 1].real > Re[2, 2].real:
-        t = np.sqrt(1.0 + Re[1, 1] - Re[0, 0] - Re[2, 2]) * 2.0
-        qw, qx = (Re[0, 2] - Re[2, 0]) / t, (Re[0, 1] + Re[1, 0]) / t
-        qy, qz = 0.25 * t, (Re[1, 2] + Re[2, 1]) / t
-    else:
-        t = np.sqrt(1.0 + Re[2, 2] - Re[0, 0] - Re[1, 1]) * 2.0
-        qw, qx = (Re[1, 0] - Re[0, 1]) / t, (Re[0, 2] + Re[2, 0]) / t
-        qy, qz = (Re[1, 2] + Re[2, 1]) / t, 0.25 * t
-    if qw.real < 0.0:
-        qw, qx, qy, qz = -qw, -qx, -qy, -qz
-    s = np.empty(3, dtype=out.dtype)
-    s[0], s[1], s[2] = qx / (1.0 + qw), qy / (1.0 + qw), qz / (1.0 + qw)
-    ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
-    B = np.empty((3, 3), dtype=out.dtype)
-    for i in range(3):
-        for j in range(3):
-            B[i, j] = 2.0 * s[i] * s[j]
-        B[i, i] += 1.0 - ss
-    B[0, 1] -= 2.0 * s[2]
-    B[0, 2] += 2.0 * s[1]
-    B[1, 0] += 2.0 * s[2]
-    B[1, 2] -= 2.0 * s[0]
-    B[2, 0] -= 2.0 * s[1]
-    B[2, 1] += 2.0 * s[0]
-    L = np.empty((3, 3), dtype=out.dtype)
-    _mmt(B, Re, L)
-    out[:] = 0.0
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = 0.25 * L[i, j]
-        for j in range(m):
-            out[i, 3 + j] = 0.25 * (L[i, 0] * z[j, 0] + L[i, 1] * z[j, 1] + L[i, 2] * z[j, 2])
-    return s
-
-
-@njit(cache=True)
-def controller_terms(geo, s_b, q_m, theta_z, theta_d, w, a, sv, out):
-    """Everything of one controller period in one call (one dispatch, every output written in
-    full into ``out``, a :class:`~ffsm_pin.model.spatial.TermsBuffers`): kinematics, J (6, N)
-    with position rows for the barycentric vectors V_k of theta_z and MRP attitude rows,
-    Y_z (6, n_z), Y_b (3, n_b), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d); ``geo`` the
-    robot's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`."""
-    joint_rot, axes, ee_rot, m = geo
-    J, Yz, Yb, YM, YMdot, Yh, M = out
-    nb, n = joint_rot.shape[0] + 1, joint_rot.shape[0]
-    R = np.empty((nb, 3, 3))
-    z = np.empty((n, 3))
-    V = np.empty((nb, 3))
-    for k in range(nb):
-        for i in range(3):
-            V[k, i] = theta_z[3 + 3 * k + i]
-    kinematics(s_b, q_m, joint_rot, axes, R, z)
-    position_jacobian(R, z, V, J[:3])
-    attitude_rows(R[m], ee_rot, z, m, J[3:])
-    y_z(R, z, w, Yz[:3])
-    Yz[3:] = 0.0
-    for i in range(3):
-        for j in range(3):
-            Yb[i, j] = -1.0 if i == j else 0.0
-    velocity_terms(R, z, w, a, sv, YM, YMdot, Yh, Yb[:, 3:])
-    subtract_dT(R, z, w, Yh)
-    mass_matrix(R, z, theta_d, M)
+from ._spatial_kinematics_kernels import body_rates
 
 
 @njit(cache=True)
@@ -349,6 +30,18 @@ def subtract_dT(R, z, w, Y_h):
     d(R_k^T w_l) = R_k^T c); terms between a fixed body k and a turning body l change with
     dQ = R_k^T [z_j]x R_l, dw_l, and d(R_l^T w_k) = ([z_j]x R_l)^T w_k. Q, u, g and the dot
     products do not depend on j and are computed once.
+
+    Parameters
+    ----------
+    R : ndarray (n+1, 3, 3)
+        Body rotations R_k (real).
+    z : ndarray (n, 3)
+        Inertial joint axes z_j.
+    w : ndarray (N,)
+        Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame.
+    Y_h : ndarray (N, n_d)
+        The dM/dt w part of Y_h(w) (from :func:`velocity_terms`); its joint rows 3.. are
+        reduced in place, to Y_h(w) with Y_h theta_d = C(q, w) w.
     """
     nb, n = R.shape[0], z.shape[0]
     P = nb * (nb - 1) // 2
@@ -529,6 +222,28 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     ``YM`` or ``YMdot`` None: that regressor is not computed (numba compiles none of its code;
     ``a`` resp. ``s`` is then not read). The others are the same values either way: each entry
     is its own expression.
+
+    Parameters
+    ----------
+    R : ndarray (n+1, 3, 3)
+        Body rotations R_k (real).
+    z : ndarray (n, 3)
+        Inertial joint axes z_j.
+    w : ndarray (N,)
+        Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame: the motion along which
+        M changes.
+    a : ndarray (N,)
+        The vector of Y_M(a) [rad/s^2].
+    s : ndarray (N,)
+        The vector of Y_Mdot(w, s) [rad/s].
+    YM : ndarray (N, n_d) or None
+        Y_M(a), with Y_M theta_d = M a; overwritten.
+    YMdot : ndarray (N, n_d) or None
+        Y_Mdot(w, s), with Y_Mdot theta_d = dM/dt s; overwritten.
+    Yh : ndarray (N, n_d)
+        The dM/dt w part of Y_h(w), overwritten (:func:`subtract_dT` completes it).
+    Yb : ndarray (3, n_d)
+        The base rows of Y_M(w) (Eq. 14 without its A_0 columns), overwritten.
     """
     nb, n = R.shape[0], z.shape[0]
     N = n + 3

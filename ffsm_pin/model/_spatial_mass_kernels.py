@@ -1,0 +1,187 @@
+"""Compiled (numba) kernels of the spatial model's mass matrix: M(q, theta_d) (Eq. 9a) and
+its regressor Y_M(q, a) with Y_M theta_d = M a (whose first three rows are the momentum
+regressor of Eq. 14).
+
+The same expressions as the numpy reference of :mod:`ffsm_pin.model.spatial` (checked against
+it in tests/model), written as loops over bodies and pairs that exploit the structure of
+``S_k = [E_3, z_1, ..., z_k, 0, ...]``: ``S_k^T x = (x, z_1 . x, ..., z_k . x, 0, ...)``.
+
+Shapes: R (n+1, 3, 3) body rotations, z (n, 3) inertial joint axes, N = n + 3 velocity
+components, n_d = 6 (n+1) + 9 n (n+1) / 2 dynamic parameters.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ._spatial_kinematics_kernels import body_rates, mm, mmt
+
+
+@njit(cache=True, inline="always")
+def _add_st(Y, col, k, z, x0, x1, x2, base_only):
+    """Y[:, col] += S_k^T x."""
+    Y[0, col] += x0
+    Y[1, col] += x1
+    Y[2, col] += x2
+    if not base_only:
+        for j in range(k):
+            Y[3 + j, col] += z[j, 0] * x0 + z[j, 1] * x1 + z[j, 2] * x2
+
+
+@njit(cache=True)
+def ym(R, z, a, Y, base_only):
+    """Y with Y theta_d = M a (rows 1-3 only if base_only).
+
+    Parameters
+    ----------
+    R : ndarray (n+1, 3, 3)
+        Body rotations R_k (real or complex).
+    z : ndarray (n, 3)
+        Inertial joint axes z_j.
+    a : ndarray (N,)
+        The vector M multiplies (an acceleration [rad/s^2], or w [rad/s] for the momentum
+        rows).
+    Y : ndarray (N, n_d), or (3, n_d) with ``base_only``
+        The regressor Y_M(a), overwritten.
+    base_only : bool
+        Only the base rows 1-3 (Eq. 14's regressor of H_bb w_b + H_bm w_m).
+    """
+    nb = R.shape[0]
+    Y[:] = 0.0
+    b = np.zeros((nb, 3), dtype=R.dtype)
+    body_rates(z, a, b)
+    for k in range(nb):
+        Rk = R[k]
+        be0 = Rk[0, 0] * b[k, 0] + Rk[1, 0] * b[k, 1] + Rk[2, 0] * b[k, 2]
+        be1 = Rk[0, 1] * b[k, 0] + Rk[1, 1] * b[k, 1] + Rk[2, 1] * b[k, 2]
+        be2 = Rk[0, 2] * b[k, 0] + Rk[1, 2] * b[k, 1] + Rk[2, 2] * b[k, 2]
+        c0 = 6 * k
+        # Phi(beta) columns (xx, xy, xz, yy, yz, zz), mapped by R_k
+        _add_st(Y, c0, k, z, Rk[0, 0] * be0, Rk[1, 0] * be0, Rk[2, 0] * be0, base_only)
+        _add_st(
+            Y, c0 + 1, k, z,
+            Rk[0, 0] * be1 + Rk[0, 1] * be0,
+            Rk[1, 0] * be1 + Rk[1, 1] * be0,
+            Rk[2, 0] * be1 + Rk[2, 1] * be0,
+            base_only,
+        )  # fmt: skip
+        _add_st(
+            Y, c0 + 2, k, z,
+            Rk[0, 0] * be2 + Rk[0, 2] * be0,
+            Rk[1, 0] * be2 + Rk[1, 2] * be0,
+            Rk[2, 0] * be2 + Rk[2, 2] * be0,
+            base_only,
+        )  # fmt: skip
+        _add_st(Y, c0 + 3, k, z, Rk[0, 1] * be1, Rk[1, 1] * be1, Rk[2, 1] * be1, base_only)
+        _add_st(
+            Y, c0 + 4, k, z,
+            Rk[0, 1] * be2 + Rk[0, 2] * be1,
+            Rk[1, 1] * be2 + Rk[1, 2] * be1,
+            Rk[2, 1] * be2 + Rk[2, 2] * be1,
+            base_only,
+        )  # fmt: skip
+        _add_st(Y, c0 + 5, k, z, Rk[0, 2] * be2, Rk[1, 2] * be2, Rk[2, 2] * be2, base_only)
+    col = 6 * nb
+    Q = np.empty((3, 3), dtype=R.dtype)
+    u = np.empty(3, dtype=R.dtype)
+    g = np.empty(3, dtype=R.dtype)
+    for k in range(nb):
+        Rk = R[k]
+        for l in range(k + 1, nb):
+            Rl = R[l]
+            for i in range(3):
+                u[i] = Rk[0, i] * b[l, 0] + Rk[1, i] * b[l, 1] + Rk[2, i] * b[l, 2]
+                g[i] = Rl[0, i] * b[k, 0] + Rl[1, i] * b[k, 1] + Rl[2, i] * b[k, 2]
+                for j in range(3):
+                    Q[i, j] = Rk[0, i] * Rl[0, j] + Rk[1, i] * Rl[1, j] + Rk[2, i] * Rl[2, j]
+            for i in range(3):
+                for j in range(3):
+                    q = Q[i, j]
+                    _add_st(
+                        Y, col, k, z,
+                        q * b[l, 0] - u[i] * Rl[0, j],
+                        q * b[l, 1] - u[i] * Rl[1, j],
+                        q * b[l, 2] - u[i] * Rl[2, j],
+                        base_only,
+                    )  # fmt: skip
+                    _add_st(
+                        Y, col, l, z,
+                        q * b[k, 0] - g[j] * Rk[0, i],
+                        q * b[k, 1] - g[j] * Rk[1, i],
+                        q * b[k, 2] - g[j] * Rk[2, i],
+                        base_only,
+                    )  # fmt: skip
+                    col += 1
+
+
+@njit(cache=True)
+def mass_matrix(R, z, theta, M):
+    """M(q, theta_d) (Eq. 9a), or its first columns when M has fewer columns than rows:
+    with M (N, 3), the base columns, i.e. the transposed momentum rows (H_bb H_bm) of
+    Eq. (13); with M (3, 3), the base block M_bb alone (the same values as those rows of the
+    larger forms: the joint rows are skipped, not reordered). Real or complex (dtype of M: the
+    complex-step evaluation of the kinematic law in :mod:`ffsm_pin.control.fast_spatial` passes
+    complex arguments).
+
+    Parameters
+    ----------
+    R : ndarray (n+1, 3, 3)
+        Body rotations R_k.
+    z : ndarray (n, 3)
+        Inertial joint axes z_j.
+    theta : ndarray (n_d,)
+        Dynamic parameters theta_d of Eq. (12) [kg m^2].
+    M : ndarray (N, N), (N, 3) or (3, 3)
+        The mass matrix [kg m^2], its base columns or its base block, overwritten.
+    """
+    nb = R.shape[0]
+    M[:] = 0.0
+    N, ncols = z.shape[0] + 3, M.shape[1]
+    base_only = M.shape[0] == 3
+    J = np.empty((3, 3), dtype=M.dtype)
+    sc = np.zeros((N, 3), dtype=M.dtype)  # columns of S: e_0, e_1, e_2, z_1, ..., z_n
+    for i in range(3):
+        sc[i, i] = 1.0
+    for j in range(nb - 1):
+        for i in range(3):  # sc[3 + j] = z[j]; a slice assignment from an array would compile
+            sc[3 + j, i] = z[j, i]  # numba's shape-mismatch message, a second of a first run
+    x = np.empty(3, dtype=M.dtype)
+    T1 = np.empty((3, 3), dtype=M.dtype)
+    B = np.empty((3, 3), dtype=M.dtype)
+    for k in range(nb):
+        t = theta[6 * k : 6 * k + 6]
+        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
+        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
+        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
+        mm(R[k], J, T1)
+        mmt(T1, R[k], B)
+        for c in range(min(3 + k, ncols)):
+            for i in range(3):
+                x[i] = B[i, 0] * sc[c, 0] + B[i, 1] * sc[c, 1] + B[i, 2] * sc[c, 2]
+            _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
+    p = 6 * nb
+    D = np.empty((3, 3), dtype=M.dtype)
+    X = np.empty((3, 3), dtype=M.dtype)
+    Km = np.empty((3, 3), dtype=M.dtype)
+    for k in range(nb):
+        for l in range(k + 1, nb):
+            for i in range(3):
+                for j in range(3):
+                    D[i, j] = theta[p + 3 * i + j]
+            p += 9
+            mm(R[k], D, T1)
+            mmt(T1, R[l], X)
+            tr = X[0, 0] + X[1, 1] + X[2, 2]
+            for i in range(3):
+                for j in range(3):
+                    Km[i, j] = -X[j, i]
+                Km[i, i] += tr
+            for c in range(min(3 + l, ncols)):  # S_k^T K S_l
+                for i in range(3):
+                    x[i] = Km[i, 0] * sc[c, 0] + Km[i, 1] * sc[c, 1] + Km[i, 2] * sc[c, 2]
+                _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
+            for c in range(min(3 + k, ncols)):  # S_l^T K^T S_k
+                for i in range(3):
+                    x[i] = Km[0, i] * sc[c, 0] + Km[1, i] * sc[c, 1] + Km[2, i] * sc[c, 2]
+                _add_st(M, c, l, z, x[0], x[1], x[2], base_only)
