@@ -104,3 +104,20 @@ def test_code_paths_and_test_nodes_exist(page):
         if name and current and not re.search(rf"def {name}\b", (ROOT / current).read_text()):
             bad.append(f"{current}::{name}")
     assert not bad, bad
+
+
+@pytest.mark.parametrize("page", [*PAGES, ROOT / "README.md"], ids=lambda p: p.name)
+def test_tables_are_not_cut_by_a_blank_line(page):
+    """A table row after a blank line that follows a table (and is not the header of a new
+    table) is a table cut in two: markdown renders its second part as a paragraph of pipes."""
+    lines = page.read_text().split("\n")
+    header_rule = re.compile(r"^\|[\s:|-]*\|\s*$")
+    cut = [
+        i + 1
+        for i in range(2, len(lines) - 1)
+        if lines[i].startswith("|")
+        and not lines[i - 1].strip()
+        and lines[i - 2].startswith("|")
+        and not header_rule.match(lines[i + 1])
+    ]
+    assert cut == [], f"{page.name}: table rows after a blank line at lines {cut}"
