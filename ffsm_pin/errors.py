@@ -62,12 +62,12 @@ class SimulationError(FfsmError, RuntimeError):
 
     Attributes
     ----------
-    time:
+    time : float
         Simulated time [s] at which the run stopped.
-    cause:
+    cause : str
         Short machine-readable cause (``"funnel"``, ``"singular"``, ``"nonfinite"``,
         ``"estimate"``).
-    funnel:
+    funnel : str or None
         For ``cause == "funnel"``: which funnel was left, ``"b"`` (attitude, Eq. 16) or ``"z"``
         (end effector, Eq. 17); otherwise None.
     """

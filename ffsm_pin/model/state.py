@@ -38,12 +38,13 @@ class State:
 
     Parameters
     ----------
-    robot:
+    robot : Robot
         A loaded :class:`~ffsm_pin.robot.Robot` (planar or free-flyer root).
 
     Attributes
     ----------
-    Sizes: n joints; m2, m3 = 2, 1 (planar) or 3, 3 (free-flyer); nw = m3 + n (the size of
+    Sizes
+        n joints; m2, m3 = 2, 1 (planar) or 3, 3 (free-flyer); nw = m3 + n (the size of
     w); nv = Pinocchio's velocity size (planar 3 + n, free-flyer 6 + n). The inertial frame
     is the world frame of the URDF; "about the CoM" is the whole system's centre of mass.
     Every array is read-only and is set by :meth:`update` (:meth:`update_dynamics`: ``M``,

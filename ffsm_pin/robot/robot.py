@@ -21,19 +21,19 @@ class Robot:
 
     Attributes
     ----------
-    model:
+    model : pin.Model
         Pinocchio model, gravity zero, the root joint first (``root.joint_model``).
-    root:
+    root : RootJoint
         The root-joint row (:data:`ffsm_pin.robot.roots.ROOTS`): planar or free-flyer.
-    geometry:
+    geometry : PlanarGeometry or SpatialGeometry
         :class:`PlanarGeometry` or :class:`SpatialGeometry` of the serial chain.
-    urdf_xml:
+    urdf_xml : str
         The (possibly repaired or extended) URDF text given to Pinocchio.
-    no_effort_limit:
+    no_effort_limit : tuple of str
         Manipulator joints whose URDF gives no effort limit (no ``<limit>``, or one without
         ``effort``): the model's effort limit of these joints is a placeholder the URDF repair
         wrote for Pinocchio's parser, never a torque limit (:attr:`effort_limits`).
-    payload:
+    payload : Payload or None
         A :class:`~ffsm_pin.robot.payload.Payload` held by the end effector, or None. The
         model and the geometry include it (the plant's robot); :attr:`unloaded` is the robot
         without it.

@@ -307,12 +307,12 @@ class Performance:
 
     Attributes
     ----------
-    funnel_b, funnel_z:
+    funnel_b, funnel_z : FunnelParams
         The base attitude and end-effector task funnels (Eqs. 16, 17): ``funnel_ok_b``,
         ``funnel_ok_z``, ``rho_b``, ``rho_z``, the bounds and the settle times judge the true
         errors by them. Defaults: the paper's planar pose funnels. A controller that uses
         funnels itself (``needs_funnels``, the lu-jia controller's transformation) uses these.
-    singularity_threshold:
+    singularity_threshold : float
         The singularity measure's threshold [m]: sigma_min of the inverted task Jacobian below
         it is near singular (``damping_threshold`` in summary.json, ``--check``); the
         built-in controllers damp their pseudo-inverse below it.

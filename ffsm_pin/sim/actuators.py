@@ -42,12 +42,12 @@ def urdf_limits(effort: np.ndarray | None, n: int, joints: tuple[str, ...] = ())
 
     Parameters
     ----------
-    effort:
+    effort : ndarray or None
         Each joint's effort limit, NaN where the URDF gives none
         (:attr:`~ffsm_pin.robot.Robot.effort_limits`); None: none known.
-    n:
+    n : int
         Number of joints.
-    joints:
+    joints : tuple of str
         Joint names, for the message.
 
     Raises
@@ -77,16 +77,16 @@ class Actuators:
 
     Parameters
     ----------
-    spec:
+    spec : ActuatorSpec
         The ``[actuators]`` table.
-    n:
+    n : int
         Number of joints.
-    dt:
+    dt : float
         Control period [s].
-    effort:
+    effort : ndarray or None
         Each joint's URDF effort limit [N m], NaN where the URDF gives none (needed for
         ``torque_limit = "urdf"``, :func:`urdf_limits`).
-    joints:
+    joints : tuple of str
         Joint names, for messages.
     """
 

@@ -63,17 +63,17 @@ def write_figures(
 
     Parameters
     ----------
-    results:
+    results : RunResult or sequence of RunResult
         One run or several (overlaid).
-    out_dir:
+    out_dir : str or Path
         Folder the PNG files are written to.
-    labels:
+    labels : sequence of str or None
         Legend entry per run (default: the scenario names).
-    thresholds:
+    thresholds : float or sequence of float or None
         Damping threshold on sigma_min [m] per run (default: each run's
         ``damping_threshold``, else 0.05, the default
         :class:`~ffsm_pin.control.gains.SingularityPolicy`).
-    dpi:
+    dpi : int
         Resolution of the PNG files.
     """
     # a RunResult is no iterable (it has no __iter__): several runs are any iterable of them

@@ -46,7 +46,7 @@ class RunFolder:
 
     Parameters
     ----------
-    folder:
+    folder : str or Path
         The output folder (created if needed).
     """
 

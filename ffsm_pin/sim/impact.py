@@ -61,16 +61,16 @@ class CaptureModel:
 
     Attributes
     ----------
-    robot, target:
+    robot, target
         The robot (free-flyer root) and the target.
-    model:
+    model : pin.Model
         The combined model (gravity zero).
-    target_joint:
+    target_joint : int
         The target's joint id in ``model``.
-    hand_frame, grasp_frame:
+    hand_frame, grasp_frame : int
         Frame ids in ``model`` of the hand's grasp frame (the end-effector frame moved by
         ``hand_grasp``) and of the target's grasp frame.
-    hand_grasp:
+    hand_grasp : pin.SE3
         The hand's grasp frame in the end-effector frame (``pin.SE3``).
     """
 

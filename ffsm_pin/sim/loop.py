@@ -215,21 +215,21 @@ def simulate(
 ) -> RunResult:
     """Run the closed loop for the scenario's duration; see the module docstring.
 
-    Parameters
-    ----------
-    setup:
-        The prepared run (:func:`prepare`).
-    progress:
-        Called with the simulated time [s] every 0.1 s of it, or None.
-    record_every:
-        Record every this many steps (and the last step).
-    spool_dir:
-        Where a recording longer than the recorder's memory chunk is spilled
-        (``ffsm_pin.sim.recorder``); the system's temporary folder when None.
-
     A Ctrl-C (``KeyboardInterrupt``) ends the run like a stop: the result holds every row
     recorded so far, ``stop_cause = "interrupted"``. A controller that raises, or returns a
     torque of the wrong shape or not finite, stops the run with ``stop_cause = "controller"``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The prepared run (:func:`prepare`).
+    progress : callable or None
+        Called with the simulated time [s] every 0.1 s of it, or None.
+    record_every : int
+        Record every this many steps (and the last step).
+    spool_dir : str or Path or None
+        Where a recording longer than the recorder's memory chunk is spilled
+        (``ffsm_pin.sim.recorder``); the system's temporary folder when None.
     """
     sc = setup.scenario
     dt, duration = sc.dt, sc.duration

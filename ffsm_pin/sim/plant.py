@@ -124,12 +124,12 @@ class Plant:
 
     Parameters
     ----------
-    robot:
+    robot
         The loaded robot (anything with a ``model`` attribute), or a ``pin.Model`` with a
         planar or free-flyer root joint and zero gravity.
-    integrator:
+    integrator : str
         ``"semi-implicit"`` (default) or ``"rk4"`` (:data:`INTEGRATORS`).
-    project_momentum:
+    project_momentum : bool
         Apply the momentum projection after each step (default). Switch it off only to
         measure the drift of the bare integrator.
     """

@@ -188,20 +188,20 @@ class Recorder:
 
     Parameters
     ----------
-    shapes:
+    shapes : dict of str to tuple of int
         Row shape of every per-step signal.
-    capacity:
+    capacity : int
         Upper bound of the rows the run records (``ffsm_pin.sim.storage.rows_recorded``).
-    spool_dir:
+    spool_dir : str or Path or None
         Folder in which the spool folder of a recording longer than one chunk is made (the
         system's temporary folder when None). Removed when the signals are no longer used.
-    chunk_bytes:
+    chunk_bytes : int or None
         Memory for the rows held at once [bytes]; :data:`CHUNK_BYTES` when None.
-    packed:
+    packed : sequence of str
         Keys of ``shapes`` held side by side, in this order, in :attr:`block` (``chunk_rows x
         width``): row :attr:`i` of it is their row, written in one copy (a controller's
         :class:`~ffsm_pin.control.interface.SignalRow`); their :attr:`arrays` are views of it.
-    header:
+    header : callable or None
         Called when the spool folder is made: what the spool says of its run (JSON-able), written
         into :data:`SPOOL_HEADER` with the row shapes before any row, so that the rows of a run
         killed before its end can be read back (:mod:`ffsm_pin.sim.recover`).

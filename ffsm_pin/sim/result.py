@@ -337,12 +337,12 @@ class RunResult:
 
         Parameters
         ----------
-        out_dir:
+        out_dir : str or Path
             Output folder (created if needed).
-        figures:
+        figures : bool
             Also draw the figures (``fig_*.png``, as ``python -m ffsm_pin.sim`` does, from at
             most 100,000 evenly spaced rows).
-        compress:
+        compress : bool
             Deflate ``trajectory.npz`` (``numpy.savez_compressed``). Off by default: recorded
             trajectories are floats that deflate by about a tenth, and deflating them costs
             about 20 times the writing (3.4 s of a 40 s spatial run's 9 s; docs/cli.md).

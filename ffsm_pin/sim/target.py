@@ -77,20 +77,20 @@ class Target:
 
     Attributes
     ----------
-    mass:
+    mass : float
         [kg], > 0.
-    inertia:
+    inertia : ndarray
         3x3 inertia about the CoM, along the target frame's axes [kg m^2]: symmetric positive
         definite and satisfying the triangle inequality of its principal moments (the six
         numbers ixx iyy izz ixy ixz iyz are accepted too).
-    grasp:
+    grasp : pin.SE3
         The grasp frame in the target frame (``pin.SE3``): the frame the hand welds to.
-    com:
+    com : ndarray
         The CoM in the target frame [m] (a box: its centre, the default).
-    size:
+    size : tuple of 3 float or None
         Full edge lengths of a box centred on the target frame's origin [m], or None (e.g. a
         URDF body). With a size, a grasp frame outside the box (its faces included) is refused.
-    name:
+    name : str
         The name of the target's joint and body in a combined model.
     """
 
@@ -181,11 +181,11 @@ class TargetState:
 
     Attributes
     ----------
-    pose:
+    pose : pin.SE3
         The target frame in the world (``pin.SE3``).
-    velocity:
+    velocity : ndarray
         The CoM's velocity in the world frame [m/s].
-    angular_velocity:
+    angular_velocity : ndarray
         The angular velocity in the target (body) frame [rad/s].
     """
 

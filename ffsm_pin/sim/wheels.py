@@ -60,14 +60,14 @@ class Wheels:
 
     Attributes
     ----------
-    axes:
+    axes : ndarray
         (3, N) spin axes in the bus (root joint) frame, unit vectors (``"xyz"``: the three
         frame axes; other columns are normalised, a zero column is refused).
-    inertia:
+    inertia : ndarray
         (N,) spin (axial) inertias J_s [kg m^2], > 0.
-    max_torque:
+    max_torque : ndarray
         (N,) motor torque limits [N m], > 0 (``inf``: none).
-    max_momentum:
+    max_momentum : ndarray
         (N,) momentum capacities, ``abs(h_i) <= max_momentum`` [N m s], > 0 (``inf``: none).
     """
 
@@ -158,14 +158,14 @@ class WheeledPlant:
 
     Parameters
     ----------
-    robot:
+    robot
         As for :class:`~.plant.Plant` (planar or free-flyer root; on a planar root only the
         z component of the wheels' momentum and torque acts).
-    wheels:
+    wheels : Wheels
         The wheels, axes in the root joint's frame.
-    integrator:
+    integrator : str
         The plant's integrator.
-    project_momentum:
+    project_momentum : bool
         Restore L_total after each step (default); off only to measure the bare drift.
     """
 

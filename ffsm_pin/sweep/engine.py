@@ -79,11 +79,11 @@ def start_client(
 
     Parameters
     ----------
-    n_workers:
+    n_workers : int or None
         Worker processes of the new LocalCluster, one thread each (default: one per core).
-    scheduler:
+    scheduler : str or None
         Address of a running scheduler (``tcp://host:port``) instead of a new cluster.
-    quiet:
+    quiet : bool
         Silence the cluster's logs below CRITICAL (else below ERROR).
 
     Returns

@@ -110,9 +110,9 @@ class FolderLock:
 
     Parameters
     ----------
-    folder:
+    folder : Path
         The campaign folder (created if missing).
-    campaign:
+    campaign : str
         The name of the campaign taking the lock (written into the lock file).
     """
 

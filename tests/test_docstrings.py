@@ -1,0 +1,407 @@
+"""Every public function and method of the package with two or more parameters documents them
+in numpydoc ``Parameters`` and ``Returns`` sections (issue 36; python-control checks the same):
+
+* a function of a public module (no component of its dotted path starts with ``_``;
+  ``__main__`` modules are skipped) whose name does not start with ``_``, compiled ones (numba
+  dispatchers, their Python function) included, and every public method, static or class
+  method and ``__init__`` of a public class defined there, with two or more parameters not
+  counting ``self``/``cls``/``*args``/``**kwargs``;
+* names each parameter in ``Parameters`` (``name : type`` lines, ``a, b : type`` allowed; the
+  sphinx.ext.napoleon extension that renders docs/ reads the same), and no other name;
+* has a ``Returns`` (or ``Yields``) section when its return annotation is not None (an
+  unannotated function is not held to it);
+* a class's ``__init__`` may be documented in the class docstring's ``Parameters`` instead (as
+  numpydoc does), and a generated one (dataclass) in its ``Attributes`` too (which may also
+  name properties, so its names are not held to the signature).
+
+Only the parser of numpydoc is used (:class:`numpydoc.docscrape.FunctionDoc`); the docs are
+rendered by napoleon.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import pkgutil
+from collections.abc import Callable, Iterator
+
+import pytest
+
+import ffsm_pin
+
+docscrape = pytest.importorskip("numpydoc.docscrape")
+
+# Offenders allowed for now, each "module.qualname" (an entry documented since fails
+# test_the_allow_list_is_current, so the set only shrinks).
+ALLOWED: frozenset[str] = frozenset(
+    {
+        # BEGIN ALLOWED
+        # ffsm_pin/model/spatial.py is being split (issue 36) by another branch, which
+        # documents these there and removes them from this set.
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_M",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_Mdot",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_T",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_b",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_d",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_h",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_z",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.__init__",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.controller_terms",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_attitude",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_attitude_rate",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_offset",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_pose",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_rotation",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.jacobians",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.kinematics",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.mass_matrix",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.mass_matrix_rate",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.momentum_matrices",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.reaction_torque",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.velocity_product",
+        "ffsm_pin.model.spatial.SpatialBarycentricModel.velocity_regressors",
+        # still to document (issue 36)
+        "ffsm_pin.attitude.mrp.L_matrix",
+        "ffsm_pin.errors.SimulationError.__init__",
+        "ffsm_pin.errors.check_keys",
+        "ffsm_pin.errors.did_you_mean",
+        "ffsm_pin.model.interface.ReducedModel.Y_M",
+        "ffsm_pin.model.interface.ReducedModel.Y_Mdot",
+        "ffsm_pin.model.interface.ReducedModel.Y_b",
+        "ffsm_pin.model.interface.ReducedModel.Y_d",
+        "ffsm_pin.model.interface.ReducedModel.Y_h",
+        "ffsm_pin.model.interface.ReducedModel.Y_z",
+        "ffsm_pin.model.interface.ReducedModel.ee_offset",
+        "ffsm_pin.model.interface.ReducedModel.ee_pose",
+        "ffsm_pin.model.interface.ReducedModel.jacobians",
+        "ffsm_pin.model.interface.ReducedModel.mass_matrix",
+        "ffsm_pin.model.interface.ReducedModel.mass_matrix_rate",
+        "ffsm_pin.model.interface.ReducedModel.momentum_matrices",
+        "ffsm_pin.model.interface.ReducedModel.reaction_torque",
+        "ffsm_pin.model.interface.ReducedModel.velocity_product",
+        "ffsm_pin.model.interface.ReducedModel.velocity_regressors",
+        "ffsm_pin.model.planar.BarycentricModel.Y_M",
+        "ffsm_pin.model.planar.BarycentricModel.Y_Mdot",
+        "ffsm_pin.model.planar.BarycentricModel.Y_b",
+        "ffsm_pin.model.planar.BarycentricModel.Y_d",
+        "ffsm_pin.model.planar.BarycentricModel.Y_h",
+        "ffsm_pin.model.planar.BarycentricModel.Y_z",
+        "ffsm_pin.model.planar.BarycentricModel.angles",
+        "ffsm_pin.model.planar.BarycentricModel.body_angles",
+        "ffsm_pin.model.planar.BarycentricModel.ee_angle",
+        "ffsm_pin.model.planar.BarycentricModel.ee_offset",
+        "ffsm_pin.model.planar.BarycentricModel.ee_pose",
+        "ffsm_pin.model.planar.BarycentricModel.jacobians",
+        "ffsm_pin.model.planar.BarycentricModel.mass_matrix",
+        "ffsm_pin.model.planar.BarycentricModel.mass_matrix_rate",
+        "ffsm_pin.model.planar.BarycentricModel.momentum_matrices",
+        "ffsm_pin.model.planar.BarycentricModel.reaction_torque",
+        "ffsm_pin.model.planar.BarycentricModel.velocity_product",
+        "ffsm_pin.model.planar.BarycentricModel.velocity_regressors",
+        "ffsm_pin.model.planar.ParameterLayout.__init__",
+        "ffsm_pin.model.state.State.update",
+        "ffsm_pin.model.state.State.update_dynamics",
+        "ffsm_pin.robot.geometry.PlanarGeometry.__init__",
+        "ffsm_pin.robot.geometry.SpatialGeometry.__init__",
+        "ffsm_pin.robot.geometry.check_inertia",
+        "ffsm_pin.robot.geometry.check_serial",
+        "ffsm_pin.robot.geometry.end_effector_frame",
+        "ffsm_pin.robot.geometry.joint_axis",
+        "ffsm_pin.robot.geometry.planar_geometry",
+        "ffsm_pin.robot.geometry.spatial_geometry",
+        "ffsm_pin.robot.loader.load_spatial_robot",
+        "ffsm_pin.robot.native.NativeCall.__init__",
+        "ffsm_pin.robot.native.summary",
+        "ffsm_pin.robot.payload.Payload.__init__",
+        "ffsm_pin.robot.payload.Payload.attach",
+        "ffsm_pin.robot.robot.Robot.__init__",
+        "ffsm_pin.robot.robot.Robot.configuration",
+        "ffsm_pin.robot.roots.RootJoint.__init__",
+        "ffsm_pin.robot.satellite.Satellite.__init__",
+        "ffsm_pin.robot.satellite.Satellite.add_to",
+        "ffsm_pin.robot.urdf.add_missing_limits",
+        "ffsm_pin.robot.urdf.parse_urdf",
+        "ffsm_pin.robot.urdf.repair_limits",
+        "ffsm_pin.robot.urdf.resolve_source",
+        "ffsm_pin.robot.urdf.resolve_urdf",
+        "ffsm_pin.robot.writer.planar.PlanarBody.__init__",
+        "ffsm_pin.robot.writer.planar.PlanarChain.__init__",
+        "ffsm_pin.robot.writer.planar.PlanarLink.__init__",
+        "ffsm_pin.robot.writer.spatial.SpatialBody.__init__",
+        "ffsm_pin.robot.writer.spatial.SpatialChain.__init__",
+        "ffsm_pin.robot.writer.spatial.SpatialLink.__init__",
+        "ffsm_pin.robot.writer.spatial.inertial_xml",
+        "ffsm_pin.robot.writer.write_urdf",
+        "ffsm_pin.scenario.builder.build",
+        "ffsm_pin.scenario.file.scenario_from_dict",
+        "ffsm_pin.scenario.file.scenario_from_toml",
+        "ffsm_pin.scenario.reference_csv.read_reference_csv",
+        "ffsm_pin.scenario.schema.check_mrp",
+        "ffsm_pin.scenario.schema.funnel_arrays",
+        "ffsm_pin.scenario.spec.ComponentReference.__init__",
+        "ffsm_pin.scenario.spec.ComponentReference.derivative",
+        "ffsm_pin.scenario.spec.ControllerSpec.__init__",
+        "ffsm_pin.scenario.spec.Estimates.__init__",
+        "ffsm_pin.scenario.spec.Harmonic.__init__",
+        "ffsm_pin.scenario.spec.InitialCondition.__init__",
+        "ffsm_pin.scenario.spec.Reference.__init__",
+        "ffsm_pin.scenario.spec.Reference.resolved",
+        "ffsm_pin.scenario.spec.RobotSpec.__init__",
+        "ffsm_pin.scenario.spec.Scenario.__init__",
+        "ffsm_pin.scenario.trajectory.PiecewisePolynomial.derivative",
+        "ffsm_pin.scenario.trajectory.PiecewisePolynomial.from_scipy",
+        "ffsm_pin.scenario.trajectory.PiecewisePolynomial.sample",
+        "ffsm_pin.scenario.trajectory.ReferenceData.__init__",
+        "ffsm_pin.scenario.values.interval",
+        "ffsm_pin.sim.actuators.per_joint",
+        "ffsm_pin.sim.actuators.urdf_limits",
+        "ffsm_pin.sim.check.authority_along",
+        "ffsm_pin.sim.console.Console.__init__",
+        "ffsm_pin.sim.console.Console.show_warning",
+        "ffsm_pin.sim.console.Console.start",
+        "ffsm_pin.sim.console.result_table",
+        "ffsm_pin.sim.estimates.barycentric_estimates",
+        "ffsm_pin.sim.estimates.bodies_record",
+        "ffsm_pin.sim.estimates.estimates_from_record",
+        "ffsm_pin.sim.estimates.initial_estimates",
+        "ffsm_pin.sim.estimates.perturb_body",
+        "ffsm_pin.sim.estimates.perturbed_bodies",
+        "ffsm_pin.sim.estimates.robot_with_bodies",
+        "ffsm_pin.sim.figures.envelope_decimate",
+        "ffsm_pin.sim.figures.write_figures",
+        "ffsm_pin.sim.files.output_error",
+        "ffsm_pin.sim.impact.CaptureModel.configuration",
+        "ffsm_pin.sim.impact.CaptureModel.kinetic_energy",
+        "ffsm_pin.sim.impact.CaptureModel.momentum",
+        "ffsm_pin.sim.impact.CaptureModel.ready",
+        "ffsm_pin.sim.impact.CaptureModel.relative_motion",
+        "ffsm_pin.sim.impact.CaptureModel.relative_twist",
+        "ffsm_pin.sim.impact.CaptureModel.target_state",
+        "ffsm_pin.sim.impact.CaptureModel.velocity",
+        "ffsm_pin.sim.impact.CaptureTolerances.__init__",
+        "ffsm_pin.sim.impact.capture_model",
+        "ffsm_pin.sim.impact.impact",
+        "ffsm_pin.sim.impact.impact_pinocchio",
+        "ffsm_pin.sim.impact.merge_after_capture",
+        "ffsm_pin.sim.initial.initial_state",
+        "ffsm_pin.sim.integrators.gauss_solve",
+        "ffsm_pin.sim.integrators.rkmk4_step",
+        "ffsm_pin.sim.loop.recorded_signals",
+        "ffsm_pin.sim.loop.run_result",
+        "ffsm_pin.sim.loop.simulate",
+        "ffsm_pin.sim.loop.spool_header",
+        "ffsm_pin.sim.measurement.Sensor.__init__",
+        "ffsm_pin.sim.measurement.Sensor.measure",
+        "ffsm_pin.sim.meshes.resolve_mesh",
+        "ffsm_pin.sim.meshes.visual_geometry",
+        "ffsm_pin.sim.outputs.write_outputs",
+        "ffsm_pin.sim.plant.Plant.acceleration",
+        "ffsm_pin.sim.plant.Plant.advance",
+        "ffsm_pin.sim.plant.Plant.momentum",
+        "ffsm_pin.sim.plant.Plant.momentum_rows",
+        "ffsm_pin.sim.plant.Plant.project",
+        "ffsm_pin.sim.plant.Plant.reset",
+        "ffsm_pin.sim.plant.Plant.state_status",
+        "ffsm_pin.sim.plant.Plant.step",
+        "ffsm_pin.sim.reach.reach_horizon",
+        "ffsm_pin.sim.recorder.Signals.__init__",
+        "ffsm_pin.sim.recorder.Signals.blocks",
+        "ffsm_pin.sim.recorder.Signals.every",
+        "ffsm_pin.sim.recorder.Thinned.__init__",
+        "ffsm_pin.sim.recorder.extend",
+        "ffsm_pin.sim.recorder.make_spool",
+        "ffsm_pin.sim.recorder.write_npz",
+        "ffsm_pin.sim.replay.serve_replay",
+        "ffsm_pin.sim.replay.write_replay_html",
+        "ffsm_pin.sim.result.RunResult.__init__",
+        "ffsm_pin.sim.result.RunResult.save",
+        "ffsm_pin.sim.result.RunResult.settle_time",
+        "ffsm_pin.sim.result.RunResult.write_data",
+        "ffsm_pin.sim.scene.build_scene",
+        "ffsm_pin.sim.scene.frame_indices",
+        "ffsm_pin.sim.scene.placements",
+        "ffsm_pin.sim.sensors.Sensors.__init__",
+        "ffsm_pin.sim.setup.Setup.__init__",
+        "ffsm_pin.sim.setup.check_params",
+        "ffsm_pin.sim.storage.rows_recorded",
+        "ffsm_pin.sim.target.Target.box",
+        "ffsm_pin.sim.target.TargetState.angular_momentum",
+        "ffsm_pin.sim.target.TargetState.from_pinocchio",
+        "ffsm_pin.sim.target.TargetState.from_rpy",
+        "ffsm_pin.sim.target.inertia_matrix",
+        "ffsm_pin.sim.target.torque_free_step",
+        "ffsm_pin.sim.wheels.WheeledPlant.advance",
+        "ffsm_pin.sim.wheels.WheeledPlant.reset",
+        "ffsm_pin.sim.wheels.WheeledPlant.stored",
+        "ffsm_pin.sim.wheels.WheeledPlant.total_momentum",
+        "ffsm_pin.sim.wheels.Wheels.bus_torque",
+        "ffsm_pin.sim.wheels.Wheels.limit",
+        "ffsm_pin.sim.wheels.Wheels.spin_rates",
+        "ffsm_pin.sweep.auto_repeat.grow",
+        "ffsm_pin.sweep.auto_repeat.next_repeat",
+        "ffsm_pin.sweep.auto_repeat.resumed",
+        "ffsm_pin.sweep.auto_repeat.status_text",
+        "ffsm_pin.sweep.campaign.AutoRepeat.__init__",
+        "ffsm_pin.sweep.campaign.Campaign.__init__",
+        "ffsm_pin.sweep.campaign.Disperse.__init__",
+        "ffsm_pin.sweep.campaign.Disperse.draw",
+        "ffsm_pin.sweep.campaign.Sample.__init__",
+        "ffsm_pin.sweep.campaign.Vary.__init__",
+        "ffsm_pin.sweep.campaign.campaign_from_toml",
+        "ffsm_pin.sweep.campaign_schema.flatten",
+        "ffsm_pin.sweep.campaign_schema.same",
+        "ffsm_pin.sweep.cases.Case.__init__",
+        "ffsm_pin.sweep.check.check_cases",
+        "ffsm_pin.sweep.cli.run",
+        "ffsm_pin.sweep.engine.run_case",
+        "ffsm_pin.sweep.engine.run_cases",
+        "ffsm_pin.sweep.engine.shutdown",
+        "ffsm_pin.sweep.explain.case_extras",
+        "ffsm_pin.sweep.explain.generalized_jacobian_sigma",
+        "ffsm_pin.sweep.explain.kept_rows",
+        "ffsm_pin.sweep.explain.min_sigma_gjm",
+        "ffsm_pin.sweep.folder.CampaignIdentity.__init__",
+        "ffsm_pin.sweep.folder.Holder.__init__",
+        "ffsm_pin.sweep.folder.campaign_file_text",
+        "ffsm_pin.sweep.folder.write_text_atomic",
+        "ffsm_pin.sweep.report.figures.figures",
+        "ffsm_pin.sweep.report.figures.overlay_figures",
+        "ffsm_pin.sweep.report.sections.failed_section",
+        "ffsm_pin.sweep.report.sections.how_many_section",
+        "ffsm_pin.sweep.report.sections.paired_rows",
+        "ffsm_pin.sweep.report.sections.paired_section",
+        "ffsm_pin.sweep.report.sql.controller_sql",
+        "ffsm_pin.sweep.report.sql.controller_table",
+        "ffsm_pin.sweep.report.sql.extra",
+        "ffsm_pin.sweep.report.sql.sql",
+        "ffsm_pin.sweep.report.text.f",
+        "ffsm_pin.sweep.report.text.interval",
+        "ffsm_pin.sweep.report.text.label",
+        "ffsm_pin.sweep.report.text.relabel",
+        "ffsm_pin.sweep.report.text.short_label",
+        "ffsm_pin.sweep.report.text.table",
+        "ffsm_pin.sweep.report.write.write_report",
+        "ffsm_pin.sweep.seeds.case_stream",
+        "ffsm_pin.sweep.seeds.estimates_seed",
+        "ffsm_pin.sweep.seeds.words",
+        "ffsm_pin.sweep.signals_file.SignalsFile.add",
+        "ffsm_pin.sweep.signals_file.signal_rows",
+        "ffsm_pin.sweep.stats.clopper_pearson",
+        "ffsm_pin.sweep.stats.mcnemar_exact",
+        "ffsm_pin.sweep.stats.runs_for_half_width",
+        "ffsm_pin.sweep.stats.runs_to_separate",
+        "ffsm_pin.sweep.stats.wilson",
+        "ffsm_pin.sweep.stats.wilson_half_width",
+        "ffsm_pin.sweep.table.ResultsTable.__init__",
+        "ffsm_pin.sweep.table.ResultsTable.add",
+        "ffsm_pin.sweep.table.ResultsTable.keep",
+        # END ALLOWED
+    }
+)
+
+
+def _public_modules() -> Iterator[str]:
+    yield ffsm_pin.__name__
+    for info in pkgutil.walk_packages(ffsm_pin.__path__, ffsm_pin.__name__ + "."):
+        parts = info.name.split(".")[1:]
+        if any(p.startswith("_") for p in parts):  # private modules and __main__
+            continue
+        yield info.name
+
+
+def _python_function(obj: object) -> Callable | None:
+    """The Python function behind obj (a function, static/class method or numba dispatcher)."""
+    if isinstance(obj, (staticmethod, classmethod)):
+        obj = obj.__func__
+    obj = getattr(obj, "py_func", obj)  # numba's CPUDispatcher
+    return obj if inspect.isfunction(obj) else None
+
+
+def _checked() -> Iterator[tuple[str, Callable, type | None]]:
+    """(module.qualname, function, its class or None) for every function the test holds."""
+    for name in _public_modules():
+        module = importlib.import_module(name)
+        for attr, obj in vars(module).items():
+            if attr.startswith("_"):
+                continue
+            if inspect.isclass(obj):
+                if obj.__module__ != name:
+                    continue
+                for meth_name, meth in vars(obj).items():
+                    if meth_name.startswith("_") and meth_name != "__init__":
+                        continue
+                    func = _python_function(meth)
+                    if func is not None:
+                        yield f"{name}.{attr}.{meth_name}", func, obj
+            elif (func := _python_function(obj)) is not None and func.__module__ == name:
+                yield f"{name}.{attr}", func, None
+
+
+def _parameters(func: Callable) -> list[str]:
+    skip = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    params = inspect.signature(func).parameters.values()
+    return [p.name for p in params if p.kind not in skip and p.name not in ("self", "cls")]
+
+
+def _documented(doc: object, section: str) -> set[str]:
+    names = set()
+    for entry in doc[section]:  # type: ignore[index]
+        for name in entry.name.split(","):
+            names.add(name.strip().lstrip("*"))
+    return names - {""}
+
+
+def _returns_nothing(func: Callable) -> bool:
+    annotation = inspect.signature(func).return_annotation
+    return annotation in (None, "None", inspect.Signature.empty)
+
+
+def _problems(func: Callable, cls: type | None) -> list[str]:
+    params = _parameters(func)
+    all_names = set(inspect.signature(func).parameters) - {"self", "cls"}
+    try:
+        doc = docscrape.FunctionDoc(func)
+        documented = _documented(doc, "Parameters")
+        attributes: set[str] = set()  # may also name properties: not held to the signature
+        if cls is not None and func.__name__ == "__init__":
+            class_doc = docscrape.ClassDoc(cls, config={"show_class_members": False})
+            documented |= _documented(class_doc, "Parameters")
+            if func.__code__.co_filename.startswith("<"):  # generated: dataclass
+                attributes = _documented(class_doc, "Attributes")
+    except ValueError as exc:  # numpydoc refuses the docstring (a section twice, ...)
+        return [f"unparsable: {str(exc).splitlines()[0]}"]
+    problems = []
+    if missing := [p for p in params if p not in documented | attributes]:
+        problems.append(f"missing {', '.join(missing)}")
+    if extra := sorted(documented - all_names):
+        problems.append(f"extra {', '.join(extra)}")
+    if func.__name__ != "__init__" and not _returns_nothing(func):
+        if not doc["Returns"] and not doc["Yields"]:
+            problems.append("no Returns")
+    return problems
+
+
+CHECKED = [(name, func, cls) for name, func, cls in _checked() if len(_parameters(func)) >= 2]
+
+
+def test_the_walk_finds_the_package():
+    assert len(CHECKED) > 300
+    names = {name for name, _, _ in CHECKED}
+    assert "ffsm_pin.control.funnel.Funnel.__init__" in names  # a method
+    assert "ffsm_pin.control.kernels.damped_pinv" in names  # a compiled function
+    assert not any("._" in name.replace(".__init__", "") for name in names)
+
+
+def test_parameters_and_returns_documented():
+    offenders = {}
+    for name, func, cls in CHECKED:
+        if problems := _problems(func, cls):
+            offenders[name] = problems
+    listed = "\n".join(f"{n}: {'; '.join(p)}" for n, p in sorted(offenders.items()))
+    assert set(offenders) <= ALLOWED, f"{len(set(offenders) - ALLOWED)} undocumented:\n{listed}"
+
+
+def test_the_allow_list_is_current():
+    """An entry that is documented now (or gone) leaves ALLOWED."""
+    offenders = {name for name, func, cls in CHECKED if _problems(func, cls)}
+    assert not ALLOWED - offenders, sorted(ALLOWED - offenders)
