@@ -52,6 +52,11 @@ def write_outputs(
     OutputError
         A file could not be written (full disk, file-size limit, permissions): the message
         names it; the folder keeps the earlier run.
+
+    Returns
+    -------
+    dict
+        The run's summary.
     """
     from ..scenario.writer import scenario_to_toml
 

@@ -47,7 +47,20 @@ def _size(n: float) -> str:
 
 def rows_recorded(steps: int, record_every: int) -> int:
     """Rows a run of ``steps`` steps records: every ``record_every``-th step, the last step,
-    and one spare (as the recorder allocates)."""
+    and one spare (as the recorder allocates).
+
+    Parameters
+    ----------
+    steps : int
+        Steps of the run.
+    record_every : int
+        The recording interval [steps].
+
+    Returns
+    -------
+    int
+        The rows.
+    """
     return steps // max(1, int(record_every)) + 2
 
 
