@@ -217,7 +217,18 @@ def load_spatial_robot(
     locked_joints: Mapping[str, float] | None = None,
     satellite: Satellite | Mapping | None = None,
 ) -> Robot:
-    """``load_robot(..., base="free-flyer")`` (kept for the spatial loader's callers)."""
+    """``load_robot(..., base="free-flyer")`` (kept for the spatial loader's callers).
+
+    Parameters
+    ----------
+    urdf, end_effector, relative_to, locked_joints, satellite
+        As :func:`load_robot`'s.
+
+    Returns
+    -------
+    Robot
+        The robot (free-flyer root).
+    """
     return load_robot(
         urdf,
         end_effector,
