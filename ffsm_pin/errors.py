@@ -64,7 +64,7 @@ class SimulationError(FfsmError, RuntimeError):
     ----------
     message : str
         The error's text.
-    time, cause, funnel
+    time, cause, funnel : float, str, str or None
         The attributes below.
 
     Attributes

@@ -108,7 +108,7 @@ class CompiledController:
 
     Attributes
     ----------
-    backend
+    backend : str
         ``"numba"`` (the compiled step) or ``"numpy"`` (the readable reference), chosen by
         :meth:`bind_backend`; assigning it switches the step (on ``"numba"`` the kernels'
         bundles are made first if they are not yet; nothing is warmed up then).

@@ -75,7 +75,7 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         The gains of the law.
     funnel_b, funnel_z : FunnelParams
         The attitude and end-effector funnels (Eqs. 16-18).
-    reference
+    reference : Reference
         The task reference (``ee_pose(t)``, ``n_components``).
     base_attitude_ref : float or ndarray
         Desired base attitude q_bd [rad] (planar) or MRP (spatial).

@@ -334,7 +334,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
 
     Parameters
     ----------
-    S, off, K, L, collinear
+    S, off, K, L, collinear : ndarray or bool
         The fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
     q_b : float
         Base angle [rad].
@@ -377,7 +377,7 @@ def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
 
     Parameters
     ----------
-    S, off, K, L, collinear
+    S, off, K, L, collinear : ndarray or bool
         The fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
     q_b, q_m, w, dw_b : ndarray
         The recorded rows (shapes above) [rad, rad/s, rad/s^2].

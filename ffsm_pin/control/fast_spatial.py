@@ -90,7 +90,7 @@ def task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
 
     Parameters
     ----------
-    jr, ax, er, m
+    jr, ax, er, m : ndarray or int
         The fields of :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`.
     nt : int
         Task rows.

@@ -98,7 +98,7 @@ def task_errors(reference, base_attitude_ref, t, q_b, z_e, m3: int = 1):
 
     Parameters
     ----------
-    reference
+    reference : Reference
         The task reference (``ee_pose(t)``, ``n_components``).
     base_attitude_ref : array_like
         Desired base attitude q_bd [rad] or MRP.
@@ -256,7 +256,7 @@ class KinematicLaw:
         k_b and k_z are used.
     funnel_b, funnel_z : Funnel
         Funnels of the attitude and task errors (Eqs. 16-17).
-    reference
+    reference : Reference
         The task reference (``ee_pose(t)``, ``n_components``).
     base_attitude_ref : float or ndarray
         Desired base attitude q_bd [rad] (planar) or MRP (spatial).

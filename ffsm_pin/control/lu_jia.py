@@ -60,9 +60,9 @@ class LuJiaController:
 
     Attributes
     ----------
-    law
+    law : CoordinatedController
         The :class:`~.controller.CoordinatedController` itself (estimates, funnels, kinematic law).
-    context
+    context : ControllerContext
         The context it was built from (to rebuild it, e.g. on another backend).
     """
 

@@ -228,7 +228,7 @@ def geometry_terms(geo, law, dt, meas, state):
 
     Parameters
     ----------
-    geo
+    geo : PlanarKernelConstants or SpatialKernelConstants
         The geometry's kernel constants.
     law : PeriodLaw
         The run's constants.
@@ -250,7 +250,7 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
 
     Parameters
     ----------
-    geo
+    geo : PlanarKernelConstants or SpatialKernelConstants
         The geometry's kernel constants.
     law : PeriodLaw
         The run's constants.
@@ -282,9 +282,9 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
 
     Parameters
     ----------
-    geo
+    geo : PlanarKernelConstants or SpatialKernelConstants
         The geometry's kernel constants.
-    terms
+    terms : tuple
         What :func:`geometry_terms` computed.
     law : PeriodLaw
         The run's constants.
@@ -356,7 +356,7 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
 
     Parameters
     ----------
-    geo
+    geo : PlanarKernelConstants or SpatialKernelConstants
         The model's kernel constants (its type selects the geometry).
     law_f : tuple
         The fields of a :class:`PeriodLaw` (:func:`law_fields`).
@@ -434,7 +434,7 @@ def compile_in_parallel(geo, law, ref, meas, state) -> None:
 
     Parameters
     ----------
-    geo, law, ref, meas, state
+    geo, law, ref, meas, state : NamedTuple
         The arguments of :func:`period`, as named tuples.
     """
     kernels = GEOMETRIES[type(geo)]

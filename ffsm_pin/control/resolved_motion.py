@@ -100,7 +100,7 @@ def gains_from(ctx: ControllerContext, derived) -> dict:
     ----------
     ctx : ControllerContext
         Its ``params`` are read.
-    derived
+    derived : GjmGains or AdaptiveCtGains
         The baseline's gains derived from the scenario (their defaults).
 
     Returns
@@ -150,9 +150,9 @@ def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold,
     ----------
     model : ReducedModel
         The estimated model.
-    momentum
+    momentum : ReducedModel or ComplexStepMomentum
         What gives H_bb, H_bm, A_0 (:func:`~.kinematic.momentum_evaluator`).
-    reference
+    reference : Reference
         The task reference.
     theta_z, theta_b : ndarray
         The estimates.

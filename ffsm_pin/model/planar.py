@@ -230,18 +230,6 @@ class BarycentricModel(BarycentricCommon):
 
         The last few configurations are memoised, so that the evaluators called for one
         state (real, or complex for a complex step) compute it once.
-
-        Parameters
-        ----------
-        q_b : float
-            Base angle [rad]; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        BodyAngles
-            The trigonometry of the configuration.
         """
         q_m = np.asarray(q_m)
         if isinstance(q_b, np.ndarray):
@@ -276,37 +264,11 @@ class BarycentricModel(BarycentricCommon):
         return out
 
     def angles(self, q_b: float, q_m) -> np.ndarray:
-        """phi_k [rad], absolute angle of each body's line frame.
-
-        Parameters
-        ----------
-        q_b : float
-            Base angle [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        ndarray, shape (n + 1,)
-            phi_k [rad].
-        """
+        """phi_k [rad], absolute angle of each body's line frame."""
         return self.body_angles(q_b, q_m).phi
 
     def ee_angle(self, q_b: float, q_m) -> float:
-        """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m).
-
-        Parameters
-        ----------
-        q_b : float
-            Base angle [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        float
-            q_e [rad].
-        """
+        """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m)."""
         return self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m) + self._ee_angle_offset
 
     def _expand_rates(self, dphi):
@@ -314,66 +276,17 @@ class BarycentricModel(BarycentricCommon):
 
     # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R(phi_k) V_k.
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        ndarray, shape (2,)
-            p_e - p_com [m].
-        """
+        """p_e - p_com [m] = sum_k R(phi_k) V_k."""
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         return self.body_angles(q_b, q_m).pos @ theta_z[2:]
 
     def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        com_position : array_like, shape (2,)
-            The system's CoM position [m].
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            z_e = (p_e, q_e).
-        """
+        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m]."""
         p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
         return np.array([p[0], p[1], self.ee_angle(q_b, q_m)])
 
     def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        J_b : ndarray, shape (3, 1)
-            Base Jacobian.
-        J_m : ndarray, shape (3, n)
-            Manipulator Jacobian.
-        """
+        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z."""
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         rate = self.body_angles(q_b, q_m).rate
         nb = self.n_joints + 1
@@ -392,20 +305,6 @@ class BarycentricModel(BarycentricCommon):
 
         Shape (3, n_z); the attitude row is zero (parameter-free, see
         :meth:`ee_attitude_rate`).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (3, n_z)
-            Y_z.
         """
         w = np.asarray(w, dtype=float)
         rate = self.body_angles(q_b, q_m).rate
@@ -420,22 +319,7 @@ class BarycentricModel(BarycentricCommon):
 
     # ------------------------------------------------------------------ dynamics
     def mass_matrix(self, theta_d, q_b: float, q_m) -> np.ndarray:
-        """M(q, theta_d) of Eq. (9a), (n+1) x (n+1).
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n + 1)
-            M [kg m^2].
-        """
+        """M(q, theta_d) of Eq. (9a), (n+1) x (n+1)."""
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         return self._ST @ self._mass_phi(theta_d, self.body_angles(q_b, q_m)) @ self.S
 
@@ -460,22 +344,7 @@ class BarycentricModel(BarycentricCommon):
             Yp[..., self._L, self._ps_cols] = fs * bk
 
     def Y_M(self, q_b: float, q_m, a) -> np.ndarray:
-        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        a : ndarray, shape (n + 1,)
-            The vector M multiplies.
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            Y_M(q, a).
-        """
+        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d)."""
         ba = self.body_angles(q_b, q_m)
         b = self.S @ np.asarray(a, dtype=float)
         Yp = np.zeros((self.n_joints + 1, self.n_d))
@@ -484,24 +353,7 @@ class BarycentricModel(BarycentricCommon):
         return self._ST @ Yp
 
     def velocity_regressors(self, q_b: float, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`.
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-        s_vec : ndarray, shape (n + 1,)
-            The vector dM/dt multiplies.
-
-        Returns
-        -------
-        Y_Mdot, Y_h : ndarray, shape (n + 1, n_d)
-            The two regressors.
-        """
+        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`."""
         ba = self.body_angles(q_b, q_m)
         nb = self.n_joints + 1
         dphi = self.S @ np.asarray(w, dtype=float)
@@ -522,107 +374,24 @@ class BarycentricModel(BarycentricCommon):
         return Y[0], Y[1]
 
     def Y_Mdot(self, q_b: float, q_m, w, s_vec) -> np.ndarray:
-        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``.
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s], the motion along which dM/dt is taken.
-        s_vec : ndarray, shape (n + 1,)
-            The vector dM/dt multiplies.
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            The regressor.
-        """
+        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
         return self.velocity_regressors(q_b, q_m, w, s_vec)[0]
 
     def Y_h(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            Y_h.
-        """
+        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
         return self.velocity_regressors(q_b, q_m, w, np.zeros(self.n_joints + 1))[1]
 
     def Y_d(self, q_b: float, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``.
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-        s1, s2 : ndarray, shape (n + 1,)
-            The vectors of Eq. (12).
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            Y_d.
-        """
+        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``."""
         Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
         return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
 
     def velocity_product(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w.
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (n + 1,)
-            C w [N m].
-        """
+        """C(q, w, theta_d) w."""
         return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
 
     def mass_matrix_rate(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
-        """dM/dt (q, w, theta_d), (n+1) x (n+1), column j = Y_Mdot(e_j) theta_d.
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n + 1)
-            dM/dt [kg m^2/s].
-        """
+        """dM/dt (q, w, theta_d), (n+1) x (n+1), column j = Y_Mdot(e_j) theta_d."""
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         nb = self.n_joints + 1
         return np.column_stack([self.Y_Mdot(q_b, q_m, w, e) @ theta_d for e in np.eye(nb)])
@@ -633,24 +402,6 @@ class BarycentricModel(BarycentricCommon):
         ``F_r = M_bb dw_b/dt + C_bb w_b = -(M_bm dw_m/dt + C_bm w_m)`` with the Christoffel
         C, for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b).
         ``w_dot`` = (dw_b/dt, dw_m/dt) [rad/s^2].
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-        w_dot : ndarray, shape (n + 1,)
-            (dw_b/dt, dw_m/dt) [rad/s^2].
-
-        Returns
-        -------
-        float
-            F_r [N m].
         """
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         e0 = np.zeros(self.n_joints + 1)
@@ -661,22 +412,7 @@ class BarycentricModel(BarycentricCommon):
 
     # ------------------------------------------------------------------ momentum
     def Y_b(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (1, n_b)
-            Y_b.
-        """
+        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b)."""
         Y = np.empty((1, self.n_b))
         Y[0, 0] = -1.0
         Y[0, 1:] = self.Y_M(q_b, q_m, w)[0]
@@ -688,24 +424,6 @@ class BarycentricModel(BarycentricCommon):
         H is the first row of M = S^T M_phi S, i.e. ``1^T M_phi S``. Like :meth:`angles`,
         :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`, this accepts complex
         arguments (used for complex-step derivatives).
-
-        Parameters
-        ----------
-        theta_b : array_like, shape (n_b,)
-            Momentum parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        H_bb : ndarray, shape (1, 1)
-            Base inertia.
-        H_bm : ndarray, shape (1, n)
-            Coupling inertia.
-        A_0 : float
-            A_0 of Eq. (13).
         """
         theta_b = self._check(theta_b, self.n_b, "theta_b")
         row = self._mass_phi(theta_b[1:], self.body_angles(q_b, q_m)).sum(axis=0) @ self.S

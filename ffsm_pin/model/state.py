@@ -36,6 +36,12 @@ FILLERS: dict[str, ModuleType] = {"planar": _state_planar, "free-flyer": _state_
 class State:
     """Reduced CoM-frame dynamics and kinematics of a free-floating robot at (q, v).
 
+    Sizes: n joints; m2, m3 = 2, 1 (planar) or 3, 3 (free-flyer); nw = m3 + n (the size of
+    w); nv = Pinocchio's velocity size (planar 3 + n, free-flyer 6 + n). The inertial frame
+    is the world frame of the URDF; "about the CoM" is the whole system's centre of mass.
+    Every array is read-only and is set by :meth:`update` (:meth:`update_dynamics`: ``M``,
+    ``h``, ``mass_matrix``, ``nonlinear_effects`` only).
+
     Parameters
     ----------
     robot : Robot
@@ -43,13 +49,6 @@ class State:
 
     Attributes
     ----------
-    Sizes
-        n joints; m2, m3 = 2, 1 (planar) or 3, 3 (free-flyer); nw = m3 + n (the size of
-    w); nv = Pinocchio's velocity size (planar 3 + n, free-flyer 6 + n). The inertial frame
-    is the world frame of the URDF; "about the CoM" is the whole system's centre of mass.
-    Every array is read-only and is set by :meth:`update` (:meth:`update_dynamics`: ``M``,
-    ``h``, ``mass_matrix``, ``nonlinear_effects`` only).
-
     M : ndarray, shape (nw, nw)
         The reduced inertia matrix of Eq. (9a) in w, translation eliminated through the
         conserved linear momentum [kg m^2]; symmetric positive definite.
@@ -82,7 +81,7 @@ class State:
         v_0 = P / m [m/s].
     base_attitude : float (planar) or ndarray, shape (3,)
         q_b: planar the base angle in (-pi, pi] [rad]; spatial the base's MRP, base to
-        inertial, |q_b| <= 1 (docs/spatial.md).
+        inertial, ``|q_b| <= 1`` (docs/spatial.md).
     ee_pose : ndarray, shape (m2 + m3,)
         z_e = (p_e, q_e): end-effector position in the inertial frame [m], then its angle
         [rad] (planar) or MRP (spatial).

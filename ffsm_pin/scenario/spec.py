@@ -61,10 +61,8 @@ class ComponentReference:
     ----------
     c : float
         The constant term.
-    cos : tuple of Harmonic
-        The cosine terms (a_i, w_i).
-    sin : tuple of Harmonic
-        The sine terms (b_j, w_j).
+    cos, sin : tuple of Harmonic
+        The cosine terms (a_i, w_i) and the sine terms (b_j, w_j).
     """
 
     c: float = 0.0

@@ -200,7 +200,7 @@ class Console:
 
         Parameters
         ----------
-        message, category, filename, lineno, file, line
+        message, category, filename, lineno, file, line : object
             As :func:`warnings.showwarning`'s; the message alone is written.
         """
         text = " ".join(str(message).split())

@@ -69,7 +69,7 @@ class CaptureModel:
 
     Attributes
     ----------
-    robot, target
+    robot, target : Robot, Target
         The robot (free-flyer root) and the target.
     model : pin.Model
         The combined model (gravity zero).

@@ -78,20 +78,7 @@ def recording_size(setup: Setup) -> tuple[int, int]:
 
 def spool_header(setup: Setup, record_every: int) -> dict:
     """What a run's spool records before its rows (:mod:`ffsm_pin.sim.recover`): the scenario
-    as run, the recording interval [steps] and the step [s].
-
-    Parameters
-    ----------
-    setup : Setup
-        The run's setup.
-    record_every : int
-        The recording interval [steps].
-
-    Returns
-    -------
-    dict
-        The header.
-    """
+    as run, the recording interval [steps] and the step [s]."""
     from ..scenario.writer import scenario_to_toml
 
     return {
@@ -465,22 +452,6 @@ def recorded_signals(
 
     ``reaction`` and ``plant``: the run's F_r pass and plant, made anew when None (a
     recovered spool, :mod:`ffsm_pin.sim.recover`).
-
-    Parameters
-    ----------
-    setup : Setup
-        The run's setup.
-    raw : Signals
-        The recorded per-step rows.
-    reaction : callable or None
-        The run's F_r pass (:func:`~ffsm_pin.control.diagnostics.reaction_torques`).
-    plant : Plant or None
-        The run's plant.
-
-    Returns
-    -------
-    Signals
-        Every signal of the run.
     """
     if reaction is None:
         reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
@@ -493,20 +464,7 @@ def recorded_signals(
 def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
     """The :class:`RunResult` of a run of ``setup`` with the recorded ``signals``;
     ``outcome``: the fields the run decided (steps, wall time, completion and stop, events,
-    saturation).
-
-    Parameters
-    ----------
-    setup : Setup
-        The run's setup.
-    signals : Signals
-        Its signals (:func:`recorded_signals`).
-
-    Returns
-    -------
-    RunResult
-        The result.
-    """
+    saturation)."""
     sc, perf = setup.scenario, setup.scenario.performance
     # what the controller says of itself: its variant, what its sigma_min measures
     scheme = getattr(setup.controller, "scheme", None)

@@ -124,7 +124,7 @@ class Plant:
 
     Parameters
     ----------
-    robot
+    robot : Robot or pin.Model
         The loaded robot (anything with a ``model`` attribute), or a ``pin.Model`` with a
         planar or free-flyer root joint and zero gravity.
     integrator : str

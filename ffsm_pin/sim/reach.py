@@ -31,7 +31,7 @@ def reach_horizon(model: ReducedModel, theta_z, com0, reference, duration: float
         Kinematic parameters; the first m2 are the CoM velocity v_0 [m/s].
     com0 : ndarray
         The system CoM at t = 0 [m].
-    reference
+    reference : Reference
         The task reference.
     duration : float
         The run's horizon [s].

@@ -201,7 +201,7 @@ class WheeledPlant:
 
     Parameters
     ----------
-    robot
+    robot : Robot or pin.Model
         As for :class:`~.plant.Plant` (planar or free-flyer root; on a planar root only the
         z component of the wheels' momentum and torque acts).
     wheels : Wheels

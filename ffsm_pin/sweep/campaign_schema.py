@@ -54,7 +54,7 @@ def same(a: Any, b: Any) -> bool:
 
     Parameters
     ----------
-    a, b
+    a, b : object
         Two values.
 
     Returns

@@ -93,7 +93,7 @@ def f(x: Any, fmt: str) -> str:
 
     Parameters
     ----------
-    x
+    x : object
         The value.
     fmt : str
         A ``str.format`` template.
@@ -113,7 +113,7 @@ def interval(lo: Any, hi: Any, fmt: str = "{:.0%}") -> str:
 
     Parameters
     ----------
-    lo, hi
+    lo, hi : float or None
         The bounds.
     fmt : str
         A ``str.format`` template.
@@ -145,7 +145,7 @@ def short_label(kind: str, params_label: Any = None) -> str:
     ----------
     kind : str
         The controller type.
-    params_label
+    params_label : object
         Its ``[controller.params] label``, if any.
 
     Returns
