@@ -20,7 +20,7 @@ def theta_b_step(theta_b: np.ndarray, Y_b: np.ndarray, gamma_1: float, dt: float
     ----------
     theta_b : ndarray
         The estimate at t.
-    Y_b : ndarray, shape (m3, p)
+    Y_b : ndarray, shape (m3, n_b)
         The regressor of Eq. (28), constant over the step.
     gamma_1 : float
         Adaptation gain.
@@ -107,7 +107,7 @@ def theta_d_increment(
     ----------
     Y_df : ndarray
         The filtered regressor (Eq. 50).
-    w_tilde : ndarray, shape (n + m3,)
+    w_tilde : ndarray, shape (m3 + n,)
         The filter's velocity error w~.
     M_hat : ndarray
         The estimated inertia M-hat.

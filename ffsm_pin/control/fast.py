@@ -251,7 +251,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     w_mc, w_mc_dot : ndarray, shape (n,)
         Commanded joint rates [rad/s] and their derivative [rad/s^2].
     sens : ndarray
-        d w_mc / d w_b (Eq. 81; unused with attitude control).
+        d w_mc / d w_b (zero except for Eq. 81).
     state : PeriodState
         Advanced in place.
     """
@@ -335,7 +335,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     Parameters
     ----------
     S, off, K, L, collinear : ndarray or bool
-        The fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
+        Fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
     q_b : float
         Base angle [rad].
     q_m : ndarray, shape (n,)
@@ -378,7 +378,7 @@ def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     Parameters
     ----------
     S, off, K, L, collinear : ndarray or bool
-        The fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
+        Fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
     q_b, q_m, w, dw_b : ndarray
         The recorded rows (shapes above) [rad, rad/s, rad/s^2].
     theta_d : ndarray

@@ -336,7 +336,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     w_mc, w_mc_dot : ndarray, shape (n,)
         Commanded joint rates [rad/s] and their derivative [rad/s^2].
     sens : ndarray
-        d w_mc / d w_b (Eq. 81; unused with attitude control).
+        d w_mc / d w_b (zero except for Eq. 81).
     state : PeriodState
         Advanced in place.
     """

@@ -24,10 +24,6 @@ def _positive(obj, *names: str) -> None:
 class Gains:
     """Gains of the coordinated controller (the paper's Section 4 values by default).
 
-    k_b: attitude gain of Eq. (25) [1/s]; k_z: end-effector gain of Eq. (36) [1/s];
-    k_de: filter rate of Eqs. (46), (50) [1/s]; k_d: sliding rate of Eq. (64) [1/s];
-    gamma_1, gamma_2, gamma_3: adaptation gains of Eqs. (28), (42), (51).
-
     Parameters
     ----------
     k_b : float

@@ -267,8 +267,8 @@ def manipulability_gradient(A, h):
 
     Parameters
     ----------
-    A : ndarray, shape (2n, n_task, n)
-        J_m-hat U-hat at the rows of :func:`perturbed_joints`.
+    A : ndarray
+        ``A[i]``: J_m-hat U-hat at row i of :func:`perturbed_joints`.
     h : float
         The step [rad].
     """

@@ -147,7 +147,7 @@ def check_inertia(mass: float, inertia: np.ndarray, what: str) -> None:
     Parameters
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : ndarray, shape (3, 3)
         About the CoM [kg m^2].
     what : str

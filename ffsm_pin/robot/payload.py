@@ -20,7 +20,7 @@ class Payload:
     Attributes
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : tuple of float
         (ixx, iyy, izz, ixy, ixz, iyz) about its CoM, along the end-effector frame's axes
         [kg m^2].

@@ -18,7 +18,7 @@ class Satellite:
     Attributes
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : tuple of float
         (ixx, iyy, izz, ixy, ixz, iyz) about the satellite's CoM, which is the origin of the
         new root link [kg m^2].

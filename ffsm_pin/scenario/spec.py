@@ -44,9 +44,9 @@ class Harmonic:
     Attributes
     ----------
     amplitude : float
-        [units of the component].
+        Amplitude [units of the component].
     frequency : float
-        [rad/s].
+        Angular frequency [rad/s].
     """
 
     amplitude: float

@@ -171,7 +171,7 @@ class Target:
         size : sequence of float
             Edges (a, b, c) [m].
         mass : float
-            [kg].
+            Mass [kg].
         inertia : array_like or None
             About the CoM [kg m^2]; None: the uniform box's.
         grasp_xyz : sequence of float

@@ -45,7 +45,7 @@ class PlanarBody:
     Attributes
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : float
         I_zz about the body CoM [kg m^2].
     com : tuple of float
@@ -70,7 +70,7 @@ class PlanarLink(PlanarBody):
     Attributes
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : float
         I_zz about the body CoM [kg m^2].
     com : tuple of float

@@ -59,7 +59,7 @@ class SpatialBody:
     Attributes
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : tuple of float
         (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].
     com : tuple of float
@@ -83,7 +83,7 @@ class SpatialLink(SpatialBody):
     Attributes
     ----------
     mass : float
-        [kg].
+        Mass [kg].
     inertia : tuple of float
         (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].
     com : tuple of float
