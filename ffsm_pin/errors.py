@@ -60,14 +60,21 @@ class OutputError(FfsmError, OSError):
 class SimulationError(FfsmError, RuntimeError):
     """A run that had to stop: funnel left, singular arm, non-finite numbers.
 
+    Parameters
+    ----------
+    message : str
+        The error's text.
+    time, cause, funnel : float, str, str or None
+        The attributes below.
+
     Attributes
     ----------
-    time:
+    time : float
         Simulated time [s] at which the run stopped.
-    cause:
+    cause : str
         Short machine-readable cause (``"funnel"``, ``"singular"``, ``"nonfinite"``,
         ``"estimate"``).
-    funnel:
+    funnel : str or None
         For ``cause == "funnel"``: which funnel was left, ``"b"`` (attitude, Eq. 16) or ``"z"``
         (end effector, Eq. 17); otherwise None.
     """
@@ -80,7 +87,20 @@ class SimulationError(FfsmError, RuntimeError):
 
 
 def did_you_mean(name: str, choices: Iterable[str]) -> str:
-    """Return ``" (did you mean 'x'?)"`` for the closest choice, or ``""``."""
+    """Return ``" (did you mean 'x'?)"`` for the closest choice, or ``""``.
+
+    Parameters
+    ----------
+    name : str
+        The unknown name.
+    choices : iterable of str
+        The valid names.
+
+    Returns
+    -------
+    str
+        The hint, or ``""`` when no choice is close.
+    """
     close = difflib.get_close_matches(name, list(choices), n=1, cutoff=0.5)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
@@ -92,7 +112,17 @@ def choices_text(choices: Iterable[str]) -> str:
 
 def check_keys(table: Iterable[str], valid: Sequence[str], what: str) -> None:
     """:class:`ParameterError` for the first key of ``table`` that is not ``valid``:
-    ``"<what>: unknown key 'x' (did you mean 'y'?); valid keys: ..."``."""
+    ``"<what>: unknown key 'x' (did you mean 'y'?); valid keys: ..."``.
+
+    Parameters
+    ----------
+    table : iterable of str
+        The keys given.
+    valid : sequence of str
+        The valid keys.
+    what : str
+        What the table is, for the message (e.g. ``"controller.params"``).
+    """
     for key in table:
         if key not in valid:
             raise ParameterError(

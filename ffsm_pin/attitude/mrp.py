@@ -121,7 +121,20 @@ def from_rpy(rpy) -> np.ndarray:
 
 
 def L_matrix(s, R=None) -> np.ndarray:
-    """L_b = 1/4 B(s) R^T of Eq. (1) (``dq_b/dt = L_b w_b``, w_b inertial) [1/rad]."""
+    """L_b = 1/4 B(s) R^T of Eq. (1) (``dq_b/dt = L_b w_b``, w_b inertial) [1/rad].
+
+    Parameters
+    ----------
+    s : array_like, shape (3,)
+        The base attitude's MRP.
+    R : array_like, shape (3, 3), optional
+        Its rotation matrix, when known (computed from ``s`` otherwise).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        L_b [1/rad].
+    """
     if R is None:
         R = to_rotation(s)
     return 0.25 * B_matrix(s) @ np.asarray(R).T

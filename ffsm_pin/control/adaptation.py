@@ -15,6 +15,22 @@ def theta_b_step(theta_b: np.ndarray, Y_b: np.ndarray, gamma_1: float, dt: float
 
     With ``G = Y_b Y_b^T`` (m3 x m3): ``exp(-g dt Y^T Y) = I - Y^T G^-1 (I - exp(-g dt G)) Y``.
     The update is a contraction: ``|theta_b|`` never increases.
+
+    Parameters
+    ----------
+    theta_b : ndarray
+        The estimate at t.
+    Y_b : ndarray, shape (m3, n_b)
+        The regressor of Eq. (28), constant over the step.
+    gamma_1 : float
+        Adaptation gain.
+    dt : float
+        Step [s].
+
+    Returns
+    -------
+    ndarray
+        theta_b-hat at t + dt.
     """
     G = Y_b @ Y_b.T
     if not np.any(G):
@@ -33,6 +49,24 @@ def theta_z_step(
     ``measured`` is the part of the measured end-effector velocity that Y_z theta_z predicts
     (the parameter-free rows removed). The estimation error contracts: with
     ``measured = Y_z theta_z``, ``|theta_z - theta_z-hat|`` never increases (Eq. 43).
+
+    Parameters
+    ----------
+    theta_z : ndarray
+        The estimate at t.
+    Y_z : ndarray
+        The kinematic regressor of Eq. (42).
+    measured : ndarray
+        The measured end-effector velocity's part that Y_z theta_z predicts.
+    gamma_2 : float
+        Adaptation gain.
+    dt : float
+        Step [s].
+
+    Returns
+    -------
+    ndarray
+        theta_z-hat at t + dt.
     """
     r = measured - Y_z @ theta_z
     gram = Y_z @ Y_z.T + np.eye(len(r)) / (gamma_2 * dt)
@@ -40,7 +74,19 @@ def theta_z_step(
 
 
 def regressor_filter_step(Y_df: np.ndarray, Y_dc: np.ndarray, k_de: float, dt: float):
-    """Eq. (50) ``dY_df/dt + k_de Y_df = Y_dc``, exact for Y_dc constant over dt."""
+    """Eq. (50) ``dY_df/dt + k_de Y_df = Y_dc``, exact for Y_dc constant over dt.
+
+    Parameters
+    ----------
+    Y_df : ndarray
+        The filtered regressor at t.
+    Y_dc : ndarray
+        The regressor fed to the filter, constant over the step.
+    k_de : float
+        Filter rate [1/s].
+    dt : float
+        Step [s].
+    """
     decay = np.exp(-k_de * dt)
     return decay * Y_df + (-np.expm1(-k_de * dt) / k_de) * Y_dc
 
@@ -56,6 +102,24 @@ def theta_d_increment(
     ``dtheta = -c Y_df^T (M-hat + c Y_df Y_df^T)^-1 M-hat w~`` with ``c = Gamma_3 dt``
     ((n+1) x (n+1) solve), which tends to the explicit step as ``c -> 0``. The filter of
     Eq. (46) receives ``eta_x = -Y_df dtheta / dt`` (Eq. 52), so ``w-hat`` moves consistently.
+
+    Parameters
+    ----------
+    Y_df : ndarray
+        The filtered regressor (Eq. 50).
+    w_tilde : ndarray, shape (m3 + n,)
+        The filter's velocity error w~.
+    M_hat : ndarray
+        The estimated inertia M-hat.
+    gamma_3 : float
+        Adaptation gain.
+    dt : float
+        Step [s].
+
+    Returns
+    -------
+    ndarray
+        The increment dtheta of theta_d-hat over the step.
     """
     c = gamma_3 * dt
     return -c * (Y_df.T @ np.linalg.solve(M_hat + c * (Y_df @ Y_df.T), M_hat @ w_tilde))

@@ -52,11 +52,11 @@ class AdaptiveCtGains:
 
     Attributes
     ----------
-    k_z:
+    k_z : tuple of float
         Decay rate of the end-effector error in the reference motion, per component [1/s].
-    k_s:
+    k_s : float
         Rate of the sliding variable s (the damping is k_s M-hat_mm) [1/s].
-    gamma_b, gamma_z, gamma_d:
+    gamma_b, gamma_z, gamma_d : float
         Adaptation gains of theta_b (Eq. 28), theta_z (Eq. 42) and theta_d (gradient law).
     """
 
@@ -70,7 +70,26 @@ class AdaptiveCtGains:
     def derived(cls, scenario, dt: float, m2: int, n_task: int, drift: float) -> AdaptiveCtGains:
         """k_z and k_s as gjm-ct's k_z and k_v (:func:`~.resolved_motion.rate_gains`, with the
         drift term: without it the 5-link robot leaves its funnel at 7 s while theta_z-hat
-        adapts); the adaptation gains are the scenario's gamma_1, gamma_2, gamma_3."""
+        adapts); the adaptation gains are the scenario's gamma_1, gamma_2, gamma_3.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            Its end-effector funnel and the paper's adaptation gains are read.
+        dt : float
+            The control period [s].
+        m2 : int
+            Position coordinates.
+        n_task : int
+            Task components.
+        drift : float
+            Drift speed the model may miss [m/s] (:func:`~.resolved_motion.drift_bound`).
+
+        Returns
+        -------
+        AdaptiveCtGains
+            The default gains.
+        """
         k_z, k_s = rate_gains(scenario.performance.funnel_z, dt, m2, n_task, drift)
         p = scenario.controller.lu_jia.gains  # the paper's adaptation gains, as defaults
         return cls(k_z, k_s, p.gamma_1, p.gamma_2, p.gamma_3)
@@ -81,9 +100,11 @@ class AdaptiveComputedTorque(CompiledController):
 
     Parameters
     ----------
-    ctx:
+    ctx : ControllerContext
         The run's context; ``[controller.params]`` may set ``k_z``, ``k_s``, ``gamma_b``,
         ``gamma_z``, ``gamma_d`` (defaults: :meth:`AdaptiveCtGains.derived`).
+    backend : str
+        "numba", "numpy" or "auto".
     """
 
     needs_estimates = True

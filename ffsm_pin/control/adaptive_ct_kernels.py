@@ -75,7 +75,21 @@ def _torque_and_update(Y, s, M_hat, m3, k_s, gamma_d, dt, theta_d, theta_b, thet
 
 @njit(cache=True)
 def period_planar(geo, gains_f, ref_f, meas_f, est_f):
-    """One adaptive-ct period (planar); updates the estimates in place."""
+    """One adaptive-ct period (planar); updates the estimates in place.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants
+        The model's kernel constants.
+    gains_f : tuple
+        The fields of an ``AdaptiveCtKernelGains``.
+    ref_f : tuple
+        The fields of a ``ReferenceArrays``.
+    meas_f : tuple
+        The fields of a ``Measurement``.
+    est_f : tuple
+        The fields of the ``Estimates``, advanced in place.
+    """
     gains = AdaptiveCtKernelGains(*gains_f)  # (the bundles named again: module docstring)
     ref = ReferenceArrays(*ref_f)
     meas, est = Measurement(*meas_f), Estimates(*est_f)
@@ -115,7 +129,21 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
 
 @njit(cache=True)
 def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
-    """One adaptive-ct period (spatial); updates the estimates in place."""
+    """One adaptive-ct period (spatial); updates the estimates in place.
+
+    Parameters
+    ----------
+    geo : SpatialKernelConstants
+        The model's kernel constants.
+    gains_f : tuple
+        The fields of an ``AdaptiveCtKernelGains``.
+    ref_f : tuple
+        The fields of a ``ReferenceArrays``.
+    meas_f : tuple
+        The fields of a ``Measurement``.
+    est_f : tuple
+        The fields of the ``Estimates``, advanced in place.
+    """
     gains = AdaptiveCtKernelGains(*gains_f)  # (the bundles named again: module docstring)
     ref = ReferenceArrays(*ref_f)
     meas, est = Measurement(*meas_f), Estimates(*est_f)

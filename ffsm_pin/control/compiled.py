@@ -58,7 +58,20 @@ def kernel_measurement(meas: Measurement, m3: int) -> tuple:
 
     A kernel called every period may take its bundles' fields as plain tuples and name them on
     entry: numba types a plain tuple from Python at a fraction of a named one's cost (a named
-    tuple's class and field names are part of its type); the package's periods do."""
+    tuple's class and field names are part of its type); the package's periods do.
+
+    Parameters
+    ----------
+    meas : Measurement
+        The measurement.
+    m3 : int
+        Attitude coordinates: 1 planar, 3 spatial.
+
+    Returns
+    -------
+    tuple
+        Its fields (t, q_b, q_m, w, z_e, z_e_dot, M, h).
+    """
     q_b = float(meas.q_b) if m3 == 1 else meas.q_b
     M = None if meas.M is None else read_only_view(meas.M)
     h = None if meas.h is None else read_only_view(meas.h)
@@ -69,7 +82,20 @@ def state_field(name: str, doc: str) -> Any:
     """A property that reads and writes the field ``name`` of the controller's
     :attr:`~CompiledController.state` (a NamedTuple): ``theta_d = state_field("theta_d", ...)``
     keeps ``controller.theta_d`` the array the compiled kernels advance in place, and an
-    assignment (the numpy step's) replaces it in the state."""
+    assignment (the numpy step's) replaces it in the state.
+
+    Parameters
+    ----------
+    name : str
+        The field of the controller's state.
+    doc : str
+        The property's docstring.
+
+    Returns
+    -------
+    property
+        Reads and writes that field.
+    """
 
     def get(self: Any) -> Any:
         return getattr(self.state, name)
@@ -104,11 +130,11 @@ class CompiledController:
 
     Attributes
     ----------
-    backend:
+    backend : str
         ``"numba"`` (the compiled step) or ``"numpy"`` (the readable reference), chosen by
         :meth:`bind_backend`; assigning it switches the step (on ``"numba"`` the kernels'
         bundles are made first if they are not yet; nothing is warmed up then).
-    state:
+    state : Any
         What a step advances, a NamedTuple of arrays (the compiled kernels advance them in
         place); the warm-up runs on a copy. ``()`` when the controller keeps no state.
     """
@@ -161,7 +187,20 @@ class CompiledController:
         """Choose the backend, and on the compiled one make the kernels' bundles and warm them
         up at ``initial`` (the run's exact measurement at t = 0; ``args`` the further arguments
         of a step); then bind :meth:`step`. Returns the backend. The last call of a
-        subclass's constructor."""
+        subclass's constructor.
+
+        Parameters
+        ----------
+        backend : str
+            The backend asked for ("numba", "numpy" or "auto", see ``choose``).
+        initial : Measurement
+            The run's exact measurement at t = 0.
+
+        Returns
+        -------
+        str
+            The backend chosen.
+        """
         self.backend = self.choose(backend)  # (the kernels' bundles made on "numba"; bound)
         if self.backend == "numba" and _WARM_UP.get():
             self.warm_up(initial, *args)

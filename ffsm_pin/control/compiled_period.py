@@ -66,7 +66,20 @@ class CompiledPeriod:
     _watch: SingularityWatch
 
     def funnel_stop(self, meas: Measurement, exc: FunnelExit) -> Exception:
-        """The stop of a funnel exit (the controller's)."""
+        """The stop of a funnel exit (the controller's).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement at the exit.
+        exc : FunnelExit
+            The exit.
+
+        Returns
+        -------
+        Exception
+            The stop to raise.
+        """
         raise NotImplementedError
 
     def prepare_kernels(self) -> None:
@@ -102,7 +115,15 @@ class CompiledPeriod:
 
     def warm_up_call(self, meas: Measurement, dt: float) -> None:
         """The compiled period alone at ``meas`` (no bookkeeping), after a first run's second
-        process has compiled its real kernels (:func:`.period.compile_in_parallel`)."""
+        process has compiled its real kernels (:func:`.period.compile_in_parallel`).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement warmed up at.
+        dt : float
+            The period [s].
+        """
         if meas.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             meas = meas._replace(M=np.eye(len(meas.w)), h=np.zeros(len(meas.w)))
         km = self._kernel_meas(meas)
@@ -117,7 +138,20 @@ class CompiledPeriod:
         return RowOutput(self._out.u_m.copy(), self._row.copy())
 
     def step_compiled(self, meas: Measurement, dt: float) -> ControlOutput:
-        """:meth:`step` by the compiled period; the outputs are copies."""
+        """:meth:`step` by the compiled period; the outputs are copies.
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement at t.
+        dt : float
+            The period [s].
+
+        Returns
+        -------
+        ControlOutput
+            Copies of the period's outputs.
+        """
         self._run_compiled(meas, dt)
         o, truth = self._out, self.theta_d_true is not None
         return ControlOutput(

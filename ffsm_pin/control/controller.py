@@ -66,21 +66,33 @@ class CoordinatedController(CompiledPeriod, CompiledController):
 
     Parameters
     ----------
-    model:
+    model : ReducedModel
         The reduced model of the robot (:class:`~ffsm_pin.model.interface.ReducedModel`:
         planar or spatial; regressors and estimate evaluators).
-    scheme:
+    scheme : str
         One of :data:`SCHEMES`.
-    theta_z0, theta_d0, theta_b0:
+    gains : Gains
+        The gains of the law.
+    funnel_b, funnel_z : FunnelParams
+        The attitude and end-effector funnels (Eqs. 16-18).
+    reference : Reference
+        The task reference (``ee_pose(t)``, ``n_components``).
+    base_attitude_ref : float or ndarray
+        Desired base attitude q_bd [rad] (planar) or MRP (spatial).
+    singularity : SingularityPolicy
+        Damped least squares and the stop near a singular ``J_m-hat U-hat``.
+    theta_z0, theta_d0, theta_b0 : array_like
         Initial estimates (the true vectors for ``"known-model"``).
-    initial:
+    initial : Measurement
         The measurement at t = 0; fixes the side of each funnel (Eqs. 16-17).
-    null_space:
+    backend : str
+        "numba", "numpy" or "auto".
+    null_space : NullSpace or None
         Optional null-space term added to Eq. (36) (beyond the paper,
         :mod:`.null_space`); None = the paper's law.
-    task:
+    task : str
         ``"pose"`` (m2 + m3 components) or ``"position"`` (m2).
-    theta_d_true:
+    theta_d_true : array_like or None
         The true theta_d, for the diagnostic e of Eq. (54) (:attr:`ControlOutput.e`, with the
         true M); never read by the law. None: e is not computed.
     """
@@ -232,9 +244,9 @@ class CoordinatedController(CompiledPeriod, CompiledController):
 
         Parameters
         ----------
-        meas:
+        meas : Measurement
             The measurement at the period's start t [s].
-        dt:
+        dt : float
             The period [s].
 
         Returns
@@ -263,7 +275,20 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         return RowOutput(full.u_m, full.signals)
 
     def step_numpy(self, meas: Measurement, dt: float) -> ControlOutput:
-        """:meth:`step` by the readable numpy reference."""
+        """:meth:`step` by the readable numpy reference.
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement at t.
+        dt : float
+            The period [s].
+
+        Returns
+        -------
+        ControlOutput
+            The period's outputs.
+        """
         return self._numpy_period(meas, dt)
 
     def _numpy_period(self, meas: Measurement, dt: float) -> ControlOutput:
@@ -354,7 +379,20 @@ class CoordinatedController(CompiledPeriod, CompiledController):
 
     # ------------------------------------------------------------------ stops
     def funnel_stop(self, meas: Measurement, exc: FunnelExit) -> SimulationError:
-        """The stop of a funnel exit at ``meas`` (which funnel, which component, the bounds)."""
+        """The stop of a funnel exit at ``meas`` (which funnel, which component, the bounds).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement at the exit.
+        exc : FunnelExit
+            The exit.
+
+        Returns
+        -------
+        SimulationError
+            The stop (cause ``"funnel"``).
+        """
         t = meas.t
         # which funnel: the attitude funnel is evaluated after the end-effector one
         err_b, err_z = task_errors(self.reference, self.q_bd, t, meas.q_b, meas.z_e, self.m3)

@@ -43,7 +43,22 @@ def reaction_torques(
     """f(q_b, q_m, w, dw_b) -> F_r of Eq. (7) on N recorded rows with the true model: q_b
     (N, m3) [rad or MRP], q_m (N, n) [rad], w (N, n + m3) [rad/s], dw_b (N, m3) the base's
     angular acceleration (inertial frame) [rad/s^2]; planar (N,), spatial (N, 3) [N m].
-    The compiled pass releases the GIL: :func:`rows_beside` runs it beside other work."""
+    The compiled pass releases the GIL: :func:`rows_beside` runs it beside other work.
+
+    Parameters
+    ----------
+    model : ReducedModel
+        The true model.
+    theta_d : ndarray
+        Its dynamic parameters.
+    compiled : bool
+        Use the compiled kernels (else numpy).
+
+    Returns
+    -------
+    callable
+        f(q_b, q_m, w, dw_b) -> F_r [N m].
+    """
     if compiled:
         kernels, fixed = _geometry_kernels(model)
 
@@ -86,7 +101,22 @@ def rows_beside(
     :data:`ROWS_PER_PIECE`): the second thread needs the GIL only between pieces, which a
     ``beside`` that holds it (Pinocchio's momentum after a run) yields every 5 ms, and the
     last pieces are small, so the two threads end together when the kernel releases the GIL
-    (numba's ``nogil``: the reaction torque after a run)."""
+    (numba's ``nogil``: the reaction torque after a run).
+
+    Parameters
+    ----------
+    kernel : callable
+        Row-wise function of the arrays of ``rows``.
+    rows : tuple of ndarray
+        Arrays of equal length.
+    beside : callable
+        Run in this thread meanwhile.
+
+    Returns
+    -------
+    tuple
+        (kernel(*rows), beside()).
+    """
     n = len(rows[0])
     lock = threading.Lock()
     nxt = [0]

@@ -60,7 +60,31 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) (complex-step safe; :func:`.period.kinematic_law`);
     ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``law`` the
     :class:`~.period.PeriodLaw` (its ``n_task``: 3 the pose task, 2 the position task),
-    ``ns`` its ``null_space``."""
+    ``ns`` its ``null_space``.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants
+        The model's kernel constants.
+    law : PeriodLaw
+        The run's constants.
+    ref : ReferenceArrays
+        The task reference.
+    ns : NullSpaceTerm or None
+        ``law.null_space``.
+    t : complex
+        Time [s].
+    q_b : complex or ndarray
+        Base attitude [rad] or MRP.
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    z_e : ndarray
+        End-effector pose.
+    theta_b, theta_z : ndarray
+        Estimates of Eqs. (28) and (42).
+    w_b : ndarray, shape (m3,)
+        Base angular velocity [rad/s].
+    """
     S, off, K, L, ee_row, collinear = geo
     nt, g = law.n_task, law.gains
     nb = S.shape[0]
@@ -146,7 +170,19 @@ def _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns, q_b, q_m, thet
 @njit(cache=True)
 def theta_b_step(theta_b, Yb, gamma_1, dt):
     """Eq. (28) by its exact zero-order hold for the rank-one planar Y_b = [-1, Yb] (``Yb`` the
-    base row of Y_M(w)), as :func:`ffsm_pin.control.adaptation.theta_b_step`."""
+    base row of Y_M(w)), as :func:`ffsm_pin.control.adaptation.theta_b_step`.
+
+    Parameters
+    ----------
+    theta_b : ndarray
+        theta_b-hat at t.
+    Yb : ndarray
+        The base row of Y_M(w).
+    gamma_1 : float
+        Adaptation gain.
+    dt : float
+        Step [s].
+    """
     yy = 1.0 + (Yb * Yb).sum()
     yth = -theta_b[0] + (Yb * theta_b[1:]).sum()
     fac = -np.expm1(-gamma_1 * dt * yy) / yy * yth
@@ -161,7 +197,21 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 def geometry_terms(geo, law, dt, meas, state):
     """The body angles' trigonometry and Eqs. (28), (42) over the period
     (:func:`.period.geometry_terms`; the estimates unchanged when ``law.adaptive`` is False,
-    the known-model scheme). ``state.w_hat`` is not read."""
+    the known-model scheme). ``state.w_hat`` is not read.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants
+        The model's kernel constants.
+    law : PeriodLaw
+        The run's constants.
+    dt : float
+        The period [s].
+    meas : Measurement
+        The measurement at t.
+    state : PeriodState
+        The estimates at t.
+    """
     S, off, K, L, ee_row, collinear = geo
     q_b, q_m, w = meas.q_b, meas.q_m, meas.w
     theta_b, theta_z = state.theta_b, state.theta_z
@@ -184,7 +234,27 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     of :func:`geometry_terms`. ``meas.M``, ``meas.h``: Pinocchio's reduced M and C w
     (known-model scheme, ``law.adaptive`` False: computed torque on the true dynamics; not
     read otherwise). ``law.theta_d_true``: the true theta_d for the diagnostic e of Eq. (54),
-    never read by the law; empty: e is not computed (an empty ``e``)."""
+    never read by the law; empty: e is not computed (an empty ``e``).
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants
+        The model's kernel constants.
+    terms : tuple
+        Those of :func:`geometry_terms`.
+    law : PeriodLaw
+        The run's constants.
+    dt : float
+        The period [s].
+    meas : Measurement
+        The measurement at t.
+    w_mc, w_mc_dot : ndarray, shape (n,)
+        Commanded joint rates [rad/s] and their derivative [rad/s^2].
+    sens : ndarray
+        d w_mc / d w_b (zero except for Eq. 81).
+    state : PeriodState
+        Advanced in place.
+    """
     S, off, K, L, ee_row, collinear = geo
     pc, ps = terms
     g, adaptive, w = law.gains, law.adaptive, meas.w
@@ -260,7 +330,21 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     column is ones: M_bb below adds the terms of the two products in ascending order (the
     same bits as OpenBLAS's products here; tested to rounding, since a BLAS picks its order);
     S^T Y_Mdot_phi has at most two terms per entry (the same bits in any order), and its
-    product with theta_d is the same BLAS call on the same matrix (tested bit for bit)."""
+    product with theta_d is the same BLAS call on the same matrix (tested bit for bit).
+
+    Parameters
+    ----------
+    S, off, K, L, collinear : ndarray or bool
+        Fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
+    q_b : float
+        Base angle [rad].
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    w : ndarray, shape (n + 1,)
+        (w_b, w_m) [rad/s].
+    theta_d : ndarray
+        The true dynamic parameters.
+    """
     nb = S.shape[0]
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
     Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
@@ -289,7 +373,17 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
 @njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside
 def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` with
-    (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N,), q_m (N, n), w (N, n + 1), dw_b (N,)."""
+    (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N,), q_m (N, n), w (N, n + 1), dw_b (N,).
+
+    Parameters
+    ----------
+    S, off, K, L, collinear : ndarray or bool
+        Fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
+    q_b, q_m, w, dw_b : ndarray
+        The recorded rows (shapes above) [rad, rad/s, rad/s^2].
+    theta_d : ndarray
+        The true dynamic parameters.
+    """
     N = q_b.shape[0]
     out = np.empty(N)
     for i in range(N):
@@ -310,5 +404,16 @@ def true_model_constants(geo) -> tuple:
 
 def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
     """The recorded rows q_b (N, 1), q_m, w, dw_b (N, 1) as :func:`reaction_rows` takes them
-    (contiguous; q_b and dw_b as (N,))."""
+    (contiguous; q_b and dw_b as (N,)).
+
+    Parameters
+    ----------
+    q_b, q_m, w, dw_b : ndarray
+        The recorded rows (shapes above).
+
+    Returns
+    -------
+    tuple
+        The four arrays, contiguous.
+    """
     return _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))

@@ -82,7 +82,21 @@ __all__ = [
 @njit(cache=True)
 def task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
     """(J (nt, n+3) of Eq. 3 for theta_z, H_bb (3x3), H_bm (3xn) of Eq. 13 for theta_d, R_0)
-    at complex arguments."""
+    at complex arguments.
+
+    Parameters
+    ----------
+    jr, ax, er, m : ndarray or int
+        The fields of :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`.
+    nt : int
+        Task rows.
+    q_b : ndarray, shape (3,)
+        Base attitude (MRP); complex.
+    q_m : ndarray, shape (n,)
+        Joint angles [rad]; complex.
+    theta_z, theta_d : ndarray
+        Kinematic and dynamic parameters.
+    """
     n = q_m.size
     nb = n + 1
     R = np.empty((nb, 3, 3), dtype=np.complex128)
@@ -144,7 +158,31 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments (:func:`.period.kinematic_law`);
     returns (w_mc, d w_mc/d w_b, sigma_min, damping, |H_bm|, err_b, err_z, status, exit index).
     ``geo`` the model's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`, ``law`` the
-    :class:`~.period.PeriodLaw`, ``ns`` its ``null_space``."""
+    :class:`~.period.PeriodLaw`, ``ns`` its ``null_space``.
+
+    Parameters
+    ----------
+    geo : SpatialKernelConstants
+        The model's kernel constants.
+    law : PeriodLaw
+        The run's constants.
+    ref : ReferenceArrays
+        The task reference.
+    ns : NullSpaceTerm or None
+        ``law.null_space``.
+    t : complex
+        Time [s].
+    q_b : complex or ndarray
+        Base attitude [rad] or MRP.
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    z_e : ndarray
+        End-effector pose.
+    theta_b, theta_z : ndarray
+        Estimates of Eqs. (28) and (42).
+    w_b : ndarray, shape (m3,)
+        Base angular velocity [rad/s].
+    """
     jr, ax, er, m = geo
     nt, g = law.n_task, law.gains
     n = q_m.size
@@ -196,7 +234,19 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
 def theta_b_step(theta_b, Yb, gamma_1, dt):
     """Eq. (28) by its exact zero-order hold, exp(-g dt Y^T Y) through the 3x3 G = Y Y^T
     (as :func:`ffsm_pin.control.adaptation.theta_b_step`); ``Yb`` (3, nd + 3) holds the base
-    rows of Y_M(w) in its columns 3: (the first three are set to -E_3 here)."""
+    rows of Y_M(w) in its columns 3: (the first three are set to -E_3 here).
+
+    Parameters
+    ----------
+    theta_b : ndarray
+        theta_b-hat at t.
+    Yb : ndarray
+        The base rows of Y_M(w), in its columns 3:.
+    gamma_1 : float
+        Adaptation gain.
+    dt : float
+        Step [s].
+    """
     for i in range(3):
         for j in range(3):
             Yb[i, j] = -1.0 if i == j else 0.0
@@ -211,7 +261,21 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 def geometry_terms(geo, law, dt, meas, state):
     """The body rotations and joint axes, the regressors of the dynamic level and Eqs. (28),
     (42) over the period (:func:`.period.geometry_terms`; the estimates unchanged when
-    ``law.adaptive`` is False), and dq_b/dt of Eq. (1)."""
+    ``law.adaptive`` is False), and dq_b/dt of Eq. (1).
+
+    Parameters
+    ----------
+    geo : SpatialKernelConstants
+        The model's kernel constants.
+    law : PeriodLaw
+        The run's constants.
+    dt : float
+        The period [s].
+    meas : Measurement
+        The measurement at t.
+    state : PeriodState
+        The estimates at t.
+    """
     jr, ax, er, m = geo
     q_b, q_m, w, w_hat = meas.q_b, meas.q_m, meas.w, state.w_hat
     theta_b, theta_z, theta_d = state.theta_b, state.theta_z, state.theta_d
@@ -251,7 +315,27 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     ``STATUS_OK``, advances theta_d-hat, w-hat and Y_df of ``state`` in place. ``meas.M``,
     ``meas.h``: Pinocchio's reduced M and C w (known-model scheme, ``law.adaptive`` False;
     not read otherwise). ``law.theta_d_true``: the true theta_d for the diagnostic e of
-    Eq. (54), never read by the law; empty: e is not computed (an empty ``e``)."""
+    Eq. (54), never read by the law; empty: e is not computed (an empty ``e``).
+
+    Parameters
+    ----------
+    geo : SpatialKernelConstants
+        The model's kernel constants.
+    terms : tuple
+        Those of :func:`geometry_terms`.
+    law : PeriodLaw
+        The run's constants.
+    dt : float
+        The period [s].
+    meas : Measurement
+        The measurement at t.
+    w_mc, w_mc_dot : ndarray, shape (n,)
+        Commanded joint rates [rad/s] and their derivative [rad/s^2].
+    sens : ndarray
+        d w_mc / d w_b (zero except for Eq. 81).
+    state : PeriodState
+        Advanced in place.
+    """
     R, z, YM, YMdot, Yh, w_tilde = terms
     g, adaptive, w = law.gains, law.adaptive, meas.w
     M_true, h_true, theta_d_true = meas.M, meas.h, law.theta_d_true
@@ -316,7 +400,21 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
 @njit(cache=True)
 def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     """(M_bb, dM_bb/dt) of the true model, from the base columns of M alone; dM_bb/dt along the
-    motion (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step."""
+    motion (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step.
+
+    Parameters
+    ----------
+    jr, ax : ndarray
+        Joint rotations (n, 3, 3) and axes (n, 3), as in ``SpatialKernelConstants``.
+    q_b : ndarray, shape (3,)
+        Base attitude (MRP).
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    w : ndarray, shape (n + 3,)
+        (w_b, w_m) [rad/s].
+    theta_d : ndarray
+        The true dynamic parameters.
+    """
     n = q_m.size
     nb = n + 1
     R = np.empty((nb, 3, 3))
@@ -339,7 +437,17 @@ def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b +
     1/2 w_b x (M_bb w_b)`` (as :func:`ffsm_pin.model._state_spatial.reaction_torque`) with
     (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N, 3), q_m (N, n), w (N, n + 3), dw_b (N, 3)
-    the base's angular acceleration in the inertial frame."""
+    the base's angular acceleration in the inertial frame.
+
+    Parameters
+    ----------
+    jr, ax : ndarray
+        Joint rotations (n, 3, 3) and axes (n, 3), as in ``SpatialKernelConstants``.
+    q_b, q_m, w, dw_b : ndarray
+        The recorded rows (shapes above).
+    theta_d : ndarray
+        The true dynamic parameters.
+    """
     N = q_b.shape[0]
     out = np.empty((N, 3))
     for i in range(N):
@@ -363,5 +471,16 @@ def true_model_constants(geo) -> tuple:
 
 def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
     """The recorded rows q_b (N, 3), q_m, w, dw_b (N, 3) as :func:`reaction_rows` takes them
-    (contiguous)."""
+    (contiguous).
+
+    Parameters
+    ----------
+    q_b, q_m, w, dw_b : ndarray
+        The recorded rows (shapes above).
+
+    Returns
+    -------
+    tuple
+        The four arrays, contiguous.
+    """
     return _rows(q_b, q_m, w, dw_b)

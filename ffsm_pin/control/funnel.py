@@ -32,7 +32,17 @@ from ..errors import ParameterError
 
 
 class FunnelExit(Exception):
-    """An error component left its funnel: psi is undefined there."""
+    """An error component left its funnel: psi is undefined there.
+
+    Parameters
+    ----------
+    index : int
+        The component that left.
+    value : float
+        Its error [error units].
+    lower, upper : float
+        The funnel's bounds on it at that time [error units].
+    """
 
     def __init__(self, index: int, value: float, lower: float, upper: float):
         super().__init__(f"component {index} = {value:.6g} outside ({lower:.6g}, {upper:.6g})")
@@ -44,6 +54,15 @@ class FunnelParams:
     """Parameters of one funnel, one entry per error component.
 
     rho0 > rhoinf > 0 [error units], beta > 0 [1/s], 0 < sigma <= 1.
+
+    Parameters
+    ----------
+    rho0, rhoinf : tuple of float, shape (m,)
+        rho(0) and rho(inf) of Eq. (18) [error units].
+    beta : tuple of float, shape (m,)
+        Decay rate of Eq. (18) [1/s].
+    sigma : tuple of float, shape (m,)
+        Ratio of the lower to the upper side, in (0, 1].
     """
 
     rho0: tuple[float, ...]
@@ -116,6 +135,13 @@ class Funnel:
 
     ``Funnel(params, e0)``; ``evaluate(t, e)`` returns a :class:`FunnelEval` or raises
     :class:`FunnelExit`; ``inside(t, e)`` only checks.
+
+    Parameters
+    ----------
+    params : FunnelParams
+        rho0, rhoinf, beta, sigma of each component.
+    initial_error : array_like, shape (m,)
+        e(0); its signs fix which side of each funnel is the sigma side.
     """
 
     def __init__(self, params: FunnelParams, initial_error):
@@ -158,16 +184,55 @@ class Funnel:
         return self.lower * r, self.upper * r
 
     def margin(self, t: float, error) -> np.ndarray:
-        """Distance of s = e / rho to the nearer bound (> 0 strictly inside)."""
+        """Distance of s = e / rho to the nearer bound (> 0 strictly inside).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        error : array_like, shape (m,)
+            e(t) [error units]; only its real part is used.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Distance of s = e / rho to the nearer bound, > 0 inside.
+        """
         s = np.real(np.asarray(error)) / self.rho(t)
         return np.minimum(self.upper - s, s - self.lower)
 
     def inside(self, t: float, error) -> bool:
-        """True when every component of ``error`` is strictly inside the funnel at ``t``."""
+        """True when every component of ``error`` is strictly inside the funnel at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        error : array_like, shape (m,)
+            e(t) [error units].
+
+        Returns
+        -------
+        bool
+            True when every component is strictly inside.
+        """
         return bool(np.all(self.margin(t, error) > 0))
 
     def evaluate(self, t, error) -> FunnelEval:
-        """psi and Phi at (t, e). ``t`` and ``error`` may be complex (complex step)."""
+        """psi and Phi at (t, e). ``t`` and ``error`` may be complex (complex step).
+
+        Parameters
+        ----------
+        t : float or complex
+            Time [s].
+        error : ndarray, shape (m,)
+            e(t) [error units]; may be complex.
+
+        Returns
+        -------
+        FunnelEval
+            e, rho, d rho/dt, s, psi, Phi and the margin at t.
+        """
         rho, rho_dot = self.params.rho_and_rate(t)
         s = error / rho
         sr = s.real
@@ -192,7 +257,20 @@ class IdentityFunnel(Funnel):
 
     def evaluate(self, t, error) -> FunnelEval:
         """psi, Phi (Eqs. 18-24) of ``error`` at ``t`` without the funnel: psi = error,
-        Phi = 1."""
+        Phi = 1.
+
+        Parameters
+        ----------
+        t : float or complex
+            Time [s].
+        error : ndarray, shape (m,)
+            e(t) [error units].
+
+        Returns
+        -------
+        FunnelEval
+            psi = e, Phi = 1, rho = 1, d rho/dt = 0 and the margin.
+        """
         one = np.ones(self.params.size)
         zero = np.zeros(self.params.size)
         margin = self.margin(np.real(t), np.real(error))

@@ -24,9 +24,18 @@ def _positive(obj, *names: str) -> None:
 class Gains:
     """Gains of the coordinated controller (the paper's Section 4 values by default).
 
-    k_b: attitude gain of Eq. (25) [1/s]; k_z: end-effector gain of Eq. (36) [1/s];
-    k_de: filter rate of Eqs. (46), (50) [1/s]; k_d: sliding rate of Eq. (64) [1/s];
-    gamma_1, gamma_2, gamma_3: adaptation gains of Eqs. (28), (42), (51).
+    Parameters
+    ----------
+    k_b : float
+        Attitude gain of Eq. (25) [1/s].
+    k_z : float
+        End-effector gain of Eq. (36) [1/s].
+    k_de : float
+        Filter rate of Eqs. (46), (50) [1/s].
+    k_d : float
+        Sliding rate of Eq. (64) [1/s].
+    gamma_1, gamma_2, gamma_3 : float
+        Adaptation gains of Eqs. (28), (42), (51).
     """
 
     k_b: float = 0.04
@@ -45,11 +54,13 @@ class Gains:
 class SingularityPolicy:
     """What the kinematic law does near a singular ``J_m-hat U-hat`` (Eq. 36).
 
-    threshold:
+    Parameters
+    ----------
+    threshold : float
         sigma_min below which damped least squares starts [same units as J, m]. The damping
         is ``lambda^2 = threshold^2 - sigma_min^2``, so the damped inverse never amplifies by
         more than ``1 / threshold`` and is continuous where damping starts.
-    max_damped_time:
+    max_damped_time : float
         The run stops (cause ``"singular"``) when sigma_min stays below ``threshold`` for
         longer than this [s]. Damping keeps the law defined, so brief passages (the paper's
         case 2 passes a fold of the *estimated* arm for about 6 s before theta_z-hat adapts)
@@ -81,7 +92,24 @@ def loop_rate(k: float, funnel, rho, scale: float = 1.0) -> np.ndarray:
     near e = 0 when the funnel width is ``rho``: g = k scale (dR/ds)^2 / rho^2, with
     dR/ds = 1 + 1/sigma the slope of the transformation (21) at s = 0, so that
     d e / dt = -k scale Phi psi ~ -g e (Eq. 22). ``funnel`` is a
-    :class:`~ffsm_pin.control.funnel.FunnelParams`."""
+    :class:`~ffsm_pin.control.funnel.FunnelParams`.
+
+    Parameters
+    ----------
+    k : float
+        The kinematic gain [1/s].
+    funnel : FunnelParams
+        Its sigma is used.
+    rho : array_like
+        Funnel width [error units].
+    scale : float
+        Factor of the rate (the attitude law's, :data:`ATTITUDE_RATE_SQUARED`).
+
+    Returns
+    -------
+    ndarray
+        g [1/s], per component.
+    """
     slope = 1.0 + 1.0 / np.asarray(funnel.sigma, dtype=float)
     return k * scale * slope**2 / np.asarray(rho, dtype=float) ** 2
 
@@ -96,7 +124,22 @@ def derived_gain(funnel, dt: float, scale: float = 1.0) -> float:
     g(rho_inf) dt <= :data:`STEP_MARGIN`. On the paper's planar funnels (rho_0 = 1,
     beta = 0.22, sigma = 0.8) the rule gives 0.0435 for both gains, the paper's 0.04 to
     within 9 %; on the shipped spatial funnels it gives the hand-derived gains of
-    ``spatial.toml`` to within 30 % (docs/gains.md)."""
+    ``spatial.toml`` to within 30 % (docs/gains.md).
+
+    Parameters
+    ----------
+    funnel : FunnelParams
+        The funnel of the errors the gain acts on.
+    dt : float
+        The control period [s].
+    scale : float
+        Factor of the loop rate (:func:`loop_rate`).
+
+    Returns
+    -------
+    float
+        The gain [1/s].
+    """
     rho0, rhoinf = np.asarray(funnel.rho0), np.asarray(funnel.rhoinf)
     unit = loop_rate(1.0, funnel, rho0, scale)  # g(rho_0) per unit k
     k_start = float(np.max(np.asarray(funnel.beta) / unit))
@@ -124,7 +167,26 @@ def step_problems(gains: Gains, funnel_b, funnel_z, dt: float, m3: int,
     """The explicit-step conditions of the coordinated controller that ``gains`` violate at
     the control period ``dt`` [s] (docs/gains.md): the kinematic laws g(rho_inf) dt < 2 for
     k_z and (with the attitude law) k_b, and the sliding rate k_d dt < 2 of Eq. (64). The
-    adaptation laws and the filter are integrated exactly or implicitly (no condition)."""
+    adaptation laws and the filter are integrated exactly or implicitly (no condition).
+
+    Parameters
+    ----------
+    gains : Gains
+        The gains checked.
+    funnel_b, funnel_z : FunnelParams
+        The attitude and end-effector funnels.
+    dt : float
+        The control period [s].
+    m3 : int
+        Attitude coordinates: 1 planar, 3 spatial.
+    attitude : bool
+        The attitude law is on (k_b checked).
+
+    Returns
+    -------
+    list of GainProblem
+        The violated conditions, empty when none.
+    """
     out = []
     rows = [("k_z", gains.k_z, funnel_z, 1.0)]
     if attitude:

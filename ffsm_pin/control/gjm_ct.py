@@ -40,9 +40,9 @@ class GjmGains:
 
     Attributes
     ----------
-    k_z:
+    k_z : tuple of float
         Decay rate of the end-effector error, one per task component [1/s].
-    k_v:
+    k_v : float
         Decay rate of the joint-rate error w_m - w_md [1/s].
     """
 
@@ -54,7 +54,26 @@ class GjmGains:
         """Defaults from the scenario's end-effector funnel ``funnel`` (a FunnelParams), the
         control period ``dt`` [s] and a drift speed ``drift`` [m/s] the model may miss (the
         controller passes the larger of ``|v_0-hat|`` and the end-effector speed measured at
-        t = 0): :func:`~.resolved_motion.rate_gains`, k_v its joint loop's rate."""
+        t = 0): :func:`~.resolved_motion.rate_gains`, k_v its joint loop's rate.
+
+        Parameters
+        ----------
+        funnel : FunnelParams
+            The scenario's end-effector funnel.
+        dt : float
+            The control period [s].
+        m2 : int
+            Position coordinates.
+        n_task : int
+            Task components.
+        drift : float
+            Drift speed the model may miss [m/s].
+
+        Returns
+        -------
+        GjmGains
+            The default gains.
+        """
         return cls(*rate_gains(funnel, dt, m2, n_task, drift))
 
 
@@ -63,10 +82,12 @@ class GjmComputedTorque(CompiledController):
 
     Parameters
     ----------
-    ctx:
+    ctx : ControllerContext
         The run's context: model, estimates, reference, funnels (for the default gains),
         ``[controller.params]`` (``k_z``, ``k_v`` override the derived gains,
         :meth:`GjmGains.derived`).
+    backend : str
+        "numba", "numpy" or "auto".
     """
 
     needs_estimates = True
@@ -107,7 +128,19 @@ class GjmComputedTorque(CompiledController):
         self._period = PERIOD[self.m3]
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
-        """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring)."""
+        """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring).
+
+        Parameters
+        ----------
+        t : float or complex
+            Time [s].
+        q_b : float or ndarray
+            Base attitude [rad] or MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        z_e : ndarray
+            End-effector pose.
+        """
         rates = resolved_rates(
             self.model, self._momentum, self.reference, self.theta_z, self.theta_b, self._k_z,
             self.threshold, self.nt, t, q_b, q_m, z_e,

@@ -50,7 +50,21 @@ class GjmKernelGains(NamedTuple):
 # ---------------------------------------------------------------------- planar
 @njit(cache=True)
 def period_planar(geo, gains_f, ref_f, meas_f, est_f):
-    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (planar)."""
+    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (planar).
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants
+        The model's kernel constants.
+    gains_f : tuple
+        The fields of a ``GjmKernelGains``.
+    ref_f : tuple
+        The fields of a ``ReferenceArrays``.
+    meas_f : tuple
+        The fields of a ``Measurement``.
+    est_f : tuple
+        The fields of the ``Estimates`` (not adapted).
+    """
     gains = GjmKernelGains(*gains_f)  # (the bundles named again: module docstring)
     ref = ReferenceArrays(*ref_f)
     meas, est = Measurement(*meas_f), Estimates(*est_f)
@@ -77,7 +91,21 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
 # ---------------------------------------------------------------------- spatial
 @njit(cache=True)
 def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
-    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (spatial)."""
+    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (spatial).
+
+    Parameters
+    ----------
+    geo : SpatialKernelConstants
+        The model's kernel constants.
+    gains_f : tuple
+        The fields of a ``GjmKernelGains``.
+    ref_f : tuple
+        The fields of a ``ReferenceArrays``.
+    meas_f : tuple
+        The fields of a ``Measurement``.
+    est_f : tuple
+        The fields of the ``Estimates`` (not adapted).
+    """
     gains = GjmKernelGains(*gains_f)  # (the bundles named again: module docstring)
     ref = ReferenceArrays(*ref_f)
     meas, est = Measurement(*meas_f), Estimates(*est_f)

@@ -101,36 +101,38 @@ class ControllerContext:
 
     Attributes
     ----------
-    n_joints, m2, m3:
+    n_joints, m2, m3 : int
         Manipulator joints; position and attitude sizes (planar 2, 1; spatial 3, 3).
-    task:
+    task : str
         ``"pose"`` (m2 + m3 components) or ``"position"`` (m2).
-    n_task:
+    n_task : int
         Components of the end-effector task.
-    dt:
+    dt : float
         Control period [s] (the plant may take several steps per period).
-    params:
+    params : mapping
         The scenario's ``[controller.params]`` table.
-    reference:
+    reference : callable
         ``reference(t)`` -> :class:`ReferenceSample` (z_d, dz_d, ddz_d) at time t [s].
-    base_attitude_reference:
+    base_attitude_reference : ndarray
         Desired base attitude q_b,d (m3,) [rad or MRP].
-    robot:
+    robot : Robot
         The loaded robot (``robot.model`` is Pinocchio's model, ``robot.joint_names``).
-    model:
+    model : ReducedModel
         The reduced model (the paper's M, C w, H_bb, H_bm, J_b, J_m, barycentric regressors).
-    initial:
+    initial : Measurement
         The exact measurement at t = 0.
-    scenario:
+    scenario : Scenario
         The whole scenario: ``scenario.performance`` is what the run is judged by (the
         funnels and the singularity threshold, :class:`~ffsm_pin.scenario.spec.Performance`),
         ``scenario.controller.lu_jia`` the paper's controller's own parameters (which another
         controller may read where it uses them).
-    estimates:
+    estimates_source : callable or None
+        What draws the estimates (:attr:`estimates`); None: the run has none.
+    estimates : tuple of ndarray or None
         Initial parameter estimates (theta_z, theta_d, theta_b) from ``[controller.estimates]``,
         drawn when first read (a scenario's estimates matter only to a controller that reads
         them; an unusable ``[controller.estimates]`` raises here).
-    truth:
+    truth : tuple of ndarray or None
         The true parameters (theta_z, theta_d, theta_b): for diagnostics and known-model
         baselines only; an adaptive controller must not use them in its law.
     """
@@ -190,11 +192,11 @@ class SignalLayout:
 
     Attributes
     ----------
-    shapes:
+    shapes : mapping of str to tuple of int
         Name -> shape of every signal, in row order.
-    slots:
+    slots : mapping of str to tuple
         Name -> (start, stop, shape) of its entries in the row.
-    size:
+    size : int
         Entries of a row.
     """
 
@@ -230,10 +232,10 @@ class SignalRow(Mapping[str, Any]):
 
     Parameters
     ----------
-    row:
+    row : ndarray
         The values, shape ``(layout.size,)``; the row is not copied, so a controller makes a
         new one every period.
-    layout:
+    layout : SignalLayout
         Its layout.
     """
 

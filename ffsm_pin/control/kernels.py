@@ -86,7 +86,22 @@ def null_space_term(null_space, center, n: int) -> NullSpaceTerm | None:
     the joint-centering ``center`` (None: zeros) for ``n`` joints; None when the objective is
     ``"none"``: the kinematic laws test ``ns is not None`` on an argument, which numba decides
     when it compiles, so a run without the null-space term does not compile its gradient (a
-    first run's critical path, about 1-2 s)."""
+    first run's critical path, about 1-2 s).
+
+    Parameters
+    ----------
+    null_space : NullSpace
+        The term.
+    center : array_like or None
+        The joint-centering center [rad]; None: zeros.
+    n : int
+        Number of joints.
+
+    Returns
+    -------
+    NullSpaceTerm or None
+        None when the objective is ``"none"``.
+    """
     code = OBJECTIVE_CODE[null_space.objective]
     if code == 0:
         return None
@@ -109,7 +124,19 @@ def funnel_terms(f, t, e, identity):
     (records of :data:`FUNNEL_RECORD`) at time ``t`` [s], in the dtype of the error ``e`` (real, or
     complex for a complex step in ``t`` or the state). The exit index is the component nearest
     to (or farthest beyond) its bound, as :class:`~ffsm_pin.control.funnel.Funnel` reports it;
-    ``identity`` gives psi = e, Phi = 1 (no prescribed performance)."""
+    ``identity`` gives psi = e, Phi = 1 (no prescribed performance).
+
+    Parameters
+    ----------
+    f : ndarray
+        The funnel's records (:data:`FUNNEL_RECORD`).
+    t : float or complex
+        Time [s].
+    e : ndarray, shape (m,)
+        The error.
+    identity : bool
+        psi = e, Phi = 1.
+    """
     m = e.size
     psi = np.empty(m, dtype=e.dtype)
     Phi = np.empty(m, dtype=e.dtype)
@@ -147,6 +174,13 @@ def damped_pinv(A, thr):
     smallest singular value sigma of Re A is below ``thr``, else 0.
 
     Returns ``(pinv, sigma, lambda^2)``. One kernel for both geometries and the baselines.
+
+    Parameters
+    ----------
+    A : ndarray, shape (m, k)
+        A wide matrix, real or complex.
+    thr : float
+        The damping threshold [units of A].
     """
     gram = A @ A.T
     eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
@@ -181,7 +215,15 @@ def spd_det(G):
 def joint_centering_gradient(ns, q_m):
     """grad_{q_m} mu of the joint-centering objective mu = -1/2 |q_m - center|^2: center - q_m
     (``ns`` a :class:`NullSpaceTerm`; as
-    :func:`ffsm_pin.control.null_space.null_space_gradient`)."""
+    :func:`ffsm_pin.control.null_space.null_space_gradient`).
+
+    Parameters
+    ----------
+    ns : NullSpaceTerm
+        Its ``center`` is read [rad].
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    """
     grad = np.empty(q_m.size, dtype=q_m.dtype)
     for j in range(q_m.size):
         grad[j] = ns.center[j] - q_m[j]
@@ -198,7 +240,15 @@ def manipulability(A):
 @njit(cache=True)
 def perturbed_joints(q_m, h):
     """(2n, n): q_m + h e_j in row 2j, q_m - h e_j in row 2j + 1 (the central difference of
-    :func:`manipulability_gradient`; ``h`` real [rad])."""
+    :func:`manipulability_gradient`; ``h`` real [rad]).
+
+    Parameters
+    ----------
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    h : float
+        The step [rad].
+    """
     n = q_m.size
     Q = np.empty((2 * n, n), dtype=q_m.dtype)
     for j in range(n):
@@ -213,7 +263,15 @@ def perturbed_joints(q_m, h):
 @njit(cache=True)
 def manipulability_gradient(A, h):
     """grad_{q_m} mu by central differences: ``A[i]`` the geometry's J_m-hat U-hat at row i of
-    :func:`perturbed_joints` (as :func:`ffsm_pin.control.null_space.null_space_gradient`)."""
+    :func:`perturbed_joints` (as :func:`ffsm_pin.control.null_space.null_space_gradient`).
+
+    Parameters
+    ----------
+    A : ndarray
+        ``A[i]``: J_m-hat U-hat at row i of :func:`perturbed_joints`.
+    h : float
+        The step [rad].
+    """
     n = A.shape[0] // 2
     grad = np.empty(n, dtype=A.dtype)
     for j in range(n):
@@ -228,7 +286,17 @@ def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):
     with ``decay = exp(-k_de dt)``, ``gain = (1 - exp(-k_de dt)) / k_de`` and Y_dc = Y_M(dw-hat
     /dt - k_de w~) - Y_Mdot + Y_h (as :func:`ffsm_pin.control.adaptation.regressor_filter_step`).
     Element by element in the order of the array expression it replaces, so the same values;
-    one pass without temporaries (spatial 10 x 300: 3.4 us against 12 us)."""
+    one pass without temporaries (spatial 10 x 300: 3.4 us against 12 us).
+
+    Parameters
+    ----------
+    Y_df : ndarray
+        The filtered regressor, updated in place.
+    decay, gain : float
+        exp(-k_de dt) and (1 - exp(-k_de dt)) / k_de.
+    YM, YMdot, Yh : ndarray
+        The terms of Y_dc, shaped as Y_df.
+    """
     for i in range(Y_df.shape[0]):
         for j in range(Y_df.shape[1]):
             Y_df[i, j] = decay * Y_df[i, j] + gain * ((YM[i, j] - YMdot[i, j]) + Yh[i, j])
@@ -237,7 +305,21 @@ def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):
 @njit(cache=True)
 def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
     """Eq. (42) by backward Euler on the position rows ``Yz`` of Y_z (as
-    :func:`ffsm_pin.control.adaptation.theta_z_step`); ``z_e_dot`` the measured rates."""
+    :func:`ffsm_pin.control.adaptation.theta_z_step`); ``z_e_dot`` the measured rates.
+
+    Parameters
+    ----------
+    theta_z : ndarray
+        theta_z-hat at t.
+    Yz : ndarray
+        The position rows of Y_z.
+    z_e_dot : ndarray
+        The measured end-effector rates.
+    gamma_2 : float
+        Adaptation gain.
+    dt : float
+        Step [s].
+    """
     m = Yz.shape[0]
     r = z_e_dot[:m] - Yz @ theta_z
     gram = Yz @ Yz.T

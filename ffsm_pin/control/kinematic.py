@@ -55,7 +55,20 @@ def wrap_angle(d):
 
 
 def task_size(m2: int, m3: int, task: str) -> int:
-    """Number of end-effector task components: m2 + m3 ("pose") or m2 ("position")."""
+    """Number of end-effector task components: m2 + m3 ("pose") or m2 ("position").
+
+    Parameters
+    ----------
+    m2, m3 : int
+        Position and attitude coordinates of the geometry.
+    task : str
+        "pose" or "position".
+
+    Returns
+    -------
+    int
+        m2 + m3 or m2.
+    """
     if task not in TASKS:
         raise ParameterError(f"task {task!r} unknown; valid choices: {TASKS}")
     return m2 + m3 if task == "pose" else m2
@@ -63,7 +76,15 @@ def task_size(m2: int, m3: int, task: str) -> int:
 
 def attitude_matrix(q_b, m3: int):
     """L_b of Eq. (1), dq_b/dt = L_b w_b (w_b inertial): 1 for a planar angle (m3 = 1),
-    1/4 B(q_b) R_0^T for an MRP (m3 = 3, docs/spatial.md section 5). Complex-step safe."""
+    1/4 B(q_b) R_0^T for an MRP (m3 = 3, docs/spatial.md section 5). Complex-step safe.
+
+    Parameters
+    ----------
+    q_b : float or ndarray
+        Base attitude [rad] (planar) or MRP (spatial); may be complex.
+    m3 : int
+        Attitude coordinates: 1 planar, 3 spatial.
+    """
     if m3 == 1:
         return np.ones((1, 1))
     return mrp.L_matrix(np.asarray(q_b))
@@ -73,7 +94,23 @@ def task_errors(reference, base_attitude_ref, t, q_b, z_e, m3: int = 1):
     """(err_b, err_z): attitude error q_b - q_bd (Eq. 16) and task error z_e - z_ed(t)
     (Eq. 17), one entry per reference component. Planar (m3 = 1): the
     angles are wrapped to (-pi, pi]; spatial: component differences of the MRPs (the paper's
-    Delta q_b, Delta q_e), the measured MRPs being on the |s| <= 1 branch. Complex-step safe."""
+    Delta q_b, Delta q_e), the measured MRPs being on the |s| <= 1 branch. Complex-step safe.
+
+    Parameters
+    ----------
+    reference : Reference
+        The task reference (``ee_pose(t)``, ``n_components``).
+    base_attitude_ref : array_like
+        Desired base attitude q_bd [rad] or MRP.
+    t : float or complex
+        Time [s].
+    q_b : float or ndarray
+        Base attitude [rad] or MRP.
+    z_e : array_like
+        End-effector pose; its first ``reference.n_components`` entries are used.
+    m3 : int
+        Attitude coordinates: 1 planar, 3 spatial.
+    """
     n = reference.n_components
     return error_terms(np.atleast_1d(q_b), base_attitude_ref, np.array(z_e)[:n],
                        reference.ee_pose(t), m3)  # fmt: skip
@@ -82,7 +119,19 @@ def task_errors(reference, base_attitude_ref, t, q_b, z_e, m3: int = 1):
 def error_terms(q_b, base_attitude_ref, z_e, z_e_d, m3: int):
     """(err_b, err_z) = (q_b - q_bd, z_e - z_e,d) (Eqs. 16-17) of one sample or of rows
     (components along the last axis), wrapped as :func:`task_errors` says (planar angles to
-    (-pi, pi]; MRPs as component differences)."""
+    (-pi, pi]; MRPs as component differences).
+
+    Parameters
+    ----------
+    q_b : ndarray
+        Base attitude [rad] or MRP, components along the last axis.
+    base_attitude_ref : array_like
+        Desired base attitude q_bd.
+    z_e, z_e_d : ndarray
+        End-effector pose and its reference.
+    m3 : int
+        Attitude coordinates: 1 planar, 3 spatial.
+    """
     err_b = q_b - np.asarray(base_attitude_ref)
     err_z = z_e - z_e_d
     if m3 == 1:
@@ -110,7 +159,17 @@ class ComplexStepMomentum:
         self._basis = np.eye(model.n_joints + model.m3)[: model.m3]
 
     def momentum_matrices(self, theta_b, q_b, q_m):
-        """(H_bb, H_bm) of the estimated model, complex-step safe (Eq. 14)."""
+        """(H_bb, H_bm) of the estimated model, complex-step safe (Eq. 14).
+
+        Parameters
+        ----------
+        theta_b : ndarray
+            Estimated base parameters theta_b (Eq. 28); may be complex.
+        q_b : ndarray, shape (3,)
+            Base attitude (MRP); may be complex.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.
+        """
         m, m3 = self.model, self.m3
         if not any(np.iscomplexobj(x) for x in (theta_b, q_b, q_m)):
             return m.momentum_matrices(theta_b, q_b, q_m)
@@ -136,7 +195,20 @@ def momentum_evaluator(model: ReducedModel):
 def along_measured_motion(meas, m3: int) -> tuple[complex, Any, np.ndarray, np.ndarray]:
     """(t, q_b, q_m, z_e) + i h (1, dq_b/dt, w_m, dz_e/dt): a measurement advanced by a complex
     step along the measured rates (dq_b/dt = L_b w_b, Eq. 1), for exact time derivatives of a
-    law evaluated at these arguments."""
+    law evaluated at these arguments.
+
+    Parameters
+    ----------
+    meas : Measurement
+        The measurement (t, q_b, q_m, w, z_e).
+    m3 : int
+        Attitude coordinates: 1 planar, 3 spatial.
+
+    Returns
+    -------
+    tuple
+        (t, q_b, q_m, z_e), each advanced by i h along its rate.
+    """
     w = meas.w
     q_b_rate = attitude_matrix(meas.q_b, m3) @ w[:m3]
     return (
@@ -174,7 +246,31 @@ class KinematicCommand(NamedTuple):
 
 
 class KinematicLaw:
-    """Eqs. (25)+(36) (``attitude=True``) or Eq. (81) (``attitude=False``)."""
+    """Eqs. (25)+(36) (``attitude=True``) or Eq. (81) (``attitude=False``).
+
+    Parameters
+    ----------
+    model : ReducedModel
+        The estimated model (its geometry and regressors).
+    gains : Gains
+        k_b and k_z are used.
+    funnel_b, funnel_z : Funnel
+        Funnels of the attitude and task errors (Eqs. 16-17).
+    reference : Reference
+        The task reference (``ee_pose(t)``, ``n_components``).
+    base_attitude_ref : float or ndarray
+        Desired base attitude q_bd [rad] (planar) or MRP (spatial).
+    threshold : float
+        Damped least squares below this smallest singular value [m].
+    attitude : bool
+        Eqs. (25)+(36) when True, Eq. (81) when False.
+    null_space : NullSpace or None
+        The secondary task; None: none.
+    null_space_center : array_like or None
+        The joint-centering center [rad].
+    task : str
+        "pose" (m2 + m3 task rows) or "position" (m2).
+    """
 
     def __init__(
         self,
@@ -216,7 +312,17 @@ class KinematicLaw:
             raise ParameterError("null_space: joint-centering needs the initial joint angles")
 
     def errors(self, t, q_b, z_e):
-        """(err_b, err_z), see :func:`task_errors`."""
+        """(err_b, err_z), see :func:`task_errors`.
+
+        Parameters
+        ----------
+        t : float or complex
+            Time [s].
+        q_b : float or ndarray
+            Base attitude [rad] or MRP.
+        z_e : ndarray
+            End-effector pose.
+        """
         return task_errors(self.reference, self.q_bd, t, q_b, z_e, self.m3)
 
     def evaluate(self, x: KinematicInputs):
@@ -279,6 +385,18 @@ class KinematicLaw:
 
         ``rates.w_b`` is ignored: for Eq. (81) the contribution of dw_b/dt is returned as the
         sensitivity ``dwmc_dwb`` and added by the caller, who knows dw_b/dt.
+
+        Parameters
+        ----------
+        x : KinematicInputs
+            Where w_mc is evaluated.
+        rates : KinematicInputs
+            Rates of the arguments along which d w_mc / dt is taken.
+
+        Returns
+        -------
+        KinematicCommand
+            w_mc [rad/s], its derivative [rad/s^2] and the diagnostics.
         """
         xc = KinematicInputs(
             x.t + 1j * COMPLEX_STEP * rates.t,

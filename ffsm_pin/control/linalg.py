@@ -29,6 +29,18 @@ def damped_row_pinv(a: np.ndarray, threshold: float) -> DampedInverse:
     eigenvalue of ``A A^T + lambda^2 I`` is ``threshold^2``: the gain of the inverse is
     bounded by ``1 / threshold`` and it is continuous where damping starts. The damping is
     computed from the real part and held constant in a complex-step derivative.
+
+    Parameters
+    ----------
+    a : ndarray, shape (m, k)
+        A wide matrix, real or complex.
+    threshold : float
+        Damping starts below this sigma_min [units of a].
+
+    Returns
+    -------
+    DampedInverse
+        The inverse, sigma_min and the damping lambda^2.
     """
     gram = a @ a.T
     eig = np.linalg.eigvalsh(gram.real)

@@ -23,7 +23,20 @@ def backend_from(ctx: ControllerContext, backend: str = "auto") -> str:
     ``[controller.params] backend`` (default ``"auto"``), checked against
     :data:`~.backend.BACKENDS`. The table's other keys are not the paper's controller's (its
     gains, funnels and estimates have tables of their own): they are left for other controllers,
-    as a campaign that varies ``controller.type`` shares one table (docs/controllers.md)."""
+    as a campaign that varies ``controller.type`` shares one table (docs/controllers.md).
+
+    Parameters
+    ----------
+    ctx : ControllerContext
+        Its ``params`` are read.
+    backend : str
+        The backend asked for by the caller.
+
+    Returns
+    -------
+    str
+        One of :data:`~.backend.BACKENDS`.
+    """
     value = ctx.params.get("backend", "auto")
     if value not in BACKENDS:
         raise ParameterError(
@@ -38,18 +51,18 @@ class LuJiaController:
 
     Parameters
     ----------
-    ctx:
+    ctx : ControllerContext
         The run's context; the law's keys are read from ``ctx.scenario.controller``.
-    backend:
+    backend : str
         ``"auto"`` (the compiled period where there is one), ``"numba"`` or ``"numpy"`` (the
         readable reference); see :class:`~.controller.CoordinatedController`. When ``"auto"``,
         the scenario's ``[controller.params] backend`` decides (:func:`backend_from`).
 
     Attributes
     ----------
-    law:
+    law : CoordinatedController
         The :class:`~.controller.CoordinatedController` itself (estimates, funnels, kinematic law).
-    context:
+    context : ControllerContext
         The context it was built from (to rebuild it, e.g. on another backend).
     """
 
@@ -60,13 +73,38 @@ class LuJiaController:
     @staticmethod
     def check_task(scenario, n_joints: int, n_task: int, m3: int) -> None:
         """Refuse, before anything is built, a robot with too few joints for the scheme
-        (:func:`~.controller.check_feasibility`)."""
+        (:func:`~.controller.check_feasibility`).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            Its scheme is read.
+        n_joints : int
+            Joints of the robot.
+        n_task : int
+            Task components.
+        m3 : int
+            Attitude coordinates.
+        """
         check_feasibility(n_joints, scenario.controller.lu_jia.scheme, n_task=n_task, m3=m3)
 
     @staticmethod
     def check_gains(scenario, m3: int) -> list[str]:
         """The discrete-time conditions the scenario's gains violate at its dt, one message
-        each naming the gain and a value that satisfies it (:func:`~.gains.step_problems`)."""
+        each naming the gain and a value that satisfies it (:func:`~.gains.step_problems`).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            Its ``controller.lu_jia``, performance and dt are read.
+        m3 : int
+            Attitude coordinates.
+
+        Returns
+        -------
+        list of str
+            One message per violated condition.
+        """
         p, perf = scenario.controller.lu_jia, scenario.performance
         attitude = p.scheme != "no-attitude"
         found = step_problems(p.gains, perf.funnel_b, perf.funnel_z, scenario.dt, m3, attitude)

@@ -52,14 +52,14 @@ class LuJiaParams:
 
     Attributes
     ----------
-    scheme:
+    scheme : str
         The paper's variant, one of :data:`~.controller.SCHEMES`: ``"ppc"`` (case 1),
         ``"no-ppc"`` (case 2), ``"no-attitude"`` (case 3, Eq. 81) or ``"known-model"``.
-    gains:
+    gains : Gains
         k_b, k_z, k_de, k_d, gamma_1, gamma_2, gamma_3 (:class:`~.gains.Gains`).
-    null_space:
+    null_space : NullSpace
         Beyond the paper: the term added to Eq. (36) (:class:`~.null_space.NullSpace`).
-    max_damped_time:
+    max_damped_time : float
         The run stops (cause ``"singular"``) when the inverted task Jacobian stays damped for
         longer than this [s] (:class:`~.gains.SingularityPolicy`).
     """
@@ -78,7 +78,24 @@ class LuJiaParams:
     def from_keys(cls, keys: LuJiaKeys, funnel_b, funnel_z, dt: float, n_b: int) -> LuJiaParams:
         """The parameters of validated keys; an omitted ``k_b`` or ``k_z`` is derived from
         the run's funnels ``funnel_b``, ``funnel_z`` (FunnelParams) and control period ``dt``
-        [s] (:func:`~.gains.derived_gain`, docs/gains.md; ``n_b`` attitude components)."""
+        [s] (:func:`~.gains.derived_gain`, docs/gains.md; ``n_b`` attitude components).
+
+        Parameters
+        ----------
+        keys : LuJiaKeys
+            The validated keys.
+        funnel_b, funnel_z : FunnelParams
+            The run's attitude and end-effector funnels.
+        dt : float
+            The control period [s].
+        n_b : int
+            Attitude components.
+
+        Returns
+        -------
+        LuJiaParams
+            The parameters.
+        """
         gains = {k: getattr(keys, k) for k in GAIN_KEYS}
         if gains["k_b"] is None:  # omitted: derived from the funnel and dt (docs/gains.md)
             gains["k_b"] = derived_gain(funnel_b, dt, ATTITUDE_RATE_SQUARED[n_b])

@@ -43,9 +43,29 @@ def manifold_input(
 ) -> ManifoldInput:
     """Solve Eqs. (60a) and (64)-(65) for ``dw-hat/dt`` and ``u_m``.
 
-    M_hat: estimated reduced inertia, (m3+n) x (m3+n); r: right-hand side of Eq. (46) without
-    u; dwmc_dwb: d w_mc / d w_b, (n x m3) (zero except for Eq. 81). The base rows (60a) are
-    ``(M_bb + M_bm dw_mc/dw_b) dw-hat_b/dt = r_b - M_bm target``.
+    The base rows (60a) are ``(M_bb + M_bm dw_mc/dw_b) dw-hat_b/dt = r_b - M_bm target``.
+
+    Parameters
+    ----------
+    M_hat : ndarray, shape (m3 + n, m3 + n)
+        Estimated reduced inertia.
+    r : ndarray, shape (m3 + n,)
+        Right-hand side of Eq. (46) without u.
+    w_hat : ndarray, shape (m3 + n,)
+        The filter's state w-hat [rad/s].
+    w_mc, w_mc_dot : ndarray, shape (n,)
+        Commanded joint rates [rad/s] and their derivative [rad/s^2].
+    dwmc_dwb : ndarray, shape (n, m3)
+        d w_mc / d w_b (zero except for Eq. 81).
+    k_d : float
+        Sliding rate of Eq. (64) [1/s].
+    t : float
+        Time [s], for the error message of a singular base row.
+
+    Returns
+    -------
+    ManifoldInput
+        u_m [N m], dw-hat/dt and the d w_mc / dt used.
     """
     m3 = M_hat.shape[0] - len(w_mc)
     if m3 == 1:  # planar: the scalar base row, as the compiled kernel writes it

@@ -42,10 +42,15 @@ GRADIENT_STEP = 1e-5
 class NullSpace:
     """Null-space term added to Eq. (36).
 
-    objective: one of :data:`OBJECTIVES`.
-    gain: k_s >= 0 [rad^2/(m^2 s)] for "manipulability", [1/s] for "joint-centering".
-    center: joint angles q_m of the joint-centering potential [rad]; None = the initial
-        joint angles of the run (ignored by the other objectives).
+    Parameters
+    ----------
+    objective : str
+        One of :data:`OBJECTIVES`.
+    gain : float
+        k_s >= 0 [rad^2/(m^2 s)] for "manipulability", [1/s] for "joint-centering".
+    center : tuple of float or None
+        Joint angles q_m of the joint-centering potential [rad]; None = the initial joint
+        angles of the run (ignored by the other objectives).
     """
 
     objective: str = "none"
@@ -104,7 +109,19 @@ def manipulability(A):
 
 
 def null_space_gradient(ns: NullSpace, center: np.ndarray, q_m, reduced_jacobian):
-    """grad_{q_m} mu at q_m (may be complex); ``reduced_jacobian(q_m)`` returns A = J_m U."""
+    """grad_{q_m} mu at q_m (may be complex); ``reduced_jacobian(q_m)`` returns A = J_m U.
+
+    Parameters
+    ----------
+    ns : NullSpace
+        The term (its objective).
+    center : ndarray, shape (n,)
+        Joint-centering center [rad].
+    q_m : ndarray, shape (n,)
+        Joint angles [rad]; may be complex.
+    reduced_jacobian : callable
+        q_m -> A = J_m U.
+    """
     if ns.objective == "joint-centering":
         return center - q_m
     n = len(q_m)

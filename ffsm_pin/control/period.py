@@ -140,7 +140,36 @@ def period_law(*, n_task: int, scheme: str, gains, threshold: float, q_bd, funne
     """The :class:`PeriodLaw` of a controller: its scheme, :class:`~.gains.Gains`, the
     singularity threshold [m], desired base attitude, its two
     :class:`~.funnel.Funnel` (sides fixed), :class:`~.null_space.NullSpace` with the
-    joint-centering ``center``, and the true theta_d (None: e is not computed)."""
+    joint-centering ``center``, and the true theta_d (None: e is not computed).
+
+    Parameters
+    ----------
+    n_task : int
+        Task rows (pose: m2 + m3, position: m2).
+    scheme : str
+        One of :data:`~.schemes.SCHEMES`.
+    gains : Gains
+        The controller's gains.
+    threshold : float
+        Singularity threshold [m].
+    q_bd : array_like
+        Desired base attitude [rad] or MRP.
+    funnel_b, funnel_z : Funnel
+        The attitude and task funnels, sides fixed.
+    null_space : NullSpace or None
+        The secondary task.
+    center : array_like or None
+        Its joint-centering center [rad].
+    n_joints : int
+        Number of joints n.
+    theta_d_true : array_like or None
+        The true theta_d (None: e is not computed).
+
+    Returns
+    -------
+    PeriodLaw
+        The constants of the run.
+    """
     return PeriodLaw(
         int(n_task), scheme != "no-attitude", scheme == "no-ppc", scheme != "known-model",
         KernelGains(*(float(getattr(gains, k)) for k in KernelGains._fields)), float(threshold),
@@ -161,7 +190,26 @@ def period_outputs(
 ) -> tuple[PeriodOutputs, np.ndarray]:
     """(outputs, row): the :class:`PeriodOutputs` of ``n`` joints, m3 attitude coordinates and
     n_task task rows, its signals views of ``row``, one row of ``layout`` (which must have
-    exactly the signals of :data:`SIGNALS`, any order)."""
+    exactly the signals of :data:`SIGNALS`, any order).
+
+    Parameters
+    ----------
+    layout : SignalLayout
+        The controller's signal layout (the signals of :data:`SIGNALS`).
+    n : int
+        Number of joints.
+    m3 : int
+        Attitude coordinates.
+    n_task : int
+        Task rows.
+
+    Returns
+    -------
+    outputs : PeriodOutputs
+        The outputs, its signals views of ``row``.
+    row : ndarray
+        One row of ``layout``.
+    """
     if set(layout.shapes) != set(SIGNALS):
         raise ValueError(f"period_outputs: the layout's signals must be {SIGNALS}")
     row = np.zeros(layout.size)
@@ -177,6 +225,19 @@ def geometry_terms(geo, law, dt, meas, state):
     dynamic level reuses (geometry-specific), the estimates after the period (unchanged when
     ``law.adaptive`` is False), the attitude's rate (Eq. 1) and the base's angular velocity.
     Compiled per geometry (:data:`GEOMETRIES`); this Python body is never run.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants or SpatialKernelConstants
+        The geometry's kernel constants.
+    law : PeriodLaw
+        The run's constants.
+    dt : float
+        The period [s].
+    meas : Measurement
+        The measurement at t.
+    state : PeriodState
+        The estimates at t.
     """
     raise NotImplementedError
 
@@ -185,7 +246,31 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments: (w_mc, d w_mc / d w_b, sigma_min,
     damping, |H_bm|, err_b, err_z, status, exit index). ``ns`` is ``law.null_space``, an
     argument of its own so that numba prunes the null-space term when it is None. Compiled per
-    geometry."""
+    geometry.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants or SpatialKernelConstants
+        The geometry's kernel constants.
+    law : PeriodLaw
+        The run's constants.
+    ref : ReferenceArrays
+        The task reference.
+    ns : NullSpaceTerm or None
+        ``law.null_space``.
+    t : complex
+        Time [s].
+    q_b : complex or ndarray
+        Base attitude [rad] or MRP.
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    z_e : ndarray
+        End-effector pose.
+    theta_b, theta_z : ndarray
+        Estimates of Eqs. (28) and (42).
+    w_b : ndarray, shape (m3,)
+        Base angular velocity [rad/s].
+    """
     raise NotImplementedError
 
 
@@ -193,7 +278,27 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """Eqs. (46), (49)-(52), (60)-(64): (status, exit value, u_m, w_mc_dot fed with the
     base's acceleration, w~, e); advances theta_d-hat, w-hat and Y_df of ``state`` in place
     when the status is ``STATUS_OK``. ``e`` the diagnostic e of Eq. (54) with the true M and
-    ``law.theta_d_true`` (empty when that is). Compiled per geometry."""
+    ``law.theta_d_true`` (empty when that is). Compiled per geometry.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants or SpatialKernelConstants
+        The geometry's kernel constants.
+    terms : tuple
+        What :func:`geometry_terms` computed.
+    law : PeriodLaw
+        The run's constants.
+    dt : float
+        The period [s].
+    meas : Measurement
+        The measurement at t.
+    w_mc, w_mc_dot : ndarray, shape (n,)
+        Commanded joint rates [rad/s] and their derivative [rad/s^2].
+    sens : ndarray
+        d w_mc / d w_b (zero except for Eq. 81).
+    state : PeriodState
+        Advanced in place.
+    """
     raise NotImplementedError
 
 
@@ -248,6 +353,23 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
     ``meas.h``. ``value`` is what a stop reports: the exiting error component (a funnel exit,
     its index the exit index), |H_bm-hat| (its collapse), the smallest singular value of the
     base rows' matrix (a singular filter); |H_bm-hat| otherwise.
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants or SpatialKernelConstants
+        The model's kernel constants (its type selects the geometry).
+    law_f : tuple
+        The fields of a :class:`PeriodLaw` (:func:`law_fields`).
+    ref_f : tuple
+        The fields of a :class:`~.reference_kernels.ReferenceArrays`.
+    dt : float
+        The period [s].
+    meas_f : tuple
+        The fields of a :class:`~.interface.Measurement`.
+    state_f : tuple
+        The fields of a :class:`PeriodState`, advanced in place.
+    out_f : tuple
+        The fields of a :class:`PeriodOutputs`, written.
     """
     g = law_f[4]
     law = PeriodLaw(law_f[0], law_f[1], law_f[2], law_f[3], KernelGains(*g), law_f[5], law_f[6],
@@ -308,7 +430,13 @@ def compile_in_parallel(geo, law, ref, meas, state) -> None:
     the run's reaction torques) in a second process while this one compiles the geometry's
     complex kinematic law (:mod:`._first_compile`); :func:`period` then loads the former from
     the cache. The arguments are those of :func:`period` (the measurement with the types a
-    run passes). Does nothing when the cache is warm."""
+    run passes). Does nothing when the cache is warm.
+
+    Parameters
+    ----------
+    geo, law, ref, meas, state : NamedTuple
+        The arguments of :func:`period`, as named tuples.
+    """
     kernels = GEOMETRIES[type(geo)]
     _first_compile.compile_in_parallel(
         __name__,

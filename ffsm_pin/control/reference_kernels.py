@@ -45,7 +45,17 @@ def reference_arrays(reference) -> ReferenceArrays:
 def reference_at(ref, t, rate):
     """z_e,d(t) (``rate`` False) or dz_e,d/dt of ``ref`` (:class:`ReferenceArrays`): the
     harmonic terms plus, when ``ref.pp`` has segments, the piecewise polynomial of a reference
-    from data (complex-step safe)."""
+    from data (complex-step safe).
+
+    Parameters
+    ----------
+    ref : ReferenceArrays
+        The reference.
+    t : float or complex
+        Time [s].
+    rate : bool
+        The rate dz_e,d/dt instead of z_e,d.
+    """
     arg = ref.freq * t + ref.phase
     if rate:
         out = mv(ref.A, -ref.amp * ref.freq * np.sin(arg))
@@ -59,7 +69,17 @@ def reference_at(ref, t, rate):
 @njit(cache=True)
 def piecewise(table, t, order):
     """d^order/dt^order of :class:`ffsm_pin.scenario.trajectory.PiecewisePolynomial` at t
-    (as its numpy ``derivative``; the segment is chosen by Re t)."""
+    (as its numpy ``derivative``; the segment is chosen by Re t).
+
+    Parameters
+    ----------
+    table : ndarray
+        The polynomial's table (segment starts in row 0).
+    t : float or complex
+        Time [s].
+    order : int
+        Order of the derivative (0: the value).
+    """
     starts = table[0]
     tr = t.real
     lo, hi = 0, starts.size  # last k with starts[k] <= tr (0 when none)

@@ -50,11 +50,16 @@ def controller_class(kind: str, base_dir: str | Path | None = None) -> type:
 
     Parameters
     ----------
-    kind:
+    kind : str
         A type name or ``"file.py:Class"`` / ``"package.module:Class"``.
-    base_dir:
+    base_dir : str or Path or None
         Folder a relative ``file.py`` is looked up in (the scenario file's folder); the
         working directory when None.
+
+    Returns
+    -------
+    type
+        The controller class.
     """
     if kind in BUILTIN:
         return BUILTIN[kind]
@@ -100,7 +105,20 @@ def controller_label(kind: str) -> str:
 
 
 def resolved_type(kind: str, base_dir: str | Path | None) -> str:
-    """``kind`` with a relative ``file.py`` made absolute (for the saved scenario.toml)."""
+    """``kind`` with a relative ``file.py`` made absolute (for the saved scenario.toml).
+
+    Parameters
+    ----------
+    kind : str
+        A controller type.
+    base_dir : str or Path or None
+        Folder a relative ``file.py`` is relative to (the scenario file's).
+
+    Returns
+    -------
+    str
+        ``kind``, its file made absolute.
+    """
     where, sep, name = kind.rpartition(":")
     if not sep or not where.endswith(".py") or kind in BUILTIN:
         return kind

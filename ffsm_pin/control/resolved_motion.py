@@ -41,6 +41,24 @@ def rate_gains(
 
     The joint loop is ten times faster than the fastest task component, but at most
     0.1 / dt (a tenth of the sampling rate).
+
+    Parameters
+    ----------
+    funnel : FunnelParams
+        The scenario's end-effector funnel.
+    dt : float
+        The control period [s].
+    m2 : int
+        Position coordinates.
+    n_task : int
+        Task components.
+    drift : float
+        Drift speed the model may miss [m/s].
+
+    Returns
+    -------
+    tuple
+        (k_z per task component, the joint loop's rate) [1/s].
     """
 
     def per_component(x):
@@ -54,7 +72,20 @@ def rate_gains(
 
 def drift_bound(ctx: ControllerContext, theta_z: np.ndarray) -> float:
     """The drift speed a wrong model may miss [m/s]: the larger of ``|v_0-hat|`` (the estimated
-    CoM velocity) and the end-effector speed measured at t = 0."""
+    CoM velocity) and the end-effector speed measured at t = 0.
+
+    Parameters
+    ----------
+    ctx : ControllerContext
+        The controller's context (m2, the measurement at t = 0).
+    theta_z : ndarray
+        The kinematic estimate; its first m2 entries are v_0-hat [m/s].
+
+    Returns
+    -------
+    float
+        The drift speed [m/s].
+    """
     return max(
         float(np.linalg.norm(np.asarray(theta_z)[: ctx.m2])),
         float(np.linalg.norm(np.asarray(ctx.initial.z_e_dot)[: ctx.m2])),
@@ -63,7 +94,20 @@ def drift_bound(ctx: ControllerContext, theta_z: np.ndarray) -> float:
 
 def gains_from(ctx: ControllerContext, derived) -> dict:
     """The ``[controller.params]`` of a baseline, checked: numbers > 0 (or one per component
-    where a tuple default says so); unknown keys are an error naming the valid ones."""
+    where a tuple default says so); unknown keys are an error naming the valid ones.
+
+    Parameters
+    ----------
+    ctx : ControllerContext
+        Its ``params`` are read.
+    derived : GjmGains or AdaptiveCtGains
+        The baseline's gains derived from the scenario (their defaults).
+
+    Returns
+    -------
+    dict
+        The gains by name.
+    """
     out = {}
     unknown = sorted(set(ctx.params) - set(vars(derived)))
     if unknown:
@@ -100,7 +144,38 @@ def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold,
                    t, q_b, q_m, z_e) -> ResolvedRates:  # fmt: skip
     """Resolved motion through the generalized Jacobian at a (possibly complex) state, with the
     model of the estimates ``theta_z``, ``theta_b``; ``momentum`` gives H_bb, H_bm, A_0
-    (the model itself, or :class:`~.kinematic.ComplexStepMomentum` for spatial models)."""
+    (the model itself, or :class:`~.kinematic.ComplexStepMomentum` for spatial models).
+
+    Parameters
+    ----------
+    model : ReducedModel
+        The estimated model.
+    momentum : ReducedModel or ComplexStepMomentum
+        What gives H_bb, H_bm, A_0 (:func:`~.kinematic.momentum_evaluator`).
+    reference : Reference
+        The task reference.
+    theta_z, theta_b : ndarray
+        The estimates.
+    k_z : float or ndarray
+        Task gain [1/s].
+    threshold : float
+        Damped least squares below this smallest singular value [m].
+    n_task : int
+        Task rows.
+    t : float or complex
+        Time [s].
+    q_b : float or ndarray
+        Base attitude [rad] or MRP.
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    z_e : ndarray
+        End-effector pose.
+
+    Returns
+    -------
+    ResolvedRates
+        w_m, w_b [rad/s], sigma_min and the damping.
+    """
     m2 = model.m2
     J_b, J_m = model.jacobians(theta_z, q_b, q_m)
     J_b, J_m = J_b[:n_task], J_m[:n_task]

@@ -24,7 +24,27 @@ from .reference_kernels import reference_at
 
 @njit(cache=True)
 def rates_planar(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
-    """(w_md, w_b, sigma_min, damping) of the resolved rates at complex arguments (planar)."""
+    """(w_md, w_b, sigma_min, damping) of the resolved rates at complex arguments (planar).
+
+    Parameters
+    ----------
+    geo : PlanarKernelConstants
+        The model's kernel constants.
+    gains : NamedTuple
+        Its ``n_task``, ``k_z`` and ``threshold`` are read.
+    ref : ReferenceArrays
+        The task reference.
+    t : complex
+        Time [s].
+    q_b : complex
+        Base attitude [rad].
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    z_e : ndarray
+        End-effector pose.
+    theta_z, theta_b : ndarray
+        The estimates.
+    """
     S, off, K, L, ee_row, collinear = geo
     nt = gains.n_task
     nb = S.shape[0]
@@ -54,7 +74,27 @@ def rates_planar(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
 
 @njit(cache=True)
 def rates_spatial(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
-    """(w_md, w_b, sigma_min, damping) of the resolved rates at complex arguments (spatial)."""
+    """(w_md, w_b, sigma_min, damping) of the resolved rates at complex arguments (spatial).
+
+    Parameters
+    ----------
+    geo : SpatialKernelConstants
+        The model's kernel constants.
+    gains : NamedTuple
+        Its ``n_task``, ``k_z`` and ``threshold`` are read.
+    ref : ReferenceArrays
+        The task reference.
+    t : complex
+        Time [s].
+    q_b : ndarray, shape (3,)
+        Base attitude (MRP).
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    z_e : ndarray
+        End-effector pose.
+    theta_z, theta_b : ndarray
+        The estimates.
+    """
     jr, ax, er, m = geo
     nt = gains.n_task
     n = q_m.size

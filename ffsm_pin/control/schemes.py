@@ -46,9 +46,9 @@ class RowOutput(NamedTuple):
 
     Attributes
     ----------
-    u_m:
+    u_m : ndarray
         The joint torques for the period [N m], shape ``(n_joints,)``.
-    signals:
+    signals : ndarray
         The period's signals at its start, one row of
         :attr:`CoordinatedController.signal_layout` (w~, e of Eq. 54, the estimates and
         w-hat before the period advances them, w_mc, sigma_min, the damping).
@@ -66,6 +66,17 @@ def check_feasibility(
     Eq. (25) needs H_bm (m3 x m1) of full row rank and Eq. (36) needs J_m U (n_task x m1) of
     full row rank: m1 >= n_task + m3 (docs/model.md section 5, docs/spatial.md); m1 >= n_task
     for Eq. (81), which does not regulate the attitude.
+
+    Parameters
+    ----------
+    n_joints : int
+        Joints of the robot, m1.
+    scheme : str
+        One of :data:`SCHEMES`.
+    n_task : int
+        Task components.
+    m3 : int
+        Attitude coordinates.
     """
     if scheme not in SCHEMES:
         raise InfeasibleTaskError(f"unknown scheme {scheme!r}; valid choices: {SCHEMES}")

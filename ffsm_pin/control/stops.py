@@ -24,14 +24,38 @@ class SingularityWarning(UserWarning):
 
 
 def component_names(m2: int, m3: int) -> tuple[str, ...]:
-    """Names of the end-effector task components (pose order: position, then attitude)."""
+    """Names of the end-effector task components (pose order: position, then attitude).
+
+    Parameters
+    ----------
+    m2, m3 : int
+        Position and attitude coordinates.
+
+    Returns
+    -------
+    tuple of str
+        One name per task component.
+    """
     if m3 == 1:
         return ("x", "y", "attitude")[:m2] + ("attitude",)
     return ("x", "y", "z")[:m2] + ("s1", "s2", "s3")[:m3]
 
 
 def collapse_stop(t: float, h_norm: float) -> SimulationError:
-    """theta_b-hat collapsed: |H_bm-hat| ~ 0 and Eq. (25) undefined."""
+    """theta_b-hat collapsed: |H_bm-hat| ~ 0 and Eq. (25) undefined.
+
+    Parameters
+    ----------
+    t : float
+        Time [s].
+    h_norm : float
+        abs(H_bm-hat).
+
+    Returns
+    -------
+    SimulationError
+        The stop, cause ``"estimate"``.
+    """
     return SimulationError(
         f"t = {t:.4f} s: the estimate theta_b-hat collapsed (|H_bm-hat| = {h_norm:.3g}); "
         "Eq. (25) is undefined",
@@ -58,7 +82,20 @@ def inertia_stop(t: float) -> SimulationError:
 
 
 def base_row_stop(t: float, m3: int) -> SimulationError:
-    """The base row(s) of the filter's Eqs. (60a), (64)-(65) are singular."""
+    """The base row(s) of the filter's Eqs. (60a), (64)-(65) are singular.
+
+    Parameters
+    ----------
+    t : float
+        Time [s].
+    m3 : int
+        Attitude coordinates (rows of the base).
+
+    Returns
+    -------
+    SimulationError
+        The stop, cause ``"singular"``.
+    """
     what = "base row of the filter is" if m3 == 1 else "base rows of the filter are"
     return SimulationError(f"t = {t:.4f} s: {what} singular", time=t, cause="singular")
 
@@ -68,9 +105,9 @@ class SingularityWatch:
 
     Parameters
     ----------
-    policy:
+    policy : SingularityPolicy
         The :class:`~.gains.SingularityPolicy` (threshold [m], ``max_damped_time`` [s]).
-    events:
+    events : list of str
         The controller's events, where the warning's text is appended.
     """
 
@@ -84,7 +121,19 @@ class SingularityWatch:
     def update(self, t: float, sigma_min: float, damping: float, stacklevel: int) -> None:
         """Book the period at ``t`` [s] with its sigma_min and damping: a warning when damping
         starts (at most one a second; ``stacklevel`` as :func:`warnings.warn`'s, counted from
-        the caller of this method), a stop when it lasted longer than the policy allows."""
+        the caller of this method), a stop when it lasted longer than the policy allows.
+
+        Parameters
+        ----------
+        t : float
+            Time of the period [s].
+        sigma_min : float
+            Smallest singular value of the law's matrix [m].
+        damping : float
+            The damping lambda^2 applied (0: none).
+        stacklevel : int
+            As :func:`warnings.warn`'s, counted from the caller.
+        """
         thr = self.policy.threshold
         if damping > 0:
             if self.since is None:

@@ -58,64 +58,311 @@ class ReducedModel(Protocol):
         ...
 
     def ee_offset(self, theta_z, q_b: Any, q_m) -> np.ndarray:
-        """p_e - p_com (m2) [m], inertial frame."""
+        """p_e - p_com (m2) [m], inertial frame.
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (m2,)
+            p_e - p_com [m].
+        """
         ...
 
     def ee_pose(self, theta_z, q_b: Any, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) (m2 + m3) [m, rad or MRP] for the system CoM position [m]."""
+        """z_e = (p_e, q_e) (m2 + m3) [m, rad or MRP] for the system CoM position [m].
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        com_position : array_like, shape (m2,)
+            The system's CoM position [m].
+
+        Returns
+        -------
+        ndarray, shape (m2 + m3,)
+            z_e = (p_e, q_e).
+        """
         ...
 
     def jacobians(self, theta_z, q_b: Any, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """(J_b ((m2+m3) x m3), J_m ((m2+m3) x m1)) of Eq. (3); attitude rows parameter-free."""
+        """(J_b ((m2+m3) x m3), J_m ((m2+m3) x m1)) of Eq. (3); attitude rows parameter-free.
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        J_b : ndarray, shape (m2 + m3, m3)
+            Base Jacobian.
+        J_m : ndarray, shape (m2 + m3, m1)
+            Manipulator Jacobian.
+        """
         ...
 
     def Y_z(self, q_b: Any, q_m, w) -> np.ndarray:
         """((m2+m3) x n_z): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, dq_e/dt), Eq. (4);
-        the attitude rows are zero."""
+        the attitude rows are zero.
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (m2 + m3, n_z)
+            Y_z.
+        """
         ...
 
     def mass_matrix(self, theta_d, q_b: Any, q_m) -> np.ndarray:
-        """M(q, theta_d), (m3+m1) square, Eq. (9a) [kg m^2]."""
+        """M(q, theta_d), (m3+m1) square, Eq. (9a) [kg m^2].
+
+        Parameters
+        ----------
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1, m3 + m1)
+            M [kg m^2].
+        """
         ...
 
     def mass_matrix_rate(self, theta_d, q_b: Any, q_m, w) -> np.ndarray:
-        """dM/dt along w, (m3+m1) square [kg m^2/s]."""
+        """dM/dt along w, (m3+m1) square [kg m^2/s].
+
+        Parameters
+        ----------
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1, m3 + m1)
+            dM/dt [kg m^2/s].
+        """
         ...
 
     def Y_M(self, q_b: Any, q_m, a) -> np.ndarray:
-        """((m3+m1) x n_d): Y_M theta_d = M a."""
+        """((m3+m1) x n_d): Y_M theta_d = M a.
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        a : ndarray, shape (m3 + m1,)
+            The vector M multiplies.
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1, n_d)
+            Y_M(q, a).
+        """
         ...
 
     def Y_Mdot(self, q_b: Any, q_m, w, s_vec) -> np.ndarray:
-        """((m3+m1) x n_d): Y theta_d = dM/dt s along w."""
+        """((m3+m1) x n_d): Y theta_d = dM/dt s along w.
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s], the motion along which dM/dt is taken.
+        s_vec : ndarray, shape (m3 + m1,)
+            The vector dM/dt multiplies.
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1, n_d)
+            The regressor.
+        """
         ...
 
     def Y_h(self, q_b: Any, q_m, w) -> np.ndarray:
-        """((m3+m1) x n_d): Y theta_d = C(q, w) w, Eq. (8)."""
+        """((m3+m1) x n_d): Y theta_d = C(q, w) w, Eq. (8).
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1, n_d)
+            Y_h.
+        """
         ...
 
     def velocity_regressors(self, q_b: Any, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass."""
+        """(Y_Mdot(w, s), Y_h(w)) in one pass.
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+        s_vec : ndarray, shape (m3 + m1,)
+            The vector dM/dt multiplies.
+
+        Returns
+        -------
+        Y_Mdot, Y_h : ndarray, shape (m3 + m1, n_d)
+            The two regressors.
+        """
         ...
 
     def Y_d(self, q_b: Any, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: Y_d theta_d = M s1 - dM/dt s2 + C w."""
+        """Eq. (12) with s3 = w: Y_d theta_d = M s1 - dM/dt s2 + C w.
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+        s1, s2 : ndarray, shape (m3 + m1,)
+            The vectors of Eq. (12).
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1, n_d)
+            Y_d.
+        """
         ...
 
     def velocity_product(self, theta_d, q_b: Any, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w (m3+m1) [N m], Eq. (8)."""
+        """C(q, w, theta_d) w (m3+m1) [N m], Eq. (8).
+
+        Parameters
+        ----------
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (m3 + m1,)
+            C w [N m].
+        """
         ...
 
     def reaction_torque(self, theta_d, q_b: Any, q_m, w, w_dot) -> Any:
-        """F_r of Eqs. (6)-(7) [N m] (float planar, 3-vector spatial)."""
+        """F_r of Eqs. (6)-(7) [N m] (float planar, 3-vector spatial).
+
+        Parameters
+        ----------
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+        w_dot : ndarray, shape (m3 + m1,)
+            (dw_b/dt, dw_m/dt) [rad/s^2].
+
+        Returns
+        -------
+        float or ndarray
+            F_r [N m].
+        """
         ...
 
     def Y_b(self, q_b: Any, q_m, w) -> np.ndarray:
-        """(m3 x n_b): Y_b theta_b = H_bb w_b + H_bm w_m - A_0, Eq. (14)."""
+        """(m3 x n_b): Y_b theta_b = H_bb w_b + H_bm w_m - A_0, Eq. (14).
+
+        Parameters
+        ----------
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (m3, n_b)
+            Y_b.
+        """
         ...
 
     def momentum_matrices(self, theta_b, q_b: Any, q_m) -> tuple[np.ndarray, np.ndarray, Any]:
-        """(H_bb (m3 x m3), H_bm (m3 x m1), A_0) of Eq. (13)."""
+        """(H_bb (m3 x m3), H_bm (m3 x m1), A_0) of Eq. (13).
+
+        Parameters
+        ----------
+        theta_b : array_like, shape (n_b,)
+            Momentum parameters.
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        H_bb : ndarray, shape (m3, m3)
+            Base inertia.
+        H_bm : ndarray, shape (m3, m1)
+            Coupling inertia.
+        A_0 : float or ndarray
+            A_0 of Eq. (13).
+        """
         ...
 
     def kernel_constants(self) -> Any:

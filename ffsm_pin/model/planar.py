@@ -46,7 +46,15 @@ _COLLINEAR_TOL = 1e-12
 
 @dataclass(frozen=True)
 class ParameterLayout:
-    """Sizes and meaning of the parameter vectors."""
+    """Sizes and meaning of the parameter vectors.
+
+    Parameters
+    ----------
+    n_bodies : int
+        n + 1.
+    collinear : bool
+        The paper's collinear layout (no Ds_kl parameters).
+    """
 
     n_bodies: int  # n + 1
     collinear: bool

@@ -44,7 +44,7 @@ class State:
 
     Parameters
     ----------
-    robot:
+    robot : Robot
         A loaded :class:`~ffsm_pin.robot.Robot` (planar or free-flyer root).
 
     Attributes
@@ -145,7 +145,20 @@ class State:
         self._filler = FILLERS[robot.base]
 
     def update(self, q, v) -> State:
-        """Compute every quantity for the plant state (q, v) in Pinocchio conventions."""
+        """Compute every quantity for the plant state (q, v) in Pinocchio conventions.
+
+        Parameters
+        ----------
+        q : ndarray, shape (nq,)
+            Configuration in Pinocchio's convention.
+        v : ndarray, shape (nv,)
+            Velocity in Pinocchio's convention.
+
+        Returns
+        -------
+        State
+            This state, updated.
+        """
         self._filler.fill(self, *self._store(q, v))
         return self
 
@@ -153,7 +166,20 @@ class State:
         """Compute only ``M``, ``h`` (Eqs. 9a, 8), ``mass_matrix`` and ``nonlinear_effects``
         for the plant state (q, v), the same numbers :meth:`update` gives; every other
         quantity keeps the value of an earlier :meth:`update`. What a controller given the
-        true model needs each period, at a fraction of the cost."""
+        true model needs each period, at a fraction of the cost.
+
+        Parameters
+        ----------
+        q : ndarray, shape (nq,)
+            Configuration in Pinocchio's convention.
+        v : ndarray, shape (nv,)
+            Velocity in Pinocchio's convention.
+
+        Returns
+        -------
+        State
+            This state, updated.
+        """
         self._filler.fill_dynamics(self, *self._store(q, v))
         return self
 

@@ -64,6 +64,27 @@ class PlanarGeometry(_Chain):
     """Planar serial chain extracted from a Pinocchio model (bodies 0..n, 0 = base).
 
     All vectors are 2-D, in the frame of the body they belong to [m].
+
+    Attributes
+    ----------
+    masses : ndarray, shape (n+1,)
+        Body masses [kg].
+    inertias : ndarray, shape (n+1,)
+        I_zz about each body CoM [kg m^2].
+    coms : ndarray, shape (n+1, 2)
+        c_k, CoM in body frame k.
+    child_joints : ndarray, shape (n, 2)
+        a_k, origin of joint k+1 in body frame k.
+    joint_yaws : ndarray, shape (n,)
+        Fixed yaw of joint k's placement in its parent [rad].
+    axis_signs : ndarray, shape (n,)
+        s_j = +1 (axis +z) or -1 (axis -z).
+    ee_body : int
+        Body carrying the end-effector frame (1..n).
+    ee_position : ndarray, shape (2,)
+        e, end-effector origin in body frame ee_body.
+    ee_yaw : float
+        Yaw of the end-effector frame in body frame ee_body [rad].
     """
 
     masses: np.ndarray  # (n+1,) [kg]
@@ -83,6 +104,27 @@ class SpatialGeometry(_Chain):
 
     Body k's frame is the frame of joint k (the base frame for k = 0); vectors are in the
     frame of the body they belong to [m].
+
+    Attributes
+    ----------
+    masses : ndarray, shape (n+1,)
+        Body masses [kg].
+    inertias : ndarray, shape (n+1, 3, 3)
+        I_k about the body CoM, body frame [kg m^2].
+    coms : ndarray, shape (n+1, 3)
+        c_k, CoM in body frame k.
+    joint_rotations : ndarray, shape (n, 3, 3)
+        Rotation of joint k's placement in body k-1.
+    child_joints : ndarray, shape (n, 3)
+        a_k, origin of joint k+1 in body frame k.
+    axes : ndarray, shape (n, 3)
+        Unit axis of joint k in its own frame.
+    ee_body : int
+        Body carrying the end-effector frame (1..n).
+    ee_position : ndarray, shape (3,)
+        e, end-effector origin in body frame ee_body.
+    ee_rotation : ndarray, shape (3, 3)
+        End-effector frame orientation in body frame ee_body.
     """
 
     masses: np.ndarray  # (n+1,) [kg]
@@ -100,7 +142,17 @@ class SpatialGeometry(_Chain):
 def check_inertia(mass: float, inertia: np.ndarray, what: str) -> None:
     """Raise :class:`InertiaError` unless mass > 0 and the 3x3 inertia about the CoM is
     symmetric positive definite and satisfies the triangle inequality of its principal
-    moments (I_a + I_b >= I_c, to a relative 1e-9)."""
+    moments (I_a + I_b >= I_c, to a relative 1e-9).
+
+    Parameters
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : ndarray, shape (3, 3)
+        About the CoM [kg m^2].
+    what : str
+        The body, for the message.
+    """
     if not mass > 0:
         raise InertiaError(f"{what} has mass {mass}; every body needs a positive mass")
     inertia = np.asarray(inertia, dtype=float)
@@ -122,7 +174,22 @@ def check_inertia(mass: float, inertia: np.ndarray, what: str) -> None:
 
 def joint_axis(jm, name: str, source: str) -> np.ndarray:
     """Unit axis of a revolute joint in its own frame; :class:`UnsupportedJointError` naming
-    the kind of any other joint."""
+    the kind of any other joint.
+
+    Parameters
+    ----------
+    jm : pin.JointModel
+        The joint.
+    name : str
+        Its name, for the message.
+    source : str
+        Where the model comes from, for the message.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The unit axis.
+    """
     short = jm.shortname()
     if short in _REVOLUTE:
         return _REVOLUTE[short].copy()
@@ -149,7 +216,24 @@ def body_names(model: pin.Model) -> tuple[str, ...]:
 
 def end_effector_frame(model: pin.Model, name: str, source: str, hint: str = "") -> int:
     """Frame id of the end effector; :class:`FrameNotFoundError` naming the frames there are,
-    or when the frame sits on the base."""
+    or when the frame sits on the base.
+
+    Parameters
+    ----------
+    model : pin.Model
+        The robot's model.
+    name : str
+        The frame's name.
+    source : str
+        Where the model comes from, for the message.
+    hint : str
+        Appended to the message.
+
+    Returns
+    -------
+    int
+        The frame id.
+    """
     if not model.existFrame(name):
         frames = [f.name for f in model.frames if f.name not in ("universe", "root_joint")]
         raise FrameNotFoundError(
@@ -169,6 +253,18 @@ def check_serial(model: pin.Model, fid: int, source: str, lock_hint: str | None)
 
     ``lock_hint``: None where joints cannot be locked; otherwise the text appended to the list
     of joints to lock (e.g. the usual ones of an example-robot-data arm).
+
+    Parameters
+    ----------
+    model : pin.Model
+        The robot's model.
+    fid : int
+        The end-effector frame.
+    source : str
+        Where the model comes from, for the message.
+    lock_hint : str or None
+        None where joints cannot be locked; otherwise the text appended to the list of joints
+        to lock.
     """
     branching = [j for j in range(2, model.njoints) if model.parents[j] != j - 1]
     if not branching:
@@ -194,7 +290,19 @@ def _yaw(rotation: np.ndarray) -> float:
 
 
 def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: str):
-    """:class:`PlanarGeometry` of a chain on a planar root; refuses what is not planar."""
+    """:class:`PlanarGeometry` of a chain on a planar root; refuses what is not planar.
+
+    Parameters
+    ----------
+    model : pin.Model
+        The robot's model (planar root).
+    fid : int
+        The end-effector frame.
+    names : tuple of str
+        URDF link name of each body 0..n (:func:`body_names`), for the messages.
+    source : str
+        Where the model comes from, for the messages.
+    """
     masses, inertias, coms = [], [], []
     for j in range(1, model.njoints):
         inertia = model.inertias[j]
@@ -264,6 +372,19 @@ def spatial_geometry(
     """:class:`SpatialGeometry` of a chain on a free-flyer root.
 
     ``base_hint`` is appended to an inertia error of the floating base itself.
+
+    Parameters
+    ----------
+    model : pin.Model
+        The robot's model (free-flyer root).
+    fid : int
+        The end-effector frame.
+    names : tuple of str
+        URDF link name of each body 0..n (:func:`body_names`), for the messages.
+    source : str
+        Where the model comes from, for the messages.
+    base_hint : str
+        Appended to an inertia error of the floating base.
     """
     axes = [joint_axis(model.joints[j], model.names[j], source) for j in range(2, model.njoints)]
     masses, inertias, coms = [], [], []

@@ -49,23 +49,23 @@ def load_robot(
 
     Parameters
     ----------
-    urdf:
+    urdf : str or Path
         Path to a URDF, the name of a shipped robot (see :func:`shipped_urdfs`), or
         ``"example-robot-data:<name>"`` (names: :data:`EXAMPLE_ROBOTS`).
-    end_effector:
+    end_effector : str
         Name of the end-effector frame (a link or a fixed joint of the URDF).
-    base:
+    base : str
         Root joint: ``"planar"`` (every joint revolute about +-z) or ``"free-flyer"``
         (any revolute chain, spatial).
-    relative_to:
+    relative_to : str or Path or None
         Directory that relative paths are resolved against (e.g. a scenario file's folder).
-    locked_joints:
+    locked_joints : mapping of str to float or None
         Free-flyer only: ``{joint name: value}`` [rad or m] of joints held fixed (grippers,
         unused branches).
-    satellite:
+    satellite : Satellite or Mapping or None
         Free-flyer only: a :class:`Satellite` (or its dict) added as the new root body under
         the URDF's root link, for arm-only URDFs.
-    payload:
+    payload : Payload or Mapping or None
         A :class:`Payload` (or its dict) held by the end effector: a rigid body fixed to the
         end-effector frame, added to the body of the frame's joint. The robot's model and
         geometry include it; ``robot.unloaded`` is the robot without it.
@@ -217,7 +217,18 @@ def load_spatial_robot(
     locked_joints: Mapping[str, float] | None = None,
     satellite: Satellite | Mapping | None = None,
 ) -> Robot:
-    """``load_robot(..., base="free-flyer")`` (kept for the spatial loader's callers)."""
+    """``load_robot(..., base="free-flyer")`` (kept for the spatial loader's callers).
+
+    Parameters
+    ----------
+    urdf, end_effector, relative_to, locked_joints, satellite
+        As :func:`load_robot`'s.
+
+    Returns
+    -------
+    Robot
+        The robot (free-flyer root).
+    """
     return load_robot(
         urdf,
         end_effector,

@@ -47,7 +47,20 @@ class NativeOutput:
 
 def summary(text: str, limit: int = MAX_SUMMARY) -> str:
     """One line for what a C/C++ library printed: level prefixes and source locations left out,
-    repeated lines once, lines joined by ``"; "``, at most ``limit`` characters."""
+    repeated lines once, lines joined by ``"; "``, at most ``limit`` characters.
+
+    Parameters
+    ----------
+    text : str
+        What the library printed.
+    limit : int
+        Most characters.
+
+    Returns
+    -------
+    str
+        The line.
+    """
     parts: list[str] = []
     for line in text.splitlines():
         if not line.strip() or _WHERE.match(line):
@@ -111,7 +124,17 @@ def native_output() -> Iterator[NativeOutput]:
 class NativeCall:
     """What :func:`native_call` gives back: the value (None on failure), the failure's text
     (a ``RuntimeError``/``ValueError`` the binding raised, on one line) and the captured
-    output."""
+    output.
+
+    Attributes
+    ----------
+    value : Any
+        The value, None on failure.
+    failure : str or None
+        The failure's text, on one line; None on success.
+    output : NativeOutput
+        The captured output.
+    """
 
     value: Any
     failure: str | None

@@ -17,10 +17,18 @@ from .geometry import check_inertia
 class Payload:
     """A rigid body held by the end effector, fixed to the end-effector frame.
 
-    ``mass`` [kg]; ``com`` its centre of mass in the end-effector frame [m]; ``inertia`` =
-    (ixx, iyy, izz, ixy, ixz, iyz) about its CoM, along the end-effector frame's axes
-    [kg m^2]; ``known``: whether the controller's estimates include it (default: no; the
-    estimates are then made from the robot without it, docs/cli.md ``[robot.payload]``).
+    Attributes
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : tuple of float
+        (ixx, iyy, izz, ixy, ixz, iyz) about its CoM, along the end-effector frame's axes
+        [kg m^2].
+    com : tuple of float
+        Its centre of mass in the end-effector frame [m].
+    known : bool
+        Whether the controller's estimates include it (default: no; the estimates are then
+        made from the robot without it, docs/cli.md ``[robot.payload]``).
     """
 
     mass: float
@@ -57,7 +65,20 @@ class Payload:
     def attach(self, model: pin.Model, ee_frame_id: int) -> pin.Model:
         """A copy of ``model`` whose end-effector link carries the payload: its inertia, moved
         from the end-effector frame to the frame's joint, added to that joint's body
-        (``appendBodyToJoint``)."""
+        (``appendBodyToJoint``).
+
+        Parameters
+        ----------
+        model : pin.Model
+            The robot's model.
+        ee_frame_id : int
+            The end-effector frame.
+
+        Returns
+        -------
+        pin.Model
+            The copy with the payload.
+        """
         out = pin.Model(model)
         frame = out.frames[ee_frame_id]
         out.appendBodyToJoint(int(frame.parentJoint), self.spatial_inertia(), frame.placement)

@@ -21,22 +21,38 @@ class Robot:
 
     Attributes
     ----------
-    model:
+    model : pin.Model
         Pinocchio model, gravity zero, the root joint first (``root.joint_model``).
-    root:
+    root : RootJoint
         The root-joint row (:data:`ffsm_pin.robot.roots.ROOTS`): planar or free-flyer.
-    geometry:
+    geometry : PlanarGeometry or SpatialGeometry
         :class:`PlanarGeometry` or :class:`SpatialGeometry` of the serial chain.
-    urdf_xml:
+    urdf_xml : str
         The (possibly repaired or extended) URDF text given to Pinocchio.
-    no_effort_limit:
+    no_effort_limit : tuple of str
         Manipulator joints whose URDF gives no effort limit (no ``<limit>``, or one without
         ``effort``): the model's effort limit of these joints is a placeholder the URDF repair
         wrote for Pinocchio's parser, never a torque limit (:attr:`effort_limits`).
-    payload:
+    payload : Payload or None
         A :class:`~ffsm_pin.robot.payload.Payload` held by the end effector, or None. The
         model and the geometry include it (the plant's robot); :attr:`unloaded` is the robot
         without it.
+    urdf_path : Path
+        The URDF file.
+    ee_frame : str
+        Name of the end-effector frame.
+    ee_frame_id : int
+        Its frame id in :attr:`model`.
+    body_names : tuple of str
+        URDF link name of each body 0..n.
+    joint_names : tuple of str
+        Manipulator joints 1..n.
+    locked_joints : mapping of str to float
+        Joints locked at an angle [rad], by name.
+    package_dirs : tuple of Path
+        Where ``package://`` mesh paths resolve.
+    unloaded : Robot or None
+        The robot without its payload (None without a payload).
     """
 
     model: pin.Model
@@ -95,6 +111,18 @@ class Robot:
 
         The base pose is (x, y, q_b) [m, m, rad] on a planar root and
         (x, y, z, s1, s2, s3) [m, MRP] on a free-flyer root.
+
+        Parameters
+        ----------
+        base_pose : array_like
+            (x, y, q_b) planar, (x, y, z, s1, s2, s3) free-flyer.
+        joints : array_like, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (nq,)
+            q (Pinocchio convention).
         """
         joints = np.asarray(joints, dtype=float)
         base_q = self.root.pose_to_q(base_pose)

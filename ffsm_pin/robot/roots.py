@@ -81,7 +81,31 @@ def _no_xml_check(root: ET.Element, source: str) -> None:
 
 @dataclass(frozen=True)
 class RootJoint:
-    """One row of the root-joint table (see the module docstring)."""
+    """One row of the root-joint table (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+        The root's name (base of a scenario).
+    joint_model : callable
+        Makes Pinocchio's root joint.
+    m2 : int
+        Position components of the paper's task space (2 planar, 3 spatial).
+    m3 : int
+        Attitude components of the base (1 planar angle, 3 MRP).
+    nq : int
+        Entries of the base in Pinocchio's q.
+    nv : int
+        Entries of the base in Pinocchio's v.
+    pose_to_q : callable
+        Base pose -> the base's entries of q.
+    check_xml : callable
+        (URDF element, source) -> None; refuses what the root cannot carry.
+    geometry : callable
+        (model, ee frame id, body names, source) -> the chain's geometry.
+    options : bool
+        Locked joints and a satellite body are supported.
+    """
 
     name: str
     joint_model: Callable[[], pin.JointModel]

@@ -15,9 +15,21 @@ from ..errors import ParameterError, UrdfError, check_keys
 class Satellite:
     """A satellite body added under an arm's root link (for arm-only URDFs).
 
-    ``inertia`` = (ixx, iyy, izz, ixy, ixz, iyz) about the satellite's CoM, which is the
-    origin of the new root link [kg m^2]; ``size`` is the visual box [m]; the arm's root link
-    is mounted at ``mount_xyz`` [m] with ``mount_rpy`` [rad] in the satellite frame.
+    Attributes
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : tuple of float
+        (ixx, iyy, izz, ixy, ixz, iyz) about the satellite's CoM, which is the origin of the
+        new root link [kg m^2].
+    size : tuple of float
+        The visual box [m].
+    mount_xyz : tuple of float
+        Where the arm's root link is mounted in the satellite frame [m].
+    mount_rpy : tuple of float
+        Its roll-pitch-yaw in the satellite frame [rad].
+    name : str
+        Name of the new root link.
     """
 
     mass: float = 500.0  # [kg]
@@ -50,7 +62,17 @@ class Satellite:
 
     def add_to(self, root: ET.Element, arm_root: str, source: str) -> None:
         """Insert this satellite into a URDF's XML as the new root link, carrying ``arm_root``
-        through a fixed joint."""
+        through a fixed joint.
+
+        Parameters
+        ----------
+        root : xml.etree.ElementTree.Element
+            The URDF's ``<robot>`` element, changed in place.
+        arm_root : str
+            The arm's root link.
+        source : str
+            Where the URDF comes from, for the message.
+        """
         names = {link.get("name") for link in root.findall("link")}
         if self.name in names:
             raise UrdfError(

@@ -65,7 +65,20 @@ def shipped_urdfs() -> list[str]:
 
 def resolve_urdf(urdf: str | Path, relative_to: str | Path | None = None) -> Path:
     """Find a URDF: a path (absolute, or relative to ``relative_to`` or the working
-    directory), or the name of a robot shipped with the package (``"ffsm_planar4.urdf"``)."""
+    directory), or the name of a robot shipped with the package (``"ffsm_planar4.urdf"``).
+
+    Parameters
+    ----------
+    urdf : str or Path
+        A path or the name of a shipped robot.
+    relative_to : str or Path or None
+        Folder a relative path is looked up in first.
+
+    Returns
+    -------
+    Path
+        The URDF file.
+    """
     candidates = []
     p = Path(urdf)
     if relative_to is not None and not p.is_absolute():
@@ -127,6 +140,20 @@ def resolve_source(
     """(URDF path, package dirs) for a path, a shipped name or ``example-robot-data:<name>``.
 
     The package dirs are where ``package://NAME/...`` mesh paths of the URDF resolve.
+
+    Parameters
+    ----------
+    urdf : str or Path
+        A path, a shipped name or ``example-robot-data:<name>``.
+    relative_to : str or Path or None
+        Folder a relative path is looked up in first.
+
+    Returns
+    -------
+    path : Path
+        The URDF file.
+    package_dirs : tuple of Path
+        Where its ``package://`` paths resolve.
     """
     name = example_robot_name(urdf)
     if name is not None:
@@ -155,7 +182,20 @@ def read_urdf(path: Path) -> str:
 
 # ---------------------------------------------------------------------------- XML
 def parse_urdf(text: str, source: str) -> ET.Element:
-    """The ``<robot>`` element of a URDF text; :class:`UrdfError` for anything else."""
+    """The ``<robot>`` element of a URDF text; :class:`UrdfError` for anything else.
+
+    Parameters
+    ----------
+    text : str
+        URDF text.
+    source : str
+        Where it comes from, for the message.
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The ``<robot>`` element.
+    """
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
@@ -190,6 +230,18 @@ def repair_limits(root: ET.Element, source: str) -> bool:
     simulator; the effort written here is a placeholder for the parser, never a torque limit
     (:attr:`~ffsm_pin.robot.Robot.no_effort_limit` names these joints, and
     ``actuators.torque_limit = "urdf"`` refuses them).
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The ``<robot>`` element, repaired in place.
+    source : str
+        Where it comes from, for the warnings.
+
+    Returns
+    -------
+    bool
+        True if anything changed.
     """
     changed = False
     for joint in root.iter("joint"):
@@ -229,7 +281,20 @@ def repair_limits(root: ET.Element, source: str) -> bool:
 
 def add_missing_limits(text: str, source: str = "URDF") -> str:
     """Return URDF text repaired by :func:`repair_limits` (the text itself when nothing was
-    missing)."""
+    missing).
+
+    Parameters
+    ----------
+    text : str
+        URDF text.
+    source : str
+        Where it comes from, for the messages.
+
+    Returns
+    -------
+    str
+        The repaired text.
+    """
     root = parse_urdf(text, source)
     if repair_limits(root, source):
         return ET.tostring(root, encoding="unicode")

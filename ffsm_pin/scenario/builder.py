@@ -43,7 +43,20 @@ from .trajectory import ReferenceData
 
 
 def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
-    """The dataclasses from a validated document (every check is in :mod:`.schema`)."""
+    """The dataclasses from a validated document (every check is in :mod:`.schema`).
+
+    Parameters
+    ----------
+    m : schema.ScenarioModel
+        The validated document.
+    src : Path or None
+        The file it came from.
+
+    Returns
+    -------
+    Scenario
+        The scenario.
+    """
     _, n_b, n_ee = m.sizes
     performance = _performance(m.controller, n_ee, n_b)
     return Scenario(

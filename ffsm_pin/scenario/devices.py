@@ -22,15 +22,15 @@ class ActuatorSpec:
 
     Attributes
     ----------
-    torque_limit:
+    torque_limit : str or float or tuple of float
         ``"none"``, ``"urdf"`` (each joint's ``<limit effort>``), a number or one per joint [N m].
-    rate_limit:
+    rate_limit : float or tuple of float
         Largest change of the applied torque, a number or one per joint [N m/s]; 0 = none.
-    time_constant:
+    time_constant : float
         First-order lag of the applied torque [s]; 0 = none.
-    torque_noise:
+    torque_noise : float or tuple of float
         Standard deviation of additive Gaussian torque noise, a number or one per joint [N m].
-    seed:
+    seed : int
         Seed of the torque noise.
     """
 
@@ -61,11 +61,11 @@ class SensorSpec:
 
     Attributes
     ----------
-    seed:
+    seed : int
         Seed of the noise streams.
-    delay:
+    delay : int
         Control periods between a measurement and its use (>= 0).
-    noise:
+    noise : tuple of (str, float or tuple of float)
         ``(key, standard deviation)`` pairs, key in :data:`NOISE_KEYS`; a number or one value
         per component [rad, rad/s, rad or MRP, rad/s, m and rad or MRP, m/s and rad/s or 1/s].
     """

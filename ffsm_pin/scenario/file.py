@@ -102,7 +102,20 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def scenario_from_toml(text: str, source: str | Path | None = None) -> Scenario:
-    """Parse TOML text into a validated :class:`Scenario` (see :func:`scenario_from_dict`)."""
+    """Parse TOML text into a validated :class:`Scenario` (see :func:`scenario_from_dict`).
+
+    Parameters
+    ----------
+    text : str
+        TOML text.
+    source : str or Path or None
+        The file it came from.
+
+    Returns
+    -------
+    Scenario
+        The scenario.
+    """
     where = str(source) if source is not None else "scenario"
     try:
         data = tomllib.loads(text)
@@ -131,6 +144,18 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
 
     ``source`` is the file the document came from (relative URDF paths resolve against its
     folder, and it names the scenario when there is no top-level ``name``).
+
+    Parameters
+    ----------
+    d : mapping
+        The parsed document.
+    source : str or Path or None
+        The file it came from.
+
+    Returns
+    -------
+    Scenario
+        The scenario.
     """
     if not isinstance(d, Mapping):
         raise ScenarioError(f"a scenario is a table of sections, got {type(d).__name__}")

@@ -22,6 +22,18 @@ def read_reference_csv(path: str | Path, n_components: int) -> ReferenceData:
         unreadable or non-UTF-8 file, a header whose first column is not ``t`` or with the
         wrong number of columns, a row with the wrong number of values or a non-number, times
         that do not increase.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    n_components : int
+        Task components (columns after ``t``).
+
+    Returns
+    -------
+    ReferenceData
+        The samples.
     """
     path = Path(path)
     where = f"reference.ee_file {str(path)!r}"

@@ -127,7 +127,17 @@ def _length(value: list | None, n: int, at: tuple) -> None:
 
 
 def check_mrp(s, at: tuple, suffix: str = "") -> None:
-    """An attitude MRP must be on the |s| <= 1 branch (the shadow set is the same attitude)."""
+    """An attitude MRP must be on the |s| <= 1 branch (the shadow set is the same attitude).
+
+    Parameters
+    ----------
+    s : sequence of float
+        The MRP.
+    at : tuple
+        Where it is in the document (the keys), for the message.
+    suffix : str
+        Appended to the location (e.g. ``"[3:6]"``).
+    """
     norm = math.sqrt(sum(x * x for x in s))
     if norm > 1.0:
         fail(
@@ -140,7 +150,24 @@ def check_mrp(s, at: tuple, suffix: str = "") -> None:
 def funnel_arrays(model: FunnelModel, tag: str, n: int, default) -> dict[str, tuple]:
     """FunnelParams fields of funnel ``tag`` ("b" or "z", n components): numbers broadcast,
     missing keys from ``default`` (FunnelParams of size n, else an error), rho_inf < rho_0
-    (the other ranges are the FunnelModel's types)."""
+    (the other ranges are the FunnelModel's types).
+
+    Parameters
+    ----------
+    model : FunnelModel
+        The validated funnel keys.
+    tag : str
+        ``"b"`` or ``"z"``.
+    n : int
+        Components.
+    default : FunnelParams or None
+        Where missing keys are taken from.
+
+    Returns
+    -------
+    dict of str to tuple
+        The FunnelParams fields.
+    """
     names = (f"rho_{tag}0", f"rho_{tag}inf", f"beta_{tag}", f"sigma_{tag}")
     keys = dict(zip(FUNNEL_KEYS, names, strict=True))
     what = "the base attitude" if tag == "b" else "the end-effector task"

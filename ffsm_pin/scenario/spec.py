@@ -39,7 +39,15 @@ INTEGRATORS = ("semi-implicit", "rk4")
 
 @dataclass(frozen=True)
 class Harmonic:
-    """One term ``amplitude * cos(frequency t)`` or ``amplitude * sin(frequency t)``."""
+    """One term ``amplitude * cos(frequency t)`` or ``amplitude * sin(frequency t)``.
+
+    Attributes
+    ----------
+    amplitude : float
+        Amplitude [units of the component].
+    frequency : float
+        Angular frequency [rad/s].
+    """
 
     amplitude: float
     frequency: float  # [rad/s]
@@ -47,14 +55,30 @@ class Harmonic:
 
 @dataclass(frozen=True)
 class ComponentReference:
-    """``value(t) = c + sum a_i cos(w_i t) + sum b_j sin(w_j t)`` for one task component."""
+    """``value(t) = c + sum a_i cos(w_i t) + sum b_j sin(w_j t)`` for one task component.
+
+    Attributes
+    ----------
+    c : float
+        The constant term.
+    cos, sin : tuple of Harmonic
+        The cosine terms (a_i, w_i) and the sine terms (b_j, w_j).
+    """
 
     c: float = 0.0
     cos: tuple[Harmonic, ...] = ()
     sin: tuple[Harmonic, ...] = ()
 
     def derivative(self, t, order: int = 0):
-        """d^order value / dt^order at t (t may be complex, for complex-step derivatives)."""
+        """d^order value / dt^order at t (t may be complex, for complex-step derivatives).
+
+        Parameters
+        ----------
+        t : float or complex
+            Time [s].
+        order : int
+            Order of the derivative (0: the value).
+        """
         out = self.c if order == 0 else 0.0
         for h in self.cos:  # d^k/dt^k cos(wt) = w^k cos(wt + k pi/2)
             out = out + h.amplitude * h.frequency**order * np.cos(
@@ -82,15 +106,24 @@ def _after(initial: np.ndarray, relative: np.ndarray) -> np.ndarray:
 class Reference:
     """Desired end-effector task z_e,d(t) (Eq. 80 form) and base attitude q_b,d.
 
-    ``task = "pose"``: one entry of ``ee`` per pose component (planar x, y, attitude [rad];
-    spatial x, y, z [m] then an MRP s1, s2, s3); ``"position"``: the position components only.
-    ``base_attitude``: planar (angle,) [rad], spatial an MRP (3).
-    ``origin``: ``"absolute"``, or ``"initial"``: the constant terms ``c`` of ``ee`` and
-    ``base_attitude`` are relative to the initial pose, resolved by :meth:`resolved`.
-    ``data``: a reference from data instead of harmonics (``ee`` is then empty): samples
-    through a C2 cubic spline or rest-to-rest waypoints
-    (:class:`~ffsm_pin.scenario.trajectory.ReferenceData`); with ``origin = "initial"`` every
-    sample is relative to the initial pose.
+    Attributes
+    ----------
+    ee : tuple of ComponentReference
+        ``task = "pose"``: one entry per pose component (planar x, y, attitude [rad];
+        spatial x, y, z [m] then an MRP s1, s2, s3); ``"position"``: the position components
+        only.
+    base_attitude : tuple of float
+        Planar (angle,) [rad], spatial an MRP (3).
+    task : str
+        ``"pose"`` or ``"position"``.
+    origin : str
+        ``"absolute"``, or ``"initial"``: the constant terms ``c`` of ``ee`` and
+        ``base_attitude`` are relative to the initial pose, resolved by :meth:`resolved`.
+    data : ReferenceData or None
+        A reference from data instead of harmonics (``ee`` is then empty): samples through a
+        C2 cubic spline or rest-to-rest waypoints
+        (:class:`~ffsm_pin.scenario.trajectory.ReferenceData`); with ``origin = "initial"``
+        every sample is relative to the initial pose.
     """
 
     ee: tuple[ComponentReference, ...]
@@ -155,6 +188,20 @@ class Reference:
         the given rotation after the initial one, R(c) -> R(q_e(0)) R(c) and
         R(q_b,d) -> R(q_b(0)) R(q_b,d) (docs/cli.md, ``[reference]``). Only the constant terms
         move; the harmonic terms are unchanged.
+
+        Parameters
+        ----------
+        z_e0 : array_like
+            The initial end-effector pose.
+        q_b0 : float or array_like
+            The initial base attitude [rad] or MRP.
+        m2 : int
+            Position components.
+
+        Returns
+        -------
+        Reference
+            The absolute reference.
         """
         if self.origin == "absolute":
             return self
@@ -214,7 +261,25 @@ class RobotSpec:
     """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
     optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
     :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root); ``payload``, a
-    :class:`~ffsm_pin.robot.Payload` held by the end effector (either base)."""
+    :class:`~ffsm_pin.robot.Payload` held by the end effector (either base).
+
+    Attributes
+    ----------
+    urdf : str
+        Shipped name or path (relative to relative_to).
+    base : str
+        ``"planar"`` or ``"free-flyer"``.
+    end_effector : str
+        Name of the end-effector frame.
+    relative_to : str or None
+        Folder of the scenario file.
+    locked_joints : tuple of (str, float)
+        ((name, value), ...) [rad or m], free-flyer only.
+    satellite : Satellite or None
+        Added under an arm-only URDF's root, free-flyer only.
+    payload : Payload or None
+        Held by the end effector.
+    """
 
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
     base: str = "planar"
@@ -229,18 +294,34 @@ class RobotSpec:
 class InitialCondition:
     """Initial plant state (planar / spatial sizes).
 
-    base_pose: (x, y, q_b) [m, m, rad] / (x, y, z, s1, s2, s3) [m, MRP], base frame origin in
-        the inertial frame.
-    com_at_origin: shift the position so that the *system* CoM starts at the inertial origin.
-    joints, joint_rates: q_m(0) [rad], w_m(0) [rad/s].
     Base velocity, exactly one of (all in the inertial frame):
-      * base_twist = (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s];
-      * com_velocity = v_0 (2 / 3) [m/s] with base_rate = w_b (number / 3) [rad/s];
-      * com_velocity with angular_momentum = A_0 about the system CoM (number / 3) [kg m^2/s].
-    attitude_error: an initial base attitude error applied on top of base_pose's attitude:
-        planar an angle added to q_b [rad]; spatial a rotation vector (axis times angle)
-        [rad] about inertial axes, R(0) = exp([e]x) R(base_pose). A campaign draws it in a
-        random direction with a given angle (docs/campaigns.md, ``{ angle = ... }``).
+
+    * base_twist = (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s];
+    * com_velocity = v_0 (2 / 3) [m/s] with base_rate = w_b (number / 3) [rad/s];
+    * com_velocity with angular_momentum = A_0 about the system CoM (number / 3) [kg m^2/s].
+
+    Attributes
+    ----------
+    base_pose : tuple of float
+        (x, y, q_b) [m, m, rad] / (x, y, z, s1, s2, s3) [m, MRP], base frame origin in the
+        inertial frame.
+    joints, joint_rates : tuple of float
+        q_m(0) [rad], w_m(0) [rad/s].
+    com_at_origin : bool
+        Shift the position so that the *system* CoM starts at the inertial origin.
+    base_twist : tuple of float or None
+        (v_x, v_y, w_b) / (v (3), w_b (3)) [m/s, rad/s].
+    com_velocity : tuple of float or None
+        v_0 (2 / 3) [m/s].
+    base_rate : float or tuple of float or None
+        w_b (number / 3) [rad/s].
+    angular_momentum : float or tuple of float or None
+        A_0 about the system CoM (number / 3) [kg m^2/s].
+    attitude_error : float or tuple of float or None
+        An initial base attitude error applied on top of base_pose's attitude: planar an
+        angle added to q_b [rad]; spatial a rotation vector (axis times angle) [rad] about
+        inertial axes, R(0) = exp([e]x) R(base_pose). A campaign draws it in a random
+        direction with a given angle (docs/campaigns.md, ``{ angle = ... }``).
     """
 
     base_pose: tuple[float, ...]
@@ -281,6 +362,17 @@ class Estimates:
     within ``spread`` of the truth, from a generator seeded with ``seed``, the barycentric
     estimates derived from the drawn bodies (:func:`ffsm_pin.sim.estimates.perturb_body`,
     docs/model.md section 6).
+
+    Attributes
+    ----------
+    initial : str
+        'paper', 'true', 'perturbed' or 'explicit'.
+    spread : float
+        Relative spread of 'perturbed'.
+    seed : int
+        Seed of 'perturbed'.
+    theta_z, theta_d, theta_b : tuple of float or None
+        The 'explicit' vectors.
     """
 
     initial: str = "paper"
@@ -307,12 +399,12 @@ class Performance:
 
     Attributes
     ----------
-    funnel_b, funnel_z:
+    funnel_b, funnel_z : FunnelParams
         The base attitude and end-effector task funnels (Eqs. 16, 17): ``funnel_ok_b``,
         ``funnel_ok_z``, ``rho_b``, ``rho_z``, the bounds and the settle times judge the true
         errors by them. Defaults: the paper's planar pose funnels. A controller that uses
         funnels itself (``needs_funnels``, the lu-jia controller's transformation) uses these.
-    singularity_threshold:
+    singularity_threshold : float
         The singularity measure's threshold [m]: sigma_min of the inverted task Jacobian below
         it is near singular (``damping_threshold`` in summary.json, ``--check``); the
         built-in controllers damp their pseudo-inverse below it.
@@ -329,7 +421,19 @@ class ControllerSpec:
     initial ``estimates`` it is handed (``ctx.estimates``), and the lu-jia controller's own
     parameters, ``lu_jia`` (the paper's keys at the ``[controller]`` level of the file; other
     controllers may read them where they use them, docs/controllers.md). What the run is judged
-    by is not here: :attr:`Scenario.performance`."""
+    by is not here: :attr:`Scenario.performance`.
+
+    Attributes
+    ----------
+    type : str
+        A built-in, installed or user controller (:mod:`ffsm_pin.control.registry`).
+    params : mapping
+        The ``[controller.params]`` table.
+    estimates : Estimates
+        The initial estimates (``[controller.estimates]``).
+    lu_jia : LuJiaParams
+        The lu-jia controller's own parameters: scheme, gains, null space.
+    """
 
     type: str = "lu-jia"  # a built-in, installed or user controller (control.registry)
     params: Mapping[str, Any] = field(default_factory=dict)  # [controller.params]
@@ -345,7 +449,39 @@ class ControllerSpec:
 
 @dataclass(frozen=True)
 class Scenario:
-    """Everything one run needs."""
+    """Everything one run needs.
+
+    Attributes
+    ----------
+    robot : RobotSpec
+        Which robot.
+    initial : InitialCondition
+        The initial plant state.
+    reference : Reference
+        The task and base attitude references.
+    controller : ControllerSpec
+        Which controller, its parameters and estimates.
+    duration : float
+        The run's horizon [s].
+    dt : float
+        The control period [s].
+    name : str
+        The scenario's name.
+    source : Path or None
+        The file it was read from, if any.
+    description : str
+        Free text.
+    integrator : str
+        Plant integrator, one of ``plant.INTEGRATORS``.
+    substeps : int
+        Plant steps per control step dt, joint torque held over dt.
+    actuators : ActuatorSpec
+        Between the controller and the plant; ideal by default.
+    sensors : SensorSpec
+        Between the plant and the controller; exact by default.
+    performance : Performance
+        What the run is judged by.
+    """
 
     robot: RobotSpec
     initial: InitialCondition

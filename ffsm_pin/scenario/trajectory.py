@@ -29,11 +29,17 @@ DEGREE = 5  # quintic: the highest degree either interpolation needs
 class ReferenceData:
     """Samples of the end-effector task reference z_e,d.
 
-    times: increasing sample times [s], at least 2.
-    values: one row per time, one entry per task component (positions [m], attitude [rad]
+    Attributes
+    ----------
+    times : tuple of float
+        Increasing sample times [s], at least 2.
+    values : tuple of tuple of float
+        One row per time, one entry per task component (positions [m], attitude [rad]
         planar or MRP spatial).
-    interpolation: ``"spline"`` or ``"waypoints"`` (:data:`INTERPOLATIONS`).
-    file: the CSV the samples came from (for messages; the samples are what is used).
+    interpolation : str
+        ``"spline"`` or ``"waypoints"`` (:data:`INTERPOLATIONS`).
+    file : str or None
+        The CSV the samples came from (for messages; the samples are what is used).
     """
 
     times: tuple[float, ...]
@@ -112,7 +118,20 @@ class PiecewisePolynomial:
 
     @classmethod
     def from_scipy(cls, breaks: np.ndarray, coefs: np.ndarray) -> PiecewisePolynomial:
-        """From SciPy's PPoly layout: ``coefs[k, i, j]`` multiplies (t - breaks[i])^(deg - k)."""
+        """From SciPy's PPoly layout: ``coefs[k, i, j]`` multiplies (t - breaks[i])^(deg - k).
+
+        Parameters
+        ----------
+        breaks : ndarray
+            The segments' start times [s] and the end.
+        coefs : ndarray, shape (deg + 1, segments, n)
+            SciPy's PPoly coefficients.
+
+        Returns
+        -------
+        PiecewisePolynomial
+            The polynomial.
+        """
         deg = coefs.shape[0] - 1
         nseg, n = coefs.shape[1], coefs.shape[2]
         table = np.zeros((1 + (DEGREE + 1) * n, nseg + 2))
@@ -140,7 +159,20 @@ class PiecewisePolynomial:
 
     def derivative(self, t: Any, order: int = 0) -> np.ndarray:
         """d^order value / dt^order at the scalar time ``t`` [s] (complex t for complex steps:
-        the segment is chosen by Re t). Shape ``(n,)``."""
+        the segment is chosen by Re t). Shape ``(n,)``.
+
+        Parameters
+        ----------
+        t : float or complex
+            Time [s].
+        order : int
+            Order of the derivative (0: the value).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The derivative.
+        """
         n = self.n_components
         starts = self.table[0]
         k = max(int(np.searchsorted(starts, np.real(t), side="right")) - 1, 0)
@@ -148,7 +180,20 @@ class PiecewisePolynomial:
         return self._horner(k, tau, order, np.zeros(n, dtype=np.result_type(tau, float)))
 
     def sample(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
-        """d^order value / dt^order at the real times ``ts`` [s], shape ``(len(ts), n)``."""
+        """d^order value / dt^order at the real times ``ts`` [s], shape ``(len(ts), n)``.
+
+        Parameters
+        ----------
+        ts : ndarray
+            Real times [s].
+        order : int
+            Order of the derivative (0: the value).
+
+        Returns
+        -------
+        ndarray, shape (len(ts), n)
+            The derivative at each time.
+        """
         ts = np.asarray(ts, dtype=float)
         n = self.n_components
         starts = self.table[0]

@@ -63,7 +63,20 @@ def or_list(item: Any) -> Any:
 
 
 def interval(text: str, inside) -> AfterValidator:
-    """A range check, ``inside(x)`` true, with the message "must be in <text>"."""
+    """A range check, ``inside(x)`` true, with the message "must be in <text>".
+
+    Parameters
+    ----------
+    text : str
+        The range, for the message (e.g. ``"(0, 1]"``).
+    inside : callable
+        x -> True when x is in the range.
+
+    Returns
+    -------
+    AfterValidator
+        The check.
+    """
 
     def check(x: float) -> float:
         if not inside(x):

@@ -23,7 +23,24 @@ from ._actuator_kernel import actuate
 
 
 def per_joint(value, n: int, key: str, joints: tuple[str, ...] = ()) -> np.ndarray:
-    """A number or one value per joint, as an (n,) array; ParameterError naming ``key``."""
+    """A number or one value per joint, as an (n,) array; ParameterError naming ``key``.
+
+    Parameters
+    ----------
+    value : float or array_like
+        A number or one per joint.
+    n : int
+        Number of joints.
+    key : str
+        The scenario key, for the message.
+    joints : tuple of str
+        Joint names, for the message.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The values.
+    """
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
@@ -42,18 +59,23 @@ def urdf_limits(effort: np.ndarray | None, n: int, joints: tuple[str, ...] = ())
 
     Parameters
     ----------
-    effort:
+    effort : ndarray or None
         Each joint's effort limit, NaN where the URDF gives none
         (:attr:`~ffsm_pin.robot.Robot.effort_limits`); None: none known.
-    n:
+    n : int
         Number of joints.
-    joints:
+    joints : tuple of str
         Joint names, for the message.
 
     Raises
     ------
     ScenarioError
         A joint without a finite effort limit > 0, naming the joints and what to give instead.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The limits [N m].
     """
     eff = np.full(n, np.nan) if effort is None else np.asarray(effort, dtype=float).copy()
     names = joints if len(joints) == n else tuple(f"joint {i + 1}" for i in range(n))
@@ -77,16 +99,16 @@ class Actuators:
 
     Parameters
     ----------
-    spec:
+    spec : ActuatorSpec
         The ``[actuators]`` table.
-    n:
+    n : int
         Number of joints.
-    dt:
+    dt : float
         Control period [s].
-    effort:
+    effort : ndarray or None
         Each joint's URDF effort limit [N m], NaN where the URDF gives none (needed for
         ``torque_limit = "urdf"``, :func:`urdf_limits`).
-    joints:
+    joints : tuple of str
         Joint names, for messages.
     """
 

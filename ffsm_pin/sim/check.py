@@ -99,6 +99,24 @@ def authority_along(
     of joint motion would be needed per rad of base rotation (the arm folds: H_bb^-1 H_bm has
     lost that direction). A necessary condition, not a plan: another joint path may do
     better, and angular momentum is ignored.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot (free-flyer).
+    q0 : ndarray
+        The start configuration (Pinocchio convention).
+    axis : ndarray, shape (3,)
+        The rotation axis, inertial frame.
+    angle : float
+        The rotation asked for [rad].
+    step : float
+        Base rotation per step [rad].
+
+    Returns
+    -------
+    Reach
+        The angle reached and what stopped it.
     """
     from ..model import State
 

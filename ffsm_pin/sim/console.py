@@ -27,7 +27,20 @@ def stop_line(result: RunResult) -> str:
 
 
 def result_table(results: Sequence[RunResult], folders: Sequence[Path]) -> str:
-    """The short table printed at the end: one column per run."""
+    """The short table printed at the end: one column per run.
+
+    Parameters
+    ----------
+    results : sequence of RunResult
+        The runs.
+    folders : sequence of Path
+        Their output folders.
+
+    Returns
+    -------
+    str
+        The table.
+    """
     columns = [_column(r, f) for r, f in zip(results, folders, strict=True)]
     keys = list(columns[0])
     if len(results) == 1:
@@ -95,7 +108,17 @@ def _vec(values) -> str:
 
 
 class Console:
-    """Progress bar (tqdm, on stderr, erased at the end) and ``warning: ...`` lines."""
+    """Progress bar (tqdm, on stderr, erased at the end) and ``warning: ...`` lines.
+
+    Parameters
+    ----------
+    quiet : bool
+        No progress bar.
+    stream : TextIO or None
+        Where to write; None: standard error.
+    width : int
+        Width of the bar [characters].
+    """
 
     def __init__(self, quiet: bool = False, stream: TextIO | None = None, width: int = 24):
         self.quiet = quiet
@@ -108,7 +131,17 @@ class Console:
         self._interval = 0.1 if _isatty(self.stream) else 2.0  # [s] between redraws
 
     def start(self, name: str, duration: float, dt: float) -> None:
-        """Open the progress bar of a run of ``duration`` [s] in steps of ``dt`` [s]."""
+        """Open the progress bar of a run of ``duration`` [s] in steps of ``dt`` [s].
+
+        Parameters
+        ----------
+        name : str
+            The run's name.
+        duration : float
+            The run's horizon [s].
+        dt : float
+            Its step [s].
+        """
         from tqdm import tqdm  # the same progress library as the campaigns (ffsm_pin.sweep)
 
         self._close()
@@ -163,7 +196,13 @@ class Console:
         self._write(f"warning: {message}\n")
 
     def show_warning(self, message, category, filename, lineno, file=None, line=None) -> None:
-        """Replacement for :func:`warnings.showwarning`: one ``warning: ...`` line."""
+        """Replacement for :func:`warnings.showwarning`: one ``warning: ...`` line.
+
+        Parameters
+        ----------
+        message, category, filename, lineno, file, line : object
+            As :func:`warnings.showwarning`'s; the message alone is written.
+        """
         text = " ".join(str(message).split())
         if self.context:
             text = f"{self.context}: {text}"

@@ -72,6 +72,24 @@ def initial_estimates(
     itself when they are the plant's); "paper" Table 2 (the paper's robot sizes only);
     "perturbed" those bodies drawn by :func:`perturbed_bodies`; "explicit" the given vectors.
     A ScenarioError names what does not fit.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its ``[controller.estimates]`` and scheme are read.
+    model : ReducedModel
+        The parameters' layout.
+    truth : tuple of ndarray
+        The plant's true parameters.
+    robot : Robot
+        The plant's robot.
+    q0, v0 : ndarray
+        The initial state (Pinocchio convention).
+
+    Returns
+    -------
+    DrawnEstimates
+        The estimates and their record.
     """
     est = scenario.controller.estimates
     tz, td, tb = truth
@@ -152,6 +170,24 @@ def perturb_body(
 
     A planar body whose 3-D inertia is not physical (a URDF giving only I_zz) has only its
     I_zz scaled by 1 + U(-s, s). Every body takes the same 12 numbers from ``rng``.
+
+    Parameters
+    ----------
+    body : pin.Inertia
+        The true body.
+    spread : float
+        Relative spread s, 0 <= s < 1.
+    rng : numpy.random.Generator
+        The generator (12 numbers are drawn).
+    planar : bool
+        Move the CoM in the x-y plane and turn about z.
+    line : sequence of float or None
+        The body's line, along which the CoM moves.
+
+    Returns
+    -------
+    pin.Inertia
+        The drawn body.
     """
     s = float(spread)
     m, c, inertia = float(body.mass), np.array(body.lever), np.array(body.inertia)
@@ -195,7 +231,24 @@ def perturbed_bodies(
 ) -> list[pin.Inertia]:
     """Every body of ``robot`` drawn by :func:`perturb_body` from one generator seeded with
     ``seed``, bodies in order 0..n. A planar robot whose parameters have the collinear layout
-    keeps each CoM on its body's line (the layout has no parameter for an offset across it)."""
+    keeps each CoM on its body's line (the layout has no parameter for an offset across it).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot.
+    model : ReducedModel
+        Its reduced model (its layout).
+    spread : float
+        Relative spread.
+    seed : int
+        Seed of the generator.
+
+    Returns
+    -------
+    list of pin.Inertia
+        Bodies 0..n.
+    """
     rng = np.random.default_rng(seed)
     planar = robot.base == "planar"
     layout = getattr(model, "layout", None)
@@ -212,7 +265,20 @@ def perturbed_bodies(
 
 def robot_with_bodies(robot: Robot, bodies: Sequence[pin.Inertia]) -> Robot:
     """``robot`` with its bodies' inertias replaced (a copy of its Pinocchio model; the
-    geometry read from the copy by the root's own reader, which checks every body)."""
+    geometry read from the copy by the root's own reader, which checks every body).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot.
+    bodies : sequence of pin.Inertia
+        One per body, the base first (the joints of its Pinocchio model).
+
+    Returns
+    -------
+    Robot
+        The copy.
+    """
     model = pin.Model(robot.model)
     if len(bodies) != model.njoints - 1:
         raise ParameterError(f"expected {model.njoints - 1} bodies, got {len(bodies)}")
@@ -226,7 +292,22 @@ def barycentric_estimates(
     robot: Robot, model: ReducedModel, q0: np.ndarray, v0: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(theta_z, theta_d, theta_b) of ``robot``'s bodies in ``model``'s layout, with v_0 and
-    A_0 the momenta of ``robot`` at the state (``q0``, ``v0``)."""
+    A_0 the momenta of ``robot`` at the state (``q0``, ``v0``).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot whose bodies are used.
+    model : ReducedModel
+        The parameters' layout.
+    q0, v0 : ndarray
+        The initial state (Pinocchio convention).
+
+    Returns
+    -------
+    theta_z, theta_d, theta_b : ndarray
+        The parameter vectors.
+    """
     V, theta_d = model.parameters_of(robot.geometry)
     st = State(robot).update(q0, v0)
     v_0 = np.atleast_1d(np.asarray(st.com_velocity, dtype=float))
@@ -238,7 +319,24 @@ def barycentric_estimates(
 def bodies_record(robot: Robot, initial: str, spread: float, seed: int | None) -> dict[str, Any]:
     """What ``estimates.json`` holds: ``{"initial", "bodies": [{"name", "mass", "com": [3],
     "inertia": [ixx, iyy, izz, ixy, ixz, iyz]}], "spread", "seed"}``; com in the body's frame
-    [m], inertia about the CoM in the body's frame [kg m^2] (URDF conventions)."""
+    [m], inertia about the CoM in the body's frame [kg m^2] (URDF conventions).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot whose bodies are recorded.
+    initial : str
+        The ``[controller.estimates] initial`` they come from.
+    spread : float
+        The relative spread they were drawn with.
+    seed : int or None
+        The seed they were drawn with.
+
+    Returns
+    -------
+    dict
+        The record.
+    """
     bodies = []
     for name, body in zip(robot.body_names, body_inertias(robot), strict=True):
         i = np.array(body.inertia)
@@ -271,5 +369,22 @@ def estimates_from_record(
     v0: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The initial estimates a run derived from its ``estimates.json`` (``record``), for its
-    robot, model and initial state: the same numbers."""
+    robot, model and initial state: the same numbers.
+
+    Parameters
+    ----------
+    record : mapping
+        The contents of ``estimates.json``.
+    robot : Robot
+        The run's robot.
+    model : ReducedModel
+        Its reduced model.
+    q0, v0 : ndarray
+        The initial state (Pinocchio convention).
+
+    Returns
+    -------
+    theta_z, theta_d, theta_b : ndarray
+        The initial estimates.
+    """
     return barycentric_estimates(robot_with_bodies(robot, record_bodies(record)), model, q0, v0)

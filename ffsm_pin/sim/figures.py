@@ -63,18 +63,23 @@ def write_figures(
 
     Parameters
     ----------
-    results:
+    results : RunResult or sequence of RunResult
         One run or several (overlaid).
-    out_dir:
+    out_dir : str or Path
         Folder the PNG files are written to.
-    labels:
+    labels : sequence of str or None
         Legend entry per run (default: the scenario names).
-    thresholds:
+    thresholds : float or sequence of float or None
         Damping threshold on sigma_min [m] per run (default: each run's
         ``damping_threshold``, else 0.05, the default
         :class:`~ffsm_pin.control.gains.SingularityPolicy`).
-    dpi:
+    dpi : int
         Resolution of the PNG files.
+
+    Returns
+    -------
+    list of Path
+        The PNG files written.
     """
     # a RunResult is no iterable (it has no __iter__): several runs are any iterable of them
     runs = list(results) if isinstance(results, Iterable) else [results]
@@ -366,6 +371,18 @@ def envelope_decimate(x: np.ndarray, y: np.ndarray, bins: int) -> tuple[np.ndarr
 
     At most ``2 * bins + 2`` points remain, in their original order; non-finite values are
     kept (they are where a diverging run ends).
+
+    Parameters
+    ----------
+    x, y : ndarray
+        The samples.
+    bins : int
+        Number of bins.
+
+    Returns
+    -------
+    x, y : ndarray
+        The samples kept.
     """
     n = len(y)
     if n <= 2 * bins:

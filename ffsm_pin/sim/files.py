@@ -46,7 +46,7 @@ class RunFolder:
 
     Parameters
     ----------
-    folder:
+    folder : str or Path
         The output folder (created if needed).
     """
 
@@ -157,7 +157,20 @@ def pid_alive(pid: int) -> bool:
 
 
 def output_error(exc: OSError, where: Path) -> OutputError:
-    """An :class:`OutputError` naming the file of ``exc`` (or ``where``) and the reason."""
+    """An :class:`OutputError` naming the file of ``exc`` (or ``where``) and the reason.
+
+    Parameters
+    ----------
+    exc : OSError
+        The failure.
+    where : Path
+        The file written, when ``exc`` names none.
+
+    Returns
+    -------
+    OutputError
+        The error to raise.
+    """
     name = exc.filename or where
     reason = exc.strerror or str(exc) or type(exc).__name__
     return OutputError(f"cannot write {str(name)!r}: {reason}")

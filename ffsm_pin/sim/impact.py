@@ -37,7 +37,15 @@ WELD_TOL = 1e-9
 @dataclass(frozen=True)
 class CaptureTolerances:
     """When the hand may grasp: the distance between the two grasp frames' origins below
-    ``position`` [m] and their relative speed below ``velocity`` [m/s] (both > 0)."""
+    ``position`` [m] and their relative speed below ``velocity`` [m/s] (both > 0).
+
+    Parameters
+    ----------
+    position : float
+        Distance [m].
+    velocity : float
+        Relative speed [m/s].
+    """
 
     position: float
     velocity: float
@@ -61,16 +69,16 @@ class CaptureModel:
 
     Attributes
     ----------
-    robot, target:
+    robot, target : Robot, Target
         The robot (free-flyer root) and the target.
-    model:
+    model : pin.Model
         The combined model (gravity zero).
-    target_joint:
+    target_joint : int
         The target's joint id in ``model``.
-    hand_frame, grasp_frame:
+    hand_frame, grasp_frame : int
         Frame ids in ``model`` of the hand's grasp frame (the end-effector frame moved by
         ``hand_grasp``) and of the target's grasp frame.
-    hand_grasp:
+    hand_grasp : pin.SE3
         The hand's grasp frame in the end-effector frame (``pin.SE3``).
     """
 
@@ -93,15 +101,52 @@ class CaptureModel:
         return int(self.robot.model.nv)
 
     def configuration(self, q_robot, state: TargetState) -> np.ndarray:
-        """The combined q from the robot's q and the target's state."""
+        """The combined q from the robot's q and the target's state.
+
+        Parameters
+        ----------
+        q_robot : array_like, shape (nq_robot,)
+            The robot's configuration (Pinocchio convention).
+        state : TargetState
+            The target's state.
+
+        Returns
+        -------
+        ndarray
+            The combined q.
+        """
         return np.concatenate((np.asarray(q_robot, float), state.to_pinocchio(self.target)[0]))
 
     def velocity(self, v_robot, state: TargetState) -> np.ndarray:
-        """The combined v from the robot's v and the target's state."""
+        """The combined v from the robot's v and the target's state.
+
+        Parameters
+        ----------
+        v_robot : array_like, shape (nv_robot,)
+            The robot's velocity (Pinocchio convention).
+        state : TargetState
+            The target's state.
+
+        Returns
+        -------
+        ndarray
+            The combined v.
+        """
         return np.concatenate((np.asarray(v_robot, float), state.to_pinocchio(self.target)[1]))
 
     def target_state(self, q, v) -> TargetState:
-        """The target's state in the combined (q, v)."""
+        """The target's state in the combined (q, v).
+
+        Parameters
+        ----------
+        q, v : array_like
+            The combined configuration and velocity.
+
+        Returns
+        -------
+        TargetState
+            The target's entries.
+        """
         return TargetState.from_pinocchio(
             self.target, np.asarray(q)[self.nq_robot :], np.asarray(v)[self.nv_robot :]
         )
@@ -127,19 +172,54 @@ class CaptureModel:
         return J_hand - hMg.action @ J_grasp
 
     def relative_twist(self, q, v) -> np.ndarray:
-        """J v (:meth:`weld_jacobian`): hand minus target at the hand's grasp frame [m/s, rad/s]."""
+        """J v (:meth:`weld_jacobian`): hand minus target at the hand's grasp frame [m/s, rad/s].
+
+        Parameters
+        ----------
+        q, v : array_like
+            The combined configuration and velocity.
+
+        Returns
+        -------
+        ndarray, shape (6,)
+            The relative twist (linear first).
+        """
         return self.weld_jacobian(q) @ np.asarray(v, float)
 
     def relative_motion(self, q, v) -> tuple[float, float]:
         """(distance [m] between the two grasp frames' origins, relative speed [m/s] of the two
-        bodies at the hand's grasp point): what :meth:`ready` compares with the tolerances."""
+        bodies at the hand's grasp point): what :meth:`ready` compares with the tolerances.
+
+        Parameters
+        ----------
+        q, v : array_like
+            The combined configuration and velocity.
+
+        Returns
+        -------
+        distance, speed : float
+            [m] and [m/s].
+        """
         return (
             float(np.linalg.norm(self.relative_pose(q).translation)),
             float(np.linalg.norm(self.relative_twist(q, v)[:3])),
         )
 
     def ready(self, q, v, tolerances: CaptureTolerances) -> bool:
-        """Whether the hand may grasp: distance and relative speed within the tolerances."""
+        """Whether the hand may grasp: distance and relative speed within the tolerances.
+
+        Parameters
+        ----------
+        q, v : array_like
+            The combined configuration and velocity.
+        tolerances : CaptureTolerances
+            Distance [m] and relative speed [m/s] allowed.
+
+        Returns
+        -------
+        bool
+            True when both are within the tolerances.
+        """
         distance, speed = self.relative_motion(q, v)
         return distance <= tolerances.position and speed <= tolerances.velocity
 
@@ -150,21 +230,58 @@ class CaptureModel:
 
     def momentum(self, q, v) -> np.ndarray:
         """(P, L) of robot and target: linear momentum [kg m/s] and angular momentum about the
-        system CoM [kg m^2/s], world frame (Pinocchio's centroidal momentum)."""
+        system CoM [kg m^2/s], world frame (Pinocchio's centroidal momentum).
+
+        Parameters
+        ----------
+        q, v : array_like
+            The combined configuration and velocity.
+
+        Returns
+        -------
+        ndarray, shape (6,)
+            (P, L).
+        """
         data = self.model.createData()
         return pin.computeCentroidalMomentum(
             self.model, data, np.asarray(q, float), np.asarray(v, float)
         ).vector.copy()
 
     def kinetic_energy(self, q, v) -> float:
-        """v^T M v / 2 [J]."""
+        """v^T M v / 2 [J].
+
+        Parameters
+        ----------
+        q, v : array_like
+            The combined configuration and velocity.
+
+        Returns
+        -------
+        float
+            Kinetic energy [J].
+        """
         v = np.asarray(v, float)
         return 0.5 * float(v @ self.mass_matrix(q) @ v)
 
 
 def capture_model(robot: Robot, target: Target, hand_grasp: pin.SE3 | None = None) -> CaptureModel:
     """The robot (free-flyer root) and ``target`` as one model; the hand's grasp frame is the
-    end-effector frame moved by ``hand_grasp`` (default: the end-effector frame itself)."""
+    end-effector frame moved by ``hand_grasp`` (default: the end-effector frame itself).
+
+    Parameters
+    ----------
+    robot : Robot
+        A robot with a free-flyer base.
+    target : Target
+        The target body.
+    hand_grasp : pin.SE3 or None
+        The hand's grasp frame in the end-effector frame.
+
+    Returns
+    -------
+    CaptureModel
+        The combined model.
+    """
     if robot.base != "free-flyer":
         raise ParameterError(
             f"capture: robot {robot.name!r} has a {robot.base!r} base; capture is implemented for "
@@ -203,7 +320,20 @@ class Impact(NamedTuple):
 def impact(capture: CaptureModel, q, v) -> Impact:
     """The weld impact by the impulse formula: with M = M(q) and J = :meth:`weld_jacobian
     <CaptureModel.weld_jacobian>`, lambda = -(J M^-1 J^T)^-1 J v-, v+ = v- + M^-1 J^T lambda.
-    lambda is the impulse on the hand (the target receives its opposite); J v+ = 0."""
+    lambda is the impulse on the hand (the target receives its opposite); J v+ = 0.
+
+    Parameters
+    ----------
+    capture : CaptureModel
+        The combined model.
+    q, v : array_like
+        Configuration and velocity before the impact.
+
+    Returns
+    -------
+    Impact
+        v after it, the impulse on the hand and the energy lost.
+    """
     q, v = np.asarray(q, float), np.asarray(v, float)
     M = capture.mass_matrix(q)
     J = capture.weld_jacobian(q)
@@ -223,7 +353,20 @@ def impact_pinocchio(capture: CaptureModel, q, v) -> Impact:
     the second frame is at rest. The call is therefore made in the frame that moves with the
     target: the whole system's velocity minus the rigid motion w of the target (every body
     given the target's spatial velocity), which changes neither J v nor the impulse; w is added
-    back to the result."""
+    back to the result.
+
+    Parameters
+    ----------
+    capture : CaptureModel
+        The combined model.
+    q, v : array_like
+        Configuration and velocity before the impact.
+
+    Returns
+    -------
+    Impact
+        As :func:`impact`.
+    """
     model, data = capture.model, capture.model.createData()
     q, v = np.asarray(q, float), np.asarray(v, float)
     hand = model.frames[capture.hand_frame]
@@ -269,6 +412,22 @@ def merge_after_capture(
     target then moves with the hand: momentum is unchanged). ``known``: whether the
     controller's estimates include the combined payload (default: as the robot's payload,
     else no). A v in which the weld does not hold is refused.
+
+    Parameters
+    ----------
+    capture : CaptureModel
+        The combined model.
+    q, v : array_like
+        Its configuration and velocity after the impact.
+    known : bool or None
+        Whether the controller's estimates include the combined payload.
+
+    Returns
+    -------
+    robot : Robot
+        The merged robot.
+    q, v : ndarray
+        Its configuration and velocity.
     """
     q, v = np.asarray(q, float), np.asarray(v, float)
     twist = capture.relative_twist(q, v)

@@ -14,7 +14,20 @@ from ..scenario.spec import InitialCondition
 
 
 def initial_state(robot: Robot, init: InitialCondition) -> tuple[np.ndarray, np.ndarray]:
-    """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring)."""
+    """Pinocchio (q, v) from an :class:`InitialCondition` (see its docstring).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot.
+    init : InitialCondition
+        The scenario's initial condition.
+
+    Returns
+    -------
+    q, v : ndarray
+        The initial state (Pinocchio convention).
+    """
     return _INITIAL_STATE[robot.base](robot, init)
 
 

@@ -25,7 +25,17 @@ _ARG1 = pin.ArgumentPosition.ARG1
 @njit(cache=True)
 def gauss_solve(A: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
     """out[:n] = A^-1 b by Gaussian elimination with partial pivoting (A, b overwritten).
-    A non-finite or singular system gives non-finite entries, not an exception."""
+    A non-finite or singular system gives non-finite entries, not an exception.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        The matrix, overwritten.
+    b : ndarray, shape (n,)
+        The right-hand side, overwritten.
+    out : ndarray
+        Its first n entries receive the solution.
+    """
     n = b.size
     for k in range(n):
         p = k
@@ -69,7 +79,27 @@ def rkmk4_step(model: pin.Model, data: pin.Data, q0, v0, tau, dt: float, nb: int
     """One RK4 step of size ``dt`` [s] with generalised forces ``tau`` held; ``nb`` is
     :func:`chart_block` (computed when not given).
 
-    Returns ``(q, v, a0)``: the new state and the ABA acceleration at the start of the step.
+    Parameters
+    ----------
+    model : pin.Model
+        The Pinocchio model.
+    data : pin.Data
+        Its data.
+    q0, v0 : ndarray
+        The state at the start (Pinocchio convention).
+    tau : ndarray, shape (nv,)
+        Generalised forces, held.
+    dt : float
+        Step [s].
+    nb : int or None
+        :func:`chart_block` of the model.
+
+    Returns
+    -------
+    q, v : ndarray
+        The new state.
+    a0 : ndarray
+        The ABA acceleration at the start of the step.
     """
     if nb is None:
         nb = chart_block(model)

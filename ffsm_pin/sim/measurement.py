@@ -20,6 +20,15 @@ class Sensor:
     (docs/spatial.md section 1): q_b the base MRP, w = (R_0 w_B, dq_m) with w_b in the
     inertial frame, z_e = (p_e, q_e) with q_e the end-effector MRP (both on the |s| <= 1
     branch), dz_e/dt = (dp_e/dt, 1/4 B(q_e) R_e^T w_e).
+
+    Parameters
+    ----------
+    robot : Robot
+        The plant's robot.
+    model : ReducedModel
+        Its reduced model.
+    full_model : bool
+        Also measure the true M and C w (``Measurement.M``, ``.h``).
     """
 
     def __init__(self, robot, model: ReducedModel, full_model: bool):
@@ -54,7 +63,20 @@ class Sensor:
         return self.R0 @ a[3:6]
 
     def measure(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
-        """The exact measurement at time ``t`` [s] of the plant state (q, v)."""
+        """The exact measurement at time ``t`` [s] of the plant state (q, v).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        q, v : ndarray
+            The plant state (Pinocchio convention).
+
+        Returns
+        -------
+        Measurement
+            The measurement.
+        """
         return self._measure(self, t, q, v)
 
     def _measure_planar(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:

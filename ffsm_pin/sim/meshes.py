@@ -66,8 +66,21 @@ def visual_geometry(
     file resolved to an absolute path; visuals whose mesh is not found are dropped, one
     :class:`ReplayWarning` each.
 
-    urdf_path: the URDF's file, for paths relative to it and for the upward ``package://``
-    search; package_dirs: folders holding the packages that ``package://NAME/...`` names.
+    Parameters
+    ----------
+    model : pin.Model
+        The robot's Pinocchio model.
+    urdf_xml : str
+        The URDF.
+    urdf_path : str or Path or None
+        The URDF's file, for paths relative to it and for the upward ``package://`` search.
+    package_dirs : sequence of str or Path
+        Folders holding the packages that ``package://NAME/...`` names.
+
+    Returns
+    -------
+    RobotVisuals
+        The visual geometry model and the meshes not found.
     """
     root = ET.fromstring(urdf_xml)
     base_dir = Path(urdf_path).resolve().parent if urdf_path is not None else None
@@ -122,7 +135,22 @@ def _build_visuals(model: pin.Model, xml: str, urdf_path: str | Path | None) -> 
 
 
 def resolve_mesh(filename: str, base_dir: Path | None, package_dirs: Sequence[Path]) -> Path | None:
-    """Absolute path of the mesh file a URDF names, or None when no candidate exists."""
+    """Absolute path of the mesh file a URDF names, or None when no candidate exists.
+
+    Parameters
+    ----------
+    filename : str
+        The file name the URDF gives (``package://``, ``file://``, relative or absolute).
+    base_dir : Path or None
+        The URDF's folder.
+    package_dirs : sequence of Path
+        Folders holding the packages.
+
+    Returns
+    -------
+    Path or None
+        The file.
+    """
     if not filename:
         return None
     if filename.startswith("package://"):

@@ -30,21 +30,21 @@ def write_outputs(
 
     Parameters
     ----------
-    folder:
+    folder : str or Path
         The output folder; an earlier run there is replaced only once every new file is
         complete.
-    result:
+    result : RunResult
         The run.
-    scenario:
+    scenario : Scenario or None
         The scenario as run (``scenario.toml``), or None.
-    robot:
+    robot : Any
         The run's robot, for ``replay.html``.
-    figures, replay:
+    figures, replay : bool
         Draw the figures (``fig_*.png``) and ``replay.html``. A failure to draw them that is
         not an I/O error is reported through ``warn`` and the other files are written.
-    compress:
+    compress : bool
         Deflate ``trajectory.npz`` (:meth:`~ffsm_pin.sim.result.RunResult.save`).
-    warn:
+    warn : callable or None
         Called with a message when a figure or the replay could not be drawn.
 
     Raises
@@ -52,6 +52,11 @@ def write_outputs(
     OutputError
         A file could not be written (full disk, file-size limit, permissions): the message
         names it; the folder keeps the earlier run.
+
+    Returns
+    -------
+    dict
+        The run's summary.
     """
     from ..scenario.writer import scenario_to_toml
 

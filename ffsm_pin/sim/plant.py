@@ -124,12 +124,12 @@ class Plant:
 
     Parameters
     ----------
-    robot:
+    robot : Robot or pin.Model
         The loaded robot (anything with a ``model`` attribute), or a ``pin.Model`` with a
         planar or free-flyer root joint and zero gravity.
-    integrator:
+    integrator : str
         ``"semi-implicit"`` (default) or ``"rk4"`` (:data:`INTEGRATORS`).
-    project_momentum:
+    project_momentum : bool
         Apply the momentum projection after each step (default). Switch it off only to
         measure the drift of the bare integrator.
     """
@@ -160,14 +160,38 @@ class Plant:
     def momentum(self, q, v) -> np.ndarray:
         """The conserved momentum: planar (P_x, P_y, L_z), free-flyer (P, L); P the linear
         momentum in the inertial frame [kg m/s], L the angular momentum about the system CoM in
-        the inertial frame [kg m^2/s] (the root table's rows of Pinocchio's h_g, a copy)."""
+        the inertial frame [kg m^2/s] (the root table's rows of Pinocchio's h_g, a copy).
+
+        Parameters
+        ----------
+        q, v : ndarray
+            State (Pinocchio convention).
+
+        Returns
+        -------
+        ndarray
+            The conserved rows, (3,) planar or (6,) free-flyer.
+        """
         pin.computeCentroidalMomentum(self.model, self.data, q, v)
         return self.data.hg.np[self._rows]
 
     def momentum_rows(self, q_rows: np.ndarray, v_rows: np.ndarray) -> tuple:
         """(P, L) of :meth:`momentum` on N recorded states, q_rows (N, nq), v_rows (N, nv):
         P (N, n_linear) [kg m/s], L (N,) planar or (N, 3) [kg m^2/s] (a run computes them
-        after its loop)."""
+        after its loop).
+
+        Parameters
+        ----------
+        q_rows : ndarray, shape (N, nq)
+            Recorded configurations.
+        v_rows : ndarray, shape (N, nv)
+            Recorded velocities.
+
+        Returns
+        -------
+        P, L : ndarray
+            Linear and angular momentum per row.
+        """
         out = np.empty((len(q_rows), 6))  # h_g, its rows taken once at the end
         centroidal, model, data = pin.computeCentroidalMomentum, self.model, self.data
         for i, (q, v) in enumerate(zip(q_rows, v_rows, strict=True)):
@@ -183,11 +207,30 @@ class Plant:
         return momentum[..., :m], (momentum[..., m] if last == m + 1 else momentum[..., m:])
 
     def reset(self, q, v) -> None:
-        """Set the momentum to be conserved from the initial state."""
+        """Set the momentum to be conserved from the initial state.
+
+        Parameters
+        ----------
+        q, v : ndarray
+            The initial state (Pinocchio convention).
+        """
         self.momentum0 = self.momentum(q, v)
 
     def acceleration(self, q, v, u_m) -> np.ndarray:
-        """Forward dynamics (ABA) with joint torques ``u_m`` [N m] and a free base."""
+        """Forward dynamics (ABA) with joint torques ``u_m`` [N m] and a free base.
+
+        Parameters
+        ----------
+        q, v : ndarray
+            State (Pinocchio convention).
+        u_m : ndarray, shape (n,)
+            Joint torques [N m].
+
+        Returns
+        -------
+        ndarray, shape (nv,)
+            The acceleration (Pinocchio convention).
+        """
         self._tau[self.n_base :] = u_m
         return pin.aba(self.model, self.data, q, v, self._tau).copy()
 
@@ -199,7 +242,24 @@ class Plant:
         planar (f_x, f_y, torque_z) in the base frame; reaction wheels apply their torque on
         the bus through it (:mod:`.wheels`). It changes the momentum, so the projection, which
         restores :attr:`momentum0`, belongs to the caller then (``project_momentum=False`` and
-        :meth:`project` with the momentum to keep)."""
+        :meth:`project` with the momentum to keep).
+
+        Parameters
+        ----------
+        q, v : ndarray
+            State at the start (Pinocchio convention).
+        u_m : ndarray, shape (n,)
+            Joint torques [N m], held.
+        dt : float
+            Step [s].
+        base_wrench : ndarray or None
+            Generalized force on the root joint, held.
+
+        Returns
+        -------
+        StepResult
+            (q, v) after dt and the acceleration at the start.
+        """
         if self.momentum0 is None:
             self.reset(q, v)
         model, data, tau = self.model, self.data, self._tau
@@ -227,7 +287,26 @@ class Plant:
     def advance(self, q, v, u_m, dt: float, substeps: int = 1, base_wrench=None) -> StepResult:
         """Advance (q, v) by one control step ``dt`` [s] in ``substeps`` plant steps of
         ``dt / substeps``, ``u_m`` [N m] (and ``base_wrench``, :meth:`step`) held. ``a`` is the
-        acceleration at the start."""
+        acceleration at the start.
+
+        Parameters
+        ----------
+        q, v : ndarray
+            State at the start (Pinocchio convention).
+        u_m : ndarray, shape (n,)
+            Joint torques [N m], held.
+        dt : float
+            Control step [s].
+        substeps : int
+            Plant steps per control step.
+        base_wrench : ndarray or None
+            Generalized force on the root joint, held (:meth:`step`).
+
+        Returns
+        -------
+        StepResult
+            (q, v) after dt and the acceleration at the start.
+        """
         if substeps < 1:
             raise ParameterError(f"plant: substeps must be >= 1, got {substeps}")
         res = self.step(q, v, u_m, dt if substeps == 1 else dt / substeps, base_wrench)
@@ -240,13 +319,39 @@ class Plant:
         """Whether a state can be stepped on: :data:`STATE_NONFINITE` when q or v [Pinocchio
         convention] holds a non-finite entry, :data:`STATE_BLOW_UP` when an angular rate
         (the entries of v after the ``n_linear`` linear base velocities) exceeds
-        ``rate_limit`` [rad/s], else :data:`STATE_OK`."""
+        ``rate_limit`` [rad/s], else :data:`STATE_OK`.
+
+        Parameters
+        ----------
+        q, v : ndarray
+            State (Pinocchio convention).
+        rate_limit : float
+            Largest angular rate [rad/s].
+
+        Returns
+        -------
+        int
+            One of the ``STATE_*`` codes.
+        """
         return _state_status(q, v, self.n_linear, rate_limit)
 
     def project(self, q, v, momentum=None) -> np.ndarray:
         """Base twist that restores the conserved momentum at q, joint rates unchanged (a new
         array; v is not modified). ``momentum``: the conserved rows to restore instead of
-        :attr:`momentum0` (reaction wheels: :mod:`.wheels`)."""
+        :attr:`momentum0` (reaction wheels: :mod:`.wheels`).
+
+        Parameters
+        ----------
+        q, v : ndarray
+            State (Pinocchio convention).
+        momentum : ndarray or None
+            The conserved rows to restore; None: :attr:`momentum0`.
+
+        Returns
+        -------
+        ndarray, shape (nv,)
+            v with the base twist corrected.
+        """
         out = np.array(v, dtype=float)
         target = self.momentum0 if momentum is None else np.asarray(momentum, dtype=float)
         _project_base(

@@ -21,7 +21,23 @@ def reach_horizon(model: ReducedModel, theta_z, com0, reference, duration: float
 
     Sampled every ``dt`` [s], or every ``duration / REACH_SAMPLES`` for runs longer than
     ``REACH_SAMPLES * dt`` (1000 s by default), so that the scan stays cheap however long the
-    run."""
+    run.
+
+    Parameters
+    ----------
+    model : ReducedModel
+        The true model (its barycentric V_k).
+    theta_z : ndarray
+        Kinematic parameters; the first m2 are the CoM velocity v_0 [m/s].
+    com0 : ndarray
+        The system CoM at t = 0 [m].
+    reference : Reference
+        The task reference.
+    duration : float
+        The run's horizon [s].
+    dt : float
+        Sampling step [s].
+    """
     m2 = model.m2
     reach = float(np.sum(np.linalg.norm(model.barycentric_V, axis=1)))  # type: ignore[attr-defined]
     dt = max(dt, duration / REACH_SAMPLES)

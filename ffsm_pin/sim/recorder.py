@@ -45,6 +45,17 @@ class Signals(Mapping):
     Behaves as a read-only ``dict`` of arrays (time along axis 0). :meth:`blocks` and
     :meth:`every` read spilled signals through the file, a block at a time, so that code
     which must see every row does not map a whole long recording into memory.
+
+    Parameters
+    ----------
+    arrays : dict of str to ndarray
+        The in-memory signals.
+    spool : Path or None
+        The spool folder of the spilled ones (removed with the signals).
+    shapes : dict of str to tuple of int or None
+        Row shape of each spilled signal.
+    rows : int
+        Rows of the spilled signals.
     """
 
     def __init__(
@@ -110,6 +121,18 @@ class Signals(Mapping):
         """Consecutive row blocks ``{key: rows x shape}`` of the per-row signals ``keys``.
 
         In-memory signals are sliced; spilled ones are read from their files.
+
+        Parameters
+        ----------
+        keys : iterable of str
+            Per-row signals.
+        rows : int or None
+            Rows per block; None: a block of about :data:`BLOCK_BYTES`.
+
+        Yields
+        ------
+        dict of str to ndarray
+            The next block.
         """
         keys = list(keys)
         n = len(self["t"])
@@ -120,7 +143,20 @@ class Signals(Mapping):
             yield {k: self._read(k, start, stop) for k in keys}
 
     def every(self, key: str, step: int) -> np.ndarray:
-        """Rows ``0, step, 2 step, ...`` of ``key`` and its last row, in memory."""
+        """Rows ``0, step, 2 step, ...`` of ``key`` and its last row, in memory.
+
+        Parameters
+        ----------
+        key : str
+            The signal.
+        step : int
+            Row stride.
+
+        Returns
+        -------
+        ndarray
+            The rows.
+        """
         n = len(self["t"])
         if step <= 1 or n == 0:
             return np.asarray(self._read(key, 0, n))
@@ -150,7 +186,17 @@ class Signals(Mapping):
 
 class Thinned(Mapping):
     """Every ``step``-th row (and the last) of the per-row signals of ``signals``, read on
-    first use and kept in memory; the ``constants`` (no time axis) are passed through."""
+    first use and kept in memory; the ``constants`` (no time axis) are passed through.
+
+    Parameters
+    ----------
+    signals : mapping of str to ndarray
+        The recorded signals ("t" among them).
+    step : int
+        Row stride.
+    constants : iterable of str
+        Keys without a time axis.
+    """
 
     def __init__(self, signals: Mapping[str, np.ndarray], step: int, constants=()):
         self._signals, self._step = signals, int(step)
@@ -188,20 +234,20 @@ class Recorder:
 
     Parameters
     ----------
-    shapes:
+    shapes : dict of str to tuple of int
         Row shape of every per-step signal.
-    capacity:
+    capacity : int
         Upper bound of the rows the run records (``ffsm_pin.sim.storage.rows_recorded``).
-    spool_dir:
+    spool_dir : str or Path or None
         Folder in which the spool folder of a recording longer than one chunk is made (the
         system's temporary folder when None). Removed when the signals are no longer used.
-    chunk_bytes:
+    chunk_bytes : int or None
         Memory for the rows held at once [bytes]; :data:`CHUNK_BYTES` when None.
-    packed:
+    packed : sequence of str
         Keys of ``shapes`` held side by side, in this order, in :attr:`block` (``chunk_rows x
         width``): row :attr:`i` of it is their row, written in one copy (a controller's
         :class:`~ffsm_pin.control.interface.SignalRow`); their :attr:`arrays` are views of it.
-    header:
+    header : callable or None
         Called when the spool folder is made: what the spool says of its run (JSON-able), written
         into :data:`SPOOL_HEADER` with the row shapes before any row, so that the rows of a run
         killed before its end can be read back (:mod:`ffsm_pin.sim.recover`).
@@ -283,7 +329,22 @@ def make_spool(
 ) -> Path:
     """A new spool folder in ``folder`` (the system's temporary folder when None) whose
     :data:`SPOOL_HEADER` names the process, the row shapes (float64, C order, one raw file
-    ``<key>.bin`` per signal) and ``header()``."""
+    ``<key>.bin`` per signal) and ``header()``.
+
+    Parameters
+    ----------
+    shapes : mapping of str to tuple of int
+        Row shape of each signal.
+    folder : str or Path or None
+        Where the spool is made.
+    header : callable or None
+        What else the header holds.
+
+    Returns
+    -------
+    Path
+        The spool folder.
+    """
     if folder is not None:
         Path(folder).mkdir(parents=True, exist_ok=True)
     spool = Path(tempfile.mkdtemp(prefix=f"{SPOOL_PREFIX}{os.getpid()}-", dir=folder))
@@ -310,7 +371,24 @@ def extend(
 ) -> Signals:
     """``signals`` plus the per-row signals ``per_row(block)`` computes from the recorded
     columns ``inputs`` (``block``: ``{key: rows x shape}``) and the ``constants`` (arrays
-    without a time axis); computed a block at a time when spilled."""
+    without a time axis); computed a block at a time when spilled.
+
+    Parameters
+    ----------
+    signals : Signals
+        The recording.
+    per_row : callable
+        block -> the new per-row signals of the block.
+    constants : dict of str to ndarray
+        New signals without a time axis.
+    inputs : tuple of str
+        The recorded columns ``per_row`` reads.
+
+    Returns
+    -------
+    Signals
+        The signals with the new ones.
+    """
     if not signals.spilled:
         arrays = dict(signals._arrays)
         arrays.update(per_row({k: arrays[k] for k in inputs}))
@@ -350,7 +428,17 @@ def extend(
 def write_npz(path: str | Path, signals: Mapping[str, np.ndarray], compress: bool = False) -> None:
     """Write ``signals`` as ``path`` (``numpy.savez`` format, or ``numpy.savez_compressed``
     with ``compress``; readable by ``numpy.load``), streaming spilled signals from their files
-    a block at a time."""
+    a block at a time.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    signals : mapping of str to ndarray
+        The signals.
+    compress : bool
+        ``numpy.savez_compressed`` instead of ``numpy.savez``.
+    """
     if not isinstance(signals, Signals) or not signals.spilled:
         arrays: dict[str, Any] = dict(signals)
         (np.savez_compressed if compress else np.savez)(path, **arrays)

@@ -35,13 +35,13 @@ class Recovered:
 
     Attributes
     ----------
-    folder:
+    folder : Path
         The run's output folder (where the spool lies).
-    spool:
+    spool : Path
         The spool folder (removed once ``result`` is no longer used).
-    setup:
+    setup : Setup
         The run rebuilt from the scenario in the spool's header.
-    result:
+    result : RunResult
         The recovered run (``completed = False``, ``stop_cause = "recovered"``).
     """
 

@@ -51,11 +51,28 @@ def write_replay_html(
 ) -> Path:
     """Write a self-contained meshcat animation of ``result`` to ``path`` (an .html file).
 
-    fps: animation frames per second of simulated time (the run is decimated to it; playback
-    is in real time). base_size: edges [m] of the box drawn at a root body without visuals
-    when the robot gives no satellite size. max_mesh_mb: mesh data embedded as the files are
-    up to this size [MB] (beyond it, DAE/OBJ meshes go in as binary STL). Returns the path
-    written.
+    Parameters
+    ----------
+    robot : ReplayRobot
+        The robot drawn (:func:`~.scene.build_scene`).
+    result : RunResult
+        The run replayed.
+    path : str or Path
+        The .html file.
+    fps : float
+        Animation frames per second of simulated time (the run is decimated to it; playback
+        is in real time).
+    base_size : sequence of float
+        Edges [m] of the box drawn at a root body without visuals when the robot gives no
+        satellite size.
+    max_mesh_mb : float
+        Mesh data embedded as the files are up to this size [MB] (beyond it, DAE/OBJ meshes
+        go in as binary STL).
+
+    Returns
+    -------
+    Path
+        The path written.
     """
     vis = meshcat.Visualizer(window=SceneRecorder())
     build_scene(vis, robot, result, fps=fps, base_size=base_size, max_mesh_mb=max_mesh_mb)
@@ -78,6 +95,26 @@ def serve_replay(
 
     Several results are shown side by side (each offset along y). Prints the URL (meshcat
     does). Stop the server with :func:`close_visualizer` when done.
+
+    Parameters
+    ----------
+    robot : ReplayRobot
+        The robot drawn (:func:`~.scene.build_scene`).
+    result : RunResult or sequence of RunResult
+        The run or runs replayed.
+    fps : float
+        Animation frames per second of simulated time.
+    open_browser : bool
+        Open the viewer's URL in a browser.
+    base_size : sequence of float
+        Edges [m] of the box drawn at a root body without visuals.
+    max_mesh_mb : float
+        Mesh size budget [MB].
+
+    Returns
+    -------
+    meshcat.Visualizer
+        The live viewer.
     """
     results = [result] if isinstance(result, RunResult) else list(result)
     vis = meshcat.Visualizer()

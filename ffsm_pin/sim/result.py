@@ -84,6 +84,57 @@ class RunResult:
 
     ``signals`` maps every key of :data:`CONTRACT_KEYS`, :data:`TRUTH_KEYS` and
     :data:`EXTRA_KEYS` to an array (time along axis 0 for the per-sample keys).
+
+    Attributes
+    ----------
+    scheme : str or None
+        The controller's variant (its ``scheme``; the paper's: ppc, ...), or None.
+    robot : str
+        The robot's name.
+    dt : float
+        The control period [s].
+    duration : float
+        The requested horizon [s].
+    steps : int
+        Plant steps actually taken.
+    wall_time_s : float
+        Wall-clock time of the run [s].
+    completed : bool
+        The run reached its horizon.
+    stop_reason : str or None
+        Why it stopped early (the stop's message).
+    signals : mapping of str to ndarray
+        The recorded and derived signals.
+    scenario_name : str
+        The scenario's name.
+    stop_time : float or None
+        When it stopped [s].
+    stop_cause : str or None
+        ``"funnel"``, ``"singular"``, ``"nonfinite"``, ``"estimate"``, ...
+    stop_funnel : str or None
+        ``"b"`` or ``"z"`` when the run stopped at a funnel exit.
+    integrator : str
+        The plant integrator (``[sim] integrator``).
+    substeps : int
+        Plant steps per control step (``[sim] substeps``).
+    events : list of str
+        What happened during the run (warnings).
+    rhoinf_b, rhoinf_z : tuple of float or None
+        rho_inf of the two funnels, for settle times.
+    damping_threshold : float or None
+        sigma_min below which damped least squares is active [m].
+    description : str
+        The scenario's description.
+    controller : str
+        The controller type (``[controller] type``).
+    sigma_measure : str or None
+        What the controller's sigma_min is the smallest singular value of.
+    saturation_fraction : float
+        Fraction of control periods with a joint at its torque limit.
+    saturation_per_joint : list of float or None
+        The same per joint (None: not counted).
+    estimates : dict or None
+        What the initial estimates were drawn as (``estimates.json``).
     """
 
     scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
@@ -163,7 +214,20 @@ class RunResult:
         return self.stop_funnel, _stop_component(self.stop_reason), self.stop_time
 
     def settle_time(self, which: str, rhoinf) -> float | None:
-        """Time after which ``|err|`` stays inside rho_inf (all components), None if never."""
+        """Time after which ``|err|`` stays inside rho_inf (all components), None if never.
+
+        Parameters
+        ----------
+        which : str
+            ``"b"`` (attitude) or ``"z"`` (end effector).
+        rhoinf : array_like
+            rho_inf per component.
+
+        Returns
+        -------
+        float or None
+            The time [s].
+        """
         n, last_out = 0, None  # rows seen, last row with a component outside rho_inf
         for block in self.signals_blocks([f"err_{which}"]):
             err = np.abs(block[f"err_{which}"])
@@ -337,12 +401,12 @@ class RunResult:
 
         Parameters
         ----------
-        out_dir:
+        out_dir : str or Path
             Output folder (created if needed).
-        figures:
+        figures : bool
             Also draw the figures (``fig_*.png``, as ``python -m ffsm_pin.sim`` does, from at
             most 100,000 evenly spaced rows).
-        compress:
+        compress : bool
             Deflate ``trajectory.npz`` (``numpy.savez_compressed``). Off by default: recorded
             trajectories are floats that deflate by about a tenth, and deflating them costs
             about 20 times the writing (3.4 s of a 40 s spatial run's 9 s; docs/cli.md).
@@ -351,6 +415,11 @@ class RunResult:
         ------
         OutputError
             A file could not be written; ``out_dir`` keeps what it held.
+
+        Returns
+        -------
+        dict
+            The summary (``summary.json``).
         """
         with held_interrupt(), RunFolder(out_dir) as out:
             try:
@@ -367,7 +436,20 @@ class RunResult:
     def write_data(self, out: RunFolder, *, compress: bool = False) -> dict:
         """Write the recording into a staged run folder ``out``: ``trajectory.npz``,
         ``summary.json`` and, when the estimates were drawn, ``estimates.json``; return the
-        summary; :meth:`save` and :func:`ffsm_pin.sim.outputs.write_outputs` commit it."""
+        summary; :meth:`save` and :func:`ffsm_pin.sim.outputs.write_outputs` commit it.
+
+        Parameters
+        ----------
+        out : RunFolder
+            The staged folder.
+        compress : bool
+            Deflate ``trajectory.npz``.
+
+        Returns
+        -------
+        dict
+            The summary.
+        """
         write_npz(out.path("trajectory.npz"), self.signals, compress=compress)
         summary = self.summary()
         out.path("summary.json").write_text(strict_json(summary), encoding="utf-8")

@@ -93,6 +93,32 @@ def build_scene(
     When ``animation`` is None a new one is made and sent with ``vis.set_animation``;
     otherwise frames are added to it and the caller sends it. The scene is centred on the
     origin (the camera orbits about it), shifted by ``offset`` [m] (x, y).
+
+    Parameters
+    ----------
+    vis : meshcat.Visualizer
+        The viewer.
+    robot : ReplayRobot
+        The robot drawn.
+    result : RunResult
+        The run replayed.
+    fps : float
+        Frames per second.
+    animation : Animation or None
+        The animation to add to; None: a new one, sent.
+    root : str
+        The scene path everything is put under.
+    offset : tuple of float
+        Shift (x, y) [m].
+    base_size : sequence of float
+        Box drawn for a root body without visuals [m].
+    max_mesh_mb : float
+        Mesh size budget [MB].
+
+    Returns
+    -------
+    Animation
+        The animation.
     """
     if fps <= 0:
         raise ParameterError(f"replay: fps must be > 0, got {fps}")
@@ -230,14 +256,46 @@ def placements(
     gdata: pin.GeometryData,
     q: np.ndarray,
 ) -> list[np.ndarray]:
-    """4x4 placements oMg of every geometry (inertial frame) at configuration ``q``."""
+    """4x4 placements oMg of every geometry (inertial frame) at configuration ``q``.
+
+    Parameters
+    ----------
+    model : pin.Model
+        The Pinocchio model.
+    data : pin.Data
+        Its data.
+    gmodel : pin.GeometryModel
+        The geometries.
+    gdata : pin.GeometryData
+        Their data.
+    q : ndarray
+        Configuration (Pinocchio convention).
+
+    Returns
+    -------
+    list of ndarray
+        One (4, 4) placement per geometry.
+    """
     pin.forwardKinematics(model, data, q)
     pin.updateGeometryPlacements(model, data, gmodel, gdata)
     return [m.homogeneous for m in gdata.oMg]
 
 
 def frame_indices(t: np.ndarray, fps: float) -> np.ndarray:
-    """Indices of the recorded samples closest to the frame times 0, 1/fps, 2/fps, ... [s]."""
+    """Indices of the recorded samples closest to the frame times 0, 1/fps, 2/fps, ... [s].
+
+    Parameters
+    ----------
+    t : ndarray
+        Recorded times [s].
+    fps : float
+        Frames per second.
+
+    Returns
+    -------
+    ndarray of int
+        One index per frame.
+    """
     t = np.asarray(t, dtype=float)
     if len(t) == 0:
         return np.zeros(0, dtype=int)

@@ -30,7 +30,19 @@ BLOCK = 1024  # measurements whose noise is drawn in one call
 
 class Sensors:
     """The sensor model of :class:`SensorSpec` for ``n`` joints, m3 attitude components and an
-    end-effector pose of ``n_pose`` components."""
+    end-effector pose of ``n_pose`` components.
+
+    Parameters
+    ----------
+    spec : SensorSpec
+        The scenario's ``[sensors]``.
+    n : int
+        Number of joints.
+    m3 : int
+        Attitude components.
+    n_pose : int
+        End-effector pose components.
+    """
 
     def __init__(self, spec: SensorSpec, n: int, m3: int, n_pose: int):
         if spec.delay < 0:

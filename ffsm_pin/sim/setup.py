@@ -48,7 +48,37 @@ from .sensors import Sensors
 
 @dataclass
 class Setup:
-    """A scenario made concrete: robot, models, initial state, truths and controller."""
+    """A scenario made concrete: robot, models, initial state, truths and controller.
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The scenario.
+    robot : Robot
+        The plant's robot.
+    model : ReducedModel
+        Its reduced model.
+    q0, v0 : ndarray
+        The initial state (Pinocchio convention).
+    theta_z, theta_d, theta_b : ndarray
+        The true parameters.
+    controller : Controller
+        Any implementation of :class:`~ffsm_pin.control.interface.Controller`.
+    reach_horizon : float or None
+        Time the reference leaves the reach [s], None if never.
+    events : list of str
+        What happened while setting up (warnings).
+    actuators : Actuators or None
+        Between the controller and the plant (ideal: None).
+    sensors : Sensors or None
+        Between the plant and the controller (exact: None).
+    funnel_b, funnel_z : Funnel or None
+        The performance specification, sides fixed at t = 0.
+    drawn_estimates : dict
+        What the initial estimates were made from (:func:`~.estimates.bodies_record`),
+        filled when they are drawn; empty for Table 2, explicit vectors, or estimates never
+        read.
+    """
 
     scenario: Scenario
     robot: Robot
@@ -194,7 +224,17 @@ def prepare(scenario: Scenario) -> Setup:
 def check_params(cls: type, kind: str, params) -> None:
     """Refuse a ``[controller.params]`` key that the controller's class does not declare in
     its ``params_keys`` (docs/controllers.md; nothing is checked for a class without it): one
-    line naming the key, the type and the valid keys."""
+    line naming the key, the type and the valid keys.
+
+    Parameters
+    ----------
+    cls : type
+        The controller's class.
+    kind : str
+        Its type name, for the message.
+    params : mapping
+        The ``[controller.params]`` table.
+    """
     accepted = getattr(cls, "params_keys", None)
     if accepted is None:
         return

@@ -47,7 +47,20 @@ def _size(n: float) -> str:
 
 def rows_recorded(steps: int, record_every: int) -> int:
     """Rows a run of ``steps`` steps records: every ``record_every``-th step, the last step,
-    and one spare (as the recorder allocates)."""
+    and one spare (as the recorder allocates).
+
+    Parameters
+    ----------
+    steps : int
+        Steps of the run.
+    record_every : int
+        The recording interval [steps].
+
+    Returns
+    -------
+    int
+        The rows.
+    """
     return steps // max(1, int(record_every)) + 2
 
 
@@ -62,23 +75,23 @@ def check_storage(
 ) -> None:
     """Raise :class:`StorageError` when the recording of a run does not fit on disk.
 
+    With ``copies`` >= 2 the one file that holds every row, ``trajectory.npz``, is also
+    checked against the process's file-size limit (:func:`file_size_limit`).
+
     Parameters
     ----------
-    steps, row_bytes:
+    steps, row_bytes : int
         Steps of the run and bytes of one recorded row (``ffsm_pin.sim.loop.recording_size``).
-    record_every:
+    record_every : int
         The run's recording interval [steps]; the error names the smallest one that fits.
-    folder:
+    folder : str or Path
         Folder whose file system holds the recording.
-    copies:
+    copies : int
         Raw copies of the rows that folder must hold at once: 1 for the recorder's spool,
         2 for a spool beside the ``trajectory.npz`` packed from it (stored without
         compression: the raw size and a header per signal).
-    disk:
+    disk : int or None
         Free disk [bytes]; read from the system when None.
-
-    With ``copies`` >= 2 the one file that holds every row, ``trajectory.npz``, is also
-    checked against the process's file-size limit (:func:`file_size_limit`).
     """
     rows = rows_recorded(steps, record_every)
     limit = file_size_limit() if copies >= 2 else None

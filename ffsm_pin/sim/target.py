@@ -43,7 +43,20 @@ _INSIDE_TOL = 1e-9  # relative slack of "inside the box" (a grasp frame on a fac
 
 def inertia_matrix(inertia, what: str) -> np.ndarray:
     """A 3x3 inertia [kg m^2] from a 3x3 array or the six numbers (ixx, iyy, izz, ixy, ixz,
-    iyz) of the package's tables; anything else is a :class:`ParameterError`."""
+    iyz) of the package's tables; anything else is a :class:`ParameterError`.
+
+    Parameters
+    ----------
+    inertia : array_like
+        3x3, or (ixx, iyy, izz, ixy, ixz, iyz).
+    what : str
+        What it is, for the error message.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        The inertia [kg m^2].
+    """
     arr = np.asarray(inertia, dtype=float)
     if arr.shape == (6,):
         xx, yy, zz, xy, xz, yz = arr
@@ -77,20 +90,20 @@ class Target:
 
     Attributes
     ----------
-    mass:
+    mass : float
         [kg], > 0.
-    inertia:
+    inertia : ndarray
         3x3 inertia about the CoM, along the target frame's axes [kg m^2]: symmetric positive
         definite and satisfying the triangle inequality of its principal moments (the six
         numbers ixx iyy izz ixy ixz iyz are accepted too).
-    grasp:
+    grasp : pin.SE3
         The grasp frame in the target frame (``pin.SE3``): the frame the hand welds to.
-    com:
+    com : ndarray
         The CoM in the target frame [m] (a box: its centre, the default).
-    size:
+    size : tuple of 3 float or None
         Full edge lengths of a box centred on the target frame's origin [m], or None (e.g. a
         URDF body). With a size, a grasp frame outside the box (its faces included) is refused.
-    name:
+    name : str
         The name of the target's joint and body in a combined model.
     """
 
@@ -152,6 +165,26 @@ class Target:
         ``inertia`` (3x3 or ixx iyy izz ixy ixz iyz, about the CoM [kg m^2]) defaults to the
         uniform box's, m/12 (b^2 + c^2, a^2 + c^2, a^2 + b^2). The grasp frame is at
         ``grasp_xyz`` [m] with roll-pitch-yaw ``grasp_rpy`` [rad] in the target frame.
+
+        Parameters
+        ----------
+        size : sequence of float
+            Edges (a, b, c) [m].
+        mass : float
+            Mass [kg].
+        inertia : array_like or None
+            About the CoM [kg m^2]; None: the uniform box's.
+        grasp_xyz : sequence of float
+            Grasp frame origin in the target frame [m].
+        grasp_rpy : sequence of float
+            Grasp frame roll-pitch-yaw in the target frame [rad].
+        name : str
+            The target's name.
+
+        Returns
+        -------
+        Target
+            The box.
         """
         a, b, c = _vector(size, 3, "target.size")
         if inertia is None:
@@ -181,11 +214,11 @@ class TargetState:
 
     Attributes
     ----------
-    pose:
+    pose : pin.SE3
         The target frame in the world (``pin.SE3``).
-    velocity:
+    velocity : ndarray
         The CoM's velocity in the world frame [m/s].
-    angular_velocity:
+    angular_velocity : ndarray
         The angular velocity in the target (body) frame [rad/s].
     """
 
@@ -208,7 +241,24 @@ class TargetState:
         angular_velocity: Sequence[float] = (0.0, 0.0, 0.0),
     ) -> TargetState:
         """From the target frame's origin [m] and roll-pitch-yaw [rad] in the world, the CoM
-        velocity (world) [m/s] and the body rates [rad/s]."""
+        velocity (world) [m/s] and the body rates [rad/s].
+
+        Parameters
+        ----------
+        position : sequence of float
+            Target frame origin, world [m].
+        attitude_rpy : sequence of float
+            Roll-pitch-yaw in the world [rad].
+        velocity : sequence of float
+            CoM velocity, world [m/s].
+        angular_velocity : sequence of float
+            Body rates [rad/s].
+
+        Returns
+        -------
+        TargetState
+            The state.
+        """
         rpy = _vector(attitude_rpy, 3, "attitude_rpy")
         pose = pin.SE3(pin.rpy.rpyToMatrix(*rpy), _vector(position, 3, "position"))
         return cls(pose, np.asarray(velocity, float), np.asarray(angular_velocity, float))
@@ -223,7 +273,20 @@ class TargetState:
 
     def angular_momentum(self, target: Target, about=None) -> np.ndarray:
         """The angular momentum in the world frame [kg m^2/s]: R I w about the CoM, plus
-        (c - p) x m v about the world point ``about`` [m] when it is given."""
+        (c - p) x m v about the world point ``about`` [m] when it is given.
+
+        Parameters
+        ----------
+        target : Target
+            The body (its mass and inertia).
+        about : array_like or None
+            World point [m]; None: the CoM.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            [kg m^2/s], world frame.
+        """
         L = self.pose.rotation @ (target.inertia @ self.angular_velocity)
         if about is None:
             return L
@@ -247,7 +310,22 @@ class TargetState:
 
     @classmethod
     def from_pinocchio(cls, target: Target, q, v) -> TargetState:
-        """The inverse of :meth:`to_pinocchio`."""
+        """The inverse of :meth:`to_pinocchio`.
+
+        Parameters
+        ----------
+        target : Target
+            The body.
+        q : array_like, shape (7,)
+            Free-flyer configuration (position, quaternion).
+        v : array_like, shape (6,)
+            Free-flyer velocity (Pinocchio convention).
+
+        Returns
+        -------
+        TargetState
+            The state.
+        """
         q = _vector(q, 7, "target q")
         v = _vector(v, 6, "target v")
         pose = pin.XYZQUATToSE3(q)
@@ -296,6 +374,22 @@ def torque_free_step(target: Target, state: TargetState, dt: float, momentum=Non
     (as :class:`~.plant.Plant` keeps its ``momentum0``) leaves one rounding error in L
     whatever the number of steps; recomputing it from each state lets roundings add up
     (a random walk, ~1e-13 relative after 10^4 steps).
+
+    Parameters
+    ----------
+    target : Target
+        The body.
+    state : TargetState
+        The state at t.
+    dt : float
+        Step [s].
+    momentum : array_like or None
+        World angular momentum about the CoM to keep [kg m^2/s].
+
+    Returns
+    -------
+    TargetState
+        The state at t + dt.
     """
     dt = float(dt)
     if not (np.isfinite(dt) and dt > 0):

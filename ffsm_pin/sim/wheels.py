@@ -60,14 +60,14 @@ class Wheels:
 
     Attributes
     ----------
-    axes:
+    axes : ndarray
         (3, N) spin axes in the bus (root joint) frame, unit vectors (``"xyz"``: the three
         frame axes; other columns are normalised, a zero column is refused).
-    inertia:
+    inertia : ndarray
         (N,) spin (axial) inertias J_s [kg m^2], > 0.
-    max_torque:
+    max_torque : ndarray
         (N,) motor torque limits [N m], > 0 (``inf``: none).
-    max_momentum:
+    max_momentum : ndarray
         (N,) momentum capacities, ``abs(h_i) <= max_momentum`` [N m s], > 0 (``inf``: none).
     """
 
@@ -125,7 +125,22 @@ class Wheels:
     def limit(self, h, tau, dt: float) -> np.ndarray:
         """The torques [N m] the wheels apply for commanded ``tau`` over ``dt`` [s] from
         momenta ``h``: clipped to +-max_torque, then so that ``abs(h + tau dt) <= max_momentum``
-        (a wheel at its capacity gives no more torque that way)."""
+        (a wheel at its capacity gives no more torque that way).
+
+        Parameters
+        ----------
+        h : array_like, shape (k,)
+            Wheel momenta [N m s].
+        tau : array_like, shape (k,)
+            Commanded torques [N m].
+        dt : float
+            The step [s].
+
+        Returns
+        -------
+        ndarray, shape (k,)
+            The torques applied [N m].
+        """
         h, tau = np.asarray(h, dtype=float), np.asarray(tau, dtype=float)
         out = np.clip(tau, -self.max_torque, self.max_torque)
         return np.clip(out, (-self.max_momentum - h) / dt, (self.max_momentum - h) / dt)
@@ -135,11 +150,39 @@ class Wheels:
         return self.axes @ np.asarray(h, dtype=float)
 
     def bus_torque(self, h, tau, w_bus) -> np.ndarray:
-        """The torque on the bus [N m], bus frame: -(A tau + w_bus x A h)."""
+        """The torque on the bus [N m], bus frame: -(A tau + w_bus x A h).
+
+        Parameters
+        ----------
+        h : array_like, shape (k,)
+            Wheel momenta [N m s].
+        tau : array_like, shape (k,)
+            Wheel torques [N m].
+        w_bus : array_like, shape (3,)
+            The bus's angular velocity, bus frame [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            The torque [N m], bus frame.
+        """
         return -(self.axes @ np.asarray(tau, float) + np.cross(w_bus, self.momentum_bus(h)))
 
     def spin_rates(self, h, w_bus) -> np.ndarray:
-        """Each wheel's spin relative to the bus [rad/s]: h_i / J_s,i - a_i . w_bus."""
+        """Each wheel's spin relative to the bus [rad/s]: h_i / J_s,i - a_i . w_bus.
+
+        Parameters
+        ----------
+        h : array_like, shape (k,)
+            Wheel momenta [N m s].
+        w_bus : array_like, shape (3,)
+            The bus's angular velocity, bus frame [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (k,)
+            Spin rates [rad/s].
+        """
         return np.asarray(h, float) / self.inertia - self.axes.T @ np.asarray(w_bus, float)
 
 
@@ -158,14 +201,14 @@ class WheeledPlant:
 
     Parameters
     ----------
-    robot:
+    robot : Robot or pin.Model
         As for :class:`~.plant.Plant` (planar or free-flyer root; on a planar root only the
         z component of the wheels' momentum and torque acts).
-    wheels:
+    wheels : Wheels
         The wheels, axes in the root joint's frame.
-    integrator:
+    integrator : str
         The plant's integrator.
-    project_momentum:
+    project_momentum : bool
         Restore L_total after each step (default); off only to measure the bare drift.
     """
 
@@ -201,16 +244,50 @@ class WheeledPlant:
 
     def stored(self, q, h) -> np.ndarray:
         """The wheels' share of the plant's conserved rows: free-flyer (0, 0, 0, R_b A h),
-        planar (0, 0, (R_b A h)_z)."""
+        planar (0, 0, (R_b A h)_z).
+
+        Parameters
+        ----------
+        q : ndarray
+            Robot configuration (Pinocchio convention).
+        h : ndarray, shape (k,)
+            Wheel momenta [N m s].
+
+        Returns
+        -------
+        ndarray
+            The conserved rows the wheels hold, (3,) planar or (6,) free-flyer.
+        """
         L = self.bus_rotation(q) @ self.wheels.momentum_bus(h)
         return np.array([0.0, 0.0, L[2]]) if self._planar else np.concatenate((np.zeros(3), L))
 
     def total_momentum(self, q, v, h) -> np.ndarray:
-        """The plant's conserved rows of robot plus wheels (P, L_total)."""
+        """The plant's conserved rows of robot plus wheels (P, L_total).
+
+        Parameters
+        ----------
+        q, v : ndarray
+            Robot state (Pinocchio convention).
+        h : ndarray, shape (k,)
+            Wheel momenta [N m s].
+
+        Returns
+        -------
+        ndarray
+            (P, L_total), the plant's conserved rows.
+        """
         return self.plant.momentum(q, v) + self.stored(q, h)
 
     def reset(self, q, v, h) -> None:
-        """Set the total momentum to keep from the initial state."""
+        """Set the total momentum to keep from the initial state.
+
+        Parameters
+        ----------
+        q, v : ndarray
+            The initial robot state (Pinocchio convention).
+        h : ndarray, shape (k,)
+            The initial wheel momenta [N m s].
+        """
         self.plant.reset(q, v)
         self.total0 = self.total_momentum(q, v, h)
 
@@ -222,7 +299,28 @@ class WheeledPlant:
     def advance(self, q, v, h, u_m, tau_w, dt: float, substeps: int = 1) -> WheelStep:
         """Advance by one control step ``dt`` [s] in ``substeps`` plant steps, joint torques
         ``u_m`` [N m] and commanded wheel torques ``tau_w`` [N m] held (each plant step
-        limits them, :meth:`Wheels.limit`, and holds the bus torque over the step)."""
+        limits them, :meth:`Wheels.limit`, and holds the bus torque over the step).
+
+        Parameters
+        ----------
+        q, v : ndarray
+            Robot state at the start (Pinocchio convention).
+        h : ndarray, shape (k,)
+            Wheel momenta [N m s].
+        u_m : ndarray, shape (n,)
+            Joint torques [N m], held.
+        tau_w : ndarray, shape (k,)
+            Commanded wheel torques [N m], held.
+        dt : float
+            Control step [s].
+        substeps : int
+            Plant steps per control step.
+
+        Returns
+        -------
+        WheelStep
+            (q, v, h) after dt and the acceleration at the start.
+        """
         if substeps < 1:
             raise ParameterError(f"wheels: substeps must be >= 1, got {substeps}")
         if self.total0 is None:

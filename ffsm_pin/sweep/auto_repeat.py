@@ -52,7 +52,20 @@ def _widest(rows: Iterable[Mapping[str, Any]]) -> float | None:
 
 def next_repeat(campaign: Campaign, rows: Iterable[Mapping[str, Any]]) -> int | None:
     """The repeat count of the next batch; None when the repeat is fixed, the target is met or
-    ``max_repeat`` is reached."""
+    ``max_repeat`` is reached.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    rows : iterable of mapping
+        Its results table's rows so far.
+
+    Returns
+    -------
+    int or None
+        The repeat count.
+    """
     auto, r = campaign.auto, campaign.repeat
     if auto is None or r >= auto.max_repeat:
         return None
@@ -73,7 +86,20 @@ def grow(campaign: Campaign, table) -> tuple[Campaign, list[Case], list[Case]] |
     """The next batch of an auto-repeat campaign whose rows so far are in the
     :class:`~ffsm_pin.sweep.table.ResultsTable` ``table``: (the campaign with the new repeat
     count, all its cases, the cases still to run); the rows of the earlier ones are renumbered
-    in ``table``. None when there is no next batch (:func:`next_repeat`)."""
+    in ``table``. None when there is no next batch (:func:`next_repeat`).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        An auto-repeat campaign.
+    table : ResultsTable
+        Its rows so far.
+
+    Returns
+    -------
+    tuple or None
+        (campaign, all cases, cases to run), or None.
+    """
     more = next_repeat(campaign, table.rows.values())
     if more is None:
         return None
@@ -89,7 +115,24 @@ def resumed(
     campaign: Campaign, cases: list[Case], rows: Iterable[Mapping[str, Any]]
 ) -> tuple[Campaign, list[Case]]:
     """An auto-repeat campaign resumed in a folder: as many repeats as its rows hold (at most
-    ``max_repeat``), so that they are kept, not set aside as another campaign's."""
+    ``max_repeat``), so that they are kept, not set aside as another campaign's.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    cases : list of Case
+        Its cases.
+    rows : iterable of mapping
+        The rows the folder holds.
+
+    Returns
+    -------
+    campaign : Campaign
+        With the repeat count the rows hold.
+    cases : list of Case
+        Its cases.
+    """
     if campaign.auto is None:
         return campaign, cases
     held = max((r["repeat"] + 1 for r in rows if r.get("repeat") is not None), default=0)
@@ -101,7 +144,20 @@ def resumed(
 
 
 def status_text(campaign: Campaign, rows: Iterable[Mapping[str, Any]]) -> str:
-    """One sentence for the report: the target, how many draws it took, met or not."""
+    """One sentence for the report: the target, how many draws it took, met or not.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    rows : iterable of mapping
+        Its results table's rows.
+
+    Returns
+    -------
+    str
+        The sentence; empty when the repeat is fixed.
+    """
     auto = campaign.auto
     if auto is None:
         return ""

@@ -85,7 +85,15 @@ def builtin_campaign_path(name: str) -> Path:
 
 @dataclass(frozen=True)
 class Vary:
-    """One grid axis: a dotted scenario key and its values (in file order)."""
+    """One grid axis: a dotted scenario key and its values (in file order).
+
+    Attributes
+    ----------
+    key : str
+        The dotted scenario key.
+    values : tuple
+        Its values, in file order.
+    """
 
     key: str
     values: tuple[Any, ...]
@@ -94,7 +102,17 @@ class Vary:
 @dataclass(frozen=True)
 class Sample:
     """A key drawn per case from a distribution: ``uniform(low, high)``, ``normal(mean, std)``
-    or ``log-uniform(low, high)`` (log of the value uniform)."""
+    or ``log-uniform(low, high)`` (log of the value uniform).
+
+    Attributes
+    ----------
+    key : str
+        The dotted scenario key.
+    distribution : str
+        ``"uniform"``, ``"normal"`` or ``"log-uniform"``.
+    params : tuple of float
+        The distribution's two parameters.
+    """
 
     key: str
     distribution: str
@@ -114,7 +132,15 @@ class Sample:
 class AutoRepeat:
     """``repeat = "auto"``: batches of repeats until the 95 % Wilson interval of every grid
     point's funnel-keeping rate is no wider than +- ``target_half_width``, or ``max_repeat``
-    draws per grid point (:mod:`ffsm_pin.sweep.auto_repeat`)."""
+    draws per grid point (:mod:`ffsm_pin.sweep.auto_repeat`).
+
+    Attributes
+    ----------
+    target_half_width : float
+        Half-width of the Wilson interval aimed at.
+    max_repeat : int
+        Most draws per grid point (+- 0.05 at a rate of 1/2 takes 381 runs).
+    """
 
     target_half_width: float = 0.05
     max_repeat: int = 400  # +- 0.05 at a rate of 1/2 takes 381 runs
@@ -130,14 +156,37 @@ class Disperse:
     """A key of ``[campaign.disperse]`` drawn per case: ``uniform`` (low, high), ``normal``
     (mean, std), element-wise where a bound is a list or the key's value is one, or ``angle``
     (a rotation of this angle [rad] about a uniformly random axis: a 3-vector, or a planar
-    angle of random sign)."""
+    angle of random sign).
+
+    Attributes
+    ----------
+    key : str
+        The dotted scenario key.
+    distribution : str
+        ``"uniform"``, ``"normal"`` or ``"angle"``.
+    params : tuple
+        The distribution's parameters.
+    """
 
     key: str
     distribution: str
     params: tuple[Any, ...]
 
     def draw(self, rng: np.random.Generator, size: int | None) -> float | list[float]:
-        """One value from ``rng``: a number (``size`` None) or ``size`` numbers."""
+        """One value from ``rng``: a number (``size`` None) or ``size`` numbers.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The generator.
+        size : int or None
+            Numbers drawn; None: one number.
+
+        Returns
+        -------
+        float or list of float
+            The value.
+        """
         if self.distribution == "angle":
             (angle,) = self.params
             if size is None:
@@ -158,7 +207,46 @@ class Disperse:
 
 @dataclass(frozen=True)
 class Campaign:
-    """A parsed, validated campaign file."""
+    """A parsed, validated campaign file.
+
+    Attributes
+    ----------
+    name : str
+        The campaign's name.
+    scenarios : tuple of str
+        As written: built-in names or paths.
+    scenario_paths : tuple of Path
+        The scenario files they resolve to.
+    seed : int
+        The campaign's seed.
+    repeat : int
+        Repeats per grid point.
+    duration : float or None
+        Overrides the scenarios' duration [s].
+    dt : float or None
+        Overrides the scenarios' control period [s].
+    set : mapping
+        Scenario keys set for every case (``[campaign.set]``).
+    vary : tuple of Vary
+        The grid axes.
+    sample : tuple of Sample
+        Keys drawn per case.
+    source : str
+        Campaign file path (for messages).
+    text : str
+        The campaign file's text.
+    description : str
+        Free text.
+    set_for : mapping
+        Keys set per scenario (``[campaign.set_for.<scenario>]``).
+    auto : AutoRepeat or None
+        ``repeat = "auto"``; ``repeat`` is then the current batch's.
+    disperse : tuple of Disperse
+        ``[campaign.disperse]``, drawn per case.
+    set_for_controller : mapping
+        Keys set per controller type, as written in ``controller.type``
+        (``[campaign.set_for_controller."<type>"]``).
+    """
 
     name: str
     scenarios: tuple[str, ...]  # as written: built-in names or paths
@@ -237,7 +325,20 @@ def load_campaign(spec: str | Path) -> Campaign:
 
 
 def campaign_from_toml(text: str, path: Path) -> Campaign:
-    """Parse and validate campaign TOML text (``path``: its file, for relative scenarios)."""
+    """Parse and validate campaign TOML text (``path``: its file, for relative scenarios).
+
+    Parameters
+    ----------
+    text : str
+        Campaign TOML text.
+    path : Path
+        Its file.
+
+    Returns
+    -------
+    Campaign
+        The campaign.
+    """
     where = str(path)
     try:
         data = tomllib.loads(text)

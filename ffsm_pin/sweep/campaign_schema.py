@@ -23,7 +23,20 @@ DISTRIBUTIONS = {
 
 
 def flatten(table: Mapping, prefix: str = "") -> dict[str, Any]:
-    """``{"a": {"b": 1}}`` and ``{"a.b": 1}`` both -> ``{"a.b": 1}`` (quoted or dotted keys)."""
+    """``{"a": {"b": 1}}`` and ``{"a.b": 1}`` both -> ``{"a.b": 1}`` (quoted or dotted keys).
+
+    Parameters
+    ----------
+    table : mapping
+        Nested or dotted keys.
+    prefix : str
+        Prepended to every key.
+
+    Returns
+    -------
+    dict
+        Dotted keys to values.
+    """
     out: dict[str, Any] = {}
     for k, v in table.items():
         full = f"{prefix}.{k}" if prefix else k
@@ -37,7 +50,18 @@ def flatten(table: Mapping, prefix: str = "") -> dict[str, Any]:
 
 
 def same(a: Any, b: Any) -> bool:
-    """Equal values (1 and 1.0 are the same number; True is not 1)."""
+    """Equal values (1 and 1.0 are the same number; True is not 1).
+
+    Parameters
+    ----------
+    a, b : object
+        Two values.
+
+    Returns
+    -------
+    bool
+        True when they are the same value.
+    """
     numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (a, b))
     return float(a) == float(b) if numbers else type(a) is type(b) and a == b
 

@@ -58,7 +58,32 @@ COMMON_DRAWS = (SCENARIO_COLUMN, TYPE_KEY)
 
 @dataclass(frozen=True)
 class Case:
-    """One run of a campaign."""
+    """One run of a campaign.
+
+    Attributes
+    ----------
+    index : int
+        Position in the campaign (0 = nominal).
+    nominal : bool
+        The nominal case (the scenario file as it is, with only the run length and step
+        applied).
+    point_index : int or None
+        Grid point number (None for the nominal case).
+    repeat : int or None
+        Repeat index within the grid point (None for the nominal case).
+    point : mapping
+        Grid point {dotted key: value as written in the campaign}.
+    values : dict
+        {column: value the resolved scenario uses}.
+    estimates_seed : int
+        The case's ``controller.estimates.seed``.
+    scenario_toml : str
+        The resolved scenario (loads with ``scenario_from_toml``).
+    case_hash : str
+        Hash of the resolved scenario's TOML text and the package version.
+    scenario : Scenario
+        The resolved scenario.
+    """
 
     index: int  # position in the campaign (0 = nominal)
     nominal: bool

@@ -12,7 +12,15 @@ from .cases import Case
 def check_cases(cases: list[Case], source: str) -> None:
     """Run :func:`ffsm_pin.sim.setup.prepare` (robot, feasibility, initial errors inside the
     funnels, estimates) on the nominal case and on the first case of every grid point, so a
-    value that only the run set-up refuses is bad input before anything runs."""
+    value that only the run set-up refuses is bad input before anything runs.
+
+    Parameters
+    ----------
+    cases : list of Case
+        The campaign's cases.
+    source : str
+        The campaign file, for the messages.
+    """
     from ..sim.run import prepare
 
     checked: set[int | None] = set()

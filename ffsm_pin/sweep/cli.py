@@ -163,6 +163,22 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
     FfsmError
         Another campaign runs into ``out`` (:class:`~ffsm_pin.sweep.folder.FolderInUseError`),
         or ``out`` holds another campaign's ``campaign.toml`` and ``args.force`` is not set.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    cases : list of Case
+        Its cases.
+    out : Path
+        The campaign folder.
+    args : argparse.Namespace
+        The command line.
+
+    Returns
+    -------
+    int
+        The exit status.
     """
     with FolderLock(out, campaign.name) as lock:
         if lock.stale is not None:

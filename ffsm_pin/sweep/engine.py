@@ -79,11 +79,11 @@ def start_client(
 
     Parameters
     ----------
-    n_workers:
+    n_workers : int or None
         Worker processes of the new LocalCluster, one thread each (default: one per core).
-    scheduler:
+    scheduler : str or None
         Address of a running scheduler (``tcp://host:port``) instead of a new cluster.
-    quiet:
+    quiet : bool
         Silence the cluster's logs below CRITICAL (else below ERROR).
 
     Returns
@@ -149,6 +149,13 @@ def shutdown(client: Client | None, cluster: LocalCluster | None) -> None:
     ``distributed``, ``tornado`` and ``asyncio`` loggers of this process and (for a cluster of
     our own) of its workers stay silent from now on. A second Ctrl-C while closing still
     interrupts (the cluster's processes end with this one).
+
+    Parameters
+    ----------
+    client : distributed.Client or None
+        The Dask client.
+    cluster : distributed.LocalCluster or None
+        The cluster of our own.
     """
     _silence_logs()
     if client is not None and cluster is not None:  # our own workers: they log as they close
@@ -204,6 +211,18 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     ``"error"`` (the run raised; ``error`` holds the exception and where it happened);
     ``case_wall_s`` and ``case_cpu_s`` are the case's wall and CPU time on the worker [s].
     ``keep_dir``: write the run folder there as ``python -m ffsm_pin.sim`` does.
+
+    Parameters
+    ----------
+    scenario_toml : str
+        The case's resolved scenario.
+    keep_dir : str or None
+        Where to write the run folder; None: nowhere.
+
+    Returns
+    -------
+    dict
+        The outcome.
     """
     from ..scenario.file import scenario_from_toml
     from ..sim.run import prepare, simulate
@@ -243,6 +262,22 @@ def run_cases(
     """Submit every case as a task; yield ``(case, outcome)`` in order of completion.
 
     Closing the generator (or an exception in the caller, e.g. Ctrl-C) cancels what is left.
+
+    Parameters
+    ----------
+    client : distributed.Client
+        The Dask client.
+    cases : iterable of Case
+        The cases to run.
+    keep_runs : Path or None
+        Folder the run folders are kept in; None: not kept.
+
+    Yields
+    ------
+    case : Case
+        A finished case.
+    outcome : dict
+        Its outcome (:func:`run_case`).
     """
     cases = list(cases)
     if not cases:

@@ -39,7 +39,20 @@ SIGNALS = "signals"
 
 def kept_rows(n: int, max_rows: int = MAX_ROWS) -> np.ndarray:
     """At most ``max_rows`` evenly spaced row indices of ``n`` rows, the first and the last
-    included (all of them when ``n <= max_rows``)."""
+    included (all of them when ``n <= max_rows``).
+
+    Parameters
+    ----------
+    n : int
+        Rows.
+    max_rows : int
+        Most rows kept.
+
+    Returns
+    -------
+    ndarray of int
+        The indices.
+    """
     if n <= max_rows:
         return np.arange(n)
     return np.unique(np.round(np.linspace(0, n - 1, max_rows)).astype(np.int64))
@@ -47,7 +60,20 @@ def kept_rows(n: int, max_rows: int = MAX_ROWS) -> np.ndarray:
 
 def generalized_jacobian_sigma(state, n_task: int) -> float:
     """sigma_min of the task rows of ``J* = J_m - J_b H_bb^-1 H_bm`` at an updated
-    :class:`~ffsm_pin.model.state.State` (the model's units: [m] for positions)."""
+    :class:`~ffsm_pin.model.state.State` (the model's units: [m] for positions).
+
+    Parameters
+    ----------
+    state : State
+        An updated state of the true model.
+    n_task : int
+        Task rows.
+
+    Returns
+    -------
+    float
+        sigma_min [m].
+    """
     J_b, J_m = np.asarray(state.J_b)[:n_task], np.asarray(state.J_m)[:n_task]
     J_star = J_m - J_b @ np.linalg.solve(state.H_bb, state.H_bm)
     return float(np.linalg.svd(J_star, compute_uv=False)[-1])
@@ -55,7 +81,22 @@ def generalized_jacobian_sigma(state, n_task: int) -> float:
 
 def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
     """The smallest :func:`generalized_jacobian_sigma` of the true model (``setup.robot``)
-    over the recorded ``rows`` of ``signals`` (q, v); None without rows."""
+    over the recorded ``rows`` of ``signals`` (q, v); None without rows.
+
+    Parameters
+    ----------
+    setup : Setup
+        The case's setup.
+    signals : mapping of str to ndarray
+        The run's signals (``q``, ``v``).
+    rows : ndarray of int
+        The rows evaluated.
+
+    Returns
+    -------
+    float or None
+        The smallest sigma_min [m].
+    """
     from ..model.state import State
 
     if len(rows) == 0:
@@ -68,7 +109,22 @@ def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
 
 def case_extras(setup, result, summary: dict[str, Any]) -> dict[str, Any]:
     """The entries a case adds to its outcome (module docstring); ``SIGNALS`` holds the
-    decimated signals ``{"t": (r,), key: (r, ...)}``."""
+    decimated signals ``{"t": (r,), key: (r, ...)}``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The case's setup.
+    result : RunResult
+        Its run.
+    summary : dict
+        The run's summary.
+
+    Returns
+    -------
+    dict
+        The entries added to the outcome.
+    """
     s = result.signals
     rows = kept_rows(len(s["t"]))
     kept = {"t": np.asarray(s["t"][rows], dtype=float)}

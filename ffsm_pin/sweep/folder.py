@@ -77,7 +77,19 @@ class CampaignFolderError(FfsmError, ValueError):
 
 @dataclass(frozen=True)
 class Holder:
-    """Who holds (or held) a campaign folder's lock."""
+    """Who holds (or held) a campaign folder's lock.
+
+    Attributes
+    ----------
+    pid : int or None
+        The process id (None: unknown).
+    host : str
+        The host name.
+    since : str
+        Local time the campaign took the lock, YYYY-mm-dd HH:MM:SS.
+    campaign : str
+        The campaign's name.
+    """
 
     pid: int | None
     host: str
@@ -110,9 +122,9 @@ class FolderLock:
 
     Parameters
     ----------
-    folder:
+    folder : Path
         The campaign folder (created if missing).
-    campaign:
+    campaign : str
         The name of the campaign taking the lock (written into the lock file).
     """
 
@@ -235,7 +247,16 @@ def _same_file(fd: int, path: Path) -> bool:
 # ------------------------------------------------------------------------------ campaign.toml
 @dataclass(frozen=True)
 class CampaignIdentity:
-    """What makes two campaigns the same one: the name and the scenarios (in any order)."""
+    """What makes two campaigns the same one: the name and the scenarios (in any order).
+
+    Attributes
+    ----------
+    name : str or None
+        The campaign's name; None: a campaign.toml that names no campaign (written by an old
+        version).
+    scenarios : tuple of str
+        The scenarios, as written in the file.
+    """
 
     name: str | None  # None: a campaign.toml that names no campaign (written by an old version)
     scenarios: tuple[str, ...]  # as written in the file
@@ -255,7 +276,22 @@ class CampaignIdentity:
 def campaign_file_text(name: str, source: str, text: str) -> str:
     """The text of a folder's ``campaign.toml``: a comment naming the campaign and its file
     (the name a file without ``name`` gets is its file name), then the campaign file (without
-    such a comment of its own: a folder's campaign.toml run again)."""
+    such a comment of its own: a folder's campaign.toml run again).
+
+    Parameters
+    ----------
+    name : str
+        The campaign's name.
+    source : str
+        Its file.
+    text : str
+        The campaign file's text.
+
+    Returns
+    -------
+    str
+        The folder's ``campaign.toml``.
+    """
     while _HEADER_RE.match(text):
         text = text.partition("\n")[2]
     return _HEADER.format(name=json.dumps(name), source=source) + text
@@ -296,6 +332,14 @@ def folder_campaign(folder: Path) -> CampaignIdentity | None:
 
 def write_text_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file in the same folder and a rename: a
-    reader sees the old file or the new one, never a part."""
+    reader sees the old file or the new one, never a part.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    text : str
+        Its new text.
+    """
     with replaced_file(path) as tmp:
         tmp.write_text(text, encoding="utf-8")

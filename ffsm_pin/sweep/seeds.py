@@ -24,7 +24,20 @@ __all__ = ["case_stream", "estimates_seed", "words"]
 
 
 def words(text: str, n: int = 4) -> tuple[int, ...]:
-    """``n`` 32-bit words of SHA-256(text): a stable integer identity for a string."""
+    """``n`` 32-bit words of SHA-256(text): a stable integer identity for a string.
+
+    Parameters
+    ----------
+    text : str
+        The string.
+    n : int
+        Number of words.
+
+    Returns
+    -------
+    tuple of int
+        The words.
+    """
     digest = hashlib.sha256(text.encode("utf-8")).digest()
     return tuple(int.from_bytes(digest[4 * i : 4 * i + 4], "little") for i in range(n))
 
@@ -37,12 +50,44 @@ def point_key(point: Mapping[str, Any]) -> str:
 def case_stream(
     root_seed: int, point: Mapping[str, Any], repeat: int, purpose: str
 ) -> np.random.SeedSequence:
-    """The SeedSequence of one case (grid point, repeat index) for one purpose."""
+    """The SeedSequence of one case (grid point, repeat index) for one purpose.
+
+    Parameters
+    ----------
+    root_seed : int
+        The campaign's seed.
+    point : mapping
+        The case's grid point.
+    repeat : int
+        Its repeat index.
+    purpose : str
+        What the stream is for (e.g. ``"estimates"``).
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+        The stream.
+    """
     spawn_key = (*words(point_key(point)), int(repeat), *words(purpose, 2))
     return np.random.SeedSequence(int(root_seed), spawn_key=spawn_key)
 
 
 def estimates_seed(root_seed: int, point: Mapping[str, Any], repeat: int) -> int:
-    """A non-negative 63-bit integer for ``controller.estimates.seed`` (fits a TOML integer)."""
+    """A non-negative 63-bit integer for ``controller.estimates.seed`` (fits a TOML integer).
+
+    Parameters
+    ----------
+    root_seed : int
+        The campaign's seed.
+    point : mapping
+        The case's grid point.
+    repeat : int
+        Its repeat index.
+
+    Returns
+    -------
+    int
+        The seed.
+    """
     state = case_stream(root_seed, point, repeat, "estimates").generate_state(1, np.uint64)
     return int(state[0]) >> 1

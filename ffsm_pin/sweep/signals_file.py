@@ -40,7 +40,22 @@ SCHEMA = pa.schema(list(SIGNAL_TYPES.items()))
 
 def signal_rows(case: int, case_hash: str, signals: Mapping[str, Any]) -> pa.Table:
     """A case's signals ``{"t": (r,), key: (r, k)}`` as rows of signals.parquet (a key that
-    is missing is null)."""
+    is missing is null).
+
+    Parameters
+    ----------
+    case : int
+        The case's index.
+    case_hash : str
+        Its hash.
+    signals : mapping
+        Its signals.
+
+    Returns
+    -------
+    pyarrow.Table
+        The rows.
+    """
     t = np.asarray(signals["t"], dtype=float).reshape(-1)
     r = len(t)
     arrays: list[pa.Array] = [
@@ -69,7 +84,15 @@ class SignalsFile:
 
     def add(self, case_hash: str, signals: Mapping[str, Any] | None) -> None:
         """Record a case's signals (None: the case has none, an error row); replaces what
-        the case had."""
+        the case had.
+
+        Parameters
+        ----------
+        case_hash : str
+            The case.
+        signals : mapping or None
+            Its signals ``{"t": (r,), key: (r, k)}``.
+        """
         if not self._cleaned:  # parts a killed campaign left
             shutil.rmtree(self.parts, ignore_errors=True)
             self._cleaned = True

@@ -19,7 +19,22 @@ Z95 = 1.959963984540054  # standard normal quantile of 0.975
 
 
 def wilson(kept: int, n: int, z: float = Z95) -> tuple[float, float] | tuple[None, None]:
-    """95 % Wilson score interval of ``kept`` of ``n`` (None, None for n = 0)."""
+    """95 % Wilson score interval of ``kept`` of ``n`` (None, None for n = 0).
+
+    Parameters
+    ----------
+    kept : int
+        Successes.
+    n : int
+        Runs.
+    z : float
+        The normal quantile (1.96: 95 %).
+
+    Returns
+    -------
+    lower, upper : float or None
+        The interval.
+    """
     if n <= 0:
         return None, None
     p = kept / n
@@ -29,7 +44,22 @@ def wilson(kept: int, n: int, z: float = Z95) -> tuple[float, float] | tuple[Non
 
 
 def wilson_half_width(p: float, n: int, z: float = Z95) -> float:
-    """Half the width of the Wilson interval at an observed rate ``p`` of ``n`` runs."""
+    """Half the width of the Wilson interval at an observed rate ``p`` of ``n`` runs.
+
+    Parameters
+    ----------
+    p : float
+        The observed rate.
+    n : int
+        Runs.
+    z : float
+        The normal quantile (1.96: 95 %).
+
+    Returns
+    -------
+    float
+        The half-width.
+    """
     return z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
 
 
@@ -37,7 +67,22 @@ def clopper_pearson(
     kept: int, n: int, level: float = 0.95
 ) -> tuple[float, float] | tuple[None, None]:
     """Exact (Clopper-Pearson) interval of ``kept`` of ``n`` (None, None for n = 0): never
-    narrower than its level promises, so wider than Wilson's."""
+    narrower than its level promises, so wider than Wilson's.
+
+    Parameters
+    ----------
+    kept : int
+        Successes.
+    n : int
+        Runs.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    lower, upper : float or None
+        The interval.
+    """
     if n <= 0:
         return None, None
     from scipy.stats import binomtest
@@ -49,7 +94,20 @@ def clopper_pearson(
 def mcnemar_exact(only_a: int, only_b: int) -> float:
     """Two-sided exact McNemar p-value from the discordant pairs (A kept and B not: ``only_a``;
     the reverse: ``only_b``): the binomial test of ``only_a`` of ``only_a + only_b`` against
-    1/2. 1.0 without discordant pairs."""
+    1/2. 1.0 without discordant pairs.
+
+    Parameters
+    ----------
+    only_a : int
+        Pairs A kept and B did not.
+    only_b : int
+        The reverse.
+
+    Returns
+    -------
+    float
+        The p-value.
+    """
     if only_a + only_b == 0:
         return 1.0
     from scipy.stats import binomtest
@@ -59,7 +117,22 @@ def mcnemar_exact(only_a: int, only_b: int) -> float:
 
 def runs_for_half_width(p: float, half_width: float, z: float = Z95) -> int:
     """The fewest runs whose Wilson interval at an observed rate ``p`` is no wider than
-    +- ``half_width`` (the half-width falls with n at any fixed p)."""
+    +- ``half_width`` (the half-width falls with n at any fixed p).
+
+    Parameters
+    ----------
+    p : float
+        The observed rate.
+    half_width : float
+        The half-width aimed at.
+    z : float
+        The normal quantile (1.96: 95 %).
+
+    Returns
+    -------
+    int
+        The runs.
+    """
     lo, hi = 1, 2
     while wilson_half_width(p, hi, z) > half_width:
         lo, hi = hi, 2 * hi
@@ -81,7 +154,22 @@ def runs_to_separate(p1: float, p2: float, alpha: float = 0.05, power: float = 0
 
         n = (z_{1-alpha/2} sqrt(2 pbar qbar) + z_{power} sqrt(p1 q1 + p2 q2))^2 / (p1 - p2)^2.
 
-    None when the rates are equal (no number of runs tells them apart)."""
+    None when the rates are equal (no number of runs tells them apart).
+
+    Parameters
+    ----------
+    p1, p2 : float
+        The two rates.
+    alpha : float
+        The test's level.
+    power : float
+        The probability of detecting the difference.
+
+    Returns
+    -------
+    int or None
+        Runs per controller.
+    """
     if p1 == p2:
         return None
     from scipy.stats import norm

@@ -108,7 +108,19 @@ def case_columns(case: Case) -> dict[str, Any]:
 class ResultsTable:
     """The rows of a campaign, by case hash, and their Parquet file; the cases' decimated
     signals (an outcome's ``"signals"`` entry) go to ``signals.parquet`` beside it
-    (:class:`~ffsm_pin.sweep.signals_file.SignalsFile`), written with it."""
+    (:class:`~ffsm_pin.sweep.signals_file.SignalsFile`), written with it.
+
+    Parameters
+    ----------
+    path : Path
+        The Parquet file.
+    key_columns : iterable of str
+        The case columns (grid keys), placed after the head columns.
+    min_interval_s : float
+        Least time between two rewrites [s].
+    write_share : float
+        Largest share of wall time spent rewriting.
+    """
 
     def __init__(
         self,
@@ -138,7 +150,22 @@ class ResultsTable:
 
     def add(self, case: Case, outcome: Mapping[str, Any], write: bool = True) -> dict[str, Any]:
         """Record one case's outcome (replacing a row of the same hash); rewrite the file if
-        ``write``."""
+        ``write``.
+
+        Parameters
+        ----------
+        case : Case
+            The case.
+        outcome : mapping
+            Its outcome (:func:`~.engine.run_case`).
+        write : bool
+            Rewrite the file.
+
+        Returns
+        -------
+        dict
+            The row.
+        """
         outcome = dict(outcome)
         self.signals.add(case.case_hash, outcome.pop(SIGNALS, None))
         row = {**case_columns(case), **{k: None for k in SUMMARY_TYPES}, **outcome}
@@ -151,7 +178,15 @@ class ResultsTable:
         return row
 
     def keep(self, row: Mapping[str, Any], case: Case) -> None:
-        """Keep a finished row of an earlier run of the campaign (renumbered as ``case``)."""
+        """Keep a finished row of an earlier run of the campaign (renumbered as ``case``).
+
+        Parameters
+        ----------
+        row : mapping
+            The earlier row.
+        case : Case
+            The case it is now.
+        """
         self.rows[case.case_hash] = {**dict(row), **case_columns(case)}
 
     def table(self) -> pa.Table:

@@ -68,7 +68,20 @@ def chain_to_urdf(chain: PlanarChain | SpatialChain) -> str:
 
 
 def write_urdf(chain: PlanarChain | SpatialChain, path: str | Path) -> Path:
-    """Write the URDF of ``chain`` to ``path`` and return the path."""
+    """Write the URDF of ``chain`` to ``path`` and return the path.
+
+    Parameters
+    ----------
+    chain : PlanarChain or SpatialChain
+        The robot.
+    path : str or Path
+        The file written.
+
+    Returns
+    -------
+    Path
+        The path.
+    """
     path = Path(path)
     path.write_text(chain_to_urdf(chain))
     return path

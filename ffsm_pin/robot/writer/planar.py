@@ -40,7 +40,17 @@ from ._xml import end_effector, get, header, num, revolute_joint, vec
 
 @dataclass(frozen=True)
 class PlanarBody:
-    """Mass properties of one rigid body of the chain (planar)."""
+    """Mass properties of one rigid body of the chain (planar).
+
+    Attributes
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : float
+        I_zz about the body CoM [kg m^2].
+    com : tuple of float
+        CoM in the body frame [m].
+    """
 
     mass: float  # [kg]
     inertia: float  # I_zz about the body CoM [kg m^2]
@@ -55,7 +65,21 @@ class PlanarBody:
 
 @dataclass(frozen=True)
 class PlanarLink(PlanarBody):
-    """A link: its mass properties and where its child joint (or tip) sits."""
+    """A link: its mass properties and where its child joint (or tip) sits.
+
+    Attributes
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : float
+        I_zz about the body CoM [kg m^2].
+    com : tuple of float
+        CoM in the body frame [m].
+    tip : tuple of float
+        Child joint / end effector in the link frame [m].
+    axis : int
+        +1: joint axis +z, -1: joint axis -z.
+    """
 
     tip: tuple[float, float] = (1.0, 0.0)  # child joint / end effector in the link frame [m]
     axis: int = 1  # +1: joint axis +z, -1: joint axis -z
@@ -70,7 +94,25 @@ class PlanarLink(PlanarBody):
 
 @dataclass(frozen=True)
 class PlanarChain:
-    """A planar floating base carrying a serial chain of revolute-z links."""
+    """A planar floating base carrying a serial chain of revolute-z links.
+
+    Attributes
+    ----------
+    name : str
+        The robot's name.
+    base : PlanarBody
+        The base's mass properties.
+    mount : tuple of float
+        Joint 1 in the base frame [m].
+    links : tuple of PlanarLink
+        The links, base outwards.
+    end_effector : str
+        Name of the end-effector frame.
+    base_size : tuple of float
+        Visual box of the base [m].
+    joint_names : tuple of str
+        Joint names; empty: joint1, joint2, ...
+    """
 
     name: str
     base: PlanarBody

@@ -54,7 +54,17 @@ def _v6(x, key: str) -> tuple[float, float, float, float, float, float]:
 @dataclass(frozen=True)
 class SpatialBody:
     """Mass properties of one rigid body: mass [kg], inertia (ixx iyy izz ixy ixz iyz) about
-    the CoM in the body frame [kg m^2], CoM in the body frame [m]."""
+    the CoM in the body frame [kg m^2], CoM in the body frame [m].
+
+    Attributes
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : tuple of float
+        (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].
+    com : tuple of float
+        CoM in the body frame [m].
+    """
 
     mass: float
     inertia: tuple[float, float, float, float, float, float]
@@ -68,7 +78,23 @@ class SpatialBody:
 
 @dataclass(frozen=True)
 class SpatialLink(SpatialBody):
-    """A link: its mass properties and its joint (placement in the parent, axis)."""
+    """A link: its mass properties and its joint (placement in the parent, axis).
+
+    Attributes
+    ----------
+    mass : float
+        Mass [kg].
+    inertia : tuple of float
+        (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].
+    com : tuple of float
+        CoM in the body frame [m].
+    origin_xyz : tuple of float
+        Joint origin in the parent's frame [m].
+    origin_rpy : tuple of float
+        Joint roll-pitch-yaw in the parent's frame [rad].
+    axis : tuple of float
+        Joint axis in the joint frame (not zero).
+    """
 
     origin_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
     origin_rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -86,7 +112,25 @@ class SpatialLink(SpatialBody):
 
 @dataclass(frozen=True)
 class SpatialChain:
-    """A floating base (satellite) carrying a serial chain of revolute links."""
+    """A floating base (satellite) carrying a serial chain of revolute links.
+
+    Attributes
+    ----------
+    name : str
+        The robot's name.
+    base : SpatialBody
+        The base's mass properties.
+    links : tuple of SpatialLink
+        The links, base outwards.
+    end_effector : str
+        Name of the end-effector frame.
+    ee_xyz : tuple of float
+        End-effector frame origin in the last link [m].
+    ee_rpy : tuple of float
+        End-effector frame roll-pitch-yaw in the last link [rad].
+    base_size : tuple of float
+        Visual box of the base [m].
+    """
 
     name: str
     base: SpatialBody
@@ -146,7 +190,20 @@ def _xyz(v) -> str:
 
 
 def inertial_xml(body: SpatialBody, indent: str = "    ") -> str:
-    """The ``<inertial>`` element of ``body``."""
+    """The ``<inertial>`` element of ``body``.
+
+    Parameters
+    ----------
+    body : SpatialBody
+        The body.
+    indent : str
+        Indentation of the element.
+
+    Returns
+    -------
+    str
+        The element's XML.
+    """
     attrs = " ".join(f'{k}="{v!r}"' for k, v in zip(_INERTIA_KEYS, body.inertia, strict=True))
     return (
         f"{indent}<inertial>\n"

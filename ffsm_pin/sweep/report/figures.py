@@ -27,7 +27,24 @@ def _plt():
 
 
 def figures(out: Path, cols, rates, points) -> dict[str, str]:
-    """fig_funnel_rate.png, fig_max_u.png, fig_settle.png, fig_min_sigma.png; {name: file}."""
+    """fig_funnel_rate.png, fig_max_u.png, fig_settle.png, fig_min_sigma.png; {name: file}.
+
+    Parameters
+    ----------
+    out : Path
+        The campaign folder.
+    cols : sequence of str
+        The grid's columns.
+    rates : sequence of mapping
+        The rows of ``RATE_SQL``, one per grid point.
+    points : sequence of mapping
+        The rows of ``POINTS_SQL``, one per run.
+
+    Returns
+    -------
+    dict of str to str
+        {name: file} of the figures drawn.
+    """
     plt = _plt()
     labels = [label(r, cols) for r in rates]
     numeric = len(cols) == 1 and all(is_number(r[cols[0]]) for r in rates)
@@ -116,7 +133,24 @@ def overlay_figures(
 ) -> list[tuple[str, str, Mapping[str, Any], Mapping[str, Any]]]:
     """Per controller (and scenario), fig_overlay_<name>.png from ``signals.parquet`` in
     ``out``; [(title, file, median run, worst run)] of the figures drawn (none without the
-    file)."""
+    file).
+
+    Parameters
+    ----------
+    out : Path
+        The campaign folder.
+    runs : sequence of mapping
+        The rows of ``RUNS_SQL``.
+    by : tuple of str
+        Columns grouped by besides the controller (``("scenario",)`` or empty).
+    labels : mapping of str to str
+        Controller type -> its label.
+
+    Returns
+    -------
+    list of tuple
+        (title, file, median run, worst run) per figure.
+    """
     path = out / "signals.parquet"
     if not path.is_file() or not runs:
         return []

@@ -30,7 +30,24 @@ def failed_section(
     labels: Mapping[str, str],
 ) -> list[str]:
     """The section "Why runs failed": the rows of FAILED_SQL, each with its share of the
-    controller's runs (``runs``: every run, RUNS_SQL)."""
+    controller's runs (``runs``: every run, RUNS_SQL).
+
+    Parameters
+    ----------
+    failed : list of dict
+        The rows of ``FAILED_SQL``.
+    runs : sequence of Row
+        Every run (``RUNS_SQL``).
+    by : tuple of str
+        Columns grouped by besides the controller.
+    labels : mapping of str to str
+        Controller type -> its label.
+
+    Returns
+    -------
+    list of str
+        The section's lines.
+    """
     totals: dict[tuple, int] = {}
     for r in runs:
         key = (*(r[c] for c in by), r["controller"])
@@ -70,7 +87,20 @@ def failed_section(
 def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]]:
     """Per pair of controllers (and scenario): the runs of the same grid point (the other
     axes' values) and repeat index, both kept / only A / only B / neither, and the exact
-    McNemar p-value; ``common``: every pair drew the same estimates (same seed)."""
+    McNemar p-value; ``common``: every pair drew the same estimates (same seed).
+
+    Parameters
+    ----------
+    runs : sequence of Row
+        Every run (``RUNS_SQL``).
+    cols : sequence of str
+        The grid's columns.
+
+    Returns
+    -------
+    list of dict
+        One row per pair.
+    """
     scen = [c for c in cols if c == "scenario"]
     others = [c for c in cols if c not in (CONTROLLER_KEY, "scenario")]
     cells: dict[tuple, dict[str, dict[tuple, Row]]] = {}
@@ -98,7 +128,20 @@ def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]
 
 
 def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> list[str]:
-    """The section "Paired comparison" from :func:`paired_rows`."""
+    """The section "Paired comparison" from :func:`paired_rows`.
+
+    Parameters
+    ----------
+    rows : list of dict
+        From :func:`paired_rows`.
+    labels : mapping of str to str
+        Controller type -> its label.
+
+    Returns
+    -------
+    list of str
+        The section's lines.
+    """
     lines = [
         "## Paired comparison",
         "",
@@ -145,7 +188,24 @@ def how_many_section(
     rates: Sequence[Row], controllers: Sequence[Row], by: tuple[str, ...], auto_text: str
 ) -> list[str]:
     """The section "How many runs": the widest interval now, the runs a target width needs
-    at the observed rates, and the runs that would tell the two closest controllers apart."""
+    at the observed rates, and the runs that would tell the two closest controllers apart.
+
+    Parameters
+    ----------
+    rates : sequence of Row
+        The rows of ``RATE_SQL``.
+    controllers : sequence of Row
+        The rows of ``CONTROLLER_SQL``.
+    by : tuple of str
+        Columns grouped by besides the controller.
+    auto_text : str
+        The auto-repeat sentence (:func:`~ffsm_pin.sweep.auto_repeat.status_text`), or empty.
+
+    Returns
+    -------
+    list of str
+        The section's lines.
+    """
     lines = ["## How many runs", ""]
     if auto_text:
         lines += [auto_text, ""]

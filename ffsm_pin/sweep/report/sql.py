@@ -177,7 +177,22 @@ RUNS_EXTRA = {
 
 
 def sql(template: str, path: Path, cols: list[str] | tuple[str, ...] = (), **more: str) -> str:
-    """``template`` with the placeholders filled (module docstring); ``more``: the others."""
+    """``template`` with the placeholders filled (module docstring); ``more``: the others.
+
+    Parameters
+    ----------
+    template : str
+        The query with placeholders.
+    path : Path
+        ``results.parquet``.
+    cols : sequence of str
+        The grid's columns.
+
+    Returns
+    -------
+    str
+        The query.
+    """
     names = [ident(c) for c in cols]
     text = template.format(
         path=quoted(path),
@@ -190,7 +205,24 @@ def sql(template: str, path: Path, cols: list[str] | tuple[str, ...] = (), **mor
 
 
 def extra(specs: dict[str, str], have: set[str], indent: str = "\n  ", comma_first=False) -> str:
-    """The ``{extra}`` text: the expressions of ``specs`` whose column the file has."""
+    """The ``{extra}`` text: the expressions of ``specs`` whose column the file has.
+
+    Parameters
+    ----------
+    specs : dict of str to str
+        Column -> expression.
+    have : set of str
+        The file's columns.
+    indent : str
+        Put before each expression.
+    comma_first : bool
+        Each expression after a comma, on one line.
+
+    Returns
+    -------
+    str
+        The text.
+    """
     parts = [expr for column, expr in specs.items() if column in have]
     if not parts:
         return ""
@@ -232,7 +264,22 @@ def present(path: Path) -> set[str]:
 
 
 def controller_sql(path: Path, by: tuple[str, ...] = (), have: set[str] | None = None) -> str:
-    """:data:`CONTROLLER_SQL` for the file at ``path`` (``have``: its columns)."""
+    """:data:`CONTROLLER_SQL` for the file at ``path`` (``have``: its columns).
+
+    Parameters
+    ----------
+    path : Path
+        ``results.parquet``.
+    by : tuple of str
+        Columns grouped by besides the controller.
+    have : set of str or None
+        The file's columns; None: read from the file.
+
+    Returns
+    -------
+    str
+        The query.
+    """
     have = present(path) if have is None else have
     ext = extra(CONTROLLER_EXTRA, have, indent="\n         ")
     return CONTROLLER_SQL.format(path=quoted(path), by=by_sel(by), extra=ext)
@@ -240,5 +287,18 @@ def controller_sql(path: Path, by: tuple[str, ...] = (), have: set[str] | None =
 
 def controller_table(path: Path, by: tuple[str, ...] = ()) -> list[dict[str, Any]]:
     """The per-controller rows of :data:`CONTROLLER_SQL` for ``results.parquet`` at ``path``,
-    per value of the columns ``by`` too (``("scenario",)``: per scenario and controller)."""
+    per value of the columns ``by`` too (``("scenario",)``: per scenario and controller).
+
+    Parameters
+    ----------
+    path : Path
+        ``results.parquet``.
+    by : tuple of str
+        Columns grouped by besides the controller.
+
+    Returns
+    -------
+    list of dict
+        The rows.
+    """
     return query(controller_sql(path, by))

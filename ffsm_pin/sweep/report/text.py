@@ -29,7 +29,22 @@ def table(
     extra: Mapping[str, Callable[[Mapping[str, Any]], str]] | None = None,
 ) -> list[str]:
     """A markdown table: one column per ``(header, key, format)``; ``extra`` computes the
-    cells of the headers it names."""
+    cells of the headers it names.
+
+    Parameters
+    ----------
+    rows : iterable of mapping
+        The rows.
+    columns : list of Column
+        (header, key, format) per column.
+    extra : mapping or None
+        Header -> function of a row giving its cell.
+
+    Returns
+    -------
+    list of str
+        The table's lines.
+    """
     extra = extra or {}
     head = [name for name, _, _ in columns]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -47,7 +62,20 @@ def table(
 
 
 def label(r: Mapping[str, Any], cols) -> str:
-    """A grid point's values in words ("all" without axes)."""
+    """A grid point's values in words ("all" without axes).
+
+    Parameters
+    ----------
+    r : mapping
+        A row.
+    cols : sequence of str
+        The grid's columns.
+
+    Returns
+    -------
+    str
+        The words.
+    """
     return ", ".join(value(r[c]) for c in cols) or "all"
 
 
@@ -61,14 +89,40 @@ def value(v: Any) -> str:
 
 
 def f(x: Any, fmt: str) -> str:
-    """``fmt`` of ``x``; "-" for null and non-finite numbers."""
+    """``fmt`` of ``x``; "-" for null and non-finite numbers.
+
+    Parameters
+    ----------
+    x : object
+        The value.
+    fmt : str
+        A ``str.format`` template.
+
+    Returns
+    -------
+    str
+        The text.
+    """
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
     return fmt.format(x)
 
 
 def interval(lo: Any, hi: Any, fmt: str = "{:.0%}") -> str:
-    """The cell "lo - hi"."""
+    """The cell "lo - hi".
+
+    Parameters
+    ----------
+    lo, hi : float or None
+        The bounds.
+    fmt : str
+        A ``str.format`` template.
+
+    Returns
+    -------
+    str
+        The cell.
+    """
     return f"{f(lo, fmt)} - {f(hi, fmt)}"
 
 
@@ -85,7 +139,20 @@ def is_number(x: Any) -> bool:
 # ------------------------------------------------------------------------------ labels
 def short_label(kind: str, params_label: Any = None) -> str:
     """What the report calls a controller: ``label`` of its ``[controller.params]``, else the
-    class name of a user's ``"file.py:Class"`` or ``"package.module:Class"``, else the type."""
+    class name of a user's ``"file.py:Class"`` or ``"package.module:Class"``, else the type.
+
+    Parameters
+    ----------
+    kind : str
+        The controller type.
+    params_label : object
+        Its ``[controller.params] label``, if any.
+
+    Returns
+    -------
+    str
+        The label.
+    """
     if isinstance(params_label, str) and params_label.strip():
         return params_label.strip()
     return controller_label(kind)
@@ -116,7 +183,17 @@ def controller_labels(kinds: Mapping[str, str | None]) -> dict[str, str]:
 
 
 def relabel(rows: list[dict[str, Any]], labels: Mapping[str, str], keys: Iterable[str]) -> None:
-    """Replace controller types by their labels in the columns ``keys`` of ``rows``."""
+    """Replace controller types by their labels in the columns ``keys`` of ``rows``.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Changed in place.
+    labels : mapping of str to str
+        Controller type -> its label.
+    keys : iterable of str
+        The columns.
+    """
     keys = list(keys)
     for r in rows:
         for k in keys:

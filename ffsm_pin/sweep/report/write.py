@@ -41,7 +41,20 @@ __all__ = ["write_report"]
 
 def write_report(out: Path, campaign: Campaign) -> Path:
     """Write ``report.md``, its figures (``fig_*.png``) and the worst cases' scenario files
-    (``worst/case-NNNNN.toml``) into ``out``; return the report's path."""
+    (``worst/case-NNNNN.toml``) into ``out``; return the report's path.
+
+    Parameters
+    ----------
+    out : Path
+        The campaign folder (``results.parquet`` in it).
+    campaign : Campaign
+        The campaign.
+
+    Returns
+    -------
+    Path
+        ``report.md``.
+    """
     path = out / "results.parquet"
     have = present(path)
     cols = list(campaign.axes)
