@@ -57,32 +57,6 @@ ALLOWED: frozenset[str] = frozenset(
         "ffsm_pin.model.spatial.SpatialBarycentricModel.reaction_torque",
         "ffsm_pin.model.spatial.SpatialBarycentricModel.velocity_product",
         "ffsm_pin.model.spatial.SpatialBarycentricModel.velocity_regressors",
-        # At the module line limit (tests/test_layers.py): the methods of the ReducedModel
-        # interface they implement are documented in ffsm_pin/model/interface.py; their
-        # own sections come when model/ is split by concern (issue 36).
-        "ffsm_pin.model.planar.BarycentricModel.Y_M",
-        "ffsm_pin.model.planar.BarycentricModel.Y_Mdot",
-        "ffsm_pin.model.planar.BarycentricModel.Y_b",
-        "ffsm_pin.model.planar.BarycentricModel.Y_d",
-        "ffsm_pin.model.planar.BarycentricModel.Y_h",
-        "ffsm_pin.model.planar.BarycentricModel.Y_z",
-        "ffsm_pin.model.planar.BarycentricModel.angles",
-        "ffsm_pin.model.planar.BarycentricModel.body_angles",
-        "ffsm_pin.model.planar.BarycentricModel.ee_angle",
-        "ffsm_pin.model.planar.BarycentricModel.ee_offset",
-        "ffsm_pin.model.planar.BarycentricModel.ee_pose",
-        "ffsm_pin.model.planar.BarycentricModel.jacobians",
-        "ffsm_pin.model.planar.BarycentricModel.mass_matrix",
-        "ffsm_pin.model.planar.BarycentricModel.mass_matrix_rate",
-        "ffsm_pin.model.planar.BarycentricModel.momentum_matrices",
-        "ffsm_pin.model.planar.BarycentricModel.reaction_torque",
-        "ffsm_pin.model.planar.BarycentricModel.velocity_product",
-        "ffsm_pin.model.planar.BarycentricModel.velocity_regressors",
-        # At the module line limit (tests/test_layers.py): documented when sim/loop.py is
-        # split by concern (issue 36).
-        "ffsm_pin.sim.loop.recorded_signals",
-        "ffsm_pin.sim.loop.run_result",
-        "ffsm_pin.sim.loop.spool_header",
     }
 )
 

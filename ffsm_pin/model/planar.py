@@ -39,7 +39,8 @@ import numpy as np
 from .._arrays import read_only
 from ..errors import ParameterError
 from ..robot import PlanarGeometry
-from ._common import BarycentricCommon, barycentric_vectors
+from ._common import barycentric_vectors
+from ._planar_dynamics import BodyAngles, PlanarDynamics
 
 _COLLINEAR_TOL = 1e-12
 
@@ -109,7 +110,7 @@ class PlanarKernelConstants(NamedTuple):
     collinear: bool  # the paper's collinear layout (no Ds_kl parameters)
 
 
-class BarycentricModel(BarycentricCommon):
+class BarycentricModel(PlanarDynamics):
     """The reduced, parametric free-floating model of a planar serial chain.
 
     Configuration arguments ``q_b`` [rad] and ``q_m`` [rad] are the base attitude and the
@@ -230,6 +231,18 @@ class BarycentricModel(BarycentricCommon):
 
         The last few configurations are memoised, so that the evaluators called for one
         state (real, or complex for a complex step) compute it once.
+
+        Parameters
+        ----------
+        q_b : float
+            Base angle [rad]; may be complex.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.
+
+        Returns
+        -------
+        BodyAngles
+            The trigonometry of the configuration.
         """
         q_m = np.asarray(q_m)
         if isinstance(q_b, np.ndarray):
@@ -264,11 +277,37 @@ class BarycentricModel(BarycentricCommon):
         return out
 
     def angles(self, q_b: float, q_m) -> np.ndarray:
-        """phi_k [rad], absolute angle of each body's line frame."""
+        """phi_k [rad], absolute angle of each body's line frame.
+
+        Parameters
+        ----------
+        q_b : float
+            Base angle [rad].
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (n + 1,)
+            phi_k [rad].
+        """
         return self.body_angles(q_b, q_m).phi
 
     def ee_angle(self, q_b: float, q_m) -> float:
-        """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m)."""
+        """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m).
+
+        Parameters
+        ----------
+        q_b : float
+            Base angle [rad].
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        float
+            q_e [rad].
+        """
         return self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m) + self._ee_angle_offset
 
     def _expand_rates(self, dphi):
@@ -276,17 +315,66 @@ class BarycentricModel(BarycentricCommon):
 
     # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R(phi_k) V_k."""
+        """p_e - p_com [m] = sum_k R(phi_k) V_k.
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.
+        q_b : float
+            Base attitude [rad].
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            p_e - p_com [m].
+        """
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         return self.body_angles(q_b, q_m).pos @ theta_z[2:]
 
     def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m]."""
+        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.
+        q_b : float
+            Base attitude [rad].
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        com_position : array_like, shape (2,)
+            The system's CoM position [m].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            z_e = (p_e, q_e).
+        """
         p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
         return np.array([p[0], p[1], self.ee_angle(q_b, q_m)])
 
     def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z."""
+        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.
+        q_b : float
+            Base attitude [rad].
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        J_b : ndarray, shape (3, 1)
+            Base Jacobian.
+        J_m : ndarray, shape (3, n)
+            Manipulator Jacobian.
+        """
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         rate = self.body_angles(q_b, q_m).rate
         nb = self.n_joints + 1
@@ -305,6 +393,20 @@ class BarycentricModel(BarycentricCommon):
 
         Shape (3, n_z); the attitude row is zero (parameter-free, see
         :meth:`ee_attitude_rate`).
+
+        Parameters
+        ----------
+        q_b : float
+            Base attitude [rad].
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        w : ndarray, shape (n + 1,)
+            (w_b, w_m) [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (3, n_z)
+            Y_z.
         """
         w = np.asarray(w, dtype=float)
         rate = self.body_angles(q_b, q_m).rate
@@ -316,125 +418,3 @@ class BarycentricModel(BarycentricCommon):
     def ee_attitude_rate(self, w) -> float:
         """dq_e/dt [rad/s], the parameter-free attitude row of Eq. (3)."""
         return float(self._ee_row @ np.asarray(w, dtype=float))
-
-    # ------------------------------------------------------------------ dynamics
-    def mass_matrix(self, theta_d, q_b: float, q_m) -> np.ndarray:
-        """M(q, theta_d) of Eq. (9a), (n+1) x (n+1)."""
-        theta_d = self._check(theta_d, self.n_d, "theta_d")
-        return self._ST @ self._mass_phi(theta_d, self.body_angles(q_b, q_m)) @ self.S
-
-    def _mass_phi(self, theta_d, ba: BodyAngles) -> np.ndarray:
-        nb = self.n_joints + 1
-        off = theta_d[self._pc_cols] * ba.c
-        if not self.layout.collinear:
-            off = off - theta_d[self._ps_cols] * ba.s
-        Mphi = np.zeros((nb, nb), dtype=off.dtype)
-        Mphi[self._ar, self._ar] = theta_d[:nb]
-        Mphi[self._K, self._L] = off
-        Mphi[self._L, self._K] = off
-        return Mphi
-
-    def _scatter(self, Yp, b, fc, fs):
-        """Columns of the pair parameters: f (b_l e_k + b_k e_l) for Dc (fc) and Ds (fs)."""
-        bl, bk = b[..., self._L], b[..., self._K]
-        Yp[..., self._K, self._pc_cols] = fc * bl
-        Yp[..., self._L, self._pc_cols] = fc * bk
-        if not self.layout.collinear:
-            Yp[..., self._K, self._ps_cols] = fs * bl
-            Yp[..., self._L, self._ps_cols] = fs * bk
-
-    def Y_M(self, q_b: float, q_m, a) -> np.ndarray:
-        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d)."""
-        ba = self.body_angles(q_b, q_m)
-        b = self.S @ np.asarray(a, dtype=float)
-        Yp = np.zeros((self.n_joints + 1, self.n_d))
-        Yp[self._ar, self._diag_cols] = b
-        self._scatter(Yp, b, ba.c, -ba.s)
-        return self._ST @ Yp
-
-    def velocity_regressors(self, q_b: float, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`."""
-        ba = self.body_angles(q_b, q_m)
-        nb = self.n_joints + 1
-        dphi = self.S @ np.asarray(w, dtype=float)
-        b = self.S @ np.asarray(s_vec, dtype=float)
-        dd = dphi[self._L] - dphi[self._K]
-        Yp = np.zeros((2, nb, self.n_d))
-        # dM/dt s: d/dt cos(d) = -sin(d) dd, d/dt(-sin(d)) = -cos(d) dd
-        self._scatter(Yp[0], b, -ba.s * dd, -ba.c * dd)
-        # C(q, w) w (Lagrange): Dc_kl -> e_k: -sin d dphi_l^2, e_l: +sin d dphi_k^2;
-        #                       Ds_kl -> e_k: -cos d dphi_l^2, e_l: +cos d dphi_k^2
-        dk2, dl2 = dphi[self._K] ** 2, dphi[self._L] ** 2
-        Yp[1, self._K, self._pc_cols] = -ba.s * dl2
-        Yp[1, self._L, self._pc_cols] = ba.s * dk2
-        if not self.layout.collinear:
-            Yp[1, self._K, self._ps_cols] = -ba.c * dl2
-            Yp[1, self._L, self._ps_cols] = ba.c * dk2
-        Y = self._ST @ Yp
-        return Y[0], Y[1]
-
-    def Y_Mdot(self, q_b: float, q_m, w, s_vec) -> np.ndarray:
-        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
-        return self.velocity_regressors(q_b, q_m, w, s_vec)[0]
-
-    def Y_h(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
-        return self.velocity_regressors(q_b, q_m, w, np.zeros(self.n_joints + 1))[1]
-
-    def Y_d(self, q_b: float, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``."""
-        Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
-        return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
-
-    def velocity_product(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w."""
-        return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
-
-    def mass_matrix_rate(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
-        """dM/dt (q, w, theta_d), (n+1) x (n+1), column j = Y_Mdot(e_j) theta_d."""
-        theta_d = self._check(theta_d, self.n_d, "theta_d")
-        nb = self.n_joints + 1
-        return np.column_stack([self.Y_Mdot(q_b, q_m, w, e) @ theta_d for e in np.eye(nb)])
-
-    def reaction_torque(self, theta_d, q_b: float, q_m, w, w_dot) -> float:
-        """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m].
-
-        ``F_r = M_bb dw_b/dt + C_bb w_b = -(M_bm dw_m/dt + C_bm w_m)`` with the Christoffel
-        C, for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b).
-        ``w_dot`` = (dw_b/dt, dw_m/dt) [rad/s^2].
-        """
-        theta_d = self._check(theta_d, self.n_d, "theta_d")
-        e0 = np.zeros(self.n_joints + 1)
-        e0[0] = 1.0
-        M_bb = self.mass_matrix(theta_d, q_b, q_m)[0, 0]
-        M_bb_dot = (self.Y_Mdot(q_b, q_m, w, e0) @ theta_d)[0]
-        return float(M_bb * w_dot[0] + 0.5 * M_bb_dot * w[0])
-
-    # ------------------------------------------------------------------ momentum
-    def Y_b(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b)."""
-        Y = np.empty((1, self.n_b))
-        Y[0, 0] = -1.0
-        Y[0, 1:] = self.Y_M(q_b, q_m, w)[0]
-        return Y
-
-    def momentum_matrices(self, theta_b, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray, float]:
-        """(H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b.
-
-        H is the first row of M = S^T M_phi S, i.e. ``1^T M_phi S``. Like :meth:`angles`,
-        :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`, this accepts complex
-        arguments (used for complex-step derivatives).
-        """
-        theta_b = self._check(theta_b, self.n_b, "theta_b")
-        row = self._mass_phi(theta_b[1:], self.body_angles(q_b, q_m)).sum(axis=0) @ self.S
-        return row[None, :1], row[None, 1:], theta_b[0]
-
-
-class BodyAngles(NamedTuple):
-    """Trigonometry of one configuration (see :meth:`BarycentricModel.body_angles`)."""
-
-    phi: np.ndarray  # phi_k [rad]
-    pos: np.ndarray  # (2, n_V) R(phi_k) u, columns multiplying the V parameters
-    rate: np.ndarray  # (2, n_V) R(phi_k) J u
-    c: np.ndarray  # cos(phi_l - phi_k) for the pairs k < l
-    s: np.ndarray  # sin(phi_l - phi_k)

@@ -163,7 +163,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 # ------------------------------------------------------------------------------ the runs
 def _run(args: argparse.Namespace, console: Console) -> int:
-    from .loop import recording_size, simulate  # heavy imports: command line is fine
+    from .loop import simulate
+    from .recording import recording_size  # heavy imports: command line is fine
     from .setup import prepare
     from .storage import check_storage
 

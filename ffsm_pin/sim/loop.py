@@ -14,14 +14,14 @@ from __future__ import annotations
 import math
 import tempfile
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from ..control import _first_compile
 from ..control.backend import numba_available
-from ..control.diagnostics import reaction_torques, rows_beside
+from ..control.diagnostics import reaction_torques
 from ..control.interface import (
     Measurement,
     SignalLayout,
@@ -29,116 +29,14 @@ from ..control.interface import (
     recorded_name,
     split_reply,
 )
-from ..control.kinematic import error_terms
 from ..errors import SimulationError
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE, Plant
-from .recorder import Recorder, Signals, extend
+from .recorder import Recorder
+from .recording import recorded_signals, recorder_shapes, recording_size, run_result, spool_header
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
-
-
-def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
-    """Shape of one recorded row of every per-step signal the loop itself records, and of
-    the controller's signals it declares (``signal_layout``'s and ``signal_shapes``, under
-    their recorded names)."""
-    m = setup.model
-    nq, nv, n = setup.robot.model.nq, setup.robot.model.nv, m.n_joints
-    m3, nt = m.m3, setup.n_task
-    planar = m3 == 1
-    nw = n + m3
-    # per-step signals; the funnels, their bounds, the reference, the true task errors, the
-    # momentum and the reaction torque are computed after the run (_after_run_signals)
-    layout = getattr(setup.controller, "signal_layout", None)
-    declared = {**(layout.shapes if layout else {}),
-                **(getattr(setup.controller, "signal_shapes", None) or {})}  # fmt: skip
-    return {
-        "t": (), "q": (nq,), "v": (nv,), "w": (nw,), "u_m": (n,), "z_e": (nt,),
-        "q_b": (m3,), "dw_b": () if planar else (3,), "z_e_dot": (nt,),
-        "u_cmd": (n,),
-        **({} if setup.sensors is None else {  # what the controller saw
-            "meas_q_b": (m3,), "meas_q_m": (n,), "meas_w": (nw,), "meas_z_e": (nt,),
-            "meas_z_e_dot": (nt,),
-        }),
-        **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
-    }  # fmt: skip
-
-
-def recording_size(setup: Setup) -> tuple[int, int]:
-    """(steps, bytes per recorded row) of a run of ``setup``: the per-step signals and those
-    :func:`_after_run_signals` adds (funnels, their bounds, the reference, the errors, the
-    momentum P and L, F_r)."""
-    sc = setup.scenario
-    steps = int(round(sc.duration / sc.dt))
-    per_step = sum(int(np.prod(shape)) for shape in recorder_shapes(setup).values())
-    m2, m3, nt = setup.model.m2, setup.model.m3, setup.n_task
-    return steps, 8 * (per_step + m2 + m3 + 5 * m3 + 6 * nt)
-
-
-def spool_header(setup: Setup, record_every: int) -> dict:
-    """What a run's spool records before its rows (:mod:`ffsm_pin.sim.recover`): the scenario
-    as run, the recording interval [steps] and the step [s]."""
-    from ..scenario.writer import scenario_to_toml
-
-    return {
-        "scenario_toml": scenario_to_toml(setup.scenario),
-        "scenario_name": setup.scenario.name,
-        "record_every": int(record_every),
-        "dt": setup.scenario.dt,
-    }
-
-
-#: The recorded columns the signals computed after the run are functions of.
-AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "v", "w", "dw_b")
-
-
-def _after_run_signals(
-    setup: Setup,
-    reaction: Callable[..., np.ndarray],
-    momentum: Callable[[np.ndarray, np.ndarray], tuple],
-):
-    """The recorded signals computed after the run, a block of rows at a time, from the
-    recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
-    of Eqs. (16)-(17) (as :func:`~ffsm_pin.control.kinematic.task_errors`, on which the
-    specification's funnels are judged); from the recorded q and v: the conserved momentum
-    P, L (``momentum``: :meth:`~ffsm_pin.sim.plant.Plant.momentum_rows`, Pinocchio's
-    centroidal momentum, independent of the plant's projection); from the recorded q_b, q, w
-    and the base's angular acceleration dw_b: the reaction torque F_r of Eq. (7) with the true
-    model (``reaction``: :func:`~ffsm_pin.control.diagnostics.reaction_torques`, on pieces of
-    the rows beside the rest, :func:`~ffsm_pin.control.diagnostics.rows_beside`)."""
-    ref = setup.scenario.reference
-    nq_root = setup.robot.root.nq  # q = (root, q_m)
-    q_bd = np.asarray(ref.base_attitude, dtype=float)
-    m3 = setup.model.m3
-    funnel_b, funnel_z = setup.funnel_b, setup.funnel_z
-    assert funnel_b is not None and funnel_z is not None  # prepare() sets both
-    funnels = (("b", funnel_b), ("z", funnel_z))
-
-    def per_row(block) -> dict[str, np.ndarray]:
-        t = block["t"]
-        q_m = block["q"][:, nq_root:]
-        # F_r beside the rest (its kernel releases the GIL; Pinocchio's momentum holds it)
-        rows = (block["q_b"], q_m, block["w"], block["dw_b"])
-        f_r, out = rows_beside(reaction, rows, lambda: _row_signals(block, t))
-        out["F_r"] = f_r
-        return out
-
-    def _row_signals(block, t) -> dict[str, np.ndarray]:
-        out = {}
-        for name, funnel in funnels:
-            rho = funnel.rho(t[:, None])  # (samples, components)
-            out[f"rho_{name}"] = rho
-            out[f"bound_{name}_lower"] = funnel.lower * rho
-            out[f"bound_{name}_upper"] = funnel.upper * rho
-        out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
-        out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
-        out["P"], out["L"] = momentum(block["q"], block["v"])
-        return out
-
-    truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}
-    return per_row, truth
-
 
 #: The columns the loop writes at every recorded step (as recorder_shapes), and those of what
 #: the controller saw when there are sensors.
@@ -441,49 +339,4 @@ def simulate(
         events=setup.events + list(getattr(controller, "events", [])),
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
         saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
-    )
-
-
-def recorded_signals(
-    setup: Setup, raw: Signals, reaction: Callable[..., np.ndarray] | None = None, plant=None
-) -> Signals:
-    """The recorded per-step rows ``raw`` with the signals computed after the run (funnels,
-    reference, errors, momentum, F_r: :func:`_after_run_signals`) and the true parameters.
-
-    ``reaction`` and ``plant``: the run's F_r pass and plant, made anew when None (a
-    recovered spool, :mod:`ffsm_pin.sim.recover`).
-    """
-    if reaction is None:
-        reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
-    if plant is None:
-        plant = Plant(setup.robot, integrator=setup.scenario.integrator)
-    per_row, truth = _after_run_signals(setup, reaction, plant.momentum_rows)
-    return extend(raw, per_row, truth, AFTER_RUN_INPUTS)
-
-
-def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
-    """The :class:`RunResult` of a run of ``setup`` with the recorded ``signals``;
-    ``outcome``: the fields the run decided (steps, wall time, completion and stop, events,
-    saturation)."""
-    sc, perf = setup.scenario, setup.scenario.performance
-    # what the controller says of itself: its variant, what its sigma_min measures
-    scheme = getattr(setup.controller, "scheme", None)
-    measure = getattr(setup.controller, "sigma_measure", None)
-    return RunResult(
-        scheme=scheme if isinstance(scheme, str) else None,
-        robot=setup.robot.name,
-        dt=sc.dt,
-        duration=sc.duration,
-        signals=signals,
-        scenario_name=sc.name,
-        integrator=sc.integrator,
-        substeps=sc.substeps,
-        rhoinf_b=perf.funnel_b.rhoinf,
-        rhoinf_z=perf.funnel_z.rhoinf,
-        damping_threshold=perf.singularity_threshold,
-        description=sc.description,
-        controller=sc.controller.type,
-        sigma_measure=measure if isinstance(measure, str) else None,
-        estimates=dict(setup.drawn_estimates) or None,
-        **outcome,
     )

@@ -1,6 +1,6 @@
 """The run's recorder: rows held in one bounded chunk in memory, spilled to disk when it fills.
 
-A run records one row of every per-step signal (``ffsm_pin.sim.loop.recorder_shapes``) at every
+A run records one row of every per-step signal (``ffsm_pin.sim.recording.recorder_shapes``) at every
 recorded step. The rows are written into a chunk of :data:`CHUNK_BYTES`; when it is full, each
 signal's rows are appended to a raw file ``<key>.bin`` in a spool folder, so the memory a run
 holds does not grow with its duration. A run whose rows fit in one chunk never touches the

@@ -82,7 +82,7 @@ def recover(folder: str | Path) -> list[Recovered]:
 
 def _recover(spool: Path) -> Recovered:
     from ..scenario.file import scenario_from_toml
-    from .loop import recorded_signals, run_result
+    from .recording import recorded_signals, run_result
     from .setup import prepare
 
     try:

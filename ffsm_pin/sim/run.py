@@ -10,9 +10,10 @@ is where a user finds both.
 from __future__ import annotations
 
 from .initial import initial_state
-from .loop import recorder_shapes, recording_size, simulate
+from .loop import simulate
 from .measurement import Sensor
 from .reach import ReachWarning
+from .recording import recorder_shapes, recording_size
 from .setup import Setup, prepare
 
 __all__ = [

@@ -81,7 +81,7 @@ def check_storage(
     Parameters
     ----------
     steps, row_bytes : int
-        Steps of the run and bytes of one recorded row (``ffsm_pin.sim.loop.recording_size``).
+        Steps of the run and bytes of one recorded row (``ffsm_pin.sim.recording.recording_size``).
     record_every : int
         The run's recording interval [steps]; the error names the smallest one that fits.
     folder : str or Path
