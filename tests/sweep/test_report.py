@@ -65,6 +65,8 @@ def test_rates_and_wilson_intervals(campaign_dir):
 
 def test_report_files(campaign_dir):
     campaign, cases, out = campaign_dir
+    (out / "worst").mkdir()
+    (out / "worst" / "case-00099.toml").write_text("# an earlier report's worst case\n")
     report = write_report(out, campaign).read_text()
     for name in ("fig_funnel_rate.png", "fig_max_u.png", "fig_settle.png", "fig_min_sigma.png"):
         assert (out / name).stat().st_size > 1000 and f"({name})" in report
@@ -72,7 +74,7 @@ def test_report_files(campaign_dir):
     assert "case 22: RuntimeError: boom" in report
     assert "| 0.1 | funnel left | 3 | 1.00 | 1.00 |" in report  # the stop causes
     # worst cases: not kept first, largest max |u_m| first; case 11 (u = 110) leads
-    worst = sorted((out / "worst").iterdir())
+    worst = sorted((out / "worst").iterdir())  # and no earlier report's case left beside them
     assert len(worst) == 10 and (out / "worst" / "case-00011.toml") in worst
     lines = [ln for ln in report.splitlines() if "--scenario worst/case-" in ln]
     assert lines[0].startswith("| 11 |")

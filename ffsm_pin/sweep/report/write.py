@@ -385,6 +385,10 @@ def _worst(out: Path, cols, worst) -> list[str]:
         "",
     ]
     (out / "worst").mkdir(exist_ok=True)
+    names = {f"worst/case-{r['case']:05d}.toml" for r in worst}
+    for stale in (out / "worst").glob("case-*.toml"):  # an earlier report's worst cases
+        if f"worst/{stale.name}" not in names:
+            stale.unlink()
     for r in worst:
         name = f"worst/case-{r['case']:05d}.toml"
         (out / name).write_text(r["scenario_toml"], encoding="utf-8")
