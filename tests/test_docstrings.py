@@ -30,35 +30,9 @@ from numpydoc import docscrape  # the dev extra's (pyproject.toml)
 import ffsm_pin
 
 # Offenders allowed for now, each "module.qualname"; an entry documented since fails
-# test_the_allow_list_is_current, so the set only shrinks. Empty it when they are documented.
-ALLOWED: frozenset[str] = frozenset(
-    {
-        # ffsm_pin/model/spatial.py is being split (issue 36) by another branch, which
-        # documents these there and removes them from this set.
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_M",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_Mdot",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_T",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_b",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_d",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_h",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.Y_z",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.__init__",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.controller_terms",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_attitude",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_attitude_rate",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_offset",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_pose",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.ee_rotation",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.jacobians",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.kinematics",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.mass_matrix",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.mass_matrix_rate",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.momentum_matrices",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.reaction_torque",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.velocity_product",
-        "ffsm_pin.model.spatial.SpatialBarycentricModel.velocity_regressors",
-    }
-)
+# test_the_allow_list_is_current, so the set only shrinks. Empty: every function is
+# documented; keep it so (a new offender is documented, not listed here).
+ALLOWED: frozenset[str] = frozenset()
 
 
 def _public_modules() -> Iterator[str]:

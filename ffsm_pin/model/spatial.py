@@ -42,6 +42,9 @@ This module holds the model class; its pieces, by concern:
   (:class:`~._spatial_layout.SpatialParameterLayout`);
 * :mod:`._spatial_reference`: the vectorised numpy reference (S_k, the tangents, the bilinear
   cores), a base class of the model;
+* :mod:`._spatial_dynamics`: M, dM/dt, C w, F_r, the momentum matrices and the regressors
+  Y_M, Y_Mdot, Y_h, Y_T, Y_d, Y_b (:class:`~._spatial_dynamics.SpatialDynamics`, the model's
+  base class, on :class:`~._spatial_reference.SpatialReference`);
 * :mod:`._spatial_terms`: one controller period's terms (:class:`~._spatial_terms.ControllerTerms`)
   and their compiled all-in-one call;
 * the compiled (numba) kernels: :mod:`._spatial_kinematics_kernels` (rotations, J, Y_z, the
@@ -60,16 +63,12 @@ from ..attitude import mrp
 from ..errors import ParameterError
 from ..robot import SpatialGeometry
 from . import _spatial_kinematics_kernels as kkin
-from . import _spatial_mass_kernels as kmass
 from . import _spatial_terms as kterms
-from . import _spatial_velocity_kernels as kvel
 from ._common import barycentric_vectors
+from ._spatial_dynamics import SpatialDynamics
 from ._spatial_layout import SYM6, SpatialParameterLayout
-from ._spatial_reference import Kinematics, SpatialReference, skew_batch
+from ._spatial_reference import Kinematics, skew_batch
 from ._spatial_terms import ControllerTerms, TermsBuffers
-from ._state_spatial import reaction_torque as _reaction_torque
-
-_H = 1e-20  # complex step (exact for the bilinear expressions here)
 
 
 class SpatialKernelConstants(NamedTuple):
@@ -82,7 +81,7 @@ class SpatialKernelConstants(NamedTuple):
     ee_body: int  # body carrying the end effector (1..n)
 
 
-class SpatialBarycentricModel(SpatialReference):
+class SpatialBarycentricModel(SpatialDynamics):
     """The reduced, parametric free-floating model of a spatial serial chain.
 
     Configuration arguments: ``q_b`` the base attitude as an MRP 3-vector, ``q_m`` the joint
@@ -98,6 +97,13 @@ class SpatialBarycentricModel(SpatialReference):
     ``"numpy"`` uses the vectorised numpy reference
     (:class:`~ffsm_pin.model._spatial_reference.SpatialReference`, also used for complex
     arguments).
+
+    Parameters
+    ----------
+    geometry : SpatialGeometry
+        The chain (n joints): masses, CoMs, inertias, joints and end effector, in body frames.
+    backend : {"numba", "numpy"}, optional
+        The evaluator of real arguments (ParameterError for another).
     """
 
     m2 = 3  # end-effector position components
@@ -169,7 +175,21 @@ class SpatialBarycentricModel(SpatialReference):
     # ------------------------------------------------------------------ configuration
     def kinematics(self, q_b, q_m) -> Kinematics:
         """Body rotations R_k, joint axes z_j and S_k for one configuration (memoised; real or
-        complex arguments)."""
+        complex arguments).
+
+        Parameters
+        ----------
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP; may be complex.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.
+
+        Returns
+        -------
+        Kinematics
+            R (n+1, 3, 3) body to inertial, z (n, 3) inertial joint axes, S (n+1, 3, n+3)
+            with w_k = S_k w.
+        """
         q_b = np.asarray(q_b)
         q_m = np.asarray(q_m)
         key = (q_b.tobytes(), q_m.tobytes(), q_b.dtype.char, q_m.dtype.char)
@@ -223,21 +243,79 @@ class SpatialBarycentricModel(SpatialReference):
 
     # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R_k V_k (inertial frame)."""
+        """p_e - p_com [m] = sum_k R_k V_k (inertial frame).
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters (Eq. 4).
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP; may be complex.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            p_e - p_com [m], inertial frame.
+        """
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         R = self.kinematics(q_b, q_m).R
         return np.einsum("kxy,ky->x", R, theta_z[3:].reshape(self._nb, 3))
 
     def ee_rotation(self, q_b, q_m) -> np.ndarray:
-        """R_e, the end-effector frame's rotation (body to inertial); parameter-free."""
+        """R_e, the end-effector frame's rotation (body to inertial); parameter-free.
+
+        Parameters
+        ----------
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP; may be complex.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+            R_e, end-effector frame to inertial.
+        """
         return self.kinematics(q_b, q_m).R[self.geometry.ee_body] @ self._ee_rot
 
     def ee_attitude(self, q_b, q_m) -> np.ndarray:
-        """q_e, the end-effector attitude as an MRP on the |s| <= 1 branch."""
+        """q_e, the end-effector attitude as an MRP on the |s| <= 1 branch.
+
+        Parameters
+        ----------
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            q_e, MRP of R_e.
+        """
         return mrp.from_rotation(self.ee_rotation(q_b, q_m))
 
     def ee_pose(self, theta_z, q_b, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, MRP] given the system CoM position [m]."""
+        """z_e = (p_e, q_e) [m, MRP] given the system CoM position [m].
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters (Eq. 4).
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        com_position : array_like, shape (3,)
+            The system's CoM position [m], inertial frame.
+
+        Returns
+        -------
+        ndarray, shape (6,)
+            z_e = (p_e [m], q_e MRP).
+        """
         p = np.asarray(com_position) + self.ee_offset(theta_z, q_b, q_m)
         return np.concatenate((p, self.ee_attitude(q_b, q_m)))
 
@@ -251,6 +329,22 @@ class SpatialBarycentricModel(SpatialReference):
 
         Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate
         1/4 B(q_e) R_e^T S_m w (parameter-free).
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters (Eq. 4).
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP; may be complex.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.
+
+        Returns
+        -------
+        J_b : ndarray, shape (6, 3)
+            Base Jacobian (w_b in the inertial frame).
+        J_m : ndarray, shape (6, n)
+            Manipulator Jacobian.
         """
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         if self._use_fast(theta_z, q_b, q_m):
@@ -272,6 +366,20 @@ class SpatialBarycentricModel(SpatialReference):
         """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
 
         Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
+
+        Parameters
+        ----------
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        w : ndarray, shape (n + 3,)
+            (w_b, w_m) [rad/s], w_b in the inertial frame.
+
+        Returns
+        -------
+        ndarray, shape (6, n_z)
+            Y_z: rows 1-3 [E_3, [w_k]x R_k for k = 0..n] (inertial frame), rows 4-6 zero.
         """
         if self._use_fast(q_b, q_m, w):
             R, z = self._rz(q_b, q_m)
@@ -286,113 +394,54 @@ class SpatialBarycentricModel(SpatialReference):
         return Y
 
     def ee_attitude_rate(self, w, q_b, q_m) -> np.ndarray:
-        """dq_e/dt [1/s], the parameter-free MRP rate of the end effector (rows 4-6 of Eq. 3)."""
+        """dq_e/dt [1/s], the parameter-free MRP rate of the end effector (rows 4-6 of Eq. 3).
+
+        Parameters
+        ----------
+        w : ndarray, shape (n + 3,)
+            (w_b, w_m) [rad/s], w_b in the inertial frame.
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            dq_e/dt = 1/4 B(q_e) R_e^T w_e [1/s].
+        """
         kin = self.kinematics(q_b, q_m)
         return self._attitude_rows(kin, q_b, q_m) @ np.asarray(w, dtype=float)
 
-    # ------------------------------------------------------------------ dynamics
-    def mass_matrix(self, theta_d, q_b, q_m) -> np.ndarray:
-        """M(q, theta_d) of Eq. (9a), (n+3) x (n+3)."""
-        theta_d = self._check(theta_d, self.n_d, "theta_d")
-        if self._use_fast(theta_d, q_b, q_m):
-            R, z = self._rz(q_b, q_m)
-            M = np.empty((self._N, self._N))
-            kmass.mass_matrix(R, z, np.ascontiguousarray(theta_d), M)
-            return M
-        kin = self.kinematics(q_b, q_m)
-        return self._mass_core(kin.R, kin.S, theta_d)
-
-    def mass_matrix_rate(self, theta_d, q_b, q_m, w) -> np.ndarray:
-        """dM/dt (q, w, theta_d), (n+3) x (n+3)."""
-        theta_d = self._check(theta_d, self.n_d, "theta_d")
-        kin = self.kinematics(q_b, q_m)
-        dR, dS = self._motion_tangent(kin, np.asarray(w, dtype=float))
-        return self._mass_core(kin.R + 1j * _H * dR, kin.S + 1j * _H * dS, theta_d).imag / _H
-
-    def Y_M(self, q_b, q_m, a) -> np.ndarray:
-        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+3, n_d)."""
-        if self._use_fast(q_b, q_m, a):
-            R, z = self._rz(q_b, q_m)
-            Y = np.empty((self._N, self.n_d))
-            kmass.ym(R, z, np.ascontiguousarray(a, dtype=float), Y, False)
-            return Y
-        kin = self.kinematics(q_b, q_m)
-        return self._ym_core(kin.R, kin.S, np.asarray(a))
-
-    def velocity_regressors(self, q_b, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`."""
-        w = np.ascontiguousarray(w, dtype=float)
-        s_vec = np.ascontiguousarray(s_vec, dtype=float)
-        if self._use_fast(q_b, q_m):
-            return self._fast_velocity(q_b, q_m, w, s_vec)
-        kin = self.kinematics(q_b, q_m)
-        dR, dS = self._motion_tangent(kin, w)
-        Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
-        Y_Mdot = self._ym_core(Rc, Sc, s_vec).imag / _H
-        # h = dM/dt w - (0_3, dT/dq_m) (docs/spatial.md section 4)
-        Y_h = self._ym_core(Rc, Sc, w).imag / _H
-        jR, jS = self._joint_tangents(kin)
-        dT = self._energy_core(kin.R + 1j * _H * jR, kin.S + 1j * _H * jS, w).imag / _H
-        Y_h[3:] -= dT
-        return Y_Mdot, Y_h
-
-    def _fast_velocity(self, q_b, q_m, w, s_vec):
-        """(Y_Mdot(w, s), Y_h(w)) from the compiled kernels (real, contiguous w and s)."""
-        R, z = self._rz(q_b, q_m)
-        N, nd = self._N, self.n_d
-        Y_Mdot, Y_h = np.empty((N, nd)), np.empty((N, nd))
-        rows = np.empty((3, nd))  # Y_b rows: not used (and Y_M not computed)
-        kvel.velocity_terms(R, z, w, w, s_vec, None, Y_Mdot, Y_h, rows)
-        kvel.subtract_dT(R, z, w, Y_h)
-        return Y_Mdot, Y_h
-
-    def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
-        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``."""
-        w = np.ascontiguousarray(w, dtype=float)
-        if self._use_fast(q_b, q_m):
-            return self._fast_velocity(q_b, q_m, w, np.ascontiguousarray(s_vec, dtype=float))[0]
-        kin = self.kinematics(q_b, q_m)
-        dR, dS = self._motion_tangent(kin, w)
-        Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
-        return self._ym_core(Rc, Sc, np.asarray(s_vec, dtype=float)).imag / _H
-
-    def Y_h(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8)."""
-        w = np.ascontiguousarray(w, dtype=float)
-        if self._use_fast(q_b, q_m):
-            return self._fast_velocity(q_b, q_m, w, w)[1]
-        return self.velocity_regressors(q_b, q_m, w, np.zeros(self._N))[1]
-
-    def Y_T(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of the kinetic energy about the CoM: ``Y_T theta_d = 1/2 w^T M w``."""
-        kin = self.kinematics(q_b, q_m)
-        return self._energy_core(kin.R, kin.S, np.asarray(w, dtype=float))
-
-    def Y_d(self, q_b, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``."""
-        Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
-        return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
-
-    def velocity_product(self, theta_d, q_b, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w, (n+3)."""
-        return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
-
-    def reaction_torque(self, theta_d, q_b, q_m, w, w_dot) -> np.ndarray:
-        """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m], 3-vector.
-
-        ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b + 1/2 w_b x (M_bb w_b)`` (see
-        :func:`ffsm_pin.model._state_spatial.reaction_torque`).
-        """
-        theta_d = self._check(theta_d, self.n_d, "theta_d")
-        w = np.asarray(w, dtype=float)
-        M_bb = self.mass_matrix(theta_d, q_b, q_m)[:3, :3]
-        M_bb_dot = self.mass_matrix_rate(theta_d, q_b, q_m, w)[:3, :3]
-        return _reaction_torque(M_bb, M_bb_dot, w[:3], np.asarray(w_dot, dtype=float)[:3])
-
+    # ------------------------------------------------------------------ controller terms
     def controller_terms(self, theta_z, theta_d, q_b, q_m, w, a, s_vec) -> ControllerTerms:
         """J_b, J_m (theta_z), Y_z(w), Y_b(w), Y_M(a), Y_Mdot(w, s), Y_h(w) and M(theta_d) for
         one configuration: the same values as the separate methods, in one compiled call
-        (numba backend) or by calling them (numpy backend, complex arguments)."""
+        (numba backend) or by calling them (numpy backend, complex arguments).
+
+        Parameters
+        ----------
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters (Eq. 4).
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters (Eq. 12).
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        w : ndarray, shape (n + 3,)
+            (w_b, w_m) [rad/s], w_b in the inertial frame.
+        a : ndarray, shape (n + 3,)
+            The vector of Y_M(a).
+        s_vec : ndarray, shape (n + 3,)
+            The vector s of Y_Mdot(w, s).
+
+        Returns
+        -------
+        ControllerTerms
+            J_b (6, 3), J_m (6, n), Y_z (6, n_z), Y_b (3, n_b), Y_M, Y_Mdot, Y_h (n+3, n_d) and
+            M (n+3, n+3).
+        """
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         if not self._use_fast(theta_z, theta_d, q_b, q_m, w, a, s_vec):
@@ -418,23 +467,3 @@ class SpatialBarycentricModel(SpatialReference):
             TermsBuffers(J, Yz, Yb, YM, YMdot, Yh, M),
         )  # fmt: skip
         return ControllerTerms(J[:, :3], J[:, 3:], Yz, Yb, YM, YMdot, Yh, M)
-
-    # ------------------------------------------------------------------ momentum
-    def Y_b(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (3, n_b)."""
-        Y = np.empty((3, self.n_b))
-        Y[:, :3] = -np.eye(3)
-        if self._use_fast(q_b, q_m, w):
-            R, z = self._rz(q_b, q_m)
-            rows = np.empty((3, self.n_d))
-            kmass.ym(R, z, np.ascontiguousarray(w, dtype=float), rows, True)
-            Y[:, 3:] = rows
-        else:
-            Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]
-        return Y
-
-    def momentum_matrices(self, theta_b, q_b, q_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(H_bb (3x3), H_bm (3 x n), A_0 (3)) of Eq. (13) from a parameter vector theta_b."""
-        theta_b = self._check(theta_b, self.n_b, "theta_b")
-        rows = self.mass_matrix(theta_b[3:], q_b, q_m)[:3]
-        return rows[:, :3], rows[:, 3:], theta_b[:3]
