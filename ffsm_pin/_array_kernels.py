@@ -54,17 +54,9 @@ def cmm(A, B):
 
 @njit(cache=True)
 def cmmt(A, B):
-    """A @ B.T (plain transpose) as complex128."""
-    m, k = A.shape
-    p = B.shape[0]
-    out = np.zeros((m, p), dtype=np.complex128)
-    for i in range(m):
-        for j in range(p):
-            acc = 0j
-            for l in range(k):
-                acc += A[i, l] * B[j, l]
-            out[i, j] = acc
-    return out
+    """A @ B.T (plain transpose) as complex128: :func:`cmm` of the transposed view (each entry
+    the same sum, in the same order)."""
+    return cmm(A, B.T)
 
 
 @njit(cache=True)
@@ -81,12 +73,9 @@ def cmv(A, x):
 
 @njit(cache=True)
 def cmtv(A, x):
-    """A.T @ x as complex128."""
-    out = np.zeros(A.shape[1], dtype=np.complex128)
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            out[j] += A[i, j] * x[i]
-    return out
+    """A.T @ x as complex128: :func:`cmv` of the transposed view (the same sums, in the same
+    order)."""
+    return cmv(A.T, x)
 
 
 # ---------------------------------------------------------------------- linear algebra

@@ -38,12 +38,11 @@ import numpy as np
 from ..errors import SimulationError
 from .adaptation import theta_b_step, theta_d_increment, theta_z_step
 from .adaptive_ct_kernels import PERIOD, AdaptiveCtKernelGains
-from .compiled import CompiledController, kernel_measurement, state_field
+from .compiled import state_field
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
-from .kinematic import along_measured_motion, momentum_evaluator
-from .reference_kernels import reference_arrays
-from .resolved_motion import drift_bound, gains_from, rate_gains, resolved_rates
+from .kinematic import along_measured_motion
+from .resolved_motion import ResolvedMotionBaseline, rate_gains
 
 
 @dataclass(frozen=True)
@@ -95,7 +94,7 @@ class AdaptiveCtGains:
         return cls(k_z, k_s, p.gamma_1, p.gamma_2, p.gamma_3)
 
 
-class AdaptiveComputedTorque(CompiledController):
+class AdaptiveComputedTorque(ResolvedMotionBaseline):
     """Adaptive computed torque (Slotine & Li type) on the barycentric regressors.
 
     Parameters
@@ -107,30 +106,19 @@ class AdaptiveComputedTorque(CompiledController):
         "numba", "numpy" or "auto".
     """
 
-    needs_estimates = True
     # [controller.params]: the fields of AdaptiveCtGains
     params_keys = ("k_z", "k_s", "gamma_b", "gamma_z", "gamma_d")
-    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
     theta_z = state_field("theta_z", "theta_z-hat (Eq. 42), advanced in place by the kernels")
     theta_d = state_field("theta_d", "theta_d-hat (the gradient law)")
     theta_b = state_field("theta_b", "theta_b-hat (Eq. 28)")
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
-        sc = ctx.scenario
-        self.context = ctx  # to rebuild it (e.g. on the other backend)
-        self.model = ctx.model
-        self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
+        self.take_context(ctx)
         estimates = ctx.required_estimates()
         self.state = Estimates(*(np.array(x, dtype=float) for x in estimates))
-        drift = drift_bound(ctx, self.theta_z)
-        derived = AdaptiveCtGains.derived(sc, ctx.dt, self.m2, self.nt, drift)
-        self.gains = AdaptiveCtGains(**gains_from(ctx, derived))
-        self._k_z = np.array(self.gains.k_z)
+        derived = AdaptiveCtGains.derived(ctx.scenario, ctx.dt, self.m2, self.nt, self.drift())
+        self.set_gains(AdaptiveCtGains, derived)
         self.dt = ctx.dt
-        self.reference = sc.reference
-        self.threshold = sc.performance.singularity_threshold  # damped below the run's
-        self._momentum = momentum_evaluator(ctx.model)
-        self.events: list[str] = []
         self.signal_shapes = {
             "w_mc": (self.n,), "sigma_min": (), "damping": (),
             "theta_z_hat": (ctx.model.n_z,), "theta_d_hat": (ctx.model.n_d,),
@@ -142,20 +130,14 @@ class AdaptiveComputedTorque(CompiledController):
         """The compiled period's bundles (:mod:`.adaptive_ct_kernels`): gains and the period's
         constants, the model's and the reference's arrays."""
         g = self.gains
-        self._geo = self.context.model.kernel_constants()
-        self._gains = AdaptiveCtKernelGains(
+        gains = AdaptiveCtKernelGains(
             self._k_z, float(g.k_s), float(g.gamma_b), float(g.gamma_z), float(g.gamma_d),
             float(self.threshold), int(self.nt), float(self.dt),
         )  # fmt: skip
-        self._ref = reference_arrays(self.reference)
-        self._fields = (tuple(self._gains), tuple(self._ref))  # as the period takes them
-        self._period = PERIOD[self.m3]
+        self.prepare_period(gains, PERIOD)
 
     def _reference(self, t, q_b, q_m, z_e, theta_z, theta_b):
-        r = resolved_rates(
-            self.model, self._momentum, self.reference, theta_z, theta_b, self._k_z,
-            self.threshold, self.nt, t, q_b, q_m, z_e,
-        )  # fmt: skip
+        r = self.rates(theta_z, theta_b, t, q_b, q_m, z_e)
         return np.concatenate((np.atleast_1d(r.w_b), r.w_m)), r.sigma_min, r.damping
 
     def step(self, meas: Measurement):
@@ -171,13 +153,7 @@ class AdaptiveComputedTorque(CompiledController):
             "theta_d_hat": self.theta_d.copy(),
             "theta_b_hat": self.theta_b.copy(),
         }
-        u, w_r, sigma, damping, finite = self._period(
-            self._geo,
-            self._fields[0],
-            self._fields[1],
-            kernel_measurement(meas, self.m3),
-            tuple(self.state),
-        )
+        u, w_r, sigma, damping, finite = self.run_period(meas)
         if not finite:
             raise SimulationError(
                 f"t = {meas.t:.4f} s: the adaptive-ct torque became non-finite", time=meas.t,

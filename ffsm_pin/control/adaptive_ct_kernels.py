@@ -21,16 +21,14 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
-from ..model._spatial_kinematics_kernels import kinematics, y_z
+from ..model._spatial_kinematics_kernels import y_z
 from ..model._spatial_mass_kernels import mass_matrix, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import fast, fast_spatial
-from .interface import Measurement
-from .kernels import COMPLEX_STEP, Estimates, theta_z_step
-from .reference_kernels import ReferenceArrays
-from .resolved_motion_kernels import rates_planar, rates_spatial
+from .fast_spatial import measured_kinematics
+from .kernels import COMPLEX_STEP, theta_z_step
+from .resolved_motion_kernels import period_bundles, rates_planar, rates_spatial
 
 
 class AdaptiveCtKernelGains(NamedTuple):
@@ -90,9 +88,8 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     est_f : tuple
         The fields of the ``Estimates``, advanced in place.
     """
-    gains = AdaptiveCtKernelGains(*gains_f)  # (the bundles named again: module docstring)
-    ref = ReferenceArrays(*ref_f)
-    meas, est = Measurement(*meas_f), Estimates(*est_f)
+    # (the bundles named again: module docstring)
+    gains, ref, meas, est = period_bundles(AdaptiveCtKernelGains, gains_f, ref_f, meas_f, est_f)
     S, off, K, L, ee_row, collinear = geo
     q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
     theta_z, theta_d, theta_b = est
@@ -144,17 +141,13 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     est_f : tuple
         The fields of the ``Estimates``, advanced in place.
     """
-    gains = AdaptiveCtKernelGains(*gains_f)  # (the bundles named again: module docstring)
-    ref = ReferenceArrays(*ref_f)
-    meas, est = Measurement(*meas_f), Estimates(*est_f)
+    gains, ref, meas, est = period_bundles(AdaptiveCtKernelGains, gains_f, ref_f, meas_f, est_f)
     jr, ax, er, m = geo
     q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
     theta_z, theta_d, theta_b = est
     n = q_m.size
-    nb, N, nd = n + 1, n + 3, theta_d.size
-    R = np.empty((nb, 3, 3))
-    z = np.empty((n, 3))
-    kinematics(q_b, q_m, jr, ax, R, z)
+    N, nd = n + 3, theta_d.size
+    R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
     Yw = np.empty((3, nd))
     ym(R, z, w, Yw, True)  # the base rows of Y_M(w)
     Yb = np.empty((3, nd + 3))
@@ -163,7 +156,6 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     Yz = np.empty((3, theta_z.size))
     y_z(R, z, w, Yz)
     tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, gains.gamma_z, dt)
-    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     hj = 1j * COMPLEX_STEP
     w_mc, w_bc, sigma, damping = rates_spatial(
         geo, gains, ref, meas.t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:],

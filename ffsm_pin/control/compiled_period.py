@@ -18,18 +18,10 @@ import numpy as np
 
 from .._arrays import read_only, read_only_view
 from ..errors import ParameterError
+from . import kernels  # the status codes (STATUS_*)
 from .funnel import Funnel, FunnelExit
 from .gains import Gains, SingularityPolicy
 from .interface import Measurement, SignalLayout
-from .kernels import (
-    STATUS_BASE_ROW,
-    STATUS_FUNNEL_B,
-    STATUS_FUNNEL_Z,
-    STATUS_H_COLLAPSE,
-    STATUS_M_NOT_PD,
-    STATUS_NONFINITE,
-    STATUS_OK,
-)
 from .period import (
     PeriodState,
     compile_in_parallel,
@@ -169,23 +161,23 @@ class CompiledPeriod:
             geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields
         )
         damping = self._out.damping[0]
-        if status == STATUS_OK and damping == 0.0 and self._watch.since is None:
+        if status == kernels.STATUS_OK and damping == 0.0 and self._watch.since is None:
             return  # the common period: nothing to book, no stop
         t = meas.t
-        if status in (STATUS_FUNNEL_Z, STATUS_FUNNEL_B):
-            funnel = self.funnel_z if status == STATUS_FUNNEL_Z else self.funnel_b
+        if status in (kernels.STATUS_FUNNEL_Z, kernels.STATUS_FUNNEL_B):
+            funnel = self.funnel_z if status == kernels.STATUS_FUNNEL_Z else self.funnel_b
             rho = float(funnel.rho(t)[idx])
             exc = FunnelExit(idx, value, funnel.lower[idx] * rho, funnel.upper[idx] * rho)
             raise self.funnel_stop(meas, exc)
-        if status == STATUS_H_COLLAPSE:
+        if status == kernels.STATUS_H_COLLAPSE:
             raise collapse_stop(t, value)
         # (the warning points at the caller of step / step_row)
         self._watch.update(t, float(self._out.sigma_min[0]), float(damping), stacklevel=3)
-        if status == STATUS_M_NOT_PD:
+        if status == kernels.STATUS_M_NOT_PD:
             raise inertia_stop(t)
-        if status == STATUS_BASE_ROW:
+        if status == kernels.STATUS_BASE_ROW:
             raise base_row_stop(t, self.m3)
-        if status == STATUS_NONFINITE:
+        if status == kernels.STATUS_NONFINITE:
             raise nonfinite_stop(t)
 
 

@@ -71,6 +71,7 @@ __all__ = [
     "dynamic_level",
     "geometry_terms",
     "kinematic_law",
+    "measured_kinematics",
     "reaction_rows",
     "reaction_rows_of",
     "task_geometry",
@@ -79,6 +80,18 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------- kinematic level
+@njit(cache=True, inline="always")
+def measured_kinematics(jr, ax, q_b, q_m, w):
+    """(R (n+1, 3, 3), z (n, 3), dq_b/dt of Eq. 1) at the real measurement (q_b, q_m, w): the
+    body rotations, the inertial joint axes and the base attitude's MRP rate."""
+    n = q_m.size
+    R = np.empty((n + 1, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    return R, z, q_b_rate
+
+
 @njit(cache=True)
 def task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
     """(J (nt, n+3) of Eq. 3 for theta_z, H_bb (3x3), H_bm (3xn) of Eq. 13 for theta_d, R_0)
@@ -280,13 +293,10 @@ def geometry_terms(geo, law, dt, meas, state):
     q_b, q_m, w, w_hat = meas.q_b, meas.q_m, meas.w, state.w_hat
     theta_b, theta_z, theta_d = state.theta_b, state.theta_z, state.theta_d
     n = q_m.size
-    nb = n + 1
     N = n + 3
     nd = theta_d.size
     nz = theta_z.size
-    R = np.empty((nb, 3, 3))
-    z = np.empty((n, 3))
-    kinematics(q_b, q_m, jr, ax, R, z)
+    R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
     tb_new = theta_b.copy()
     tz_new = theta_z.copy()
     YM = np.empty((N, nd))
@@ -304,7 +314,6 @@ def geometry_terms(geo, law, dt, meas, state):
         Yz = np.empty((3, nz))
         y_z(R, z, w, Yz)
         tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
-    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     return (R, z, YM, YMdot, Yh, w_tilde), tb_new, tz_new, q_b_rate, w[:3]
 
 
@@ -417,13 +426,10 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     """
     n = q_m.size
     nb = n + 1
-    R = np.empty((nb, 3, 3))
-    z = np.empty((n, 3))
-    kinematics(q_b, q_m, jr, ax, R, z)
+    R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
     M = np.empty((3, 3))  # M_bb alone (mass_matrix skips the joint rows)
     mass_matrix(R, z, theta_d, M)
     hj = 1j * COMPLEX_STEP
-    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
     Rc = np.empty((nb, 3, 3), dtype=np.complex128)
     zc = np.empty((n, 3), dtype=np.complex128)
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)

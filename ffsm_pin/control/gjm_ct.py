@@ -25,13 +25,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .compiled import CompiledController, kernel_measurement, state_field
+from .compiled import state_field
 from .gjm_ct_kernels import PERIOD, GjmKernelGains
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
-from .kinematic import along_measured_motion, momentum_evaluator
-from .reference_kernels import reference_arrays
-from .resolved_motion import ResolvedRates, drift_bound, gains_from, rate_gains, resolved_rates
+from .kinematic import along_measured_motion
+from .resolved_motion import (
+    ResolvedMotionBaseline,
+    ResolvedRates,
+    drift_bound,
+    gains_from,
+    rate_gains,
+    resolved_rates,
+)
 
 
 @dataclass(frozen=True)
@@ -77,7 +83,7 @@ class GjmGains:
         return cls(*rate_gains(funnel, dt, m2, n_task, drift))
 
 
-class GjmComputedTorque(CompiledController):
+class GjmComputedTorque(ResolvedMotionBaseline):
     """Generalized-Jacobian resolved motion with a computed-torque joint loop (no adaptation).
 
     Parameters
@@ -90,42 +96,27 @@ class GjmComputedTorque(CompiledController):
         "numba", "numpy" or "auto".
     """
 
-    needs_estimates = True
     params_keys = ("k_z", "k_v")  # [controller.params]: the fields of GjmGains
-    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
     theta_z = state_field("theta_z", "theta_z-hat, the scenario's estimate")
     theta_d = state_field("theta_d", "theta_d-hat, the scenario's estimate")
     theta_b = state_field("theta_b", "theta_b-hat, the scenario's estimate")
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
-        sc = ctx.scenario
-        self.context = ctx  # to rebuild it (e.g. on the other backend)
-        self.model = ctx.model
-        self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
+        self.take_context(ctx)
         self.state = Estimates(*(np.array(x) for x in ctx.required_estimates()))  # not adapted
-        drift = drift_bound(ctx, self.theta_z)
-        derived = GjmGains.derived(sc.performance.funnel_z, ctx.dt, self.m2, self.nt, drift)
-        self.gains = GjmGains(**gains_from(ctx, derived))
-        self._k_z = np.array(self.gains.k_z)
-        self.reference = sc.reference
+        funnel_z = ctx.scenario.performance.funnel_z
+        self.set_gains(GjmGains, GjmGains.derived(funnel_z, ctx.dt, self.m2, self.nt, self.drift()))
         self.q_bd = np.asarray(ctx.base_attitude_reference, dtype=float)
-        self.threshold = sc.performance.singularity_threshold  # damped below the run's
-        # spatial: H_bb, H_bm of complex-step arguments through the real model
-        self._momentum = momentum_evaluator(ctx.model)
-        self.events: list[str] = []
         self.signal_shapes = {"w_mc": (self.n,), "sigma_min": (), "damping": ()}
         self.bind_backend(backend, ctx.initial)
 
     def prepare_kernels(self) -> None:
         """The compiled period's bundles (:mod:`.gjm_ct_kernels`): gains, the model's and the
         reference's arrays."""
-        self._geo = self.context.model.kernel_constants()
-        self._gains = GjmKernelGains(
+        gains = GjmKernelGains(
             self._k_z, float(self.gains.k_v), float(self.threshold), int(self.nt)
         )
-        self._ref = reference_arrays(self.reference)
-        self._fields = (tuple(self._gains), tuple(self._ref))  # as the period takes them
-        self._period = PERIOD[self.m3]
+        self.prepare_period(gains, PERIOD)
 
     def joint_rate_command(self, t, q_b, q_m, z_e):
         """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring).
@@ -141,10 +132,7 @@ class GjmComputedTorque(CompiledController):
         z_e : ndarray
             End-effector pose.
         """
-        rates = resolved_rates(
-            self.model, self._momentum, self.reference, self.theta_z, self.theta_b, self._k_z,
-            self.threshold, self.nt, t, q_b, q_m, z_e,
-        )  # fmt: skip
+        rates = self.rates(self.theta_z, self.theta_b, t, q_b, q_m, z_e)
         return rates.w_m, rates.sigma_min, rates.damping
 
     def step(self, meas: Measurement):
@@ -155,13 +143,7 @@ class GjmComputedTorque(CompiledController):
 
     def step_compiled(self, meas: Measurement):
         """:meth:`step` by the compiled period (``ffsm_pin/control/gjm_ct_kernels.py``)."""
-        u, w_md, sigma, damping = self._period(
-            self._geo,
-            self._fields[0],
-            self._fields[1],
-            kernel_measurement(meas, self.m3),
-            tuple(self.state),
-        )
+        u, w_md, sigma, damping = self.run_period(meas)
         return u, {"w_mc": w_md, "sigma_min": sigma, "damping": damping}
 
     def step_numpy(self, meas: Measurement):

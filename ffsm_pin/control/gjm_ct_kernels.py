@@ -27,15 +27,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..attitude._mrp_kernels import l_matrix
 from ..model import _planar_kernels as planar_kernels
-from ..model._spatial_kinematics_kernels import kinematics
 from ..model._spatial_mass_kernels import mass_matrix
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
-from .interface import Measurement
-from .kernels import COMPLEX_STEP, Estimates
-from .reference_kernels import ReferenceArrays
-from .resolved_motion_kernels import rates_planar, rates_spatial
+from .fast_spatial import measured_kinematics
+from .kernels import COMPLEX_STEP
+from .resolved_motion_kernels import period_bundles, rates_planar, rates_spatial
 
 
 class GjmKernelGains(NamedTuple):
@@ -65,9 +62,8 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     est_f : tuple
         The fields of the ``Estimates`` (not adapted).
     """
-    gains = GjmKernelGains(*gains_f)  # (the bundles named again: module docstring)
-    ref = ReferenceArrays(*ref_f)
-    meas, est = Measurement(*meas_f), Estimates(*est_f)
+    # (the bundles named again: module docstring)
+    gains, ref, meas, est = period_bundles(GjmKernelGains, gains_f, ref_f, meas_f, est_f)
     S, off, K, L, ee_row, collinear = geo
     q_b, q_m, w = meas.q_b, meas.q_m, meas.w
     theta_d = est.theta_d
@@ -106,18 +102,12 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     est_f : tuple
         The fields of the ``Estimates`` (not adapted).
     """
-    gains = GjmKernelGains(*gains_f)  # (the bundles named again: module docstring)
-    ref = ReferenceArrays(*ref_f)
-    meas, est = Measurement(*meas_f), Estimates(*est_f)
+    gains, ref, meas, est = period_bundles(GjmKernelGains, gains_f, ref_f, meas_f, est_f)
     jr, ax, er, m = geo
     q_b, q_m, w = meas.q_b, meas.q_m, meas.w
     theta_d = est.theta_d
-    n = q_m.size
-    nb, N, nd = n + 1, n + 3, theta_d.size
-    R = np.empty((nb, 3, 3))
-    z = np.empty((n, 3))
-    kinematics(q_b, q_m, jr, ax, R, z)
-    q_b_rate = np.ascontiguousarray(l_matrix(q_b, R[0]).real) @ w[:3]  # Eq. (1)
+    N, nd = q_m.size + 3, theta_d.size
+    R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
     hj = 1j * COMPLEX_STEP
     w_c, _, sigma, damping = rates_spatial(
         geo, gains, ref, meas.t + hj, q_b + hj * q_b_rate, q_m + hj * w[3:],

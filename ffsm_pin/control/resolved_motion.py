@@ -8,19 +8,22 @@ generalized Jacobian ``J* = J_m - J_b H_bb^-1 H_bm`` and ``d = J_b H_bb^-1 A_0 +
 decay at k_z, ``w_md = J*^+ (dz_d/dt - d - k_z e_z)``, and the base rate with them; their
 compiled twins are :mod:`.resolved_motion_kernels`. Also here: the default rates
 (:func:`rate_gains`), the drift bound they use (:func:`drift_bound`), and the check of a
-baseline's ``[controller.params]`` (:func:`gains_from`).
+baseline's ``[controller.params]`` (:func:`gains_from`), and the base both baselines'
+controllers share (:class:`ResolvedMotionBaseline`).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ..errors import ParameterError, expected_count
-from .interface import ControllerContext
-from .kinematic import wrap_angle
+from .compiled import CompiledController, kernel_measurement
+from .interface import ControllerContext, Measurement
+from .kinematic import momentum_evaluator, wrap_angle
 from .linalg import damped_row_pinv
+from .reference_kernels import reference_arrays
 
 
 def rate_gains(
@@ -193,6 +196,62 @@ def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold,
     return ResolvedRates(w_m, w_b, inv.sigma_min, inv.damping)
 
 
+class ResolvedMotionBaseline(CompiledController):
+    """What both baselines' controllers share: the run's sizes, reference and singularity
+    threshold, the scenario's estimates as the state (theta_z, theta_d, theta_b), the gains
+    from ``[controller.params]`` over the derived ones, the resolved rates at the estimates and
+    the call of the compiled period on its bundles."""
+
+    needs_estimates = True
+    sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
+    gains: Any
+    theta_z: np.ndarray
+
+    def take_context(self, ctx: ControllerContext) -> None:
+        """The run's sizes, reference and threshold from ``ctx`` (kept, to rebuild the
+        controller, e.g. on the other backend)."""
+        self.context = ctx
+        self.model = ctx.model
+        self.m2, self.m3, self.nt, self.n = ctx.m2, ctx.m3, ctx.n_task, ctx.n_joints
+        self.reference = ctx.scenario.reference
+        self.threshold = ctx.scenario.performance.singularity_threshold  # damped below the run's
+        # spatial: H_bb, H_bm of complex-step arguments through the real model
+        self._momentum = momentum_evaluator(ctx.model)
+        self.events: list[str] = []
+
+    def drift(self) -> float:
+        """:func:`drift_bound` at the estimate theta_z (the gains' default derivation)."""
+        return drift_bound(self.context, self.theta_z)
+
+    def set_gains(self, gains_class: type, derived: Any) -> None:
+        """The gains: ``[controller.params]`` over the ``derived`` ones (:func:`gains_from`)."""
+        self.gains = gains_class(**gains_from(self.context, derived))
+        self._k_z = np.array(self.gains.k_z)
+
+    def rates(self, theta_z, theta_b, t, q_b, q_m, z_e) -> ResolvedRates:
+        """:func:`resolved_rates` of this controller at the estimates ``theta_z``, ``theta_b``."""
+        return resolved_rates(
+            self.model, self._momentum, self.reference, theta_z, theta_b, self._k_z,
+            self.threshold, self.nt, t, q_b, q_m, z_e,
+        )  # fmt: skip
+
+    def prepare_period(self, gains: tuple, periods: dict) -> None:
+        """The compiled period's bundles: the model's constants, ``gains`` (the period's named
+        gains), the reference's arrays, and the period of this geometry from ``periods``."""
+        self._geo = self.context.model.kernel_constants()
+        self._fields = (tuple(gains), tuple(reference_arrays(self.reference)))
+        self._period = periods[self.m3]
+
+    def run_period(self, meas: Measurement) -> tuple:
+        """The compiled period at ``meas`` on the bundles of :meth:`prepare_period` and the
+        state (the estimates)."""
+        gains, ref = self._fields
+        return self._period(
+            self._geo, gains, ref, kernel_measurement(meas, self.m3), tuple(self.state)
+        )
+
+
 __all__ = [
-    "ResolvedRates", "drift_bound", "gains_from", "rate_gains", "resolved_rates",
+    "ResolvedMotionBaseline", "ResolvedRates", "drift_bound", "gains_from", "rate_gains",
+    "resolved_rates",
 ]  # fmt: skip

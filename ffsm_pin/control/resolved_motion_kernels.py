@@ -18,8 +18,17 @@ from numba import njit
 from .._array_kernels import cmm, cmv
 from ..model import _planar_kernels as planar_kernels
 from .fast_spatial import task_geometry
-from .kernels import damped_pinv, wrap_angle
-from .reference_kernels import reference_at
+from .interface import Measurement
+from .kernels import Estimates, damped_pinv, wrap_angle
+from .reference_kernels import ReferenceArrays, reference_at
+
+
+@njit(cache=True, inline="always")
+def period_bundles(gains_class, gains_f, ref_f, meas_f, est_f):
+    """A baseline period's bundles named again from the plain tuples of their fields: the
+    gains (as ``gains_class``, the baseline's own), the reference, the measurement and the
+    estimates."""
+    return gains_class(*gains_f), ReferenceArrays(*ref_f), Measurement(*meas_f), Estimates(*est_f)
 
 
 @njit(cache=True)

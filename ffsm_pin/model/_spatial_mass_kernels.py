@@ -29,6 +29,31 @@ def _add_st(Y, col, k, z, x0, x1, x2, base_only):
             Y[3 + j, col] += z[j, 0] * x0 + z[j, 1] * x1 + z[j, 2] * x2
 
 
+@njit(cache=True, inline="always")
+def _add_pair(Y, col, k, z, Rk, a, c, be_a, be_c, base_only):
+    """Y[:, col] += S_k^T x, x = R_k[:, a] be_c + R_k[:, c] be_a: the Phi(beta) column of the
+    pair (a, c) of axes, a != c, mapped by R_k."""
+    _add_st(
+        Y, col, k, z,
+        Rk[0, a] * be_c + Rk[0, c] * be_a,
+        Rk[1, a] * be_c + Rk[1, c] * be_a,
+        Rk[2, a] * be_c + Rk[2, c] * be_a,
+        base_only,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _add_cross(Y, col, k, z, q, b, p, R, j, base_only):
+    """Y[:, col] += S_k^T x, x = q b - p R[:, j]: a body pair's column (each body's side)."""
+    _add_st(
+        Y, col, k, z,
+        q * b[0] - p * R[0, j],
+        q * b[1] - p * R[1, j],
+        q * b[2] - p * R[2, j],
+        base_only,
+    )  # fmt: skip
+
+
 @njit(cache=True)
 def ym(R, z, a, Y, base_only):
     """Y with Y theta_d = M a (rows 1-3 only if base_only).
@@ -59,28 +84,10 @@ def ym(R, z, a, Y, base_only):
         c0 = 6 * k
         # Phi(beta) columns (xx, xy, xz, yy, yz, zz), mapped by R_k
         _add_st(Y, c0, k, z, Rk[0, 0] * be0, Rk[1, 0] * be0, Rk[2, 0] * be0, base_only)
-        _add_st(
-            Y, c0 + 1, k, z,
-            Rk[0, 0] * be1 + Rk[0, 1] * be0,
-            Rk[1, 0] * be1 + Rk[1, 1] * be0,
-            Rk[2, 0] * be1 + Rk[2, 1] * be0,
-            base_only,
-        )  # fmt: skip
-        _add_st(
-            Y, c0 + 2, k, z,
-            Rk[0, 0] * be2 + Rk[0, 2] * be0,
-            Rk[1, 0] * be2 + Rk[1, 2] * be0,
-            Rk[2, 0] * be2 + Rk[2, 2] * be0,
-            base_only,
-        )  # fmt: skip
+        _add_pair(Y, c0 + 1, k, z, Rk, 0, 1, be0, be1, base_only)
+        _add_pair(Y, c0 + 2, k, z, Rk, 0, 2, be0, be2, base_only)
         _add_st(Y, c0 + 3, k, z, Rk[0, 1] * be1, Rk[1, 1] * be1, Rk[2, 1] * be1, base_only)
-        _add_st(
-            Y, c0 + 4, k, z,
-            Rk[0, 1] * be2 + Rk[0, 2] * be1,
-            Rk[1, 1] * be2 + Rk[1, 2] * be1,
-            Rk[2, 1] * be2 + Rk[2, 2] * be1,
-            base_only,
-        )  # fmt: skip
+        _add_pair(Y, c0 + 4, k, z, Rk, 1, 2, be1, be2, base_only)
         _add_st(Y, c0 + 5, k, z, Rk[0, 2] * be2, Rk[1, 2] * be2, Rk[2, 2] * be2, base_only)
     col = 6 * nb
     Q = np.empty((3, 3), dtype=R.dtype)
@@ -98,20 +105,8 @@ def ym(R, z, a, Y, base_only):
             for i in range(3):
                 for j in range(3):
                     q = Q[i, j]
-                    _add_st(
-                        Y, col, k, z,
-                        q * b[l, 0] - u[i] * Rl[0, j],
-                        q * b[l, 1] - u[i] * Rl[1, j],
-                        q * b[l, 2] - u[i] * Rl[2, j],
-                        base_only,
-                    )  # fmt: skip
-                    _add_st(
-                        Y, col, l, z,
-                        q * b[k, 0] - g[j] * Rk[0, i],
-                        q * b[k, 1] - g[j] * Rk[1, i],
-                        q * b[k, 2] - g[j] * Rk[2, i],
-                        base_only,
-                    )  # fmt: skip
+                    _add_cross(Y, col, k, z, q, b[l], u[i], Rl, j, base_only)
+                    _add_cross(Y, col, l, z, q, b[k], g[j], Rk, i, base_only)
                     col += 1
 
 

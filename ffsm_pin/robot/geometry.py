@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -289,6 +290,11 @@ def _yaw(rotation: np.ndarray) -> float:
     return math.atan2(rotation[1, 0], rotation[0, 0])
 
 
+def _read_only_arrays(**items: Any) -> dict[str, Any]:
+    """The geometry's array fields: each item as a read-only copy (``np.array``)."""
+    return {name: read_only(np.array(value)) for name, value in items.items()}
+
+
 def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: str):
     """:class:`PlanarGeometry` of a chain on a planar root; refuses what is not planar.
 
@@ -353,17 +359,11 @@ def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: 
             f"{source}: end-effector frame {frame.name!r} is tilted out of the plane "
             "(only a yaw is allowed)"
         )
-    return PlanarGeometry(
-        masses=read_only(np.array(masses)),
-        inertias=read_only(np.array(inertias)),
-        coms=read_only(np.array(coms)),
-        child_joints=read_only(np.array(child)),
-        joint_yaws=read_only(np.array(yaws)),
-        axis_signs=read_only(np.array(axis_signs)),
-        ee_body=int(frame.parentJoint) - 1,
-        ee_position=read_only(np.array(frame.placement.translation[:2])),
-        ee_yaw=_yaw(rot),
-    )
+    arrays = _read_only_arrays(
+        masses=masses, inertias=inertias, coms=coms, child_joints=child, joint_yaws=yaws,
+        axis_signs=axis_signs, ee_position=frame.placement.translation[:2],
+    )  # fmt: skip
+    return PlanarGeometry(**arrays, ee_body=int(frame.parentJoint) - 1, ee_yaw=_yaw(rot))
 
 
 def spatial_geometry(
@@ -403,14 +403,9 @@ def spatial_geometry(
     rotations = [np.array(model.jointPlacements[j].rotation) for j in range(2, model.njoints)]
     child = [np.array(model.jointPlacements[j].translation) for j in range(2, model.njoints)]
     frame = model.frames[fid]
-    return SpatialGeometry(
-        masses=read_only(np.array(masses)),
-        inertias=read_only(np.array(inertias)),
-        coms=read_only(np.array(coms)),
-        joint_rotations=read_only(np.array(rotations)),
-        child_joints=read_only(np.array(child)),
-        axes=read_only(np.array(axes)),
-        ee_body=int(frame.parentJoint) - 1,
-        ee_position=read_only(np.array(frame.placement.translation)),
-        ee_rotation=read_only(np.array(frame.placement.rotation)),
-    )
+    arrays = _read_only_arrays(
+        masses=masses, inertias=inertias, coms=coms, joint_rotations=rotations,
+        child_joints=child, axes=axes, ee_position=frame.placement.translation,
+        ee_rotation=frame.placement.rotation,
+    )  # fmt: skip
+    return SpatialGeometry(**arrays, ee_body=int(frame.parentJoint) - 1)

@@ -175,13 +175,13 @@ def _velocities(runs, labels, thresholds) -> Figure:
                 color=_JOINT_COLORS[j % len(_JOINT_COLORS)],
                 linestyle=_RUN_STYLES[k % len(_RUN_STYLES)],
             )
-    axes[0].set_ylabel(r"$w_b$ [rad/s]")
-    axes[1].set_ylabel(r"$|\dot p_e - \dot p_{e,d}|$ [m/s]")
-    axes[2].set_ylabel(r"$\dot q_e - \dot q_{e,d}$ [rad/s or 1/s]")
-    axes[3].set_ylabel(r"$w_m$ [rad/s]")
-    for ax in axes:
-        _mark_stops(ax, runs)
-    _legend(axes[0], loc="upper right", fontsize=8)
+    ylabels = (
+        r"$w_b$ [rad/s]",
+        r"$|\dot p_e - \dot p_{e,d}|$ [m/s]",
+        r"$\dot q_e - \dot q_{e,d}$ [rad/s or 1/s]",
+        r"$w_m$ [rad/s]",
+    )
+    _finish(axes, runs, ylabels, legends=(0,))
     n_m = max(r["w"].shape[1] - _sizes(r)[0] for r in runs)
     handles = [
         Line2D([], [], color=_JOINT_COLORS[j % len(_JOINT_COLORS)], label=f"$w_{{m{j + 1}}}$")
@@ -211,7 +211,6 @@ def _estimation(runs, labels, thresholds) -> Figure:
         axes, ("theta_b_hat", "theta_z_hat", "theta_d_hat", "w_tilde"), strict=False
     ):
         _note_absent(ax, key, runs)
-    axes[0].set_ylabel(r"$|\hat\theta_b - \theta_b|$")
     axes[0].text(
         0.99,
         0.95,
@@ -223,13 +222,14 @@ def _estimation(runs, labels, thresholds) -> Figure:
         color="0.35",
         bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"},
     )
-    axes[1].set_ylabel(r"$|\hat\theta_z - \theta_z|$")
-    axes[2].set_ylabel(r"$|\hat\theta_d - \theta_d|$")
-    axes[3].set_ylabel(r"$|\tilde w|$ [rad/s]")
-    axes[4].set_ylabel(r"$|u_m|$ [N m]")
-    for ax in axes:
-        _mark_stops(ax, runs)
-    _legend(axes[1], loc="upper right", fontsize=8)
+    ylabels = (
+        r"$|\hat\theta_b - \theta_b|$",
+        r"$|\hat\theta_z - \theta_z|$",
+        r"$|\hat\theta_d - \theta_d|$",
+        r"$|\tilde w|$ [rad/s]",
+        r"$|u_m|$ [N m]",
+    )
+    _finish(axes, runs, ylabels, legends=(1,))
     return fig
 
 
@@ -265,13 +265,9 @@ def _torque(runs, labels, thresholds) -> Figure:
             )
             any_damped = True
     _note_absent(axes[1], "sigma_min", runs)
-    axes[0].set_ylabel(r"$F_r$ [N m]")
-    axes[1].set_ylabel(r"$\sigma_{min}(\hat J_m \hat U)$ [m]")
     axes[1].set_ylim(bottom=0)
-    for ax in axes:
-        _mark_stops(ax, runs)
-    _legend(axes[0], loc="upper right", fontsize=8)
-    _legend(axes[1], loc="upper right", fontsize=8)
+    ylabels = (r"$F_r$ [N m]", r"$\sigma_{min}(\hat J_m \hat U)$ [m]")
+    _finish(axes, runs, ylabels, legends=(0, 1))
     return fig
 
 
@@ -328,6 +324,16 @@ def _grid(rows: int, title: str, runs) -> tuple[Figure, list[Axes]]:
     axes[-1].set_xlim(0.0, max(t_end, max(r.duration for r in runs)))
     axes[-1].set_xlabel("t [s]")
     return fig, axes
+
+
+def _finish(axes, runs, ylabels, legends) -> None:
+    """The panels' y labels, the runs' stops on every panel and a legend on the panels
+    ``legends`` (indices)."""
+    for ax, ylabel in zip(axes, ylabels, strict=True):
+        ax.set_ylabel(ylabel)
+        _mark_stops(ax, runs)
+    for i in legends:
+        _legend(axes[i], loc="upper right", fontsize=8)
 
 
 def _legend(ax: Axes, **style) -> None:

@@ -33,7 +33,14 @@ from ..errors import SimulationError
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE, Plant
 from .recorder import Recorder
-from .recording import recorded_signals, recorder_shapes, recording_size, run_result, spool_header
+from .recording import (
+    recorded_signals,
+    recorder_shapes,
+    recording_size,
+    run_result,
+    spool_header,
+    stop_outcome,
+)
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
@@ -159,8 +166,7 @@ def simulate(
     A, A_signals = rec.arrays, rec.block
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
-    completed, stop_reason, stop_time = True, None, None
-    stop_cause = stop_funnel = None
+    stop: SimulationError | None = None  # what stopped the run (None: it completed)
     next_progress = 0.0
     m3, nt, n = model.m3, setup.n_task, model.n_joints
     _first_compile.finish()  # a first run: the second process has the kernels below cached
@@ -251,8 +257,7 @@ def simulate(
                         A_mq_b[0], A_mq_m[0], A_mw[0] = s0.q_b, s0.q_m, s0.w
                         A_mz_e[0], A_mz_e_dot[0] = s0.z_e[:nt], s0.z_e_dot[:nt]
             except SimulationError as exc:
-                completed, stop_reason, stop_time = False, str(exc), exc.time
-                stop_cause, stop_funnel = exc.cause, exc.funnel
+                stop = exc
                 break
             except KeyboardInterrupt:
                 raise
@@ -260,8 +265,7 @@ def simulate(
                 what = str(exc) if isinstance(exc, _ControllerFault) else (
                     f"the controller raised {type(exc).__name__}: {exc}"
                 )  # fmt: skip
-                completed, stop_time, stop_cause = False, t, "controller"
-                stop_reason = f"t = {t:.4f} s: {what}"
+                stop = SimulationError(f"t = {t:.4f} s: {what}", time=t, cause="controller")
                 break
             final = k == n_steps
             u_m = u_cmd
@@ -294,12 +298,12 @@ def simulate(
                                 raise TypeError(str(fault))
                             column[i] = value
                 except (KeyError, ValueError, IndexError, TypeError) as exc:
-                    completed, stop_time, stop_cause = False, t, "controller"
-                    stop_reason = (
+                    stop = SimulationError(
                         f"t = {t:.4f} s: the controller's signals changed after the first "
                         f"period ({type(exc).__name__}: {exc}); each signal needs the same "
-                        "name, shape and type every period"
-                    )
+                        "name, shape and type every period",
+                        time=t, cause="controller",
+                    )  # fmt: skip
                     break
                 A_u_m[i], A_u_cmd[i] = u_m, u_cmd
                 A_dw_b[i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
@@ -308,20 +312,23 @@ def simulate(
                 break
             status = plant.state_status(q_new, v_new, RATE_LIMIT)
             if status == STATE_NONFINITE:
-                completed, stop_time, stop_cause = False, t + dt, "nonfinite"
-                stop_reason = f"t = {t + dt:.4f} s: the plant state became non-finite"
+                stop = SimulationError(
+                    f"t = {t + dt:.4f} s: the plant state became non-finite",
+                    time=t + dt, cause="nonfinite",
+                )  # fmt: skip
                 break
             if status == STATE_BLOW_UP:
-                completed, stop_time, stop_cause = False, t + dt, "nonfinite"
-                stop_reason = (  # (1e4: RATE_LIMIT)
+                stop = SimulationError(  # (1e4: RATE_LIMIT)
                     f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
-                    f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})"
-                )
+                    f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})",
+                    time=t + dt, cause="nonfinite",
+                )  # fmt: skip
                 break
             q, v = q_new, v_new
     except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
-        completed, stop_time, stop_cause = False, k * dt, "interrupted"
-        stop_reason = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
+        stop = SimulationError(
+            f"t = {k * dt:.4f} s: interrupted (Ctrl-C)", time=k * dt, cause="interrupted"
+        )
     signals = recorded_signals(setup, rec.finish(), reaction, plant)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
@@ -331,11 +338,7 @@ def simulate(
         signals,
         steps=k,
         wall_time_s=wall,
-        completed=completed,
-        stop_reason=stop_reason,
-        stop_time=stop_time,
-        stop_cause=stop_cause,
-        stop_funnel=stop_funnel,
+        **stop_outcome(stop),
         events=setup.events + list(getattr(controller, "events", [])),
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
         saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,

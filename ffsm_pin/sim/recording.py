@@ -16,6 +16,7 @@ from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques, rows_beside
 from ..control.interface import recorded_name
 from ..control.kinematic import error_terms
+from ..errors import SimulationError
 from .plant import Plant
 from .recorder import Signals, extend
 from .result import RunResult
@@ -167,6 +168,16 @@ def recorded_signals(
         plant = Plant(setup.robot, integrator=setup.scenario.integrator)
     per_row, truth = _after_run_signals(setup, reaction, plant.momentum_rows)
     return extend(raw, per_row, truth, AFTER_RUN_INPUTS)
+
+
+def stop_outcome(stop: SimulationError | None) -> dict:
+    """The result's fields of a run's stop: ``stop`` the exception the law raised or the one
+    the loop made for its own stops (None: the run completed)."""
+    if stop is None:
+        return dict(completed=True, stop_reason=None, stop_time=None, stop_cause=None,
+                    stop_funnel=None)  # fmt: skip
+    return dict(completed=False, stop_reason=str(stop), stop_time=stop.time,
+                stop_cause=stop.cause, stop_funnel=stop.funnel)  # fmt: skip
 
 
 def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:

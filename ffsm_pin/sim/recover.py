@@ -20,7 +20,7 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import FfsmError, ScenarioError
+from ..errors import FfsmError, ScenarioError, SimulationError
 from .files import pid_alive
 from .recorder import SPOOL_FORMAT, SPOOL_HEADER, SPOOL_PREFIX, Signals
 from .result import RunResult
@@ -82,7 +82,7 @@ def recover(folder: str | Path) -> list[Recovered]:
 
 def _recover(spool: Path) -> Recovered:
     from ..scenario.file import scenario_from_toml
-    from .recording import recorded_signals, run_result
+    from .recording import recorded_signals, run_result, stop_outcome
     from .setup import prepare
 
     try:
@@ -117,11 +117,7 @@ def _recover(spool: Path) -> Recovered:
         signals,
         steps=int(round(t_last / setup.scenario.dt)),
         wall_time_s=0.0,
-        completed=False,
-        stop_reason=reason,
-        stop_time=t_last,
-        stop_cause="recovered",
-        stop_funnel=None,
+        **stop_outcome(SimulationError(reason, time=t_last, cause="recovered")),
         events=list(setup.events),
         saturation_fraction=math.nan,  # counted by the loop, not recorded
     )
