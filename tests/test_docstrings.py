@@ -62,14 +62,32 @@ def _checked() -> Iterator[tuple[str, Callable, type | None]]:
             if inspect.isclass(obj):
                 if obj.__module__ != name:
                     continue
-                for meth_name, meth in vars(obj).items():
-                    if meth_name.startswith("_") and meth_name != "__init__":
-                        continue
-                    func = _python_function(meth)
-                    if func is not None:
-                        yield f"{name}.{attr}.{meth_name}", func, obj
+                yield from _methods(f"{name}.{attr}", obj)
             elif (func := _python_function(obj)) is not None and func.__module__ == name:
                 yield f"{name}.{attr}", func, None
+
+
+def _methods(qualname: str, cls: type) -> Iterator[tuple[str, Callable, type]]:
+    """The public methods (and ``__init__``) of ``cls``, also those it takes from the
+    package's private base classes (as the planar and spatial models' dynamics), each the
+    one a call finds (the first in the MRO)."""
+    seen: set[str] = set()
+    bases = [cls, *(b for b in cls.__mro__[1:] if b.__module__.startswith("ffsm_pin."))]
+    for i, klass in enumerate(bases):
+        private_base = i > 0 and any(
+            p.startswith("_") for p in [*klass.__module__.split(".")[1:], klass.__name__]
+        )
+        if i > 0 and not private_base:
+            continue  # a public base is checked where it is defined
+        for meth_name, meth in vars(klass).items():
+            if meth_name in seen or (meth_name.startswith("_") and meth_name != "__init__"):
+                continue
+            seen.add(meth_name)
+            if i > 0 and meth_name == "__init__":
+                continue
+            func = _python_function(meth)
+            if func is not None:
+                yield f"{qualname}.{meth_name}", func, cls
 
 
 def _all_parameters(func: Callable, cls: type | None) -> list[inspect.Parameter]:

@@ -83,7 +83,19 @@ __all__ = [
 @njit(cache=True, inline="always")
 def measured_kinematics(jr, ax, q_b, q_m, w):
     """(R (n+1, 3, 3), z (n, 3), dq_b/dt of Eq. 1) at the real measurement (q_b, q_m, w): the
-    body rotations, the inertial joint axes and the base attitude's MRP rate."""
+    body rotations, the inertial joint axes and the base attitude's MRP rate.
+
+    Parameters
+    ----------
+    jr, ax : ndarray
+        The spatial model's joint rotations and axes (``SpatialKernelConstants``).
+    q_b : ndarray, shape (3,)
+        Base attitude (MRP).
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    w : ndarray, shape (n + 3,)
+        (w_b inertial, dq_m) [rad/s].
+    """
     n = q_m.size
     R = np.empty((n + 1, 3, 3))
     z = np.empty((n, 3))

@@ -224,12 +224,40 @@ class ResolvedMotionBaseline(CompiledController):
         return drift_bound(self.context, self.theta_z)
 
     def set_gains(self, gains_class: type, derived: Any) -> None:
-        """The gains: ``[controller.params]`` over the ``derived`` ones (:func:`gains_from`)."""
+        """The gains: ``[controller.params]`` over the ``derived`` ones (:func:`gains_from`).
+
+        Parameters
+        ----------
+        gains_class : type
+            The baseline's gains dataclass (``GjmGains``, ``AdaptiveCtGains``).
+        derived : gains_class
+            The gains derived from the scenario (docs/gains.md), overridden key by key.
+        """
         self.gains = gains_class(**gains_from(self.context, derived))
         self._k_z = np.array(self.gains.k_z)
 
     def rates(self, theta_z, theta_b, t, q_b, q_m, z_e) -> ResolvedRates:
-        """:func:`resolved_rates` of this controller at the estimates ``theta_z``, ``theta_b``."""
+        """:func:`resolved_rates` of this controller at the estimates ``theta_z``, ``theta_b``.
+
+        Parameters
+        ----------
+        theta_z, theta_b : ndarray
+            The kinematic (Eq. 4) and momentum (Eq. 14) parameter estimates.
+        t : float or complex
+            Time [s].
+        q_b : float, complex or ndarray
+            Base attitude: planar angle [rad], spatial MRP.
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].
+        z_e : ndarray, shape (n_task,)
+            End-effector pose (or position) as measured.
+
+        Returns
+        -------
+        ResolvedRates
+            The commanded joint rates w_md [rad/s], the base rate they imply, sigma_min [m] of
+            the estimated generalized Jacobian and the damping applied.
+        """
         return resolved_rates(
             self.model, self._momentum, self.reference, theta_z, theta_b, self._k_z,
             self.threshold, self.nt, t, q_b, q_m, z_e,
@@ -237,7 +265,15 @@ class ResolvedMotionBaseline(CompiledController):
 
     def prepare_period(self, gains: tuple, periods: dict) -> None:
         """The compiled period's bundles: the model's constants, ``gains`` (the period's named
-        gains), the reference's arrays, and the period of this geometry from ``periods``."""
+        gains), the reference's arrays, and the period of this geometry from ``periods``.
+
+        Parameters
+        ----------
+        gains : NamedTuple
+            The period's gains bundle (``GjmKernelGains``, ``AdaptiveCtKernelGains``).
+        periods : dict
+            The compiled period per attitude size m3 (1 planar, 3 spatial).
+        """
         self._geo = self.context.model.kernel_constants()
         self._fields = (tuple(gains), tuple(reference_arrays(self.reference)))
         self._period = periods[self.m3]

@@ -27,7 +27,16 @@ from .reference_kernels import ReferenceArrays, reference_at
 def period_bundles(gains_class, gains_f, ref_f, meas_f, est_f):
     """A baseline period's bundles named again from the plain tuples of their fields: the
     gains (as ``gains_class``, the baseline's own), the reference, the measurement and the
-    estimates."""
+    estimates.
+
+    Parameters
+    ----------
+    gains_class : type
+        The baseline's gains bundle (a NamedTuple class).
+    gains_f, ref_f, meas_f, est_f : tuple
+        The fields of the gains, the ``ReferenceArrays``, the ``Measurement`` and the
+        ``Estimates``, as the period takes them from Python.
+    """
     return gains_class(*gains_f), ReferenceArrays(*ref_f), Measurement(*meas_f), Estimates(*est_f)
 
 
