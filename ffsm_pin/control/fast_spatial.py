@@ -89,12 +89,8 @@ def measured_kinematics(jr, ax, q_b, q_m, w):
     ----------
     jr, ax : ndarray
         The spatial model's joint rotations and axes (``SpatialKernelConstants``).
-    q_b : ndarray, shape (3,)
-        Base attitude (MRP).
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    w : ndarray, shape (n + 3,)
-        (w_b inertial, dq_m) [rad/s].
+    q_b, q_m, w : ndarray
+        Base MRP (3,), joint angles (n,) [rad], (w_b inertial, dq_m) (n + 3,) [rad/s].
     """
     n = q_m.size
     R = np.empty((n + 1, 3, 3))
