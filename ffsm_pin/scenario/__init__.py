@@ -5,6 +5,7 @@ Layers inside (imports run downwards only):
 * :mod:`~ffsm_pin.scenario.trajectory`: references from data (samples through a spline,
   rest-to-rest waypoints) as one piecewise-polynomial table;
 * :mod:`~ffsm_pin.scenario.devices`: the ``[actuators]`` and ``[sensors]`` options;
+* :mod:`~ffsm_pin.scenario.target_spec`: the ``[target]`` body (:class:`TargetSpec`);
 * :mod:`~ffsm_pin.scenario.spec`: the scenario's dataclasses (:class:`Scenario`, its robot,
   initial condition, reference, controller and performance specification) with their
   defaults (the lu-jia controller's own parameters are declared by it,
@@ -50,6 +51,7 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
+from .target_spec import TargetSpec
 from .trajectory import ReferenceData
 from .writer import scenario_to_toml
 
@@ -67,6 +69,7 @@ __all__ = [
     "RobotSpec",
     "Scenario",
     "SensorSpec",
+    "TargetSpec",
     "builtin_path",
     "builtin_scenario",
     "check_scenario",

@@ -27,6 +27,7 @@ from .sections import (
     ReferenceModel,
     RobotModel,
     SensorsModel,
+    TargetModel,
 )
 from .spec import (
     ComponentReference,
@@ -39,6 +40,7 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
+from .target_spec import TargetSpec
 from .trajectory import ReferenceData
 
 
@@ -74,6 +76,7 @@ def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
         substeps=m.sim.substeps,
         actuators=_actuators(m.actuators),
         sensors=_sensors(m.sensors),
+        target=_target(m.target),
     )
 
 
@@ -130,6 +133,19 @@ def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
         locked_joints=tuple((k, float(v)) for k, v in r.locked_joints.items()),
         satellite=satellite,
         payload=payload,
+    )
+
+
+def _target(t: TargetModel | None) -> TargetSpec | None:
+    if t is None:
+        return None
+    vectors = ("size", "position", "attitude_rpy", "velocity", "angular_velocity")
+    return TargetSpec(
+        mass=float(t.mass),
+        shape=t.shape,
+        inertia=_vec(t.inertia),
+        origin=t.origin,
+        **{k: _floats(getattr(t, k)) for k in (*vectors, "grasp_xyz", "grasp_rpy")},
     )
 
 

@@ -77,6 +77,7 @@ BUILTIN: dict[str, str] = {
     "spatial-no-attitude": "spatial_no_attitude.toml",
     "spatial-pose": "spatial_pose.toml",
     "spatial-realistic": "spatial_realistic.toml",
+    "target-tumbling": "target_tumbling.toml",
 }
 
 

@@ -29,6 +29,7 @@ from .sections import (
     RobotModel,
     SensorsModel,
     SimModel,
+    TargetModel,
 )
 from .spec import Performance
 
@@ -47,6 +48,7 @@ class ScenarioModel(Table):
     sim: SimModel = SimModel()
     actuators: ActuatorsModel = ActuatorsModel()
     sensors: SensorsModel = SensorsModel()
+    target: TargetModel | None = None  # free-flyer only
 
     @property
     def sizes(self) -> tuple[int, int, int]:
@@ -60,6 +62,8 @@ class ScenarioModel(Table):
         m2, n_b, n_ee = self.sizes
         spatial = self.robot.base == "free-flyer"
         ini, ref = self.initial, self.reference
+        if self.target is not None and not spatial:
+            fail(("target",), ": applies only to robot.base = 'free-flyer' (capture is spatial)")
         # [initial]: base pose and velocities, planar / spatial sizes
         alt = ini.base_attitude_rpy is not None or ini.base_attitude_quaternion is not None
         if not spatial:

@@ -1,11 +1,12 @@
 """The sections of the scenario file (docs/cli.md) as pydantic v2 models.
 
 One model per table (``[robot]``, ``[initial]``, ``[reference]``, ``[controller]`` and its
-subtables, ``[sim]``, ``[actuators]``, ``[sensors]``): its keys (``extra="forbid"``), their
-types (strict: a string is no number, a boolean no integer; an integer is accepted for a
-number), lengths, ranges and choices, and the checks within the table. The whole file, and the
-checks across tables, is :class:`ffsm_pin.scenario.schema.ScenarioModel`. The defaults are read
-from the dataclasses (:mod:`ffsm_pin.scenario.spec`); the value types are those of
+subtables, ``[sim]``, ``[actuators]``, ``[sensors]``, ``[target]``): its keys
+(``extra="forbid"``), their types (strict: a string is no number, a boolean no integer; an
+integer is accepted for a number), lengths, ranges and choices, and the checks within the
+table. The whole file, and the checks across tables, is
+:class:`ffsm_pin.scenario.schema.ScenarioModel`. The defaults are read from the dataclasses
+(:mod:`ffsm_pin.scenario.spec`); the value types are those of
 :mod:`ffsm_pin.scenario.values`.
 """
 
@@ -44,6 +45,7 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
+from .target_spec import TARGET_ORIGINS, TARGET_SHAPES, TargetSpec
 from .values import (
     Fraction,
     NonNeg,
@@ -334,3 +336,55 @@ class SensorsModel(Table):
     seed: Annotated[int, Field(ge=0)] = default(SensorSpec, "seed")
     delay: Annotated[int, Field(ge=0)] = default(SensorSpec, "delay")  # [control periods]
     noise: NoiseModel = NoiseModel()  # per key 0: no noise (SensorSpec.noise lists the others)
+
+
+#: Relative slack of "inside the box" for a grasp frame (one on a face is inside), as
+#: :class:`ffsm_pin.sim.target.Target`'s.
+GRASP_INSIDE_TOL = 1e-9
+
+
+class TargetModel(Table):
+    """``[target]``, :class:`~ffsm_pin.scenario.target_spec.TargetSpec`: a box tumbling
+    torque-free beside a free-flyer robot (docs/capture.md)."""
+
+    shape: Literal[TARGET_SHAPES] = default(TargetSpec, "shape")
+    size: vec(3)  # [m], edges of a box centred on the target frame; each > 0
+    mass: Pos  # [kg]
+    inertia: vec(6) | None = None  # ixx, iyy, izz, ixy, ixz, iyz about its CoM [kg m^2]
+    position: vec(3)  # [m], of the target frame (the box's centre)
+    attitude_rpy: vec(3) = default(TargetSpec, "attitude_rpy")  # [rad]
+    velocity: vec(3) = default(TargetSpec, "velocity")  # [m/s], CoM, world frame
+    angular_velocity: vec(3) = default(TargetSpec, "angular_velocity")  # [rad/s], body frame
+    origin: Literal[TARGET_ORIGINS] = default(TargetSpec, "origin")
+    grasp_xyz: vec(3) = default(TargetSpec, "grasp_xyz")  # [m], target frame
+    grasp_rpy: vec(3) = default(TargetSpec, "grasp_rpy")  # [rad], target frame
+
+    @model_validator(mode="after")
+    def physical(self):
+        """Refuse a box edge <= 0, an inertia no rigid body has and a grasp frame outside
+        the box."""
+        for i, edge in enumerate(self.size):
+            if not edge > 0:
+                fail(("size", i), f" = {edge}: a box edge must be > 0 [m]")
+        xx, yy, zz, xy, xz, yz = self.inertia if self.inertia is not None else self.box_inertia()
+        try:
+            check_inertia(
+                self.mass, np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]), "the target"
+            )
+        except InertiaError as exc:
+            why = str(exc).removeprefix("the target ")
+            fail(("inertia",), f" = {list(self.inertia or [])}: {why}")
+        half = 0.5 * np.array(self.size)
+        if (np.abs(self.grasp_xyz) > half * (1 + GRASP_INSIDE_TOL)).any():
+            fail(
+                ("grasp_xyz",),
+                f" = {list(self.grasp_xyz)} m is outside the target's box "
+                f"(|x|, |y|, |z| <= {half.tolist()} m, target.size / 2)",
+            )
+        return self
+
+    def box_inertia(self) -> list[float]:
+        """The uniform box's ixx, iyy, izz, ixy, ixz, iyz about its centre [kg m^2]."""
+        a, b, c = self.size
+        m = self.mass / 12.0
+        return [m * (b * b + c * c), m * (a * a + c * c), m * (a * a + b * b), 0.0, 0.0, 0.0]

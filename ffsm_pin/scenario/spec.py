@@ -30,6 +30,7 @@ from ..control.gains import SingularityPolicy
 from ..control.lu_jia_params import LuJiaParams
 from ..errors import ParameterError
 from .devices import ActuatorSpec, SensorSpec
+from .target_spec import TargetSpec
 from .trajectory import PiecewisePolynomial, ReferenceData
 
 ESTIMATE_KINDS = ("paper", "true", "perturbed", "explicit")
@@ -95,8 +96,7 @@ ORIGINS = ("absolute", "initial")  # [reference] origin
 
 
 def _after(initial: np.ndarray, relative: np.ndarray) -> np.ndarray:
-    """An attitude ``relative`` to ``initial``: planar angles add; MRPs compose,
-    R(initial) R(relative), returned on the |s| <= 1 branch."""
+    """An attitude ``relative`` to ``initial``: planar angles add; MRPs compose (|s| <= 1)."""
     if initial.size == 1:
         return initial + relative
     return mrp.from_rotation(mrp.to_rotation(initial) @ mrp.to_rotation(relative))
@@ -461,10 +461,8 @@ class Scenario:
         The task and base attitude references.
     controller : ControllerSpec
         Which controller, its parameters and estimates.
-    duration : float
-        The run's horizon [s].
-    dt : float
-        The control period [s].
+    duration, dt : float
+        The run's horizon and the control period [s].
     name : str
         The scenario's name.
     source : Path or None
@@ -481,6 +479,8 @@ class Scenario:
         Between the plant and the controller; exact by default.
     performance : Performance
         What the run is judged by.
+    target : TargetSpec or None
+        ``[target]``, a body tumbling beside a free-flyer robot (docs/capture.md).
     """
 
     robot: RobotSpec
@@ -497,3 +497,4 @@ class Scenario:
     actuators: ActuatorSpec = field(default_factory=ActuatorSpec)  # ideal by default
     sensors: SensorSpec = field(default_factory=SensorSpec)  # exact by default
     performance: Performance = field(default_factory=Performance)  # what the run is judged by
+    target: TargetSpec | None = None  # [target], free-flyer robots only

@@ -19,6 +19,7 @@ from ..control.null_space import NullSpace
 from ..control.registry import resolved_type
 from .devices import ActuatorSpec, SensorSpec
 from .spec import Reference, Scenario
+from .target_spec import TargetSpec
 
 
 def scenario_to_toml(scenario: Scenario) -> str:
@@ -127,7 +128,18 @@ def scenario_to_toml(scenario: Scenario) -> str:
             lines += ["[sensors.noise]"]
             lines += [f"{k} = {_toml(v)}" for k, v in sen.noise]
             lines += [""]
+    if scenario.target is not None:  # (a scenario without one: its text, and case_hash, as before)
+        lines += _target_lines(scenario.target)
     return "\n".join(lines)
+
+
+def _target_lines(target: TargetSpec) -> list[str]:
+    """The [target] table (``inertia`` only when given: else the uniform box's)."""
+    lines = ["[target]", f"shape = {_toml(target.shape)}"]
+    keys = ["size", "mass", "inertia", "position", "attitude_rpy", "velocity"]
+    keys += ["angular_velocity", "origin", "grasp_xyz", "grasp_rpy"]
+    lines += [f"{k} = {_toml(getattr(target, k))}" for k in keys if getattr(target, k) is not None]
+    return [*lines, ""]
 
 
 def _ee_lines(ref: Reference) -> list[str]:

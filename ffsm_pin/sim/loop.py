@@ -44,6 +44,7 @@ from .recording import (
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
+from .target_run import TargetMotion
 
 #: The columns the loop writes at every recorded step (as recorder_shapes), and those of what
 #: the controller saw when there are sensors.
@@ -192,6 +193,9 @@ def simulate(
     no_column = np.empty((0,))  # (what the controller saw: recorded with sensors only)
     A_mq_b, A_mq_m, A_mw, A_mz_e, A_mz_e_dot = (A.get(key, no_column) for key in _SEEN_COLUMNS)
     signal_columns: list[tuple[str, np.ndarray]] = []
+    target = None  # the [target] body, stepped torque-free (sim/target_run.py)
+    if setup.target is not None and setup.target_state is not None:
+        target = TargetMotion(setup.target, setup.target_state)
     wall0 = time.perf_counter()
     k = 0
     try:
@@ -216,6 +220,8 @@ def simulate(
                 if sensors is not None:  # what the controller saw
                     A_mq_b[i], A_mq_m[i], A_mw[i] = seen.q_b, seen.q_m, seen.w
                     A_mz_e[i], A_mz_e_dot[i] = seen.z_e[:nt], seen.z_e_dot[:nt]
+                if target is not None:
+                    target.write(A, i)
             try:
                 u_cmd, signals = split_reply(controller.step(seen))
                 u_cmd = _checked_torque(u_cmd, n)
@@ -256,6 +262,8 @@ def simulate(
                     if sensors is not None:
                         A_mq_b[0], A_mq_m[0], A_mw[0] = s0.q_b, s0.q_m, s0.w
                         A_mz_e[0], A_mz_e_dot[0] = s0.z_e[:nt], s0.z_e_dot[:nt]
+                    if target is not None:
+                        target.write(A, 0)
             except SimulationError as exc:
                 stop = exc
                 break
@@ -274,6 +282,8 @@ def simulate(
                 saturated += actuators.last_saturated
             if not final:
                 q_new, v_new, a = plant.advance(q, v, u_m, dt, sc.substeps)
+                if target is not None:  # torque-free: the robot does not touch it (yet)
+                    target.advance(dt)
             else:
                 a = plant.acceleration(q, v, u_m)
             if record:

@@ -21,6 +21,7 @@ from .plant import Plant
 from .recorder import Signals, extend
 from .result import RunResult
 from .setup import Setup
+from .target_run import TARGET_SIGNALS
 
 
 def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
@@ -46,6 +47,7 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
             "meas_z_e_dot": (nt,),
         }),
         **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
+        **({} if setup.target is None else TARGET_SIGNALS),  # the target's pose and twist
     }  # fmt: skip
 
 
@@ -217,5 +219,6 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         controller=sc.controller.type,
         sigma_measure=measure if isinstance(measure, str) else None,
         estimates=dict(setup.drawn_estimates) or None,
+        target=setup.target,
         **outcome,
     )

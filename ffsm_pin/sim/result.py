@@ -7,12 +7,14 @@ import re
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
 from .recorder import Signals, Thinned, write_npz
+from .target_run import TARGET_SIGNALS, target_summary
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
@@ -135,6 +137,8 @@ class RunResult:
         The same per joint (None: not counted).
     estimates : dict or None
         What the initial estimates were drawn as (``estimates.json``).
+    target : Target or None
+        The ``[target]`` body (:mod:`.target_run`): the summary's ``target_drift_*``.
     """
 
     scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
@@ -164,6 +168,7 @@ class RunResult:
     # per joint: control periods with that joint at its torque limit (None: not counted)
     saturation_per_joint: list[float] | None = None
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
+    target: Any = None  # the [target] body (sim.target.Target), None without one
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -379,6 +384,8 @@ class RunResult:
             "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),
         }
+        if self.target is not None and "target_pose" in s:  # (only runs with a target)
+            out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
         return out
 
     def thinned(self, max_rows: int) -> RunResult:

@@ -4,7 +4,8 @@ The scene: every visual geometry of the URDF (boxes, spheres, cylinders, and the
 meshes it names, embedded in the page; see :mod:`ffsm_pin.sim.meshes`) moved per frame to
 Pinocchio's placement ``oMg`` for the recorded configuration ``q``, a box for a root body
 without visuals (the satellite), the end-effector reference path (green line) with a moving
-target (green sphere), and the end-effector's actual path (red line). Planar robots
+target (green sphere), the end-effector's actual path (red line), and the ``[target]`` body
+of a run that has one (a box at its recorded ``target_pose``). Planar robots
 (``JointModelPlanar`` root) are drawn in the plane z = 0, spatial ones (``JointModelFreeFlyer``
 root, q = x, y, z, qx, qy, qz, qw, joints) in 3-D.
 """
@@ -42,16 +43,20 @@ _REFERENCE_COLOR = 0x22AA44
 _PATH_COLOR = 0xCC2222
 _BASE_RGBA = (0.85, 0.7, 0.25, 1.0)  # gold, like the planar robots' base
 BASE_BOX = "base_box"  # node of the box drawn for a root body without visuals
+TARGET_BOX = "target_box"  # node of the [target] body's box
+_TARGET_RGBA = (0.55, 0.6, 0.7, 1.0)  # grey-blue
 DEFAULT_BASE_SIZE = (0.5, 0.5, 0.5)  # its size when the robot does not give one [m]
 MAX_MESH_MB = 20.0  # mesh data embedded as the files are up to this size [MB], then compacted
 ROOT_JOINT = 1  # Pinocchio index of the floating root joint
 
 __all__ = [
     "BASE_BOX",
+    "TARGET_BOX",
     "ReplayRobot",
     "build_scene",
     "frame_indices",
     "placements",
+    "target_placements",
 ]
 
 
@@ -86,7 +91,9 @@ def build_scene(
     where mesh files are looked for. A root body without visuals of its own is drawn as a box:
     ``.satellite.size`` [m], when present, centred on the root frame (the satellite link),
     else ``base_size`` [m] under it (its top face through the root frame's origin). ``result``
-    needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first).
+    needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first); a
+    result with ``target_pose`` and its ``target`` (a box's ``size``) gets the target's box at
+    its recorded poses.
     When the mesh files together exceed ``max_mesh_mb`` [MB], DAE and OBJ meshes are embedded
     as binary STL in one colour each (:func:`ffsm_pin.sim.meshes.compact_mesh`).
 
@@ -167,6 +174,11 @@ def build_scene(
         poses.append(placements(model, data, gmodel, gdata, q[i]))
         roots.append(data.oMi[ROOT_JOINT].homogeneous @ box_in_root)
 
+    target_size = getattr(getattr(result, "target", None), "size", None)
+    targets = None  # the [target] box's placements [4x4, inertial frame], one per frame
+    if target_size is not None and "target_pose" in result:
+        targets = target_placements(np.asarray(result["target_pose"], dtype=float)[frames])
+        group[TARGET_BOX].set_object(mg.Box(list(target_size)), material(_TARGET_RGBA))
     z_e, z_d = np.asarray(result["z_e"], dtype=float), np.asarray(result["z_e_d"], dtype=float)
     ref_pts, ee_pts = _path_points(z_d, dims, 0.005), _path_points(z_e, dims, 0.0)
     _line(group["reference"]["path"], ref_pts, _REFERENCE_COLOR)
@@ -174,7 +186,10 @@ def build_scene(
     if dims == 2:  # the plane's motion, as seen from above
         center, extent = _center(result, dims), _path_extent(result, dims) + 2.0
     else:  # the paths and every geometry's origin in every frame
-        origins = np.concatenate([np.reshape(poses, (-1, 4, 4)), roots])[:, :3, 3]
+        moving: list[np.ndarray] = [np.reshape(poses, (-1, 4, 4)), np.reshape(roots, (-1, 4, 4))]
+        if targets is not None:  # (the target's path too)
+            moving.append(targets)
+        origins = np.concatenate(moving)[:, :3, 3]
         pts = np.concatenate([ref_pts, ee_pts, origins])
         center = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
         box = float(np.linalg.norm(base_box)) if base_box is not None else 0.0
@@ -199,12 +214,16 @@ def build_scene(
             if base_box is not None:
                 frame["robot"][BASE_BOX].set_transform(roots[k])
             frame["reference"]["target"].set_transform(target)
+            if targets is not None:
+                frame[TARGET_BOX].set_transform(targets[k])
         if k == 0:  # the still picture before the animation starts
             for name, gid in drawn:
                 group["robot"][name].set_transform(poses[k][gid])
             if base_box is not None:
                 group["robot"][BASE_BOX].set_transform(roots[k])
             group["reference"]["target"].set_transform(target)
+            if targets is not None:
+                group[TARGET_BOX].set_transform(targets[k])
 
     _set_camera(vis, extent, dims)
     if own_animation:
@@ -279,6 +298,12 @@ def placements(
     pin.forwardKinematics(model, data, q)
     pin.updateGeometryPlacements(model, data, gmodel, gdata)
     return [m.homogeneous for m in gdata.oMg]
+
+
+def target_placements(pose: np.ndarray) -> np.ndarray:
+    """4x4 placements of the target frame from rows of ``target_pose`` (position [m],
+    quaternion x, y, z, w), shape (rows, 4, 4)."""
+    return np.array([pin.XYZQUATToSE3(row).homogeneous for row in pose]).reshape(-1, 4, 4)
 
 
 def frame_indices(t: np.ndarray, fps: float) -> np.ndarray:

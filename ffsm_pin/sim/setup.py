@@ -44,6 +44,8 @@ from .initial import initial_state
 from .measurement import Sensor
 from .reach import ReachWarning, reach_horizon
 from .sensors import Sensors
+from .target import Target, TargetState
+from .target_run import build_target, check_clear_of_bus
 
 
 @dataclass
@@ -78,6 +80,10 @@ class Setup:
         What the initial estimates were made from (:func:`~.estimates.bodies_record`),
         filled when they are drawn; empty for Table 2, explicit vectors, or estimates never
         read.
+    target : Target or None
+        The ``[target]`` body (:mod:`.target_run`), None without one.
+    target_state : TargetState or None
+        Its state at t = 0 (``origin = "end-effector"`` resolved).
     """
 
     scenario: Scenario
@@ -98,6 +104,8 @@ class Setup:
     # what the initial estimates were made from (sim.estimates.bodies_record), filled when
     # they are drawn; empty for Table 2, explicit vectors, or estimates never read
     drawn_estimates: dict = dataclasses.field(default_factory=dict)
+    target: Target | None = None  # [target], stepped torque-free by the loop
+    target_state: TargetState | None = None  # at t = 0
 
     @property
     def n_task(self) -> int:
@@ -156,6 +164,11 @@ def prepare(scenario: Scenario) -> Setup:
         estimates = _constant(estimates())
     sensor = Sensor(robot, model, full_model=False)
     meas0 = sensor.measure(0.0, q0, v0)
+    target = target_state = None
+    if scenario.target is not None:  # beside the robot at t = 0, clear of the bus
+        target, target_state = build_target(scenario.target, meas0.z_e[: model.m2])
+        bus = getattr(spec.satellite, "size", None)  # [robot.satellite]; else the root origin
+        check_clear_of_bus(target, target_state, robot, q0, bus)
     if ref.origin != "absolute":  # relative to the initial pose: resolved, and saved resolved
         ref = ref.resolved(meas0.z_e, meas0.q_b, model.m2)
         scenario = dataclasses.replace(scenario, reference=ref)
@@ -217,7 +230,7 @@ def prepare(scenario: Scenario) -> Setup:
     return Setup(
         scenario, robot, model, q0, v0, *truth, controller, horizon, events,
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
-        funnels["b"], funnels["z"], drawn,
+        funnels["b"], funnels["z"], drawn, target, target_state,
     )  # fmt: skip
 
 

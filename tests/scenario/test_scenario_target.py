@@ -1,0 +1,138 @@
+"""``[target]`` (issue 40, first slice): its keys, defaults, refusals and the round trip."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from ffsm_pin.errors import ScenarioError
+from ffsm_pin.scenario import TargetSpec
+from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.writer import scenario_to_toml
+
+REALISTIC = builtin_path("spatial-realistic").read_text()
+EVERY_KEY = """
+[target]
+shape = "box"
+size = [0.4, 0.3, 0.25]
+mass = 40.0
+inertia = [0.5, 0.7, 0.9, 0.01, -0.02, 0.03]
+origin = "world"
+position = [2.0, 0.5, -0.3]
+attitude_rpy = [0.1, -0.2, 0.3]
+velocity = [-0.01, 0.002, 0.0]
+angular_velocity = [0.02, 0.05, 0.03]
+grasp_xyz = [-0.2, 0.0, 0.05]
+grasp_rpy = [0.0, 1.5707963267948966, 0.0]
+"""
+MINIMAL = """
+[target]
+size = [0.4, 0.3, 0.3]
+mass = 40.0
+position = [1.5, 0.0, 0.0]
+"""
+
+
+def with_target(table: str, base: str = REALISTIC) -> str:
+    return base + table
+
+
+def test_every_key_is_read():
+    sc = scenario_from_toml(with_target(EVERY_KEY))
+    assert sc.target == TargetSpec(
+        size=(0.4, 0.3, 0.25),
+        mass=40.0,
+        position=(2.0, 0.5, -0.3),
+        inertia=(0.5, 0.7, 0.9, 0.01, -0.02, 0.03),
+        attitude_rpy=(0.1, -0.2, 0.3),
+        velocity=(-0.01, 0.002, 0.0),
+        angular_velocity=(0.02, 0.05, 0.03),
+        grasp_xyz=(-0.2, 0.0, 0.05),
+        grasp_rpy=(0.0, 1.5707963267948966, 0.0),
+    )
+
+
+def test_defaults():
+    t = scenario_from_toml(with_target(MINIMAL)).target
+    assert t is not None
+    assert (t.shape, t.origin, t.inertia) == ("box", "world", None)
+    zero = (0.0, 0.0, 0.0)
+    assert t.attitude_rpy == t.velocity == t.angular_velocity == zero
+    assert t.grasp_xyz == t.grasp_rpy == zero
+    assert scenario_from_toml(REALISTIC).target is None
+
+
+@pytest.mark.parametrize("table", [EVERY_KEY, MINIMAL], ids=["every-key", "minimal"])
+def test_round_trip(table):
+    sc = scenario_from_toml(with_target(table))
+    text = scenario_to_toml(sc)
+    again = scenario_from_toml(text)
+    assert again.target == sc.target
+    assert scenario_to_toml(again) == text
+
+
+def test_text_without_a_target_is_unchanged():
+    """A scenario without [target] writes no [target]: its text (and a campaign's case_hash of
+    it) is what it was; with one, the table is appended after the rest."""
+    sc = scenario_from_toml(with_target(EVERY_KEY))
+    plain = scenario_to_toml(dataclasses.replace(sc, target=None))
+    assert "[target]" not in plain
+    assert "[target]" not in scenario_to_toml(builtin_scenario("spatial-realistic"))
+    full = scenario_to_toml(sc)
+    assert full.startswith(plain) and full[len(plain) :].startswith("\n[target]\n")
+
+
+def test_builtin_target_tumbling_is_spatial_realistic_with_a_target():
+    tt, sr = builtin_scenario("target-tumbling"), builtin_scenario("spatial-realistic")
+    assert tt.target == TargetSpec(
+        size=(0.4, 0.3, 0.3),
+        mass=40.0,
+        position=(1.5, 0.0, 0.0),
+        origin="end-effector",
+        velocity=(-0.01, 0.0, 0.0),
+        angular_velocity=(0.02, 0.05, 0.03),
+        grasp_xyz=(-0.2, 0.0, 0.0),
+    )
+    assert tt.duration == 10.0
+    for field in ("robot", "initial", "reference", "controller", "performance", "actuators"):
+        assert getattr(tt, field) == getattr(sr, field), field
+    assert (tt.sensors, tt.dt, tt.integrator) == (sr.sensors, sr.dt, sr.integrator)
+
+
+BAD = {
+    "shape": ('shape = "ball"', "target.shape = 'ball' unknown; valid choices: 'box'"),
+    "mass": ("mass = 0.0", "target.mass = 0.0: must be > 0"),
+    "size": ("size = [0.4, -0.3, 0.3]", "target.size[1] = -0.3: a box edge must be > 0"),
+    "size-length": ("size = [0.4, 0.3]", "target.size"),
+    "inertia": (
+        "inertia = [1.0, 1.0, 5.0, 0.0, 0.0, 0.0]",
+        "target.inertia = [1.0, 1.0, 5.0, 0.0, 0.0, 0.0]: has principal moments",
+    ),
+    "inertia-definite": ("inertia = [1.0, 1.0, 1.0, 2.0, 0.0, 0.0]", "target.inertia"),
+    "grasp": ("grasp_xyz = [0.25, 0.0, 0.0]", "target.grasp_xyz = [0.25, 0.0, 0.0] m is outside"),
+    "origin": ('origin = "hand"', "valid choices: 'world', 'end-effector'"),
+    "unknown": ("spin = 1.0", "target.spin: unknown key in [target]"),
+    "missing": (None, "target.position"),
+}
+
+
+@pytest.mark.parametrize("what", list(BAD))
+def test_bad_input_is_one_line_naming_the_key(what):
+    line, fragment = BAD[what]
+    table = MINIMAL if line is not None else MINIMAL.replace("position = [1.5, 0.0, 0.0]\n", "")
+    if line is not None:
+        key = line.split(" = ")[0]
+        kept = [x for x in table.splitlines() if not x.startswith(f"{key} = ")]
+        table = "\n".join([*kept, line, ""])
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(with_target(table))
+    msg = str(info.value)
+    assert "\n" not in msg and fragment in msg, msg
+
+
+def test_a_planar_scenario_with_a_target_is_refused():
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(with_target(MINIMAL, builtin_path("case1").read_text()))
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith("target: applies only to robot.base = 'free-flyer'")
