@@ -171,11 +171,11 @@ def _run(args: argparse.Namespace, console: Console) -> int:
     scenarios = [_override(sc, args) for sc in _scenarios(args)]
     if args.check:  # compiles no controller (ffsm_pin.control.compiled.no_warm_up)
         return _check(scenarios)
-    note_compilation(args.quiet)
     setups = []
     for sc in scenarios:  # every bad input before any simulation
         console.context = sc.name if len(scenarios) > 1 else ""
-        setups.append(prepare(sc))
+        # the compiling note comes once every check but the controller's has passed
+        setups.append(prepare(sc, before_controller=lambda: note_compilation(args.quiet)))
         # disk for the recording (spooled rows and trajectory.npz), before any folder is made
         # or anything simulated
         size = recording_size(setups[-1])

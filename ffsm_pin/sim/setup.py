@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,8 +115,23 @@ class Setup:
 
 
 # ---------------------------------------------------------------------- prepare
-def prepare(scenario: Scenario) -> Setup:
-    """Load, validate and build everything for ``scenario``; raise FfsmError on bad input."""
+def prepare(scenario: Scenario, before_controller: Callable[[], None] | None = None) -> Setup:
+    """Load, validate and build everything for ``scenario``; raise FfsmError on bad input.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run to prepare.
+    before_controller : callable or None
+        Called once every check that does not need the controller has passed, right before
+        the controller is built (which compiles its kernels on a cold cache): the command
+        line says there that it compiles, so that bad input stays one line.
+
+    Returns
+    -------
+    Setup
+        Everything a run of ``scenario`` needs (:func:`~ffsm_pin.sim.loop.simulate`).
+    """
     check_scenario(scenario)  # the file's schema, also for a scenario built in Python
     spec = scenario.robot
     spatial = spec.base == "free-flyer"
@@ -211,6 +227,8 @@ def prepare(scenario: Scenario) -> Setup:
         estimates_source=estimates,
         truth=truth,
     )
+    if before_controller is not None:
+        before_controller()
     controller = _build_controller(cls, ctx, ctrl.type)
     events = []
     horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)

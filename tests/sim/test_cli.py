@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import re
 import subprocess
 import sys
@@ -381,3 +382,19 @@ def test_help_names_every_builtin_case():
     aliases = {v: k for k, v in _CASE_ALIASES.items()}
     for name in BUILTIN:
         assert aliases.get(name, name) in text.replace("- ", "-"), name
+
+
+@pytest.mark.parametrize("what", ["initial error outside the funnel", "infeasible robot"])
+def test_bad_input_found_while_preparing_is_one_line_from_a_cold_cache(tmp_path, what):
+    """From an empty numba cache the "compiling" note comes right before the controller is
+    built, after every check that does not need it, so bad input found while the run is
+    prepared is still one line."""
+    make_args, fragment = BAD_INPUTS[what]
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty-cache")}
+    proc = subprocess.run(
+        [sys.executable, "-m", "ffsm_pin.sim", *make_args(tmp_path), "--out", "o"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.splitlines() == [proc.stderr.strip()], proc.stderr
+    assert proc.stderr.startswith("error: ") and fragment in proc.stderr
