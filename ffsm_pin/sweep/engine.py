@@ -39,6 +39,7 @@ from typing import Any
 import dask
 from distributed import Client, LocalCluster, as_completed
 from distributed.diagnostics.plugin import WorkerPlugin
+from distributed.scheduler import KilledWorker
 
 from .cases import Case
 
@@ -256,6 +257,11 @@ def _cost(wall0: float, cpu0: float) -> dict[str, float]:
     return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": time.thread_time() - cpu0}
 
 
+def _keep_dir(keep_runs: Path | None, case: Case) -> str | None:
+    """The run folder a case is kept in (``--keep-runs``), None when runs are not kept."""
+    return None if keep_runs is None else str(keep_runs / f"case-{case.index:05d}")
+
+
 def run_cases(
     client: Client, cases: Iterable[Case], keep_runs: Path | None = None
 ) -> Iterator[tuple[Case, dict[str, Any]]]:
@@ -288,24 +294,38 @@ def run_cases(
     token = uuid.uuid4().hex[:8]
     futures = {}
     for case in cases:
-        keep = None if keep_runs is None else str(keep_runs / f"case-{case.index:05d}")
         fut = client.submit(
             run_case,
             case.scenario_toml,
-            keep,
+            _keep_dir(keep_runs, case),
             key=f"ffsm-case-{case.index}-{case.case_hash}-{token}",
             pure=False,
             retries=1,
         )
         futures[fut.key] = (fut, case)
     pending = set(futures)
+    resubmitted: set[int] = set()
     try:
-        for fut in as_completed([f for f, _ in futures.values()]):
+        completed = as_completed([f for f, _ in futures.values()])
+        for fut in completed:
             case = futures[fut.key][1]
             pending.discard(fut.key)
             try:
                 outcome = fut.result()
-            except Exception as exc:  # noqa: BLE001 - KilledWorker and the like
+            except Exception as exc:  # noqa: BLE001 - the cluster's, not the case's (run_case)
+                if not isinstance(exc, KilledWorker) and case.index not in resubmitted:
+                    # a failure of the cluster's machinery around a worker that died (seen:
+                    # an asyncio object bound to the dead worker's loop): the case once more
+                    resubmitted.add(case.index)
+                    fut.release()
+                    again = client.submit(
+                        run_case, case.scenario_toml, _keep_dir(keep_runs, case),
+                        key=f"{fut.key}-again", pure=False, retries=1,
+                    )  # fmt: skip
+                    futures[again.key] = (again, case)
+                    pending.add(again.key)
+                    completed.add(again)
+                    continue
                 outcome = {"status": "error", "error": f"{type(exc).__name__}: {exc}"}
             fut.release()
             yield case, outcome

@@ -169,6 +169,35 @@ def test_worker_killed_mid_campaign(cluster, campaign_file, tmp_path):
     assert victim not in client.run(os.getpid).values()
 
 
+def test_a_failure_of_the_cluster_around_a_case_runs_it_again(
+    cluster, campaign_file, tmp_path, monkeypatch
+):
+    """An exception from a case's future that is not the case's own (run_case returns those
+    as rows) and not KilledWorker, as an asyncio object bound to a dead worker's loop seen
+    under load in test_worker_killed_mid_campaign: the case is submitted once more and its
+    row is a run, not an error."""
+    from distributed.client import Future
+
+    address, _ = cluster
+    path = campaign_file(SMALL)
+    out = tmp_path / "out"
+    real = Future.result
+    failed: list[str] = []
+
+    def result_failing_once(self, *args, **kwargs):
+        if not failed:
+            failed.append(self.key)
+            raise RuntimeError("<asyncio.locks.Event object> is bound to a different event loop")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Future, "result", result_failing_once)
+    assert sweep(path, out, address) == 0
+    got = rows(out)
+    cases = expand(load_campaign(path))
+    assert failed and sorted(r["case_hash"] for r in got) == sorted(c.case_hash for c in cases)
+    assert all(r["status"] != "error" for r in got), [r["error"] for r in got]
+
+
 def test_a_case_that_raises_is_an_error_row(cluster, campaign_file, tmp_path, capsys):
     """rho_z0 sampled per case: the first case of the grid point passes the set-up check, a
     later one draws a funnel too narrow for the initial error (-0.23, 0.48, 0.07) and its run
