@@ -257,11 +257,6 @@ def _cost(wall0: float, cpu0: float) -> dict[str, float]:
     return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": time.thread_time() - cpu0}
 
 
-def _keep_dir(keep_runs: Path | None, case: Case) -> str | None:
-    """The run folder a case is kept in (``--keep-runs``), None when runs are not kept."""
-    return None if keep_runs is None else str(keep_runs / f"case-{case.index:05d}")
-
-
 def run_cases(
     client: Client, cases: Iterable[Case], keep_runs: Path | None = None
 ) -> Iterator[tuple[Case, dict[str, Any]]]:
@@ -293,17 +288,17 @@ def run_cases(
         client.register_plugin(WarmUp(cases[0].scenario_toml), name=WarmUp.name)
     token = uuid.uuid4().hex[:8]
     futures = {}
-    for case in cases:
-        fut = client.submit(
-            run_case,
-            case.scenario_toml,
-            _keep_dir(keep_runs, case),
-            key=f"ffsm-case-{case.index}-{case.case_hash}-{token}",
-            pure=False,
-            retries=1,
-        )
+    pending = set()
+
+    def submit(case: Case, key: str):
+        keep = None if keep_runs is None else str(keep_runs / f"case-{case.index:05d}")
+        fut = client.submit(run_case, case.scenario_toml, keep, key=key, pure=False, retries=1)
         futures[fut.key] = (fut, case)
-    pending = set(futures)
+        pending.add(fut.key)
+        return fut
+
+    for case in cases:
+        submit(case, f"ffsm-case-{case.index}-{case.case_hash}-{token}")
     resubmitted: set[int] = set()
     try:
         completed = as_completed([f for f, _ in futures.values()])
@@ -318,13 +313,7 @@ def run_cases(
                     # an asyncio object bound to the dead worker's loop): the case once more
                     resubmitted.add(case.index)
                     fut.release()
-                    again = client.submit(
-                        run_case, case.scenario_toml, _keep_dir(keep_runs, case),
-                        key=f"{fut.key}-again", pure=False, retries=1,
-                    )  # fmt: skip
-                    futures[again.key] = (again, case)
-                    pending.add(again.key)
-                    completed.add(again)
+                    completed.add(submit(case, f"{fut.key}-again"))
                     continue
                 outcome = {"status": "error", "error": f"{type(exc).__name__}: {exc}"}
             fut.release()
