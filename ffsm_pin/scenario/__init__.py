@@ -5,7 +5,8 @@ Layers inside (imports run downwards only):
 * :mod:`~ffsm_pin.scenario.trajectory`: references from data (samples through a spline,
   rest-to-rest waypoints) as one piecewise-polynomial table;
 * :mod:`~ffsm_pin.scenario.devices`: the ``[actuators]`` and ``[sensors]`` options;
-* :mod:`~ffsm_pin.scenario.target_spec`: the ``[target]`` body (:class:`TargetSpec`);
+* :mod:`~ffsm_pin.scenario.target_spec`: the ``[target]`` body (:class:`TargetSpec`) and
+  ``[capture]`` (:class:`CaptureSpec`);
 * :mod:`~ffsm_pin.scenario.spec`: the scenario's dataclasses (:class:`Scenario`, its robot,
   initial condition, reference, controller and performance specification) with their
   defaults (the lu-jia controller's own parameters are declared by it,
@@ -51,13 +52,14 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .target_spec import TargetSpec
+from .target_spec import CaptureSpec, TargetSpec
 from .trajectory import ReferenceData
 from .writer import scenario_to_toml
 
 __all__ = [
     "BUILTIN",
     "ActuatorSpec",
+    "CaptureSpec",
     "ComponentReference",
     "ControllerSpec",
     "Estimates",

@@ -22,6 +22,7 @@ from .devices import NOISE_KEYS, ActuatorSpec, SensorSpec
 from .reference_csv import read_reference_csv
 from .sections import (
     ActuatorsModel,
+    CaptureModel,
     ControllerModel,
     InitialModel,
     ReferenceModel,
@@ -40,7 +41,7 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .target_spec import TargetSpec
+from .target_spec import CaptureSpec, TargetSpec
 from .trajectory import ReferenceData
 
 
@@ -76,7 +77,7 @@ def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
         substeps=m.sim.substeps,
         actuators=_actuators(m.actuators),
         sensors=_sensors(m.sensors),
-        target=_target(m.target),
+        target=_target(m.target, m.capture),
     )
 
 
@@ -136,9 +137,14 @@ def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
     )
 
 
-def _target(t: TargetModel | None) -> TargetSpec | None:
+def _target(t: TargetModel | None, c: CaptureModel | None) -> TargetSpec | None:
     if t is None:
         return None
+    capture = None
+    if c is not None:
+        capture = CaptureSpec(
+            float(c.tolerance_position), float(c.tolerance_velocity), estimates=c.estimates
+        )
     vectors = ("size", "position", "attitude_rpy", "velocity", "angular_velocity")
     return TargetSpec(
         mass=float(t.mass),
@@ -146,6 +152,7 @@ def _target(t: TargetModel | None) -> TargetSpec | None:
         inertia=_vec(t.inertia),
         origin=t.origin,
         **{k: _floats(getattr(t, k)) for k in (*vectors, "grasp_xyz", "grasp_rpy")},
+        capture=capture,
     )
 
 

@@ -22,6 +22,7 @@ from ..errors import ScenarioError
 from .sections import (
     TASK_SIZE,
     ActuatorsModel,
+    CaptureModel,
     ControllerModel,
     FunnelModel,
     InitialModel,
@@ -49,6 +50,7 @@ class ScenarioModel(Table):
     actuators: ActuatorsModel = ActuatorsModel()
     sensors: SensorsModel = SensorsModel()
     target: TargetModel | None = None  # free-flyer only
+    capture: CaptureModel | None = None  # with [target] only
 
     @property
     def sizes(self) -> tuple[int, int, int]:
@@ -64,6 +66,8 @@ class ScenarioModel(Table):
         ini, ref = self.initial, self.reference
         if self.target is not None and not spatial:
             fail(("target",), ": applies only to robot.base = 'free-flyer' (capture is spatial)")
+        if self.capture is not None and self.target is None:
+            fail(("capture",), ": needs a [target] table (the body the hand grasps)")
         # [initial]: base pose and velocities, planar / spatial sizes
         alt = ini.base_attitude_rpy is not None or ini.base_attitude_quaternion is not None
         if not spatial:

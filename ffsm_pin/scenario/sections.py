@@ -1,7 +1,7 @@
 """The sections of the scenario file (docs/cli.md) as pydantic v2 models.
 
 One model per table (``[robot]``, ``[initial]``, ``[reference]``, ``[controller]`` and its
-subtables, ``[sim]``, ``[actuators]``, ``[sensors]``, ``[target]``): its keys
+subtables, ``[sim]``, ``[actuators]``, ``[sensors]``, ``[target]``, ``[capture]``): its keys
 (``extra="forbid"``), their types (strict: a string is no number, a boolean no integer; an
 integer is accepted for a number), lengths, ranges and choices, and the checks within the
 table. The whole file, and the checks across tables, is
@@ -45,7 +45,7 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .target_spec import TARGET_ORIGINS, TARGET_SHAPES, TargetSpec
+from .target_spec import CAPTURE_ESTIMATES, TARGET_ORIGINS, TARGET_SHAPES, CaptureSpec, TargetSpec
 from .values import (
     Fraction,
     NonNeg,
@@ -388,3 +388,12 @@ class TargetModel(Table):
         a, b, c = self.size
         m = self.mass / 12.0
         return [m * (b * b + c * c), m * (a * a + c * c), m * (a * a + b * b), 0.0, 0.0, 0.0]
+
+
+class CaptureModel(Table):
+    """``[capture]``, :class:`~ffsm_pin.scenario.target_spec.CaptureSpec`: when the hand
+    grasps the ``[target]`` (docs/capture.md)."""
+
+    tolerance_position: Pos  # [m]
+    tolerance_velocity: Pos  # [m/s]
+    estimates: Literal[CAPTURE_ESTIMATES] = default(CaptureSpec, "estimates")

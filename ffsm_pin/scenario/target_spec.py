@@ -1,7 +1,9 @@
-"""``[target]``: a rigid body beside a free-flyer robot, tumbling torque-free (issue 40).
+"""``[target]``: a rigid body beside a free-flyer robot, tumbling torque-free, and
+``[capture]``: when the hand grasps it (issue 40).
 
 The run builds it as a :class:`ffsm_pin.sim.target.Target` box and its initial
-:class:`~ffsm_pin.sim.target.TargetState` (:mod:`ffsm_pin.sim.target_run`); docs/capture.md.
+:class:`~ffsm_pin.sim.target.TargetState` (:mod:`ffsm_pin.sim.target_run`); with
+``[capture]`` the loop grasps it (:mod:`ffsm_pin.sim.capture_run`); docs/capture.md.
 """
 
 from __future__ import annotations
@@ -13,6 +15,29 @@ TARGET_SHAPES = ("box",)
 #: What ``[target] position`` is relative to: the world origin, or the end effector's
 #: position at t = 0 (world axes).
 TARGET_ORIGINS = ("world", "end-effector")
+#: What the controller is told of the target after capture (``[capture] estimates``).
+CAPTURE_ESTIMATES = ("unknown", "perturbed", "true")
+
+
+@dataclass(frozen=True)
+class CaptureSpec:
+    """``[capture]``: the hand grasps the target when the two grasp frames are within the
+    tolerances (checked once per control period on the true state; docs/capture.md).
+
+    Attributes
+    ----------
+    tolerance_position : float
+        Largest distance between the hand's and the target's grasp frame origins [m], > 0.
+    tolerance_velocity : float
+        Largest relative speed of the two bodies at the hand's grasp point [m/s], > 0.
+    estimates : str
+        What the controller knows of the target after capture (:data:`CAPTURE_ESTIMATES`):
+        ``"unknown"`` (not told), ``"perturbed"`` or ``"true"``.
+    """
+
+    tolerance_position: float
+    tolerance_velocity: float
+    estimates: str = "unknown"
 
 
 @dataclass(frozen=True)
@@ -43,6 +68,8 @@ class TargetSpec:
         ``"world"`` or ``"end-effector"`` (:data:`TARGET_ORIGINS`).
     grasp_xyz, grasp_rpy : tuple of float
         The grasp frame in the target frame [m], [rad]; inside the box.
+    capture : CaptureSpec or None
+        The file's ``[capture]`` table (None: the robot never grasps the target).
     """
 
     size: tuple[float, ...]
@@ -56,3 +83,4 @@ class TargetSpec:
     origin: str = "world"
     grasp_xyz: tuple[float, ...] = (0.0, 0.0, 0.0)
     grasp_rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
+    capture: CaptureSpec | None = None

@@ -139,7 +139,13 @@ def _target_lines(target: TargetSpec) -> list[str]:
     keys = ["size", "mass", "inertia", "position", "attitude_rpy", "velocity"]
     keys += ["angular_velocity", "origin", "grasp_xyz", "grasp_rpy"]
     lines += [f"{k} = {_toml(getattr(target, k))}" for k in keys if getattr(target, k) is not None]
-    return [*lines, ""]
+    lines.append("")
+    c = target.capture
+    if c is not None:  # [capture] belongs to the target: written after it, only when given
+        lines += ["[capture]", f"tolerance_position = {_toml(c.tolerance_position)}"]
+        lines += [f"tolerance_velocity = {_toml(c.tolerance_velocity)}"]
+        lines += [f"estimates = {_toml(c.estimates)}", ""]
+    return lines
 
 
 def _ee_lines(ref: Reference) -> list[str]:
