@@ -78,6 +78,7 @@ BUILTIN: dict[str, str] = {
     "spatial-pose": "spatial_pose.toml",
     "spatial-realistic": "spatial_realistic.toml",
     "target-tumbling": "target_tumbling.toml",
+    "capture": "capture.toml",
 }
 
 

@@ -30,6 +30,7 @@ from ..control.interface import (
     split_reply,
 )
 from ..errors import SimulationError
+from .capture_run import target_motions
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE, Plant
 from .recorder import Recorder
@@ -44,7 +45,6 @@ from .recording import (
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
-from .target_run import TargetMotion
 
 #: The columns the loop writes at every recorded step (as recorder_shapes), and those of what
 #: the controller saw when there are sensors.
@@ -193,14 +193,16 @@ def simulate(
     no_column = np.empty((0,))  # (what the controller saw: recorded with sensors only)
     A_mq_b, A_mq_m, A_mw, A_mz_e, A_mz_e_dot = (A.get(key, no_column) for key in _SEEN_COLUMNS)
     signal_columns: list[tuple[str, np.ndarray]] = []
-    target = None  # the [target] body, stepped torque-free (sim/target_run.py)
-    if setup.target is not None and setup.target_state is not None:
-        target = TargetMotion(setup.target, setup.target_state)
+    # the [target] body stepped torque-free (sim/target_run.py); with [capture], the hook
+    # that grasps it and swaps the plant for the merged robot's (sim/capture_run.py)
+    target, capture = target_motions(setup)
     wall0 = time.perf_counter()
     k = 0
     try:
         for k in range(n_steps + 1):
             t = k * dt
+            if capture is not None:  # grasp on the true state; then the merged robot's plant
+                plant, sensor, v = capture.at_period(t, q, v, plant, sensor)
             if progress is not None and t >= next_progress:
                 progress(t)
                 next_progress += 0.1
@@ -339,7 +341,8 @@ def simulate(
         stop = SimulationError(
             f"t = {k * dt:.4f} s: interrupted (Ctrl-C)", time=k * dt, cause="interrupted"
         )
-    signals = recorded_signals(setup, rec.finish(), reaction, plant)
+    momentum = None if capture is None else capture.momentum_rows  # the whole system's
+    signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))
@@ -352,4 +355,5 @@ def simulate(
         events=setup.events + list(getattr(controller, "events", [])),
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
         saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
+        capture=None if capture is None else capture.outcome,
     )

@@ -8,7 +8,7 @@ states (funnels, reference, errors, momentum, F_r: :func:`recorded_signals`) and
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -95,7 +95,7 @@ AFTER_RUN_INPUTS = ("t", "q_b", "z_e", "q", "v", "w", "dw_b")
 def _after_run_signals(
     setup: Setup,
     reaction: Callable[..., np.ndarray],
-    momentum: Callable[[np.ndarray, np.ndarray], tuple],
+    momentum: Callable[[Mapping[str, np.ndarray]], tuple],
 ):
     """The recorded signals computed after the run, a block of rows at a time, from the
     recorded t, q_b and z_e: funnels and their bounds, the reference, and the true task errors
@@ -105,7 +105,9 @@ def _after_run_signals(
     centroidal momentum, independent of the plant's projection); from the recorded q_b, q, w
     and the base's angular acceleration dw_b: the reaction torque F_r of Eq. (7) with the true
     model (``reaction``: :func:`~ffsm_pin.control.diagnostics.reaction_torques`, on pieces of
-    the rows beside the rest, :func:`~ffsm_pin.control.diagnostics.rows_beside`)."""
+    the rows beside the rest, :func:`~ffsm_pin.control.diagnostics.rows_beside`). ``momentum``
+    reads a block of rows (a run with ``[capture]``: the whole system's,
+    :meth:`~ffsm_pin.sim.capture_run.CaptureMotion.momentum_rows`)."""
     ref = setup.scenario.reference
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
@@ -132,7 +134,7 @@ def _after_run_signals(
             out[f"bound_{name}_upper"] = funnel.upper * rho
         out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
         out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
-        out["P"], out["L"] = momentum(block["q"], block["v"])
+        out["P"], out["L"] = momentum(block)
         return out
 
     truth = {"theta_z": setup.theta_z, "theta_d": setup.theta_d, "theta_b": setup.theta_b}
@@ -140,7 +142,11 @@ def _after_run_signals(
 
 
 def recorded_signals(
-    setup: Setup, raw: Signals, reaction: Callable[..., np.ndarray] | None = None, plant=None
+    setup: Setup,
+    raw: Signals,
+    reaction: Callable[..., np.ndarray] | None = None,
+    plant=None,
+    momentum: Callable[[Mapping[str, np.ndarray]], tuple] | None = None,
 ) -> Signals:
     """The recorded per-step rows ``raw`` with the signals computed after the run (funnels,
     reference, errors, momentum, F_r: :func:`_after_run_signals`) and the true parameters.
@@ -158,6 +164,9 @@ def recorded_signals(
         The run's F_r pass (:func:`~ffsm_pin.control.diagnostics.reaction_torques`).
     plant : Plant or None
         The run's plant.
+    momentum : callable or None
+        (P, L) of a block of recorded rows; None: the plant's
+        (:meth:`~ffsm_pin.sim.plant.Plant.momentum_rows` of ``q``, ``v``).
 
     Returns
     -------
@@ -168,8 +177,14 @@ def recorded_signals(
         reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
     if plant is None:
         plant = Plant(setup.robot, integrator=setup.scenario.integrator)
-    per_row, truth = _after_run_signals(setup, reaction, plant.momentum_rows)
-    return extend(raw, per_row, truth, AFTER_RUN_INPUTS)
+    inputs = AFTER_RUN_INPUTS
+    if momentum is None:
+        rows = plant.momentum_rows
+        momentum = lambda block: rows(block["q"], block["v"])  # noqa: E731
+    else:  # (a run with [capture]: the target's rows too)
+        inputs = (*inputs, *TARGET_SIGNALS)
+    per_row, truth = _after_run_signals(setup, reaction, momentum)
+    return extend(raw, per_row, truth, inputs)
 
 
 def stop_outcome(stop: SimulationError | None) -> dict:
@@ -185,7 +200,7 @@ def stop_outcome(stop: SimulationError | None) -> dict:
 def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
     """The :class:`RunResult` of a run of ``setup`` with the recorded ``signals``;
     ``outcome``: the fields the run decided (steps, wall time, completion and stop, events,
-    saturation).
+    saturation, capture).
 
     Parameters
     ----------

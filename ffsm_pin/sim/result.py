@@ -139,6 +139,8 @@ class RunResult:
         What the initial estimates were drawn as (``estimates.json``).
     target : Target or None
         The ``[target]`` body (:mod:`.target_run`): the summary's ``target_drift_*``.
+    capture : CaptureOutcome or None
+        With ``[capture]`` (:mod:`.capture_run`): the summary's ``captured``, ``capture_time``...
     """
 
     scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
@@ -162,13 +164,12 @@ class RunResult:
     damping_threshold: float | None = None  # sigma_min below which DLS is active [m]
     description: str = ""
     controller: str = DEFAULT_TYPE  # the controller type ([controller] type)
-    # what the controller's sigma_min is the smallest singular value of (its sigma_measure)
     sigma_measure: str | None = None
     saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
-    # per joint: control periods with that joint at its torque limit (None: not counted)
     saturation_per_joint: list[float] | None = None
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     target: Any = None  # the [target] body (sim.target.Target), None without one
+    capture: Any = None  # the capture's outcome (sim.capture_run.CaptureOutcome) or None
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -177,7 +178,6 @@ class RunResult:
     def __contains__(self, key: object) -> bool:
         return key in self.signals
 
-    # ---------------------------------------------------------------- checks
     @property
     def funnel_inside_b(self) -> np.ndarray:
         """Per sample: every attitude error component strictly inside Eq. (16)."""
@@ -386,7 +386,7 @@ class RunResult:
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
             out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
-        return out
+        return out if self.capture is None else {**out, **self.capture.summary()}
 
     def thinned(self, max_rows: int) -> RunResult:
         """The result with at most about ``max_rows`` evenly spaced rows (and the last one)

@@ -1,0 +1,243 @@
+"""Capture in the loop (issue 40, second slice): with ``[capture]`` the hand grasps the
+``[target]`` when the two grasp frames are within the tolerances, and the run goes on with
+the merged robot.
+
+:class:`CaptureMotion` is the loop's hook (:mod:`.loop`): it steps the target with the plant
+(its substeps), checks the capture condition once per control period on the TRUE state
+(:meth:`~.impact.CaptureModel.ready`) and, at capture, applies the weld impact
+(:func:`~.impact.impact`), merges the target into the robot
+(:func:`~.impact.merge_after_capture`) and hands the loop a new :class:`~.plant.Plant` for the
+merged robot. After capture the target's recorded pose and twist are those of the held body.
+:meth:`CaptureMotion.momentum_rows` gives the recorded momentum of the whole system: robot and
+target before capture, the merged robot after. :class:`CaptureOutcome` is what the summary
+says of the capture. The controller keeps its own model and estimates (docs/capture.md, "The
+capture in a run").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..scenario.target_spec import CaptureSpec
+from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merge_after_capture
+from .measurement import Sensor
+from .plant import Plant
+from .setup import Setup
+from .target import Target, TargetState, torque_free_step
+from .target_run import TargetMotion
+
+#: The summary's keys of a run with ``[capture]`` (and a campaign's results columns).
+CAPTURE_KEYS = (
+    "captured",
+    "capture_time",
+    "impact_impulse",
+    "relative_speed_at_capture",
+    "impact_energy_lost",
+)
+
+
+@dataclass(frozen=True)
+class CaptureOutcome:
+    """What happened to the target: captured or not, when, and the impact.
+
+    Attributes
+    ----------
+    captured : bool
+        The hand grasped the target during the run.
+    time : float or None
+        When [s] (the first control period at which the condition held).
+    impulse : tuple of float or None
+        The impulse on the hand at its grasp frame, its axes: [N s] linear, [N m s] angular.
+    relative_speed : float or None
+        The relative speed of the two bodies at the hand's grasp point just before [m/s].
+    distance : float or None
+        The distance between the two grasp frames' origins then [m].
+    energy_lost : float or None
+        The kinetic energy the plastic impact took [J].
+    """
+
+    captured: bool = False
+    time: float | None = None
+    impulse: tuple[float, ...] | None = None
+    relative_speed: float | None = None
+    distance: float | None = None
+    energy_lost: float | None = None
+
+    def summary(self) -> dict:
+        """The summary.json keys (:data:`CAPTURE_KEYS`).
+
+        Returns
+        -------
+        dict
+            ``captured``, ``capture_time`` [s], ``impact_impulse`` (6 values, [N s], [N m s]),
+            ``relative_speed_at_capture`` [m/s], ``impact_energy_lost`` [J]; None but
+            ``captured`` without a capture.
+        """
+        return {
+            "captured": self.captured,
+            "capture_time": self.time,
+            "impact_impulse": None if self.impulse is None else list(self.impulse),
+            "relative_speed_at_capture": self.relative_speed,
+            "impact_energy_lost": self.energy_lost,
+        }
+
+
+class CaptureMotion(TargetMotion):
+    """The target over a run with ``[capture]``: free until the hand grasps it, then held.
+
+    Parameters
+    ----------
+    target : Target
+        The body.
+    state : TargetState
+        Its state at t = 0.
+    robot : Robot
+        The plant's robot (free-flyer root).
+    spec : CaptureSpec
+        The ``[capture]`` table.
+    substeps : int
+        Plant steps per control period: the target is stepped as often.
+    """
+
+    def __init__(
+        self, target: Target, state: TargetState, robot, spec: CaptureSpec, substeps: int = 1
+    ) -> None:
+        super().__init__(target, state)
+        self.capture: CaptureModel = capture_model(robot, target)
+        self.tolerances = CaptureTolerances(spec.tolerance_position, spec.tolerance_velocity)
+        self.estimates = spec.estimates
+        self.substeps = max(1, int(substeps))
+        self.outcome = CaptureOutcome()
+        self.plant: Plant | None = None  # the merged robot's, after capture
+        self._held: pin.SE3 | None = None  # the target frame in the end-effector frame
+
+    def advance(self, dt: float) -> None:
+        """Step the free target ``dt`` [s] in the plant's substeps (held: nothing to do, its
+        state follows the hand, :meth:`at_period`)."""
+        if self.plant is None:
+            h = dt / self.substeps
+            for _ in range(self.substeps):
+                self.state = torque_free_step(self.target, self.state, h, self.momentum)
+
+    def at_period(self, t: float, q, v, plant: Plant, sensor: Sensor):
+        """The hook of each control period, before the measurement: grasp when the true
+        state meets the tolerances; once held, the target's state from the hand's.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        q, v : ndarray
+            The robot's true state (Pinocchio convention).
+        plant : Plant
+            The loop's plant.
+        sensor : Sensor
+            The loop's sensor.
+
+        Returns
+        -------
+        plant : Plant
+            The plant to go on with (the merged robot's from the capture on).
+        sensor : Sensor
+            The sensor to go on with (the merged robot's with ``estimates = "true"``).
+        v : ndarray
+            The robot's velocity (after the impact at capture).
+        """
+        if self.plant is not None:
+            self.state = self._held_state(q, v)
+            return plant, sensor, v
+        cap = self.capture
+        qc, vc = cap.configuration(q, self.state), cap.velocity(v, self.state)
+        if not cap.ready(qc, vc, self.tolerances):
+            return plant, sensor, v
+        distance, speed = cap.relative_motion(qc, vc)
+        hit = impact(cap, qc, vc)
+        known = self.estimates != "unknown"
+        robot, q_new, v_new = merge_after_capture(cap, qc, hit.v, known=known)
+        self.plant = Plant(robot, integrator=plant.integrator,
+                           project_momentum=plant.project_momentum)  # fmt: skip
+        self.plant.reset(q_new, v_new)  # the merged system's momentum, kept from now on
+        data = cap.model.createData()
+        pin.framesForwardKinematics(cap.model, data, qc)
+        self._held = data.oMf[cap.robot.ee_frame_id].actInv(data.oMi[cap.target_joint])
+        self.state = cap.target_state(qc, hit.v)
+        self.outcome = CaptureOutcome(
+            True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
+            float(hit.energy_loss),
+        )  # fmt: skip
+        if self.estimates == "true":  # a controller measuring M, h sees the merged robot's
+            sensor = Sensor(robot, sensor.model, full_model=sensor.full_model)
+        return self.plant, sensor, v_new
+
+    def _held_state(self, q, v) -> TargetState:
+        """The held target's state from the merged robot's (q, v)."""
+        assert self.plant is not None and self._held is not None
+        model, data = self.plant.model, self.plant.data
+        fid = self.plant.robot.ee_frame_id
+        pin.forwardKinematics(model, data, q, v)
+        oMe = pin.updateFramePlacement(model, data, fid)
+        twist = self._held.actInv(pin.getFrameVelocity(model, data, fid, pin.LOCAL))
+        q_t = pin.SE3ToXYZQUAT(oMe * self._held)
+        return TargetState.from_pinocchio(self.target, q_t, twist.vector)
+
+    def momentum_rows(self, block: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The whole system's (P, L) on recorded rows: before the capture the combined
+        model's centroidal momentum of robot and target (from ``q``, ``v``, ``target_pose``,
+        ``target_twist``), from it on the merged robot's (:meth:`Plant.momentum_rows`).
+
+        Parameters
+        ----------
+        block : mapping of str to ndarray
+            Rows of ``t``, ``q``, ``v``, ``target_pose`` and ``target_twist``.
+
+        Returns
+        -------
+        P : ndarray, shape (rows, 3)
+            Linear momentum, world frame [kg m/s].
+        L : ndarray, shape (rows, 3)
+            Angular momentum about the system CoM, world frame [kg m^2/s].
+        """
+        t, q, v = block["t"], block["q"], block["v"]
+        n = len(t)
+        P, L = np.zeros((n, 3)), np.zeros((n, 3))
+        held = np.zeros(n, dtype=bool)
+        if self.plant is not None and self.outcome.time is not None:
+            held = t >= self.outcome.time  # (the row at capture: the state after the impact)
+            if held.any():
+                P[held], L[held] = self.plant.momentum_rows(q[held], v[held])
+        cap = self.capture
+        for i in np.flatnonzero(~held):
+            pose, twist = block["target_pose"][i], block["target_twist"][i]
+            state = TargetState(pin.XYZQUATToSE3(pose), twist[:3], twist[3:])
+            h = cap.momentum(cap.configuration(q[i], state), cap.velocity(v[i], state))
+            P[i], L[i] = h[:3], h[3:]
+        return P, L
+
+
+def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | None]:
+    """The loop's target: None without ``[target]``; a :class:`CaptureMotion` (returned
+    twice: it is also the capture hook) with ``[capture]``; else a :class:`TargetMotion`.
+
+    Parameters
+    ----------
+    setup : Setup
+        The prepared run.
+
+    Returns
+    -------
+    target : TargetMotion or None
+        What the loop steps and records.
+    capture : CaptureMotion or None
+        The capture hook, None without ``[capture]``.
+    """
+    spec, sc = setup.scenario.target, setup.scenario
+    if setup.target is None or setup.target_state is None or spec is None:
+        return None, None
+    if spec.capture is None:
+        return TargetMotion(setup.target, setup.target_state), None
+    motion = CaptureMotion(setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps)
+    return motion, motion
