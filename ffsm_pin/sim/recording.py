@@ -177,7 +177,7 @@ def recorded_signals(
         reaction = reaction_torques(setup.model, setup.theta_d, numba_available())
     if plant is None:
         plant = Plant(setup.robot, integrator=setup.scenario.integrator)
-    inputs = AFTER_RUN_INPUTS
+    inputs: tuple[str, ...] = AFTER_RUN_INPUTS
     if momentum is None:
         rows = plant.momentum_rows
         momentum = lambda block: rows(block["q"], block["v"])  # noqa: E731
