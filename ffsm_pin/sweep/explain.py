@@ -11,7 +11,8 @@ why and how a run failed (docs/campaigns.md, "Output folder").
   evaluated on the rows kept for ``signals.parquet`` (at most :data:`MAX_ROWS`, evenly spaced,
   first and last included), not on every recorded row, which keeps it cheap: the minimum
   over those rows is an upper bound of the minimum over the run;
-* the decimated signals of :data:`SIGNAL_KEYS` on those rows (``signals.parquet``).
+* the decimated signals of :data:`SIGNAL_KEYS` on those rows (``signals.parquet``);
+* ``impact_impulse``: a run with ``[capture]``: the summary's six values (docs/capture.md).
 """
 
 from __future__ import annotations
@@ -140,4 +141,7 @@ def case_extras(setup, result, summary: dict[str, Any]) -> dict[str, Any]:
         "joint_torque_limits": limits,
         "min_sigma_gjm": min_sigma_gjm(setup, s, rows),
         SIGNALS: kept,
+        **(
+            {} if "impact_impulse" not in summary else {"impact_impulse": summary["impact_impulse"]}
+        ),
     }

@@ -90,6 +90,14 @@ SUMMARY_TYPES = {
     "case_cpu_s": pa.float64(),
 }
 TAIL = {"scenario_toml": pa.string()}
+# Columns of some runs only (a scenario with [capture], docs/capture.md), typed when present.
+OPTIONAL_TYPES = {
+    "captured": pa.bool_(),
+    "capture_time": pa.float64(),  # [s]
+    "impact_impulse": pa.list_(pa.float64()),  # [N s] x 3, [N m s] x 3
+    "relative_speed_at_capture": pa.float64(),  # [m/s]
+    "impact_energy_lost": pa.float64(),  # [J]
+}
 
 
 def case_columns(case: Case) -> dict[str, Any]:
@@ -200,7 +208,7 @@ class ResultsTable:
         arrays, fields = [], []
         for name in names:
             values = [row.get(name) for row in rows]
-            typ = {**known, **TAIL}.get(name) or _infer(values)
+            typ = {**known, **TAIL, **OPTIONAL_TYPES}.get(name) or _infer(values)
             arrays.append(pa.array(values, type=typ))
             fields.append(pa.field(name, typ))
         return pa.Table.from_arrays(arrays, schema=pa.schema(fields))

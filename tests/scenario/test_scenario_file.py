@@ -45,8 +45,8 @@ def refused(d: dict, *fragments: str) -> str:
 
 
 # ------------------------------------------------------------------------------ built-ins
-# (the spatial built-ins, and 'target-tumbling' on the spatial-realistic robot)
-PLANAR_BUILTIN = sorted(n for n in BUILTIN if not n.startswith(("spatial", "target")))
+# (not the free-flyer built-ins: the spatial ones, target-tumbling and capture)
+PLANAR_BUILTIN = sorted(n for n in BUILTIN if builtin_scenario(n).robot.base == "planar")
 
 
 @pytest.mark.parametrize("name", PLANAR_BUILTIN)

@@ -7,7 +7,7 @@ import dataclasses
 import pytest
 
 from ffsm_pin.errors import ScenarioError
-from ffsm_pin.scenario import TargetSpec
+from ffsm_pin.scenario import CaptureSpec, TargetSpec
 from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
 from ffsm_pin.scenario.writer import scenario_to_toml
 
@@ -136,3 +136,64 @@ def test_a_planar_scenario_with_a_target_is_refused():
         scenario_from_toml(with_target(MINIMAL, builtin_path("case1").read_text()))
     msg = str(info.value)
     assert "\n" not in msg and msg.startswith("target: applies only to robot.base = 'free-flyer'")
+
+
+# ------------------------------------------------------------------------------ [capture]
+CAPTURE = """
+[capture]
+tolerance_position = 0.01
+tolerance_velocity = 0.05
+"""
+
+
+def test_capture_keys_are_read_and_written_back():
+    sc = scenario_from_toml(with_target(MINIMAL + CAPTURE + 'estimates = "true"\n'))
+    assert sc.target is not None
+    assert sc.target.capture == CaptureSpec(0.01, 0.05, estimates="true")
+    assert scenario_from_toml(scenario_to_toml(sc)) == sc
+    default = scenario_from_toml(with_target(MINIMAL + CAPTURE)).target
+    assert default is not None and default.capture is not None
+    assert default.capture.estimates == "unknown"
+
+
+BAD_CAPTURE = {
+    "position-zero": ("tolerance_position = 0.0", "capture.tolerance_position = 0.0: must be > 0"),
+    "position-negative": (
+        "tolerance_position = -0.01",
+        "capture.tolerance_position = -0.01: must be > 0",
+    ),
+    "velocity-zero": ("tolerance_velocity = 0", "capture.tolerance_velocity = 0: must be > 0"),
+    "velocity-inf": ("tolerance_velocity = inf", "capture.tolerance_velocity"),
+    "estimates": (
+        'estimates = "exact"',
+        "capture.estimates = 'exact' unknown; valid choices: 'unknown', 'perturbed', 'true'",
+    ),
+    "unknown": ("tolerance = 0.01", "capture.tolerance: unknown key in [capture]"),
+}
+
+
+@pytest.mark.parametrize("what", list(BAD_CAPTURE))
+def test_bad_capture_input_is_one_line_naming_the_key(what):
+    line, fragment = BAD_CAPTURE[what]
+    key = line.split(" = ")[0]
+    kept = [x for x in CAPTURE.splitlines() if not x.startswith(f"{key} = ")]
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(with_target(MINIMAL + "\n".join([*kept, line, ""])))
+    msg = str(info.value)
+    assert "\n" not in msg and fragment in msg, msg
+
+
+@pytest.mark.parametrize("key", ["tolerance_position", "tolerance_velocity"])
+def test_a_capture_without_a_tolerance_is_refused(key):
+    kept = [x for x in CAPTURE.splitlines() if not x.startswith(f"{key} = ")]
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(with_target(MINIMAL + "\n".join(kept)))
+    msg = str(info.value)
+    assert "\n" not in msg and f"capture.{key}: missing" in msg, msg
+
+
+def test_a_capture_without_a_target_is_refused():
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(REALISTIC + CAPTURE)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith("capture: needs a [target] table"), msg
