@@ -44,6 +44,8 @@ _PATH_COLOR = 0xCC2222
 _BASE_RGBA = (0.85, 0.7, 0.25, 1.0)  # gold, like the planar robots' base
 BASE_BOX = "base_box"  # node of the box drawn for a root body without visuals
 TARGET_BOX = "target_box"  # node of the [target] body's box
+CAPTURE_POINT = "capture_point"  # node of the hand's position at capture ([capture])
+_CAPTURE_COLOR = 0xFF8800  # orange
 _TARGET_RGBA = (0.55, 0.6, 0.7, 1.0)  # grey-blue
 DEFAULT_BASE_SIZE = (0.5, 0.5, 0.5)  # its size when the robot does not give one [m]
 MAX_MESH_MB = 20.0  # mesh data embedded as the files are up to this size [MB], then compacted
@@ -51,6 +53,7 @@ ROOT_JOINT = 1  # Pinocchio index of the floating root joint
 
 __all__ = [
     "BASE_BOX",
+    "CAPTURE_POINT",
     "TARGET_BOX",
     "ReplayRobot",
     "build_scene",
@@ -93,7 +96,8 @@ def build_scene(
     else ``base_size`` [m] under it (its top face through the root frame's origin). ``result``
     needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first); a
     result with ``target_pose`` and its ``target`` (a box's ``size``) gets the target's box at
-    its recorded poses.
+    its recorded poses, and one with a ``capture`` that happened an orange sphere at the
+    hand's position at capture, shown from the capture on.
     When the mesh files together exceed ``max_mesh_mb`` [MB], DAE and OBJ meshes are embedded
     as binary STL in one colour each (:func:`ffsm_pin.sim.meshes.compact_mesh`).
 
@@ -225,6 +229,7 @@ def build_scene(
             if targets is not None:
                 group[TARGET_BOX].set_transform(targets[k])
 
+    _mark_capture(group, anim, result, z_e, t, fps)
     _set_camera(vis, extent, dims)
     if own_animation:
         vis.set_animation(anim, play=True, repetitions=1)
@@ -298,6 +303,24 @@ def placements(
     pin.forwardKinematics(model, data, q)
     pin.updateGeometryPlacements(model, data, gmodel, gdata)
     return [m.homogeneous for m in gdata.oMg]
+
+
+def _mark_capture(group, anim: Animation, result, z_e: np.ndarray, t: np.ndarray, fps: float):
+    """The capture instant: a sphere at the hand's recorded position at ``capture.time``,
+    hidden at the first frame and shown from the capture's frame on (nothing without one)."""
+    capture = getattr(result, "capture", None)
+    if capture is None or not capture.captured or z_e.shape[1] < 3:
+        return
+    row = int(np.argmin(np.abs(t - capture.time)))
+    node = group[CAPTURE_POINT]
+    node.set_object(mg.Sphere(0.03), mg.MeshLambertMaterial(color=_CAPTURE_COLOR, opacity=0.8))
+    place = np.eye(4)
+    place[:3, 3] = z_e[row, :3]
+    node.set_transform(place)
+    node.set_property("visible", False)  # (the still picture before the animation: t[0])
+    for time, shown in ((t[0], False), (capture.time, True)):
+        with anim.at_frame(group, int(round((time - t[0]) * fps))) as frame:
+            frame[CAPTURE_POINT].set_property("visible", "boolean", shown)
 
 
 def target_placements(pose: np.ndarray) -> np.ndarray:

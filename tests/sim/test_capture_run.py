@@ -216,3 +216,37 @@ def test_the_saved_scenario_keeps_the_capture(run):
     setup, _ = run
     again = scenario_from_toml(scenario_to_toml(setup.scenario))
     assert again.target == setup.scenario.target and again.target.capture is not None
+
+
+def test_the_replay_marks_the_capture_instant(run, tmp_path):
+    """An orange sphere at the hand's recorded position at capture, hidden in the still
+    picture and at the first frame, shown from the capture's frame on."""
+    import base64
+    import re
+
+    from ffsm_pin.sim.replay import write_replay_html
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        import umsgpack
+
+    setup, result = run
+    fps = 2
+    html = write_replay_html(setup.robot, result, tmp_path / "r.html", fps=fps).read_text()
+    found = re.findall(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)', html)
+    cmds = [umsgpack.unpackb(base64.b64decode(b)) for b in found]
+    path = "/meshcat/ffsm/capture_point"
+    objects = {c["path"]: c["object"] for c in cmds if c["type"] == "set_object"}
+    assert objects[path]["geometries"][0]["type"] == "SphereGeometry"
+    i_c = int(np.flatnonzero(result["t"] == result.capture.time)[0])
+    (place,) = [c["matrix"] for c in cmds if c["type"] == "set_transform" and c["path"] == path]
+    assert np.allclose(np.reshape(place, (4, 4)).T[:3, 3], result["z_e"][i_c, :3], atol=1e-6)
+    hidden = [c for c in cmds if c["type"] == "set_property" and c["path"] == path]
+    assert [(c["property"], c["value"]) for c in hidden] == [("visible", False)]
+    anim = next(c for c in cmds if c["type"] == "set_animation")
+    clip = next(a["clip"] for a in anim["animations"] if a["path"] == path)
+    (track,) = clip["tracks"]
+    assert track["name"] == ".visible"
+    times = [k["time"] for k in track["keys"]]
+    assert [k["value"] for k in track["keys"]] == [False, True]
+    assert times == [0, round(result.capture.time * fps)]
