@@ -9,10 +9,10 @@ each group, in case order, into batches of at most ``size`` cases.
 
 :func:`default_batch_size` (``--batch-size`` not given, docs/campaigns.md): the fewest cases a
 batch that cut the cases to run into at most :data:`BATCHES_PER_WORKER` batches per worker, and
-at most :data:`MAX_BATCH` cases a batch. Several batches per worker keep every worker busy to the end (no worker left with one
-long batch while the others idle); the cap keeps the grain of a resume: an interrupted campaign
-loses the finished cases of its running batches (a batch returns its rows together), and a
-killed worker re-runs its batch from its first case.
+at most :data:`MAX_BATCH` cases a batch. Several batches per worker keep every worker busy to
+the end (no worker left with one long batch while the others idle); the cap keeps the grain of
+a resume: an interrupted campaign loses the finished cases of its running batches (a batch
+returns its rows together), and a killed worker re-runs its batch from its first case.
 """
 
 from __future__ import annotations

@@ -356,7 +356,7 @@ def run_cases(
         client.register_plugin(WarmUp(cases[0].scenario_toml), name=WarmUp.name)
     size = batch_size or default_batch_size(len(cases), n_workers(client))
     token = uuid.uuid4().hex[:8]
-    futures: dict[str, tuple[Any, list[Case]]] = {}
+    futures: dict[Any, tuple[Any, list[Case]]] = {}
     pending = set()
 
     def submit(batch: list[Case], key: str):

@@ -135,7 +135,7 @@ def cluster():
         lc = LocalCluster(
             n_workers=2, threads_per_worker=1, dashboard_address=None, silence_logs=50
         )
-    with lc, Client(lc) as client:
+    with lc, Client(lc):
         yield lc.scheduler_address
 
 
