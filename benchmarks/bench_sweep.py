@@ -41,7 +41,9 @@ spatial ``spatial-realistic``), run in batches (:mod:`ffsm_pin.sweep.batches`, d
 loop of bench_run.py (``py``) on the same scenario; whole campaign wall time (through the
 command line's entry point, cluster start-up excluded) over its total steps. Trials rotate the
 order of the three; printed: medians, ratios to the bare loop per trial, and per case where
-the time goes (outside cases, in a case outside its loop, the loop).
+the time goes (outside cases, in a case outside its loop, the loop). Rows ``- fixed``: the
+same without the campaign's fixed cost (expansion, set-up checks, report with its figures),
+timed by running the campaign again into its folder (a resume with nothing to run).
 
 **Paired per-case CPU** (``--paired N``, robust to machine load): the same case, one after the
 other, (a) in this process's main thread, (b) on the worker of a 1-worker cluster started as
@@ -319,6 +321,11 @@ def engine_comparison(args) -> None:
                         rows = pq.read_table(out / "results.parquet").to_pylist()
                         steps = sum(r["steps"] for r in rows)
                         step = wall / steps
+                        # the fixed cost (expansion, set-up checks, report): a resume, 0 cases
+                        fixed, _ = campaign(paths[robot], client, out, False, modes[m])
+                        per_step.setdefault((robot, m + " - fixed"), []).append(
+                            (wall - fixed) / steps
+                        )
                         cases = sum(r["case_wall_s"] for r in rows)
                         loop = sum(r["wall_time_s"] for r in rows)
                         n = len(rows)
@@ -344,7 +351,7 @@ def engine_comparison(args) -> None:
     print("|---|---|---|---|---|")
     for robot in ENGINE_ROBOTS:
         bare = per_step[(robot, "bare")]
-        for m in ("bare", *modes):
+        for m in ("bare", *modes, *(f"{m} - fixed" for m in modes)):
             v = per_step[(robot, m)]
             ratios = [a / b for a, b in zip(v, bare, strict=True)]
             print(
