@@ -5,6 +5,7 @@ Usage::
     python benchmarks/bench_sweep.py                  # 20 cases x 3 trials, then 100 cases
     python benchmarks/bench_sweep.py --cases 10 --trials 1 --big 0     # quick look
     python benchmarks/bench_sweep.py --big 1000       # the 1000-case campaign itself
+    python benchmarks/bench_sweep.py --engine --trials 3   # batched / unbatched / bare loop
 
 The cases are those of a campaign on the paper's case 1 (10 s simulated, dt = 1 ms, estimates
 perturbed by up to 20 %, one seed per case). In each trial, side by side:
@@ -32,6 +33,17 @@ process (client, scheduler, Parquet, report) plus every worker process (``getrus
 workers). On a machine shared with other jobs, wall-time ratios measure the cores the other
 jobs leave free; the CPU-time overhead still measures what the campaign machinery costs.
 ``--big N`` then runs one N-case campaign on the 2-worker cluster and reports its wall time.
+
+**Engine** (``--engine``, alone): per simulated step, a campaign on a 1-worker cluster (three
+controllers x (1 + ``--engine-repeat``) cases, actuators and sensors on; planar case 1 and the
+spatial ``spatial-realistic``), run in batches (:mod:`ffsm_pin.sweep.batches`, default size or
+``--batch-size``) and one case per task (``--batch-size 1``), against the bare Python plant
+loop of bench_run.py (``py``) on the same scenario; whole campaign wall time (through the
+command line's entry point, cluster start-up excluded) over its total steps. Trials rotate the
+order of the three; printed: medians, ratios to the bare loop per trial, and per case where
+the time goes (outside cases, in a case outside its loop, the loop). Rows ``- fixed``: the
+same without the campaign's fixed cost (expansion, set-up checks, report with its figures),
+timed by running the campaign again into its folder (a resume with nothing to run).
 
 **Paired per-case CPU** (``--paired N``, robust to machine load): the same case, one after the
 other, (a) in this process's main thread, (b) on the worker of a 1-worker cluster started as
@@ -135,7 +147,9 @@ def _worker_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def campaign(path: Path, client, out: Path, force: bool = True) -> tuple[float, float]:
+def campaign(
+    path: Path, client, out: Path, force: bool = True, extra: tuple[str, ...] = ()
+) -> tuple[float, float]:
     """Wall time and CPU time (this process, which also hosts the scheduler, plus every
     worker process) of one campaign run through the command line's entry point.
 
@@ -146,7 +160,7 @@ def campaign(path: Path, client, out: Path, force: bool = True) -> tuple[float, 
     address = client.scheduler.address
     w0 = sum(client.run(_worker_cpu).values())
     t0, c0 = time.perf_counter(), time.process_time()
-    argv = [str(path), "--out", str(out), "--scheduler", address, "--quiet"]
+    argv = [str(path), "--out", str(out), "--scheduler", address, "--quiet", *extra]
     with contextlib.redirect_stdout(io.StringIO()):  # --quiet prints the output folder
         status = cli.main(argv + (["--force"] if force else []))
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -237,6 +251,124 @@ def paired(path: Path, clients: dict) -> None:
         print(f"| {m} | {cpu:.3f} | {ratio:.3f} | {sys_ms:.1f} | {flt:.0f} | {outside} |")
 
 
+# --------------------------------------------------------------------- --engine
+ENGINE_CAMPAIGN = """\
+[campaign]
+name = "engine-{robot}"
+scenario = "{scenario}"
+seed = {seed}
+repeat = {repeat}
+duration = {duration}
+
+[campaign.set]
+{extra}
+[[vary]]
+key = "controller.type"
+values = ["lu-jia", "gjm-ct", "adaptive-ct"]
+"""
+#: robot -> (built-in scenario, [campaign.set] lines): actuators and sensors on, as the
+#: compare-controllers campaign runs them (spatial-realistic has its own limits and noise)
+ENGINE_ROBOTS = {
+    "planar": (
+        "case1",
+        '"controller.estimates.initial" = "perturbed"\n"actuators.torque_limit" = 100.0\n'
+        '"sensors.seed" = 7\n"sensors.noise.joints" = 1e-4\n"sensors.noise.joint_rates" = 1e-3\n'
+        '"sensors.noise.base_attitude" = 1e-4\n"sensors.noise.base_rate" = 1e-3\n'
+        '"sensors.noise.ee_pose" = 1e-3\n"sensors.noise.ee_velocity" = 1e-3\n',
+    ),
+    "spatial": ("spatial-realistic", '"controller.estimates.initial" = "perturbed"\n'),
+}
+
+
+def engine_comparison(args) -> None:
+    """``--engine``: per simulated step, a 1-worker campaign run in batches (default size, or
+    ``--batch-size``) and one case per task (``--batch-size 1``), against the bare Python plant
+    loop (bench_run.py's ``py`` baseline) of the same scenario, interleaved per trial."""
+    from bench_run import bare_loop
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_engine_"))
+    lc, client, _ = start_cluster(1)
+    batched = ("--batch-size", str(args.batch_size)) if args.batch_size else ()
+    modes = {"batched": batched, "unbatched": ("--batch-size", "1")}
+    per_step: dict[tuple[str, str], list[float]] = {}
+    parts: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
+    try:
+        paths = {}
+        for robot, (scenario, extra) in ENGINE_ROBOTS.items():
+            duration = args.planar_s if robot == "planar" else args.spatial_s
+            text = ENGINE_CAMPAIGN.format(
+                robot=robot, scenario=scenario, seed=1, repeat=args.engine_repeat,
+                duration=duration, extra=extra,
+            )  # fmt: skip
+            paths[robot] = tmp / f"{robot}.toml"
+            paths[robot].write_text(text)
+            warm = tmp / f"{robot}-warm.toml"  # every controller's kernels loaded on the worker
+            warm.write_text(text.replace(f"duration = {duration}", "duration = 0.05"))
+            campaign(warm, client, tmp / f"{robot}-warm")
+            bare_loop(scenario, 0.05)
+        for k in range(args.trials):
+            for robot, (scenario, _) in ENGINE_ROBOTS.items():
+                order = ["bare", *modes]
+                order = order[k % 3 :] + order[: k % 3]  # rotated: drifting load hits all
+                for m in order:
+                    if m == "bare":
+                        duration = args.planar_s if robot == "planar" else args.spatial_s
+                        b = bare_loop(scenario, duration)
+                        step = b["python_wall_time_s"] / b["steps"]
+                    else:
+                        out = tmp / f"{robot}-{m}-{k}"
+                        wall, _ = campaign(paths[robot], client, out, extra=modes[m])
+                        rows = pq.read_table(out / "results.parquet").to_pylist()
+                        steps = sum(r["steps"] for r in rows)
+                        step = wall / steps
+                        # the fixed cost (expansion, set-up checks, report): a resume, 0 cases
+                        fixed, _ = campaign(paths[robot], client, out, False, modes[m])
+                        per_step.setdefault((robot, m + " - fixed"), []).append(
+                            (wall - fixed) / steps
+                        )
+                        cases = sum(r["case_wall_s"] for r in rows)
+                        loop = sum(r["wall_time_s"] for r in rows)
+                        n = len(rows)
+                        parts.setdefault((robot, m), []).append(
+                            ((wall - cases) / n, (cases - loop) / n, loop / n)
+                        )
+                    per_step.setdefault((robot, m), []).append(step)
+                print(f"trial {k + 1} {robot}: " + ", ".join(
+                    f"{m} {1e6 * per_step[(robot, m)][-1]:.1f} us/step" for m in order
+                ), file=sys.stderr)  # fmt: skip
+    finally:
+        client.close()
+        lc.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+    load = os.getloadavg()
+    print(
+        f"\nengine: 1 worker, {args.trials} trials, 3 controllers x (1 + {args.engine_repeat}) "
+        f"cases, planar {args.planar_s} s, spatial {args.spatial_s} s, batch size "
+        f"{args.batch_size or 'default'}; os.cpu_count() = {os.cpu_count()}, load average "
+        f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (end)"
+    )
+    print("| robot | what | per step [us], median | / bare Python loop | per-trial ratios |")
+    print("|---|---|---|---|---|")
+    for robot in ENGINE_ROBOTS:
+        bare = per_step[(robot, "bare")]
+        for m in ("bare", *modes, *(f"{m} - fixed" for m in modes)):
+            v = per_step[(robot, m)]
+            ratios = [a / b for a, b in zip(v, bare, strict=True)]
+            print(
+                f"| {robot} | {m} | {1e6 * statistics.median(v):.1f} | "
+                f"{statistics.median(ratios):.2f}x | {' '.join(f'{r:.2f}' for r in ratios)} |"
+            )
+        b, u = per_step[(robot, "batched")], per_step[(robot, "unbatched")]
+        r = [x / y for x, y in zip(b, u, strict=True)]
+        print(f"| {robot} | batched / unbatched | | {statistics.median(r):.3f} | "
+              f"{' '.join(f'{x:.3f}' for x in r)} |")  # fmt: skip
+    print("\nper case, medians over trials [ms]: campaign outside cases | case outside its "
+          "loop (parse, prepare, summary, extras) | the loop")  # fmt: skip
+    for (robot, m), v in parts.items():
+        cols = [1e3 * statistics.median(x[i] for x in v) for i in range(3)]
+        print(f"{robot} {m}: {cols[0]:.0f} | {cols[1]:.0f} | {cols[2]:.0f}")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--cases", type=int, default=20, help="cases per trial (default 20)")
@@ -245,7 +377,18 @@ def main(argv=None) -> int:
     p.add_argument(
         "--paired", type=int, default=10, help="cases of the paired CPU comparison (0: skip)"
     )
+    p.add_argument(
+        "--engine", action="store_true",
+        help="only the engine comparison: batched, unbatched, bare Python plant loop",
+    )  # fmt: skip
+    p.add_argument("--engine-repeat", type=int, default=2, help="--engine: seeds per controller")
+    p.add_argument("--planar-s", type=float, default=5.0, help="--engine: planar duration [s]")
+    p.add_argument("--spatial-s", type=float, default=2.0, help="--engine: spatial duration [s]")
+    p.add_argument("--batch-size", type=int, default=None, help="--engine: batched size")
     args = p.parse_args(argv)
+    if args.engine:
+        engine_comparison(args)
+        return 0
     n = args.cases
 
     tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))

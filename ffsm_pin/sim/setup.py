@@ -36,14 +36,15 @@ from ..errors import (
     did_you_mean,
 )
 from ..model import ReducedModel, State, make_model
-from ..robot import Robot, load_robot
+from ..robot import Robot
 from ..scenario.check import check_scenario
-from ..scenario.spec import Scenario
+from ..scenario.spec import RobotSpec, Scenario
 from .actuators import Actuators, urdf_limits
 from .estimates import initial_estimates
 from .initial import initial_state
 from .measurement import Sensor
 from .reach import ReachWarning, reach_horizon
+from .robots import robot_of
 from .sensors import Sensors
 from .target import Target, TargetState
 from .target_run import build_target, check_clear_of_bus
@@ -115,7 +116,11 @@ class Setup:
 
 
 # ---------------------------------------------------------------------- prepare
-def prepare(scenario: Scenario, before_controller: Callable[[], None] | None = None) -> Setup:
+def prepare(
+    scenario: Scenario,
+    before_controller: Callable[[], None] | None = None,
+    robots: Callable[[RobotSpec], Robot] | None = None,
+) -> Setup:
     """Load, validate and build everything for ``scenario``; raise FfsmError on bad input.
 
     Parameters
@@ -126,6 +131,9 @@ def prepare(scenario: Scenario, before_controller: Callable[[], None] | None = N
         Called once every check that does not need the controller has passed, right before
         the controller is built (which compiles its kernels on a cold cache): the command
         line says there that it compiles, so that bad input stays one line.
+    robots : callable or None
+        ``[robot]`` section -> the run's own :class:`~ffsm_pin.robot.Robot`, e.g. a batch's
+        :class:`~.robots.SharedRobots`; None: loaded from its URDF (:func:`~.robots.robot_of`).
 
     Returns
     -------
@@ -134,18 +142,7 @@ def prepare(scenario: Scenario, before_controller: Callable[[], None] | None = N
     """
     check_scenario(scenario)  # the file's schema, also for a scenario built in Python
     spec = scenario.robot
-    spatial = spec.base == "free-flyer"
-    options = {}
-    if spatial:
-        options = {"locked_joints": dict(spec.locked_joints) or None, "satellite": spec.satellite}
-    robot = load_robot(
-        spec.urdf,
-        spec.end_effector,
-        base=spec.base,
-        relative_to=spec.relative_to,
-        payload=spec.payload,
-        **options,
-    )
+    robot = (robot_of if robots is None else robots)(spec)
     # URDF torque limits that the file does not give: refused before the (slow) controller
     if isinstance(limit := scenario.actuators.torque_limit, str) and limit == "urdf":
         urdf_limits(robot.effort_limits, robot.n_joints, robot.joint_names)

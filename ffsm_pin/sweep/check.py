@@ -12,7 +12,8 @@ from .cases import Case
 def check_cases(cases: list[Case], source: str) -> None:
     """Run :func:`ffsm_pin.sim.setup.prepare` (robot, feasibility, initial errors inside the
     funnels, estimates) on the nominal case and on the first case of every grid point, so a
-    value that only the run set-up refuses is bad input before anything runs.
+    value that only the run set-up refuses is bad input before anything runs. Each
+    ``[robot]`` section is loaded once (:class:`~ffsm_pin.sim.robots.SharedRobots`).
 
     Parameters
     ----------
@@ -21,8 +22,10 @@ def check_cases(cases: list[Case], source: str) -> None:
     source : str
         The campaign file, for the messages.
     """
+    from ..sim.robots import SharedRobots
     from ..sim.run import prepare
 
+    robots = SharedRobots()
     checked: set[int | None] = set()
     for case in cases:
         if case.point_index in checked and not case.nominal:
@@ -31,7 +34,7 @@ def check_cases(cases: list[Case], source: str) -> None:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                prepare(case.scenario)
+                prepare(case.scenario, robots=robots)
         except FfsmError as exc:
             text = str(exc)
             if text.startswith("controller.params.") and "unknown for controller.type" in text:

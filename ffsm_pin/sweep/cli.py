@@ -83,6 +83,13 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="keep each case's run folder (runs/case-NNNNN/, as python -m ffsm_pin.sim writes)",
     )
+    p.add_argument(
+        "--batch-size",
+        metavar="N",
+        type=positive_int,
+        help="most cases a worker runs in one task, cases of one robot (default: about 4 "
+        "batches per worker, at most 8 cases each; docs/campaigns.md)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar (stdout: the folder)")
     return p
 
@@ -301,7 +308,7 @@ def _run_on_cluster(todo, table, out: Path, args, name: str, total: int) -> None
     )
     try:
         bar.set_postfix_str("stopped 0, failed 0")
-        for case, outcome in run_cases(client, todo, keep):
+        for case, outcome in run_cases(client, todo, keep, batch_size=args.batch_size):
             table.add(case, outcome, write=table.write_due())
             if outcome["status"] in counts:
                 counts[outcome["status"]] += 1

@@ -10,12 +10,15 @@
 * :class:`WarmUp`: a worker plugin that runs a few steps of the campaign's scenario when a
   worker starts (also a worker that replaces a dead one), so the numba kernels are compiled or
   loaded from their on-disk cache once per worker, not once per case.
-* :func:`run_case`: the task. It never raises for a bad run: a run that raises becomes an
+* :func:`run_case`: one case. It never raises for a bad run: a run that raises becomes an
   ``error`` outcome with the error text, a run that stops early a ``stopped`` one.
-* :func:`run_cases`: submits the cases and yields ``(case, outcome)`` as tasks finish. A worker
-  that dies has its tasks re-run on another worker by the scheduler (up to
-  ``distributed.scheduler.allowed-failures`` times, then the case is an ``error``); each future
-  yields once, so each case gives exactly one outcome.
+* :func:`run_batch`: the task, a batch of cases that share a robot
+  (:mod:`ffsm_pin.sweep.batches`), run one after the other by :func:`run_case` with the robot
+  loaded once; each case gives the outcome it gives alone.
+* :func:`run_cases`: submits the batches and yields ``(case, outcome)`` per case as tasks
+  finish. A worker that dies has its tasks re-run on another worker by the scheduler (up to
+  ``distributed.scheduler.allowed-failures`` times, then each case of the batch is an
+  ``error``); each future yields once, so each case gives exactly one outcome.
 """
 
 from __future__ import annotations
@@ -31,21 +34,28 @@ import time
 import traceback
 import uuid
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import dask
 from distributed import Client, LocalCluster, as_completed
 from distributed.diagnostics.plugin import WorkerPlugin
 from distributed.scheduler import KilledWorker
 
+from .batches import default_batch_size, make_batches
 from .cases import Case
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+    from ..scenario.spec import RobotSpec
 
 __all__ = [
     "QUIET_WORKERS",
     "WarmUp",
+    "n_workers",
+    "run_batch",
     "run_case",
     "run_cases",
     "shutdown",
@@ -205,7 +215,11 @@ def summary_scalars(summary: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in summary.items() if v is None or isinstance(v, (bool, int, float, str))}
 
 
-def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
+def run_case(
+    scenario_toml: str,
+    keep_dir: str | None = None,
+    robots: Callable[[RobotSpec], Robot] | None = None,
+) -> dict[str, Any]:
     """Simulate one case (on a worker): ``{"status", "error", **summary scalars}``.
 
     ``status`` is ``"completed"``, ``"stopped"`` (the run stopped early: a result) or
@@ -219,6 +233,9 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
         The case's resolved scenario.
     keep_dir : str or None
         Where to write the run folder; None: nowhere.
+    robots : callable or None
+        Where the run's robot comes from (a batch's
+        :class:`~ffsm_pin.sim.robots.SharedRobots`); None: loaded from its URDF.
 
     Returns
     -------
@@ -234,7 +251,7 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
         scenario = scenario_from_toml(scenario_toml)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            setup = prepare(scenario)
+            setup = prepare(scenario, robots=robots)
             result = simulate(setup)
         summary = result.summary()
         extras = case_extras(setup, result, summary)  # lists, min_sigma_gjm, signals
@@ -251,16 +268,64 @@ def run_case(scenario_toml: str, keep_dir: str | None = None) -> dict[str, Any]:
     return {"status": status, "error": None, **scalars, **extras, **_cost(wall0, cpu0)}
 
 
+def run_batch(
+    scenario_tomls: Sequence[str], keep_dirs: Sequence[str | None] | None = None
+) -> list[dict[str, Any]]:
+    """Simulate the cases of a batch one after the other (the task a worker runs).
+
+    Each case is :func:`run_case`, with the robots of the batch loaded once
+    (:class:`~ffsm_pin.sim.robots.SharedRobots`: every case gets its own copy); a case that
+    raises is an ``error`` outcome of its own and the next case runs.
+
+    Parameters
+    ----------
+    scenario_tomls : sequence of str
+        The cases' resolved scenarios.
+    keep_dirs : sequence of (str or None), or None
+        Per case, where to write its run folder; None: nowhere.
+
+    Returns
+    -------
+    list of dict
+        The outcomes, in the order of the cases.
+    """
+    from ..sim.robots import SharedRobots
+
+    robots = SharedRobots()
+    keeps = [None] * len(scenario_tomls) if keep_dirs is None else list(keep_dirs)
+    return [run_case(t, k, robots) for t, k in zip(scenario_tomls, keeps, strict=True)]
+
+
 def _cost(wall0: float, cpu0: float) -> dict[str, float]:
     """Wall and CPU time of the whole case on its worker (parse, set-up, simulation, summary,
     run folder) [s]; the summary's wall_time_s covers the simulation loop only."""
     return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": time.thread_time() - cpu0}
 
 
+def n_workers(client: Client) -> int:
+    """Workers of the client's cluster now (at least 1).
+
+    Parameters
+    ----------
+    client : distributed.Client
+        The Dask client.
+
+    Returns
+    -------
+    int
+        The count.
+    """
+    return max(1, len(client.scheduler_info().get("workers", {})))
+
+
 def run_cases(
-    client: Client, cases: Iterable[Case], keep_runs: Path | None = None
+    client: Client,
+    cases: Iterable[Case],
+    keep_runs: Path | None = None,
+    batch_size: int | None = None,
 ) -> Iterator[tuple[Case, dict[str, Any]]]:
-    """Submit every case as a task; yield ``(case, outcome)`` in order of completion.
+    """Submit the cases in batches (:func:`run_batch`); yield ``(case, outcome)`` per case as
+    batches finish.
 
     Closing the generator (or an exception in the caller, e.g. Ctrl-C) cancels what is left.
 
@@ -272,6 +337,9 @@ def run_cases(
         The cases to run.
     keep_runs : Path or None
         Folder the run folders are kept in; None: not kept.
+    batch_size : int or None
+        Most cases in a batch (:func:`~ffsm_pin.sweep.batches.make_batches`); None:
+        :func:`~ffsm_pin.sweep.batches.default_batch_size` for the cluster's workers.
 
     Yields
     ------
@@ -286,38 +354,44 @@ def run_cases(
     have = client.run(_has_warmup)  # a running cluster's workers are warm already
     if not have or not all(have.values()):
         client.register_plugin(WarmUp(cases[0].scenario_toml), name=WarmUp.name)
+    size = batch_size or default_batch_size(len(cases), n_workers(client))
     token = uuid.uuid4().hex[:8]
-    futures = {}
+    futures: dict[Any, tuple[Any, list[Case]]] = {}
     pending = set()
 
-    def submit(case: Case, key: str):
-        keep = None if keep_runs is None else str(keep_runs / f"case-{case.index:05d}")
-        fut = client.submit(run_case, case.scenario_toml, keep, key=key, pure=False, retries=1)
-        futures[fut.key] = (fut, case)
+    def submit(batch: list[Case], key: str):
+        tomls = [c.scenario_toml for c in batch]
+        keeps = None
+        if keep_runs is not None:
+            keeps = [str(keep_runs / f"case-{c.index:05d}") for c in batch]
+        fut = client.submit(run_batch, tomls, keeps, key=key, pure=False, retries=1)
+        futures[fut.key] = (fut, batch)
         pending.add(fut.key)
         return fut
 
-    for case in cases:
-        submit(case, f"ffsm-case-{case.index}-{case.case_hash}-{token}")
-    resubmitted: set[int] = set()
+    for batch in make_batches(cases, size):
+        first = batch[0]
+        submit(batch, f"ffsm-batch-{first.index}-{len(batch)}-{first.case_hash}-{token}")
+    resubmitted: set[str] = set()
     try:
         completed = as_completed([f for f, _ in futures.values()])
         for fut in completed:
-            case = futures[fut.key][1]
+            batch = futures[fut.key][1]
             pending.discard(fut.key)
             try:
-                outcome = fut.result()
-            except Exception as exc:  # noqa: BLE001 - the cluster's, not the case's (run_case)
-                if not isinstance(exc, KilledWorker) and case.index not in resubmitted:
+                outcomes = fut.result()
+            except Exception as exc:  # noqa: BLE001 - the cluster's, not a case's (run_case)
+                if not isinstance(exc, KilledWorker) and batch[0].case_hash not in resubmitted:
                     # a failure of the cluster's machinery around a worker that died (seen:
-                    # an asyncio object bound to the dead worker's loop): the case once more
-                    resubmitted.add(case.index)
+                    # an asyncio object bound to the dead worker's loop): the batch once more
+                    resubmitted.add(batch[0].case_hash)
                     fut.release()
-                    completed.add(submit(case, f"{fut.key}-again"))
+                    completed.add(submit(batch, f"{fut.key}-again"))
                     continue
-                outcome = {"status": "error", "error": f"{type(exc).__name__}: {exc}"}
+                text = f"{type(exc).__name__}: {exc}"
+                outcomes = [{"status": "error", "error": text} for _ in batch]
             fut.release()
-            yield case, outcome
+            yield from zip(batch, outcomes, strict=True)
     finally:
         left = [futures[k][0] for k in pending]
         if left:  # the client may be closing already (Ctrl-C): nothing to cancel then

@@ -32,7 +32,7 @@ def fake_cluster(monkeypatch):
 
     state = {"outcome": None, "batches": []}
 
-    def run_cases(client, todo, keep):
+    def run_cases(client, todo, keep, batch_size=None):
         state["batches"].append(sorted({c.repeat for c in todo if not c.nominal}))
         for case in todo:
             yield case, state["outcome"](case)

@@ -255,7 +255,7 @@ def test_an_interrupted_campaign_keeps_every_finished_row(campaign_file, tmp_pat
     cases = expand(load_campaign(path))
     done = {"status": "completed", "error": None, "max_abs_u": 1.0}
 
-    def three_then_interrupt(client, todo, keep):
+    def three_then_interrupt(client, todo, keep, batch_size=None):
         for case in todo[:3]:
             yield case, done
         raise KeyboardInterrupt
@@ -272,7 +272,7 @@ def test_an_interrupted_campaign_keeps_every_finished_row(campaign_file, tmp_pat
     assert sorted(r["case_hash"] for r in got) == sorted(c.case_hash for c in cases[:3])
     seen = []
 
-    def record(client, todo, keep):
+    def record(client, todo, keep, batch_size=None):
         seen.extend(todo)
         yield from ((c, done) for c in todo)
 

@@ -1,0 +1,88 @@
+"""Cases -> batches: the cases of a campaign that share a robot, run together by one task.
+
+A worker runs the cases of a batch one after the other (:func:`ffsm_pin.sweep.engine.run_batch`)
+and loads their robot once (:class:`ffsm_pin.sim.robots.SharedRobots`); each case still has its
+own controller, estimates, plant, sensors and random generators, stops on its own, and gives
+the outcome its single task gives. :func:`make_batches` groups the cases by their scenario's
+``[robot]`` section (the key of the robot they load) in the order of their first case, and cuts
+each group, in case order, into batches of at most ``size`` cases.
+
+:func:`default_batch_size` (``--batch-size`` not given, docs/campaigns.md): the fewest cases a
+batch that cut the cases to run into at most :data:`BATCHES_PER_WORKER` batches per worker, and
+at most :data:`MAX_BATCH` cases a batch. Several batches per worker keep every worker busy to
+the end (no worker left with one long batch while the others idle); the cap keeps the grain of
+a resume: an interrupted campaign loses the finished cases of its running batches (a batch
+returns its rows together), and a killed worker re-runs its batch from its first case.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Sequence
+
+from .cases import Case
+
+__all__ = ["BATCHES_PER_WORKER", "MAX_BATCH", "default_batch_size", "make_batches", "robot_key"]
+
+#: Batches per worker the default size aims at.
+BATCHES_PER_WORKER = 4
+#: Most cases in a batch of the default size.
+MAX_BATCH = 8
+
+
+def default_batch_size(n_cases: int, n_workers: int) -> int:
+    """Cases per batch when none is given: ``ceil(n_cases / (BATCHES_PER_WORKER * n_workers))``
+    within ``1 .. MAX_BATCH``.
+
+    Parameters
+    ----------
+    n_cases : int
+        Cases to run.
+    n_workers : int
+        Workers of the cluster (at least one is assumed).
+
+    Returns
+    -------
+    int
+        The batch size.
+    """
+    per = math.ceil(n_cases / (BATCHES_PER_WORKER * max(1, n_workers)))
+    return max(1, min(MAX_BATCH, per))
+
+
+def robot_key(case: Case) -> Hashable:
+    """What the cases of a batch share: the ``[robot]`` section of the case's scenario.
+
+    Parameters
+    ----------
+    case : Case
+        A case.
+
+    Returns
+    -------
+    Hashable
+        Its :class:`~ffsm_pin.scenario.spec.RobotSpec`.
+    """
+    return case.scenario.robot
+
+
+def make_batches(cases: Sequence[Case], size: int) -> list[list[Case]]:
+    """The cases grouped by :func:`robot_key`, each group cut into batches of ``size`` cases.
+
+    Parameters
+    ----------
+    cases : sequence of Case
+        The cases to run.
+    size : int
+        Most cases in a batch (at least 1).
+
+    Returns
+    -------
+    list of list of Case
+        Every case once; the groups in the order of their first case, each in case order.
+    """
+    groups: dict[Hashable, list[Case]] = {}
+    for case in cases:
+        groups.setdefault(robot_key(case), []).append(case)
+    size = max(1, size)
+    return [g[i : i + size] for g in groups.values() for i in range(0, len(g), size)]
