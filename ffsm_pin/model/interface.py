@@ -19,8 +19,34 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .._docstrings import doc_entries, fill_doc
+
+# the Parameters entries the methods share (ffsm_pin._docstrings); the planar and spatial
+# models inherit these docstrings (they derive from ReducedModel)
+_DOC = doc_entries(
+    theta_d="""
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters.""",
+    theta_z="""
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.""",
+    q="""
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].""",
+    q_w="""
+        %(q)s
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].""",
+    s_vec="""
+        s_vec : ndarray, shape (m3 + m1,)
+            The vector dM/dt multiplies.""",
+)
+
 
 @runtime_checkable
+@fill_doc(_DOC)
 class ReducedModel(Protocol):
     """Parametric reduced model of a free-floating manipulator (Eqs. 3, 4, 8, 9a, 12-14)."""
 
@@ -62,12 +88,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(theta_z)s
+        %(q)s
 
         Returns
         -------
@@ -81,12 +103,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(theta_z)s
+        %(q)s
         com_position : array_like, shape (m2,)
             The system's CoM position [m].
 
@@ -102,12 +120,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(theta_z)s
+        %(q)s
 
         Returns
         -------
@@ -124,12 +138,7 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(q_w)s
 
         Returns
         -------
@@ -143,12 +152,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(theta_d)s
+        %(q)s
 
         Returns
         -------
@@ -162,14 +167,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(theta_d)s
+        %(q_w)s
 
         Returns
         -------
@@ -183,10 +182,7 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(q)s
         a : ndarray, shape (m3 + m1,)
             The vector M multiplies.
 
@@ -202,14 +198,10 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(q)s
         w : ndarray, shape (m3 + m1,)
             (w_b, w_m) [rad/s], the motion along which dM/dt is taken.
-        s_vec : ndarray, shape (m3 + m1,)
-            The vector dM/dt multiplies.
+        %(s_vec)s
 
         Returns
         -------
@@ -223,12 +215,7 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(q_w)s
 
         Returns
         -------
@@ -242,14 +229,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
-        s_vec : ndarray, shape (m3 + m1,)
-            The vector dM/dt multiplies.
+        %(q_w)s
+        %(s_vec)s
 
         Returns
         -------
@@ -263,12 +244,7 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(q_w)s
         s1, s2 : ndarray, shape (m3 + m1,)
             The vectors of Eq. (12).
 
@@ -284,14 +260,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(theta_d)s
+        %(q_w)s
 
         Returns
         -------
@@ -305,14 +275,8 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(theta_d)s
+        %(q_w)s
         w_dot : ndarray, shape (m3 + m1,)
             (dw_b/dt, dw_m/dt) [rad/s^2].
 
@@ -328,12 +292,7 @@ class ReducedModel(Protocol):
 
         Parameters
         ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(q_w)s
 
         Returns
         -------
@@ -349,10 +308,7 @@ class ReducedModel(Protocol):
         ----------
         theta_b : array_like, shape (n_b,)
             Momentum parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(q)s
 
         Returns
         -------

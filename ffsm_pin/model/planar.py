@@ -315,66 +315,17 @@ class BarycentricModel(PlanarDynamics):
 
     # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R(phi_k) V_k.
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        ndarray, shape (2,)
-            p_e - p_com [m].
-        """
+        # p_e - p_com [m] = sum_k R(phi_k) V_k.
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         return self.body_angles(q_b, q_m).pos @ theta_z[2:]
 
     def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        com_position : array_like, shape (2,)
-            The system's CoM position [m].
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            z_e = (p_e, q_e).
-        """
+        # z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
         p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
         return np.array([p[0], p[1], self.ee_angle(q_b, q_m)])
 
     def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        J_b : ndarray, shape (3, 1)
-            Base Jacobian.
-        J_m : ndarray, shape (3, n)
-            Manipulator Jacobian.
-        """
+        # J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         rate = self.body_angles(q_b, q_m).rate
         nb = self.n_joints + 1
@@ -389,25 +340,9 @@ class BarycentricModel(PlanarDynamics):
         return J[:, :1], J[:, 1:]
 
     def Y_z(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, 0, dq_e/dt).
-
-        Shape (3, n_z); the attitude row is zero (parameter-free, see
-        :meth:`ee_attitude_rate`).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (3, n_z)
-            Y_z.
-        """
+        # Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, 0, dq_e/dt).
+        # Shape (3, n_z); the attitude row is zero (parameter-free, see
+        # :meth:`ee_attitude_rate`).
         w = np.asarray(w, dtype=float)
         rate = self.body_angles(q_b, q_m).rate
         Y = np.zeros((3, self.n_z))

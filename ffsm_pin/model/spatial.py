@@ -243,22 +243,7 @@ class SpatialBarycentricModel(SpatialDynamics):
 
     # ------------------------------------------------------------------ kinematics
     def ee_offset(self, theta_z, q_b, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R_k V_k (inertial frame).
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters (Eq. 4).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            p_e - p_com [m], inertial frame.
-        """
+        # p_e - p_com [m] = sum_k R_k V_k (inertial frame).
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         R = self.kinematics(q_b, q_m).R
         return np.einsum("kxy,ky->x", R, theta_z[3:].reshape(self._nb, 3))
@@ -298,24 +283,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         return mrp.from_rotation(self.ee_rotation(q_b, q_m))
 
     def ee_pose(self, theta_z, q_b, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, MRP] given the system CoM position [m].
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters (Eq. 4).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        com_position : array_like, shape (3,)
-            The system's CoM position [m], inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (6,)
-            z_e = (p_e [m], q_e MRP).
-        """
+        # z_e = (p_e, q_e) [m, MRP] given the system CoM position [m].
         p = np.asarray(com_position) + self.ee_offset(theta_z, q_b, q_m)
         return np.concatenate((p, self.ee_attitude(q_b, q_m)))
 
@@ -325,27 +293,9 @@ class SpatialBarycentricModel(SpatialDynamics):
         return mrp.L_matrix(q_e, R_e) @ kin.S[self.geometry.ee_body]
 
     def jacobians(self, theta_z, q_b, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """J_b (6 x 3) and J_m (6 x n) of Eq. (3) for a parameter vector theta_z.
-
-        Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate
-        1/4 B(q_e) R_e^T S_m w (parameter-free).
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters (Eq. 4).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        J_b : ndarray, shape (6, 3)
-            Base Jacobian (w_b in the inertial frame).
-        J_m : ndarray, shape (6, n)
-            Manipulator Jacobian.
-        """
+        # J_b (6 x 3) and J_m (6 x n) of Eq. (3) for a parameter vector theta_z.
+        # Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate 1/4
+        # B(q_e) R_e^T S_m w (parameter-free).
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         if self._use_fast(theta_z, q_b, q_m):
             R, z = self._rz(q_b, q_m)
@@ -363,24 +313,8 @@ class SpatialBarycentricModel(SpatialDynamics):
         return J[:, :3], J[:, 3:]
 
     def Y_z(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
-
-        Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (6, n_z)
-            Y_z: rows 1-3 [E_3, [w_k]x R_k for k = 0..n] (inertial frame), rows 4-6 zero.
-        """
+        # Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
+        # Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
         if self._use_fast(q_b, q_m, w):
             R, z = self._rz(q_b, q_m)
             Y = np.zeros((6, self.n_z))
