@@ -8,25 +8,10 @@ Sphinx (napoleon) and numpydoc read the finished docstring. An entry's text is d
 every line of it is indented like the placeholder, so an entry serves a function and a method
 alike. Decorate below ``@njit``: the compiled function keeps its Python function's docstring.
 
-Example::
-
-    _DOC = doc_entries(
-        q_m='''
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        ''',
-    )
-
-    @fill_doc(_DOC)
-    def f(q_m, a):
-        '''...
-
-        Parameters
-        ----------
-        %(q_m)s
-        a : float
-            ...
-        '''
+Example (``ffsm_pin/model/interface.py``): ``_DOC = doc_entries(q_m="q_m : ndarray ...",
+params_q_m=("q_m",))`` lists the entries; a class or function decorated ``@fill_doc(_DOC)``
+writes ``%(q_m)s`` on the line where the ``q_m`` entry stands in its ``Parameters`` section,
+or ``%(params_q_m)s`` where the whole section stands. docs/api.md has the rules.
 """
 
 from __future__ import annotations
@@ -41,14 +26,15 @@ F = TypeVar("F", bound=Callable)
 _PLACEHOLDER = re.compile(r"^(?P<indent>[ \t]*)%\((?P<name>\w+)\)s[ \t]*$", re.MULTILINE)
 
 
-def doc_entries(**entries: str) -> dict[str, str]:
+def doc_entries(**entries: str | tuple[str, ...]) -> dict[str, str]:
     """The shared entries of a module, dedented and stripped of surrounding blank lines.
 
     Parameters
     ----------
-    **entries : str
-        Name -> the numpydoc text (any indentation; an entry may name another as
-        ``%(name)s`` if that one is given before it).
+    **entries : str or tuple of str
+        Name -> the numpydoc text (any indentation; it may name an entry given before it as
+        ``%(name)s``), or a tuple of names of entries given before it: a whole
+        ``Parameters`` section of those entries, in that order.
 
     Returns
     -------
@@ -57,7 +43,10 @@ def doc_entries(**entries: str) -> dict[str, str]:
     """
     out: dict[str, str] = {}
     for name, text in entries.items():
-        out[name] = substitute(textwrap.dedent(text).strip("\n"), out)
+        if isinstance(text, tuple):
+            out[name] = "\n".join(["Parameters", "----------", *(out[e] for e in text)])
+        else:
+            out[name] = substitute(textwrap.dedent(text).strip("\n"), out)
     return out
 
 

@@ -17,6 +17,7 @@ gives the configuration's rotations
 from __future__ import annotations
 
 import numpy as np
+from typing_extensions import override
 
 from . import _spatial_mass_kernels as kmass
 from . import _spatial_velocity_kernels as kvel
@@ -44,6 +45,7 @@ class SpatialDynamics(SpatialReference):
         raise NotImplementedError
 
     # ------------------------------------------------------------------ dynamics
+    @override
     def mass_matrix(self, theta_d, q_b, q_m) -> np.ndarray:
         # M(q, theta_d) of Eq. (9a), (n+3) x (n+3).
         theta_d = self._check(theta_d, self.n_d, "theta_d")
@@ -55,6 +57,7 @@ class SpatialDynamics(SpatialReference):
         kin = self.kinematics(q_b, q_m)
         return self._mass_core(kin.R, kin.S, theta_d)
 
+    @override
     def mass_matrix_rate(self, theta_d, q_b, q_m, w) -> np.ndarray:
         # dM/dt (q, w, theta_d), (n+3) x (n+3), exact (complex step of the numpy reference).
         theta_d = self._check(theta_d, self.n_d, "theta_d")
@@ -62,6 +65,7 @@ class SpatialDynamics(SpatialReference):
         dR, dS = self._motion_tangent(kin, np.asarray(w, dtype=float))
         return self._mass_core(kin.R + 1j * _H * dR, kin.S + 1j * _H * dS, theta_d).imag / _H
 
+    @override
     def Y_M(self, q_b, q_m, a) -> np.ndarray:
         # Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+3, n_d).
         if self._use_fast(q_b, q_m, a):
@@ -72,6 +76,7 @@ class SpatialDynamics(SpatialReference):
         kin = self.kinematics(q_b, q_m)
         return self._ym_core(kin.R, kin.S, np.asarray(a))
 
+    @override
     def velocity_regressors(self, q_b, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
         # (Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`.
         w = np.ascontiguousarray(w, dtype=float)
@@ -99,6 +104,7 @@ class SpatialDynamics(SpatialReference):
         kvel.subtract_dT(R, z, w, Y_h)
         return Y_Mdot, Y_h
 
+    @override
     def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
         # Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``.
         w = np.ascontiguousarray(w, dtype=float)
@@ -109,6 +115,7 @@ class SpatialDynamics(SpatialReference):
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
         return self._ym_core(Rc, Sc, np.asarray(s_vec, dtype=float)).imag / _H
 
+    @override
     def Y_h(self, q_b, q_m, w) -> np.ndarray:
         # Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8), i.e. of ``h =
         # dM/dt w - (0_3, dT/dq_m)`` (docs/spatial.md section 4).
@@ -137,15 +144,18 @@ class SpatialDynamics(SpatialReference):
         kin = self.kinematics(q_b, q_m)
         return self._energy_core(kin.R, kin.S, np.asarray(w, dtype=float))
 
+    @override
     def Y_d(self, q_b, q_m, w, s1, s2) -> np.ndarray:
         # Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``.
         Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
         return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
 
+    @override
     def velocity_product(self, theta_d, q_b, q_m, w) -> np.ndarray:
         # C(q, w, theta_d) w, (n+3), Eq. (8).
         return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
 
+    @override
     def reaction_torque(self, theta_d, q_b, q_m, w, w_dot) -> np.ndarray:
         # Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m], 3-vector.
         # ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b + 1/2 w_b x (M_bb w_b)`` (see
@@ -157,6 +167,7 @@ class SpatialDynamics(SpatialReference):
         return _reaction_torque(M_bb, M_bb_dot, w[:3], np.asarray(w_dot, dtype=float)[:3])
 
     # ------------------------------------------------------------------ momentum
+    @override
     def Y_b(self, q_b, q_m, w) -> np.ndarray:
         # Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (3, n_b).
         Y = np.empty((3, self.n_b))
@@ -170,6 +181,7 @@ class SpatialDynamics(SpatialReference):
             Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]
         return Y
 
+    @override
     def momentum_matrices(self, theta_b, q_b, q_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # (H_bb (3x3), H_bm (3 x n), A_0 (3)) of Eq. (13) from a parameter vector theta_b.
         theta_b = self._check(theta_b, self.n_b, "theta_b")

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from typing_extensions import override
 
 from .._arrays import read_only
 from ..errors import ParameterError
@@ -314,16 +315,19 @@ class BarycentricModel(PlanarDynamics):
         return dphi if self.layout.collinear else np.repeat(dphi, 2)
 
     # ------------------------------------------------------------------ kinematics
+    @override
     def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
         # p_e - p_com [m] = sum_k R(phi_k) V_k.
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         return self.body_angles(q_b, q_m).pos @ theta_z[2:]
 
+    @override
     def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
         # z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
         p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
         return np.array([p[0], p[1], self.ee_angle(q_b, q_m)])
 
+    @override
     def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
         # J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
         theta_z = self._check(theta_z, self.n_z, "theta_z")
@@ -339,6 +343,7 @@ class BarycentricModel(PlanarDynamics):
         J[2] = self._ee_row
         return J[:, :1], J[:, 1:]
 
+    @override
     def Y_z(self, q_b: float, q_m, w) -> np.ndarray:
         # Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, 0, dq_e/dt).
         # Shape (3, n_z); the attitude row is zero (parameter-free, see

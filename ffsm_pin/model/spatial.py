@@ -57,6 +57,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from typing_extensions import override
 
 from .._arrays import read_only
 from ..attitude import mrp
@@ -242,6 +243,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         return R, z
 
     # ------------------------------------------------------------------ kinematics
+    @override
     def ee_offset(self, theta_z, q_b, q_m) -> np.ndarray:
         # p_e - p_com [m] = sum_k R_k V_k (inertial frame).
         theta_z = self._check(theta_z, self.n_z, "theta_z")
@@ -282,6 +284,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         """
         return mrp.from_rotation(self.ee_rotation(q_b, q_m))
 
+    @override
     def ee_pose(self, theta_z, q_b, q_m, com_position) -> np.ndarray:
         # z_e = (p_e, q_e) [m, MRP] given the system CoM position [m].
         p = np.asarray(com_position) + self.ee_offset(theta_z, q_b, q_m)
@@ -292,6 +295,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         q_e = mrp.from_rotation(R_e)  # analytic: complex steps pass through
         return mrp.L_matrix(q_e, R_e) @ kin.S[self.geometry.ee_body]
 
+    @override
     def jacobians(self, theta_z, q_b, q_m) -> tuple[np.ndarray, np.ndarray]:
         # J_b (6 x 3) and J_m (6 x n) of Eq. (3) for a parameter vector theta_z.
         # Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate 1/4
@@ -312,6 +316,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         J[3:] = self._attitude_rows(kin, q_b, q_m)
         return J[:, :3], J[:, 3:]
 
+    @override
     def Y_z(self, q_b, q_m, w) -> np.ndarray:
         # Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
         # Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
