@@ -17,10 +17,22 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._docstrings import doc_entries, fill_doc
 from ._spatial_kinematics_kernels import body_rates
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    R="""
+        R : ndarray (n+1, 3, 3)
+            Body rotations R_k (real).""",
+    z="""
+        z : ndarray (n, 3)
+            Inertial joint axes z_j.""",
+)
 
 
 @njit(cache=True)
+@fill_doc(_DOC)
 def subtract_dT(R, z, w, Y_h):
     """Y_h[3 + j] -= dT/dq_j regressor (T at fixed base attitude and w) for every joint j.
 
@@ -33,10 +45,8 @@ def subtract_dT(R, z, w, Y_h):
 
     Parameters
     ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(R)s
+    %(z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame.
     Y_h : ndarray (N, n_d)
@@ -215,6 +225,7 @@ _PHI_I1 = (0, 1, 2, 1, 2, 2)
 
 
 @njit(cache=True)
+@fill_doc(_DOC)
 def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     """Y_M(a), Y_Mdot(w, s), the dM/dt w part of Y_h(w) (before :func:`subtract_dT`) and the
     base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above).
@@ -225,10 +236,8 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
 
     Parameters
     ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(R)s
+    %(z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame: the motion along which
         M changes.

@@ -38,10 +38,21 @@ import numpy as np
 from typing_extensions import override
 
 from .._arrays import read_only
+from .._docstrings import doc_entries, fill_doc
 from ..errors import ParameterError
 from ..robot import PlanarGeometry
 from ._common import barycentric_vectors
 from ._planar_dynamics import BodyAngles, PlanarDynamics
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    q_b="""
+        q_b : float
+            Base angle [rad].""",
+    q_m="""
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].""",
+)
 
 _COLLINEAR_TOL = 1e-12
 
@@ -111,6 +122,7 @@ class PlanarKernelConstants(NamedTuple):
     collinear: bool  # the paper's collinear layout (no Ds_kl parameters)
 
 
+@fill_doc(_DOC)
 class BarycentricModel(PlanarDynamics):
     """The reduced, parametric free-floating model of a planar serial chain.
 
@@ -282,10 +294,8 @@ class BarycentricModel(PlanarDynamics):
 
         Parameters
         ----------
-        q_b : float
-            Base angle [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(q_b)s
+        %(q_m)s
 
         Returns
         -------
@@ -299,10 +309,8 @@ class BarycentricModel(PlanarDynamics):
 
         Parameters
         ----------
-        q_b : float
-            Base angle [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(q_b)s
+        %(q_m)s
 
         Returns
         -------

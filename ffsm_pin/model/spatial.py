@@ -60,6 +60,7 @@ import numpy as np
 from typing_extensions import override
 
 from .._arrays import read_only
+from .._docstrings import doc_entries, fill_doc
 from ..attitude import mrp
 from ..errors import ParameterError
 from ..robot import SpatialGeometry
@@ -70,6 +71,25 @@ from ._spatial_dynamics import SpatialDynamics
 from ._spatial_layout import SYM6, SpatialParameterLayout
 from ._spatial_reference import Kinematics, skew_batch
 from ._spatial_terms import ControllerTerms, TermsBuffers
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    q_b="""
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP; may be complex.""",
+    q_m="""
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.""",
+    q_b_2="""
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.""",
+    q_m_2="""
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].""",
+    w="""
+        w : ndarray, shape (n + 3,)
+            (w_b, w_m) [rad/s], w_b in the inertial frame.""",
+)
 
 
 class SpatialKernelConstants(NamedTuple):
@@ -82,6 +102,7 @@ class SpatialKernelConstants(NamedTuple):
     ee_body: int  # body carrying the end effector (1..n)
 
 
+@fill_doc(_DOC)
 class SpatialBarycentricModel(SpatialDynamics):
     """The reduced, parametric free-floating model of a spatial serial chain.
 
@@ -180,10 +201,8 @@ class SpatialBarycentricModel(SpatialDynamics):
 
         Parameters
         ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
+        %(q_b)s
+        %(q_m)s
 
         Returns
         -------
@@ -255,10 +274,8 @@ class SpatialBarycentricModel(SpatialDynamics):
 
         Parameters
         ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
+        %(q_b)s
+        %(q_m)s
 
         Returns
         -------
@@ -272,10 +289,8 @@ class SpatialBarycentricModel(SpatialDynamics):
 
         Parameters
         ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(q_b_2)s
+        %(q_m_2)s
 
         Returns
         -------
@@ -337,12 +352,9 @@ class SpatialBarycentricModel(SpatialDynamics):
 
         Parameters
         ----------
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(w)s
+        %(q_b_2)s
+        %(q_m_2)s
 
         Returns
         -------
@@ -364,12 +376,9 @@ class SpatialBarycentricModel(SpatialDynamics):
             Kinematic parameters (Eq. 4).
         theta_d : array_like, shape (n_d,)
             Dynamic parameters (Eq. 12).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
+        %(q_b_2)s
+        %(q_m_2)s
+        %(w)s
         a : ndarray, shape (n + 3,)
             The vector of Y_M(a).
         s_vec : ndarray, shape (n + 3,)
