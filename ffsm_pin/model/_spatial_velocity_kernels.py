@@ -28,6 +28,7 @@ _DOC = doc_entries(
     z="""
         z : ndarray (n, 3)
             Inertial joint axes z_j.""",
+    params_R_z=("R", "z"),
 )
 
 
@@ -43,10 +44,7 @@ def subtract_dT(R, z, w, Y_h):
     dQ = R_k^T [z_j]x R_l, dw_l, and d(R_l^T w_k) = ([z_j]x R_l)^T w_k. Q, u, g and the dot
     products do not depend on j and are computed once.
 
-    Parameters
-    ----------
-    %(R)s
-    %(z)s
+    %(params_R_z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame.
     Y_h : ndarray (N, n_d)
@@ -234,10 +232,7 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     ``a`` resp. ``s`` is then not read). The others are the same values either way: each entry
     is its own expression.
 
-    Parameters
-    ----------
-    %(R)s
-    %(z)s
+    %(params_R_z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame: the motion along which
         M changes.

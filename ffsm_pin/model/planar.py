@@ -52,6 +52,7 @@ _DOC = doc_entries(
     q_m="""
         q_m : ndarray, shape (n,)
             Joint angles [rad].""",
+    params_q_b_q_m=("q_b", "q_m"),
 )
 
 _COLLINEAR_TOL = 1e-12
@@ -292,10 +293,7 @@ class BarycentricModel(PlanarDynamics):
     def angles(self, q_b: float, q_m) -> np.ndarray:
         """phi_k [rad], absolute angle of each body's line frame.
 
-        Parameters
-        ----------
-        %(q_b)s
-        %(q_m)s
+        %(params_q_b_q_m)s
 
         Returns
         -------
@@ -307,10 +305,7 @@ class BarycentricModel(PlanarDynamics):
     def ee_angle(self, q_b: float, q_m) -> float:
         """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m).
 
-        Parameters
-        ----------
-        %(q_b)s
-        %(q_m)s
+        %(params_q_b_q_m)s
 
         Returns
         -------

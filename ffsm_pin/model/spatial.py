@@ -89,6 +89,9 @@ _DOC = doc_entries(
     w="""
         w : ndarray, shape (n + 3,)
             (w_b, w_m) [rad/s], w_b in the inertial frame.""",
+    params_q_b_q_m=("q_b", "q_m"),
+    params_q_b_2_q_m_2=("q_b_2", "q_m_2"),
+    params_w_q_b_2_q_m_2=("w", "q_b_2", "q_m_2"),
 )
 
 
@@ -199,10 +202,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         """Body rotations R_k, joint axes z_j and S_k for one configuration (memoised; real or
         complex arguments).
 
-        Parameters
-        ----------
-        %(q_b)s
-        %(q_m)s
+        %(params_q_b_q_m)s
 
         Returns
         -------
@@ -272,10 +272,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_rotation(self, q_b, q_m) -> np.ndarray:
         """R_e, the end-effector frame's rotation (body to inertial); parameter-free.
 
-        Parameters
-        ----------
-        %(q_b)s
-        %(q_m)s
+        %(params_q_b_q_m)s
 
         Returns
         -------
@@ -287,10 +284,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_attitude(self, q_b, q_m) -> np.ndarray:
         """q_e, the end-effector attitude as an MRP on the |s| <= 1 branch.
 
-        Parameters
-        ----------
-        %(q_b_2)s
-        %(q_m_2)s
+        %(params_q_b_2_q_m_2)s
 
         Returns
         -------
@@ -350,11 +344,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_attitude_rate(self, w, q_b, q_m) -> np.ndarray:
         """dq_e/dt [1/s], the parameter-free MRP rate of the end effector (rows 4-6 of Eq. 3).
 
-        Parameters
-        ----------
-        %(w)s
-        %(q_b_2)s
-        %(q_m_2)s
+        %(params_w_q_b_2_q_m_2)s
 
         Returns
         -------

@@ -43,6 +43,7 @@ _DOC = doc_entries(
         -------
         State
             This state, updated.""",
+    params_q_v=("q", "v"),
 )
 
 #: the module that computes a state, by root joint
@@ -164,10 +165,7 @@ class State:
     def update(self, q, v) -> State:
         """Compute every quantity for the plant state (q, v) in Pinocchio conventions.
 
-        Parameters
-        ----------
-        %(q)s
-        %(v)s
+        %(params_q_v)s
 
         %(returns_state)s
         """
@@ -180,10 +178,7 @@ class State:
         quantity keeps the value of an earlier :meth:`update`. What a controller given the
         true model needs each period, at a fraction of the cost.
 
-        Parameters
-        ----------
-        %(q)s
-        %(v)s
+        %(params_q_v)s
 
         %(returns_state)s
         """

@@ -49,6 +49,7 @@ _DOC = doc_entries(
     source_2="""
         source : str
             Where the model comes from, for the messages.""",
+    params_model_fid_source=("model", "fid", "source"),
 )
 
 _REVOLUTE = {
@@ -279,11 +280,7 @@ def check_serial(model: pin.Model, fid: int, source: str, lock_hint: str | None)
     ``lock_hint``: None where joints cannot be locked; otherwise the text appended to the list
     of joints to lock (e.g. the usual ones of an example-robot-data arm).
 
-    Parameters
-    ----------
-    %(model)s
-    %(fid)s
-    %(source)s
+    %(params_model_fid_source)s
     lock_hint : str or None
         None where joints cannot be locked; otherwise the text appended to the list of joints
         to lock.

@@ -45,6 +45,7 @@ _DOC = doc_entries(
     q_v_2="""
         q, v : array_like
             The combined configuration and velocity.""",
+    params_capture_q_v=("capture", "q_v"),
 )
 
 #: the weld must hold to this (relative twist / largest velocity) before a merge
@@ -333,10 +334,7 @@ def impact(capture: CaptureModel, q, v) -> Impact:
     <CaptureModel.weld_jacobian>`, lambda = -(J M^-1 J^T)^-1 J v-, v+ = v- + M^-1 J^T lambda.
     lambda is the impulse on the hand (the target receives its opposite); J v+ = 0.
 
-    Parameters
-    ----------
-    %(capture)s
-    %(q_v)s
+    %(params_capture_q_v)s
 
     Returns
     -------
@@ -365,10 +363,7 @@ def impact_pinocchio(capture: CaptureModel, q, v) -> Impact:
     given the target's spatial velocity), which changes neither J v nor the impulse; w is added
     back to the result.
 
-    Parameters
-    ----------
-    %(capture)s
-    %(q_v)s
+    %(params_capture_q_v)s
 
     Returns
     -------

@@ -50,6 +50,7 @@ _DOC = doc_entries(
         -------
         StepResult
             (q, v) after dt and the acceleration at the start.""",
+    params_q_v_2_u_m=("q_v_2", "u_m"),
 )
 
 # root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept,
@@ -262,10 +263,7 @@ class Plant:
         restores :attr:`momentum0`, belongs to the caller then (``project_momentum=False`` and
         :meth:`project` with the momentum to keep).
 
-        Parameters
-        ----------
-        %(q_v_2)s
-        %(u_m)s
+        %(params_q_v_2_u_m)s
         dt : float
             Step [s].
         base_wrench : ndarray or None
@@ -302,10 +300,7 @@ class Plant:
         ``dt / substeps``, ``u_m`` [N m] (and ``base_wrench``, :meth:`step`) held. ``a`` is the
         acceleration at the start.
 
-        Parameters
-        ----------
-        %(q_v_2)s
-        %(u_m)s
+        %(params_q_v_2_u_m)s
         dt : float
             Control step [s].
         substeps : int

@@ -51,6 +51,7 @@ _DOC = doc_entries(
     h_2="""
         h : ndarray, shape (k,)
             Wheel momenta [N m s].""",
+    params_h_w_bus=("h", "w_bus"),
 )
 
 _KEYS = ("axes", "inertia", "max_torque", "max_momentum")
@@ -183,10 +184,7 @@ class Wheels:
     def spin_rates(self, h, w_bus) -> np.ndarray:
         """Each wheel's spin relative to the bus [rad/s]: h_i / J_s,i - a_i . w_bus.
 
-        Parameters
-        ----------
-        %(h)s
-        %(w_bus)s
+        %(params_h_w_bus)s
 
         Returns
         -------

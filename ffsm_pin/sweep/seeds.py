@@ -33,6 +33,7 @@ _DOC = doc_entries(
     repeat="""
         repeat : int
             Its repeat index.""",
+    params_root_seed_point_repeat=("root_seed", "point", "repeat"),
 )
 
 __all__ = ["case_stream", "estimates_seed", "words"]
@@ -68,11 +69,7 @@ def case_stream(
 ) -> np.random.SeedSequence:
     """The SeedSequence of one case (grid point, repeat index) for one purpose.
 
-    Parameters
-    ----------
-    %(root_seed)s
-    %(point)s
-    %(repeat)s
+    %(params_root_seed_point_repeat)s
     purpose : str
         What the stream is for (e.g. ``"estimates"``).
 
@@ -89,11 +86,7 @@ def case_stream(
 def estimates_seed(root_seed: int, point: Mapping[str, Any], repeat: int) -> int:
     """A non-negative 63-bit integer for ``controller.estimates.seed`` (fits a TOML integer).
 
-    Parameters
-    ----------
-    %(root_seed)s
-    %(point)s
-    %(repeat)s
+    %(params_root_seed_point_repeat)s
 
     Returns
     -------

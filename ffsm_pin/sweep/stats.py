@@ -31,6 +31,9 @@ _DOC = doc_entries(
     p="""
         p : float
             The observed rate.""",
+    params_kept_n_z=("kept", "n", "z"),
+    params_p_n_z=("p", "n", "z"),
+    params_kept_n=("kept", "n"),
 )
 
 __all__ = [
@@ -45,11 +48,7 @@ Z95 = 1.959963984540054  # standard normal quantile of 0.975
 def wilson(kept: int, n: int, z: float = Z95) -> tuple[float, float] | tuple[None, None]:
     """95 % Wilson score interval of ``kept`` of ``n`` (None, None for n = 0).
 
-    Parameters
-    ----------
-    %(kept)s
-    %(n)s
-    %(z)s
+    %(params_kept_n_z)s
 
     %(returns_lower)s
     """
@@ -65,11 +64,7 @@ def wilson(kept: int, n: int, z: float = Z95) -> tuple[float, float] | tuple[Non
 def wilson_half_width(p: float, n: int, z: float = Z95) -> float:
     """Half the width of the Wilson interval at an observed rate ``p`` of ``n`` runs.
 
-    Parameters
-    ----------
-    %(p)s
-    %(n)s
-    %(z)s
+    %(params_p_n_z)s
 
     Returns
     -------
@@ -86,10 +81,7 @@ def clopper_pearson(
     """Exact (Clopper-Pearson) interval of ``kept`` of ``n`` (None, None for n = 0): never
     narrower than its level promises, so wider than Wilson's.
 
-    Parameters
-    ----------
-    %(kept)s
-    %(n)s
+    %(params_kept_n)s
     level : float
         Confidence level.
 

@@ -32,6 +32,7 @@ _DOC = doc_entries(
     by="""
         by : tuple of str
             Columns grouped by besides the controller.""",
+    params_path_by=("path", "by"),
 )
 
 __all__ = [
@@ -280,10 +281,7 @@ def present(path: Path) -> set[str]:
 def controller_sql(path: Path, by: tuple[str, ...] = (), have: set[str] | None = None) -> str:
     """:data:`CONTROLLER_SQL` for the file at ``path`` (``have``: its columns).
 
-    Parameters
-    ----------
-    %(path)s
-    %(by)s
+    %(params_path_by)s
     have : set of str or None
         The file's columns; None: read from the file.
 
@@ -299,10 +297,7 @@ def controller_table(path: Path, by: tuple[str, ...] = ()) -> list[dict[str, Any
     """The per-controller rows of :data:`CONTROLLER_SQL` for ``results.parquet`` at ``path``,
     per value of the columns ``by`` too (``("scenario",)``: per scenario and controller).
 
-    Parameters
-    ----------
-    %(path)s
-    %(by)s
+    %(params_path_by)s
 
     Returns
     -------
