@@ -22,7 +22,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .._cli import Parser, UsageError, fail, positive_int
+from .._docstrings import fill_doc
 from ..errors import FfsmError
+from ._docs import SWEEP_DOC
 from .campaign import BUILTIN_CAMPAIGNS, Campaign, load_campaign
 from .cases import Case, expand
 from .check import check_cases
@@ -153,6 +155,7 @@ def _main(argv: Sequence[str] | None) -> int:
         return fail(f"cannot write{name}: {exc.strerror or exc}")
 
 
+@fill_doc(SWEEP_DOC)
 def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespace) -> int:
     """Resume or start the campaign in ``out``, write the report; the exit status.
 
@@ -166,10 +169,7 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
 
     Parameters
     ----------
-    campaign : Campaign
-        The campaign.
-    cases : list of Case
-        Its cases.
+    %(campaign_cases)s
     out : Path
         The campaign folder.
     args : argparse.Namespace
