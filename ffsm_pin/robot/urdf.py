@@ -23,9 +23,11 @@ _DOC = doc_entries(
     relative_to="""
         relative_to : str or Path or None
             Folder a relative path is looked up in first.""",
-    text="""
+    text_source="""
         text : str
-            URDF text.""",
+            URDF text.
+        source : str
+            Where it comes from, for the messages.""",
 )
 
 ERD_PREFIX = "example-robot-data:"
@@ -198,9 +200,7 @@ def parse_urdf(text: str, source: str) -> ET.Element:
 
     Parameters
     ----------
-    %(text)s
-    source : str
-        Where it comes from, for the message.
+    %(text_source)s
 
     Returns
     -------
@@ -297,9 +297,7 @@ def add_missing_limits(text: str, source: str = "URDF") -> str:
 
     Parameters
     ----------
-    %(text)s
-    source : str
-        Where it comes from, for the messages.
+    %(text_source)s
 
     Returns
     -------
