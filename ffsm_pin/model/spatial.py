@@ -74,24 +74,24 @@ from ._spatial_terms import ControllerTerms, TermsBuffers
 
 # numpydoc entries its docstrings share (ffsm_pin._docstrings)
 _DOC = doc_entries(
-    q_b="""
+    q_b_complex="""
         q_b : ndarray, shape (3,)
             Base attitude, MRP; may be complex.""",
-    q_m="""
+    q_m_complex="""
         q_m : ndarray, shape (n,)
             Joint angles [rad]; may be complex.""",
-    q_b_2="""
+    q_b="""
         q_b : ndarray, shape (3,)
             Base attitude, MRP.""",
-    q_m_2="""
+    q_m="""
         q_m : ndarray, shape (n,)
             Joint angles [rad].""",
     w="""
         w : ndarray, shape (n + 3,)
             (w_b, w_m) [rad/s], w_b in the inertial frame.""",
-    params_q_b_q_m=("q_b", "q_m"),
-    params_q_b_2_q_m_2=("q_b_2", "q_m_2"),
-    params_w_q_b_2_q_m_2=("w", "q_b_2", "q_m_2"),
+    params_q_complex=("q_b_complex", "q_m_complex"),
+    params_q=("q_b", "q_m"),
+    params_w_q=("w", "q_b", "q_m"),
 )
 
 
@@ -202,7 +202,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         """Body rotations R_k, joint axes z_j and S_k for one configuration (memoised; real or
         complex arguments).
 
-        %(params_q_b_q_m)s
+        %(params_q_complex)s
 
         Returns
         -------
@@ -272,7 +272,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_rotation(self, q_b, q_m) -> np.ndarray:
         """R_e, the end-effector frame's rotation (body to inertial); parameter-free.
 
-        %(params_q_b_q_m)s
+        %(params_q_complex)s
 
         Returns
         -------
@@ -284,7 +284,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_attitude(self, q_b, q_m) -> np.ndarray:
         """q_e, the end-effector attitude as an MRP on the |s| <= 1 branch.
 
-        %(params_q_b_2_q_m_2)s
+        %(params_q)s
 
         Returns
         -------
@@ -344,7 +344,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_attitude_rate(self, w, q_b, q_m) -> np.ndarray:
         """dq_e/dt [1/s], the parameter-free MRP rate of the end effector (rows 4-6 of Eq. 3).
 
-        %(params_w_q_b_2_q_m_2)s
+        %(params_w_q)s
 
         Returns
         -------
@@ -366,8 +366,8 @@ class SpatialBarycentricModel(SpatialDynamics):
             Kinematic parameters (Eq. 4).
         theta_d : array_like, shape (n_d,)
             Dynamic parameters (Eq. 12).
-        %(q_b_2)s
-        %(q_m_2)s
+        %(q_b)s
+        %(q_m)s
         %(w)s
         a : ndarray, shape (n + 3,)
             The vector of Y_M(a).

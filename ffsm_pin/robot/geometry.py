@@ -46,7 +46,7 @@ _DOC = doc_entries(
     names="""
         names : tuple of str
             URDF link name of each body 0..n (:func:`body_names`), for the messages.""",
-    source_2="""
+    source_model="""
         source : str
             Where the model comes from, for the messages.""",
     params_model_fid_source=("model", "fid", "source"),
@@ -323,7 +323,7 @@ def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: 
         The robot's model (planar root).
     %(fid)s
     %(names)s
-    %(source_2)s
+    %(source_model)s
     """
     masses, inertias, coms = [], [], []
     for j in range(1, model.njoints):
@@ -396,7 +396,7 @@ def spatial_geometry(
         The robot's model (free-flyer root).
     %(fid)s
     %(names)s
-    %(source_2)s
+    %(source_model)s
     base_hint : str
         Appended to an inertia error of the floating base.
     """

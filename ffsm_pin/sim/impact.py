@@ -36,16 +36,16 @@ _DOC = doc_entries(
     capture="""
         capture : CaptureModel
             The combined model.""",
-    q_v="""
+    q_v_before="""
         q, v : array_like
             Configuration and velocity before the impact.""",
     state="""
         state : TargetState
             The target's state.""",
-    q_v_2="""
+    q_v_combined="""
         q, v : array_like
             The combined configuration and velocity.""",
-    params_capture_q_v=("capture", "q_v"),
+    params_capture_q_v_before=("capture", "q_v_before"),
 )
 
 #: the weld must hold to this (relative twist / largest velocity) before a merge
@@ -156,7 +156,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_2)s
+        %(q_v_combined)s
 
         Returns
         -------
@@ -192,7 +192,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_2)s
+        %(q_v_combined)s
 
         Returns
         -------
@@ -207,7 +207,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_2)s
+        %(q_v_combined)s
 
         Returns
         -------
@@ -224,7 +224,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_2)s
+        %(q_v_combined)s
         tolerances : CaptureTolerances
             Distance [m] and relative speed [m/s] allowed.
 
@@ -247,7 +247,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_2)s
+        %(q_v_combined)s
 
         Returns
         -------
@@ -264,7 +264,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_2)s
+        %(q_v_combined)s
 
         Returns
         -------
@@ -334,7 +334,7 @@ def impact(capture: CaptureModel, q, v) -> Impact:
     <CaptureModel.weld_jacobian>`, lambda = -(J M^-1 J^T)^-1 J v-, v+ = v- + M^-1 J^T lambda.
     lambda is the impulse on the hand (the target receives its opposite); J v+ = 0.
 
-    %(params_capture_q_v)s
+    %(params_capture_q_v_before)s
 
     Returns
     -------
@@ -363,7 +363,7 @@ def impact_pinocchio(capture: CaptureModel, q, v) -> Impact:
     given the target's spatial velocity), which changes neither J v nor the impulse; w is added
     back to the result.
 
-    %(params_capture_q_v)s
+    %(params_capture_q_v_before)s
 
     Returns
     -------

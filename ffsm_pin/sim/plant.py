@@ -39,7 +39,7 @@ _DOC = doc_entries(
     q_v="""
         q, v : ndarray
             State (Pinocchio convention).""",
-    q_v_2="""
+    q_v_start="""
         q, v : ndarray
             State at the start (Pinocchio convention).""",
     u_m="""
@@ -50,7 +50,7 @@ _DOC = doc_entries(
         -------
         StepResult
             (q, v) after dt and the acceleration at the start.""",
-    params_q_v_2_u_m=("q_v_2", "u_m"),
+    params_q_v_start_u_m=("q_v_start", "u_m"),
 )
 
 # root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept,
@@ -263,7 +263,7 @@ class Plant:
         restores :attr:`momentum0`, belongs to the caller then (``project_momentum=False`` and
         :meth:`project` with the momentum to keep).
 
-        %(params_q_v_2_u_m)s
+        %(params_q_v_start_u_m)s
         dt : float
             Step [s].
         base_wrench : ndarray or None
@@ -300,7 +300,7 @@ class Plant:
         ``dt / substeps``, ``u_m`` [N m] (and ``base_wrench``, :meth:`step`) held. ``a`` is the
         acceleration at the start.
 
-        %(params_q_v_2_u_m)s
+        %(params_q_v_start_u_m)s
         dt : float
             Control step [s].
         substeps : int

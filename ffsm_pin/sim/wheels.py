@@ -48,7 +48,7 @@ _DOC = doc_entries(
     w_bus="""
         w_bus : array_like, shape (3,)
             The bus's angular velocity, bus frame [rad/s].""",
-    h_2="""
+    h_ndarray="""
         h : ndarray, shape (k,)
             Wheel momenta [N m s].""",
     params_h_w_bus=("h", "w_bus"),
@@ -259,7 +259,7 @@ class WheeledPlant:
         ----------
         q : ndarray
             Robot configuration (Pinocchio convention).
-        %(h_2)s
+        %(h_ndarray)s
 
         Returns
         -------
@@ -276,7 +276,7 @@ class WheeledPlant:
         ----------
         q, v : ndarray
             Robot state (Pinocchio convention).
-        %(h_2)s
+        %(h_ndarray)s
 
         Returns
         -------
@@ -312,7 +312,7 @@ class WheeledPlant:
         ----------
         q, v : ndarray
             Robot state at the start (Pinocchio convention).
-        %(h_2)s
+        %(h_ndarray)s
         u_m : ndarray, shape (n,)
             Joint torques [N m], held.
         tau_w : ndarray, shape (k,)
