@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .._cli import Parser, UsageError, fail, positive_int
+from .._cli import UsageError, command_parser, fail, positive_int
 from .._docstrings import fill_doc
 from ..errors import FfsmError
 from ._docs import SWEEP_DOC
@@ -56,12 +56,10 @@ folder is in use, or holds another campaign), 130 interrupted."""
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line parser (docs/campaigns.md)."""
-    p = Parser(
-        prog="python -m ffsm_pin.sweep",
-        description="Run many variations of a scenario on a Dask cluster; write "
-        "results.parquet and report.md.",
-        epilog=_EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    p = command_parser(
+        "ffsm_pin.sweep",
+        "Run many variations of a scenario on a Dask cluster; write results.parquet and report.md.",
+        _EPILOG,
     )
     p.add_argument("campaign", metavar="CAMPAIGN", help="campaign file (TOML) or built-in name")
     p.add_argument("--out", metavar="DIR", help="output folder (an existing one is resumed)")
