@@ -22,6 +22,32 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
+def command_parser(module: str, description: str, epilog: str) -> Parser:
+    """The parser of ``python -m <module>``: its description, then the options, then the epilog
+    as written (line breaks kept).
+
+    Parameters
+    ----------
+    module : str
+        The package the command runs (``ffsm_pin.sim``, ``ffsm_pin.sweep``).
+    description : str
+        What the command does.
+    epilog : str
+        The text after the options (exit statuses, output files).
+
+    Returns
+    -------
+    Parser
+        The parser, without arguments yet.
+    """
+    return Parser(
+        prog=f"python -m {module}",
+        description=description,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+
+
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0."""
     try:

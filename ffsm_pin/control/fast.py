@@ -24,6 +24,7 @@ from numba import njit
 
 from .._array_kernels import difference, positive_definite, put
 from .._arrays import contiguous_rows as _rows
+from .._docstrings import fill_doc
 from ..model._planar_kernels import (
     column_sums,
     jacobian,
@@ -34,6 +35,7 @@ from ..model._planar_kernels import (
     xm,
     y_m,
 )
+from ._docs import CONTROL_DOC
 from .kernels import (
     JOINT_CENTERING,
     STATUS_BASE_ROW,
@@ -56,34 +58,14 @@ from .reference_kernels import reference_at
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) (complex-step safe; :func:`.period.kinematic_law`);
     ``geo`` the model's :class:`~ffsm_pin.model.planar.PlanarKernelConstants`, ``law`` the
     :class:`~.period.PeriodLaw` (its ``n_task``: 3 the pose task, 2 the position task),
     ``ns`` its ``null_space``.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants
-        The model's kernel constants.
-    law : PeriodLaw
-        The run's constants.
-    ref : ReferenceArrays
-        The task reference.
-    ns : NullSpaceTerm or None
-        ``law.null_space``.
-    t : complex
-        Time [s].
-    q_b : complex or ndarray
-        Base attitude [rad] or MRP.
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    z_e : ndarray
-        End-effector pose.
-    theta_b, theta_z : ndarray
-        Estimates of Eqs. (28) and (42).
-    w_b : ndarray, shape (m3,)
-        Base angular velocity [rad/s].
+    %(params_kinematic_law)s
     """
     S, off, K, L, ee_row, collinear = geo
     nt, g = law.n_task, law.gains
@@ -168,6 +150,7 @@ def _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns, q_b, q_m, thet
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def theta_b_step(theta_b, Yb, gamma_1, dt):
     """Eq. (28) by its exact zero-order hold for the rank-one planar Y_b = [-1, Yb] (``Yb`` the
     base row of Y_M(w)), as :func:`ffsm_pin.control.adaptation.theta_b_step`.
@@ -178,10 +161,7 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
         theta_b-hat at t.
     Yb : ndarray
         The base row of Y_M(w).
-    gamma_1 : float
-        Adaptation gain.
-    dt : float
-        Step [s].
+    %(gain_dt)s
     """
     yy = 1.0 + (Yb * Yb).sum()
     yth = -theta_b[0] + (Yb * theta_b[1:]).sum()
@@ -194,23 +174,13 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def geometry_terms(geo, law, dt, meas, state):
     """The body angles' trigonometry and Eqs. (28), (42) over the period
     (:func:`.period.geometry_terms`; the estimates unchanged when ``law.adaptive`` is False,
     the known-model scheme). ``state.w_hat`` is not read.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants
-        The model's kernel constants.
-    law : PeriodLaw
-        The run's constants.
-    dt : float
-        The period [s].
-    meas : Measurement
-        The measurement at t.
-    state : PeriodState
-        The estimates at t.
+    %(params_geometry_terms)s
     """
     S, off, K, L, ee_row, collinear = geo
     q_b, q_m, w = meas.q_b, meas.q_m, meas.w
@@ -227,6 +197,7 @@ def geometry_terms(geo, law, dt, meas, state):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """The dynamic level (Eqs. 46, 49-52, 60a, 64-65; :func:`.period.dynamic_level`): returns
     (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~, e) and, when the status is
@@ -236,24 +207,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     read otherwise). ``law.theta_d_true``: the true theta_d for the diagnostic e of Eq. (54),
     never read by the law; empty: e is not computed (an empty ``e``).
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants
-        The model's kernel constants.
-    terms : tuple
-        Those of :func:`geometry_terms`.
-    law : PeriodLaw
-        The run's constants.
-    dt : float
-        The period [s].
-    meas : Measurement
-        The measurement at t.
-    w_mc, w_mc_dot : ndarray, shape (n,)
-        Commanded joint rates [rad/s] and their derivative [rad/s^2].
-    sens : ndarray
-        d w_mc / d w_b (zero except for Eq. 81).
-    state : PeriodState
-        Advanced in place.
+    %(params_dynamic_level)s
     """
     S, off, K, L, ee_row, collinear = geo
     pc, ps = terms
@@ -320,6 +274,7 @@ def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     """(M_bb, dM_bb/dt) of the true model, for the reaction torque of Eq. (7).
 
@@ -342,8 +297,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
         Joint angles [rad].
     w : ndarray, shape (n + 1,)
         (w_b, w_m) [rad/s].
-    theta_d : ndarray
-        The true dynamic parameters.
+    %(theta_d_true)s
     """
     nb = S.shape[0]
     c, s, pc, ps = trig(S, off, K, L, q_b, q_m)
@@ -371,6 +325,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
 
 
 @njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside
+@fill_doc(CONTROL_DOC)
 def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b`` with
     (M_bb, dM_bb/dt) of :func:`base_inertia`; q_b (N,), q_m (N, n), w (N, n + 1), dw_b (N,).
@@ -379,10 +334,8 @@ def reaction_rows(S, off, K, L, collinear, q_b, q_m, w, dw_b, theta_d):
     ----------
     S, off, K, L, collinear : ndarray or bool
         Fields of :class:`~ffsm_pin.model.planar.PlanarKernelConstants`.
-    q_b, q_m, w, dw_b : ndarray
-        The recorded rows (shapes above) [rad, rad/s, rad/s^2].
-    theta_d : ndarray
-        The true dynamic parameters.
+    %(rows)s
+    %(theta_d_true)s
     """
     N = q_b.shape[0]
     out = np.empty(N)
@@ -402,18 +355,11 @@ def true_model_constants(geo) -> tuple:
     return geo.S, geo.phi_offset, geo.K, geo.L, geo.collinear
 
 
+@fill_doc(CONTROL_DOC)
 def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
     """The recorded rows q_b (N, 1), q_m, w, dw_b (N, 1) as :func:`reaction_rows` takes them
     (contiguous; q_b and dw_b as (N,)).
 
-    Parameters
-    ----------
-    q_b, q_m, w, dw_b : ndarray
-        The recorded rows (shapes above).
-
-    Returns
-    -------
-    tuple
-        The four arrays, contiguous.
+    %(sections_reaction_rows_of)s
     """
     return _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))

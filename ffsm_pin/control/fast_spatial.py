@@ -42,10 +42,12 @@ from .._array_kernels import (
     solve,
 )
 from .._arrays import contiguous_rows as _rows
+from .._docstrings import fill_doc
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
 from ..model._spatial_mass_kernels import mass_matrix, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
+from ._docs import CONTROL_DOC
 from .kernels import (
     COMPLEX_STEP,
     JOINT_CENTERING,
@@ -175,34 +177,14 @@ def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments (:func:`.period.kinematic_law`);
     returns (w_mc, d w_mc/d w_b, sigma_min, damping, |H_bm|, err_b, err_z, status, exit index).
     ``geo`` the model's :class:`~ffsm_pin.model.spatial.SpatialKernelConstants`, ``law`` the
     :class:`~.period.PeriodLaw`, ``ns`` its ``null_space``.
 
-    Parameters
-    ----------
-    geo : SpatialKernelConstants
-        The model's kernel constants.
-    law : PeriodLaw
-        The run's constants.
-    ref : ReferenceArrays
-        The task reference.
-    ns : NullSpaceTerm or None
-        ``law.null_space``.
-    t : complex
-        Time [s].
-    q_b : complex or ndarray
-        Base attitude [rad] or MRP.
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    z_e : ndarray
-        End-effector pose.
-    theta_b, theta_z : ndarray
-        Estimates of Eqs. (28) and (42).
-    w_b : ndarray, shape (m3,)
-        Base angular velocity [rad/s].
+    %(params_kinematic_law)s
     """
     jr, ax, er, m = geo
     nt, g = law.n_task, law.gains
@@ -252,6 +234,7 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
 
 # ---------------------------------------------------------------------- one period
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def theta_b_step(theta_b, Yb, gamma_1, dt):
     """Eq. (28) by its exact zero-order hold, exp(-g dt Y^T Y) through the 3x3 G = Y Y^T
     (as :func:`ffsm_pin.control.adaptation.theta_b_step`); ``Yb`` (3, nd + 3) holds the base
@@ -263,10 +246,7 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
         theta_b-hat at t.
     Yb : ndarray
         The base rows of Y_M(w), in its columns 3:.
-    gamma_1 : float
-        Adaptation gain.
-    dt : float
-        Step [s].
+    %(gain_dt)s
     """
     for i in range(3):
         for j in range(3):
@@ -279,23 +259,13 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def geometry_terms(geo, law, dt, meas, state):
     """The body rotations and joint axes, the regressors of the dynamic level and Eqs. (28),
     (42) over the period (:func:`.period.geometry_terms`; the estimates unchanged when
     ``law.adaptive`` is False), and dq_b/dt of Eq. (1).
 
-    Parameters
-    ----------
-    geo : SpatialKernelConstants
-        The model's kernel constants.
-    law : PeriodLaw
-        The run's constants.
-    dt : float
-        The period [s].
-    meas : Measurement
-        The measurement at t.
-    state : PeriodState
-        The estimates at t.
+    %(params_geometry_terms)s
     """
     jr, ax, er, m = geo
     q_b, q_m, w, w_hat = meas.q_b, meas.q_m, meas.w, state.w_hat
@@ -326,6 +296,7 @@ def geometry_terms(geo, law, dt, meas, state):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """Eqs. (46), (50)-(52), (60)-(64) with 3x3 base rows (:func:`.period.dynamic_level`):
     returns (status, exit value, u_m, w_mc_dot + sens dw_b/dt, w~, e) and, when the status is
@@ -334,24 +305,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     not read otherwise). ``law.theta_d_true``: the true theta_d for the diagnostic e of
     Eq. (54), never read by the law; empty: e is not computed (an empty ``e``).
 
-    Parameters
-    ----------
-    geo : SpatialKernelConstants
-        The model's kernel constants.
-    terms : tuple
-        Those of :func:`geometry_terms`.
-    law : PeriodLaw
-        The run's constants.
-    dt : float
-        The period [s].
-    meas : Measurement
-        The measurement at t.
-    w_mc, w_mc_dot : ndarray, shape (n,)
-        Commanded joint rates [rad/s] and their derivative [rad/s^2].
-    sens : ndarray
-        d w_mc / d w_b (zero except for Eq. 81).
-    state : PeriodState
-        Advanced in place.
+    %(params_dynamic_level)s
     """
     R, z, YM, YMdot, Yh, w_tilde = terms
     g, adaptive, w = law.gains, law.adaptive, meas.w
@@ -415,6 +369,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     """(M_bb, dM_bb/dt) of the true model, from the base columns of M alone; dM_bb/dt along the
     motion (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step.
@@ -429,8 +384,7 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
         Joint angles [rad].
     w : ndarray, shape (n + 3,)
         (w_b, w_m) [rad/s].
-    theta_d : ndarray
-        The true dynamic parameters.
+    %(theta_d_true)s
     """
     n = q_m.size
     nb = n + 1
@@ -447,6 +401,7 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
 
 
 @njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside
+@fill_doc(CONTROL_DOC)
 def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
     """F_r of Eq. (7) on recorded rows, after a run: ``M_bb dw_b/dt + 1/2 dM_bb/dt w_b +
     1/2 w_b x (M_bb w_b)`` (as :func:`ffsm_pin.model._state_spatial.reaction_torque`) with
@@ -457,10 +412,8 @@ def reaction_rows(jr, ax, q_b, q_m, w, dw_b, theta_d):
     ----------
     jr, ax : ndarray
         Joint rotations (n, 3, 3) and axes (n, 3), as in ``SpatialKernelConstants``.
-    q_b, q_m, w, dw_b : ndarray
-        The recorded rows (shapes above).
-    theta_d : ndarray
-        The true dynamic parameters.
+    %(rows)s
+    %(theta_d_true)s
     """
     N = q_b.shape[0]
     out = np.empty((N, 3))
@@ -483,18 +436,11 @@ def true_model_constants(geo) -> tuple:
     return geo.joint_rot, geo.axes
 
 
+@fill_doc(CONTROL_DOC)
 def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
     """The recorded rows q_b (N, 3), q_m, w, dw_b (N, 3) as :func:`reaction_rows` takes them
     (contiguous).
 
-    Parameters
-    ----------
-    q_b, q_m, w, dw_b : ndarray
-        The recorded rows (shapes above).
-
-    Returns
-    -------
-    tuple
-        The four arrays, contiguous.
+    %(sections_reaction_rows_of)s
     """
     return _rows(q_b, q_m, w, dw_b)

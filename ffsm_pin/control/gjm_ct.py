@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._docstrings import fill_doc
+from ._docs import CONTROL_DOC
 from .compiled import state_field
 from .gjm_ct_kernels import PERIOD, GjmKernelGains
 from .interface import ControllerContext, Measurement
@@ -56,24 +58,14 @@ class GjmGains:
     k_v: float
 
     @classmethod
+    @fill_doc(CONTROL_DOC)
     def derived(cls, funnel, dt: float, m2: int, n_task: int, drift: float = 0.0) -> GjmGains:
         """Defaults from the scenario's end-effector funnel ``funnel`` (a FunnelParams), the
         control period ``dt`` [s] and a drift speed ``drift`` [m/s] the model may miss (the
         controller passes the larger of ``|v_0-hat|`` and the end-effector speed measured at
         t = 0): :func:`~.resolved_motion.rate_gains`, k_v its joint loop's rate.
 
-        Parameters
-        ----------
-        funnel : FunnelParams
-            The scenario's end-effector funnel.
-        dt : float
-            The control period [s].
-        m2 : int
-            Position coordinates.
-        n_task : int
-            Task components.
-        drift : float
-            Drift speed the model may miss [m/s].
+        %(params_funnel)s
 
         Returns
         -------
@@ -118,19 +110,13 @@ class GjmComputedTorque(ResolvedMotionBaseline):
         )
         self.prepare_period(gains, PERIOD)
 
+    @fill_doc(CONTROL_DOC)
     def joint_rate_command(self, t, q_b, q_m, z_e):
         """(w_md, sigma_min, damping) at a (possibly complex) state (see the module docstring).
 
         Parameters
         ----------
-        t : float or complex
-            Time [s].
-        q_b : float or ndarray
-            Base attitude [rad] or MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        z_e : ndarray
-            End-effector pose.
+        %(t_q_z)s
         """
         rates = self.rates(self.theta_z, self.theta_b, t, q_b, q_m, z_e)
         return rates.w_m, rates.sigma_min, rates.damping

@@ -27,9 +27,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_mass_kernels import mass_matrix
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
+from ._docs import CONTROL_DOC
 from .fast_spatial import measured_kinematics
 from .kernels import COMPLEX_STEP
 from .resolved_motion_kernels import period_bundles, rates_planar, rates_spatial
@@ -46,21 +48,11 @@ class GjmKernelGains(NamedTuple):
 
 # ---------------------------------------------------------------------- planar
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def period_planar(geo, gains_f, ref_f, meas_f, est_f):
-    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (planar).
+    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (planar); estimates not adapted.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants
-        The model's kernel constants.
-    gains_f : tuple
-        The fields of a ``GjmKernelGains``.
-    ref_f : tuple
-        The fields of a ``ReferenceArrays``.
-    meas_f : tuple
-        The fields of a ``Measurement``.
-    est_f : tuple
-        The fields of the ``Estimates`` (not adapted).
+    %(params_baseline_period)s
     """
     # (the bundles named again: module docstring)
     gains, ref, meas, est = period_bundles(GjmKernelGains, gains_f, ref_f, meas_f, est_f)
@@ -86,21 +78,11 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
 
 # ---------------------------------------------------------------------- spatial
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
-    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (spatial).
+    """(u_m, w_md, sigma_min, damping) of one gjm-ct period (spatial); estimates not adapted.
 
-    Parameters
-    ----------
-    geo : SpatialKernelConstants
-        The model's kernel constants.
-    gains_f : tuple
-        The fields of a ``GjmKernelGains``.
-    ref_f : tuple
-        The fields of a ``ReferenceArrays``.
-    meas_f : tuple
-        The fields of a ``Measurement``.
-    est_f : tuple
-        The fields of the ``Estimates`` (not adapted).
+    %(params_baseline_period)s
     """
     gains, ref, meas, est = period_bundles(GjmKernelGains, gains_f, ref_f, meas_f, est_f)
     jr, ax, er, m = geo

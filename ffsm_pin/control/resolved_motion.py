@@ -18,7 +18,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .._docstrings import fill_doc
 from ..errors import ParameterError, expected_count
+from ._docs import CONTROL_DOC
 from .compiled import CompiledController, kernel_measurement
 from .interface import ControllerContext, Measurement
 from .kinematic import momentum_evaluator, wrap_angle
@@ -26,6 +28,7 @@ from .linalg import damped_row_pinv
 from .reference_kernels import reference_arrays
 
 
+@fill_doc(CONTROL_DOC)
 def rate_gains(
     funnel, dt: float, m2: int, n_task: int, drift: float = 0.0
 ) -> tuple[tuple[float, ...], float]:
@@ -45,18 +48,7 @@ def rate_gains(
     The joint loop is ten times faster than the fastest task component, but at most
     0.1 / dt (a tenth of the sampling rate).
 
-    Parameters
-    ----------
-    funnel : FunnelParams
-        The scenario's end-effector funnel.
-    dt : float
-        The control period [s].
-    m2 : int
-        Position coordinates.
-    n_task : int
-        Task components.
-    drift : float
-        Drift speed the model may miss [m/s].
+    %(params_funnel)s
 
     Returns
     -------
@@ -143,6 +135,7 @@ class ResolvedRates(NamedTuple):
     damping: float  # lambda^2 of its damped pseudo-inverse (0 = undamped)
 
 
+@fill_doc(CONTROL_DOC)
 def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold, n_task,
                    t, q_b, q_m, z_e) -> ResolvedRates:  # fmt: skip
     """Resolved motion through the generalized Jacobian at a (possibly complex) state, with the
@@ -165,14 +158,7 @@ def resolved_rates(model, momentum, reference, theta_z, theta_b, k_z, threshold,
         Damped least squares below this smallest singular value [m].
     n_task : int
         Task rows.
-    t : float or complex
-        Time [s].
-    q_b : float or ndarray
-        Base attitude [rad] or MRP.
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    z_e : ndarray
-        End-effector pose.
+    %(t_q_z)s
 
     Returns
     -------

@@ -16,7 +16,9 @@ import numpy as np
 from numba import njit
 
 from .._array_kernels import cmm, cmv
+from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
+from ._docs import CONTROL_DOC
 from .fast_spatial import task_geometry
 from .interface import Measurement
 from .kernels import Estimates, damped_pinv, wrap_angle
@@ -41,27 +43,11 @@ def period_bundles(gains_class, gains_f, ref_f, meas_f, est_f):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def rates_planar(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
     """(w_md, w_b, sigma_min, damping) of the resolved rates at complex arguments (planar).
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants
-        The model's kernel constants.
-    gains : NamedTuple
-        Its ``n_task``, ``k_z`` and ``threshold`` are read.
-    ref : ReferenceArrays
-        The task reference.
-    t : complex
-        Time [s].
-    q_b : complex
-        Base attitude [rad].
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    z_e : ndarray
-        End-effector pose.
-    theta_z, theta_b : ndarray
-        The estimates.
+    %(params_resolved_rates)s
     """
     S, off, K, L, ee_row, collinear = geo
     nt = gains.n_task
@@ -91,27 +77,11 @@ def rates_planar(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def rates_spatial(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
     """(w_md, w_b, sigma_min, damping) of the resolved rates at complex arguments (spatial).
 
-    Parameters
-    ----------
-    geo : SpatialKernelConstants
-        The model's kernel constants.
-    gains : NamedTuple
-        Its ``n_task``, ``k_z`` and ``threshold`` are read.
-    ref : ReferenceArrays
-        The task reference.
-    t : complex
-        Time [s].
-    q_b : ndarray, shape (3,)
-        Base attitude (MRP).
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    z_e : ndarray
-        End-effector pose.
-    theta_z, theta_b : ndarray
-        The estimates.
+    %(params_resolved_rates)s
     """
     jr, ax, er, m = geo
     nt = gains.n_task

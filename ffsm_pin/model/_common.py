@@ -10,6 +10,7 @@ import numpy as np
 
 from .._arrays import read_only
 from ..errors import ParameterError
+from .interface import ReducedModel
 
 
 class BarycentricVectors(NamedTuple):
@@ -40,9 +41,10 @@ def barycentric_vectors(g: Any, dim: int) -> BarycentricVectors:
     return BarycentricVectors(a, G - Gbar[None], E - Gbar)
 
 
-class BarycentricCommon:
+class BarycentricCommon(ReducedModel):
     """Base of :class:`~ffsm_pin.model.planar.BarycentricModel` and
-    :class:`~ffsm_pin.model.spatial.SpatialBarycentricModel`."""
+    :class:`~ffsm_pin.model.spatial.SpatialBarycentricModel`; the methods of
+    :class:`~ffsm_pin.model.interface.ReducedModel` they implement take its docstrings."""
 
     m2: int  # end-effector position components
     m3: int  # attitude components

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from typing_extensions import override
 
 from ._common import BarycentricCommon
 
@@ -45,23 +46,9 @@ class PlanarDynamics(BarycentricCommon):
         raise NotImplementedError
 
     # ------------------------------------------------------------------ dynamics
+    @override
     def mass_matrix(self, theta_d, q_b: float, q_m) -> np.ndarray:
-        """M(q, theta_d) of Eq. (9a), (n+1) x (n+1).
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n + 1)
-            M [kg m^2].
-        """
+        # M(q, theta_d) of Eq. (9a), (n+1) x (n+1).
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         return self._ST @ self._mass_phi(theta_d, self.body_angles(q_b, q_m)) @ self.S
 
@@ -85,23 +72,9 @@ class PlanarDynamics(BarycentricCommon):
             Yp[..., self._K, self._ps_cols] = fs * bl
             Yp[..., self._L, self._ps_cols] = fs * bk
 
+    @override
     def Y_M(self, q_b: float, q_m, a) -> np.ndarray:
-        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        a : ndarray, shape (n + 1,)
-            The vector M multiplies.
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            Y_M(q, a).
-        """
+        # Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+1, n_d).
         ba = self.body_angles(q_b, q_m)
         b = self.S @ np.asarray(a, dtype=float)
         Yp = np.zeros((self.n_joints + 1, self.n_d))
@@ -109,25 +82,9 @@ class PlanarDynamics(BarycentricCommon):
         self._scatter(Yp, b, ba.c, -ba.s)
         return self._ST @ Yp
 
+    @override
     def velocity_regressors(self, q_b: float, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`.
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-        s_vec : ndarray, shape (n + 1,)
-            The vector dM/dt multiplies.
-
-        Returns
-        -------
-        Y_Mdot, Y_h : ndarray, shape (n + 1, n_d)
-            The two regressors.
-        """
+        # (Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`.
         ba = self.body_angles(q_b, q_m)
         nb = self.n_joints + 1
         dphi = self.S @ np.asarray(w, dtype=float)
@@ -147,137 +104,40 @@ class PlanarDynamics(BarycentricCommon):
         Y = self._ST @ Yp
         return Y[0], Y[1]
 
+    @override
     def Y_Mdot(self, q_b: float, q_m, w, s_vec) -> np.ndarray:
-        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``.
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s], the motion along which dM/dt is taken.
-        s_vec : ndarray, shape (n + 1,)
-            The vector dM/dt multiplies.
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            The regressor.
-        """
+        # Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``.
         return self.velocity_regressors(q_b, q_m, w, s_vec)[0]
 
+    @override
     def Y_h(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            Y_h.
-        """
+        # Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8).
         return self.velocity_regressors(q_b, q_m, w, np.zeros(self.n_joints + 1))[1]
 
+    @override
     def Y_d(self, q_b: float, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``.
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-        s1, s2 : ndarray, shape (n + 1,)
-            The vectors of Eq. (12).
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n_d)
-            Y_d.
-        """
+        # Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``.
         Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
         return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
 
+    @override
     def velocity_product(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w.
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (n + 1,)
-            C w [N m].
-        """
+        # C(q, w, theta_d) w.
         return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
 
+    @override
     def mass_matrix_rate(self, theta_d, q_b: float, q_m, w) -> np.ndarray:
-        """dM/dt (q, w, theta_d), (n+1) x (n+1), column j = Y_Mdot(e_j) theta_d.
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (n + 1, n + 1)
-            dM/dt [kg m^2/s].
-        """
+        # dM/dt (q, w, theta_d), (n+1) x (n+1), column j = Y_Mdot(e_j) theta_d.
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         nb = self.n_joints + 1
         return np.column_stack([self.Y_Mdot(q_b, q_m, w, e) @ theta_d for e in np.eye(nb)])
 
+    @override
     def reaction_torque(self, theta_d, q_b: float, q_m, w, w_dot) -> float:
-        """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m].
-
-        ``F_r = M_bb dw_b/dt + C_bb w_b = -(M_bm dw_m/dt + C_bm w_m)`` with the Christoffel
-        C, for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b).
-        ``w_dot`` = (dw_b/dt, dw_m/dt) [rad/s^2].
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-        w_dot : ndarray, shape (n + 1,)
-            (dw_b/dt, dw_m/dt) [rad/s^2].
-
-        Returns
-        -------
-        float
-            F_r [N m].
-        """
+        # Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m].
+        # ``F_r = M_bb dw_b/dt + C_bb w_b = -(M_bm dw_m/dt + C_bm w_m)`` with the Christoffel C,
+        # for which ``C_bb w_b = 1/2 dM_bb/dt w_b`` (M does not depend on q_b). ``w_dot`` =
+        # (dw_b/dt, dw_m/dt) [rad/s^2].
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         e0 = np.zeros(self.n_joints + 1)
         e0[0] = 1.0
@@ -286,53 +146,20 @@ class PlanarDynamics(BarycentricCommon):
         return float(M_bb * w_dot[0] + 0.5 * M_bb_dot * w[0])
 
     # ------------------------------------------------------------------ momentum
+    @override
     def Y_b(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (1, n_b)
-            Y_b.
-        """
+        # Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (1, n_b).
         Y = np.empty((1, self.n_b))
         Y[0, 0] = -1.0
         Y[0, 1:] = self.Y_M(q_b, q_m, w)[0]
         return Y
 
+    @override
     def momentum_matrices(self, theta_b, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray, float]:
-        """(H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b.
-
-        H is the first row of M = S^T M_phi S, i.e. ``1^T M_phi S``. Like :meth:`angles`,
-        :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`, this accepts complex
-        arguments (used for complex-step derivatives).
-
-        Parameters
-        ----------
-        theta_b : array_like, shape (n_b,)
-            Momentum parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        H_bb : ndarray, shape (1, 1)
-            Base inertia.
-        H_bm : ndarray, shape (1, n)
-            Coupling inertia.
-        A_0 : float
-            A_0 of Eq. (13).
-        """
+        # (H_bb (1x1), H_bm (1 x n), A_0) of Eq. (13) from a parameter vector theta_b.
+        # H is the first row of M = S^T M_phi S, i.e. ``1^T M_phi S``. Like :meth:`angles`,
+        # :meth:`jacobians`, :meth:`ee_offset` and :meth:`mass_matrix`, this accepts complex
+        # arguments (used for complex-step derivatives).
         theta_b = self._check(theta_b, self.n_b, "theta_b")
         row = self._mass_phi(theta_b[1:], self.body_angles(q_b, q_m)).sum(axis=0) @ self.S
         return row[None, :1], row[None, 1:], theta_b[0]

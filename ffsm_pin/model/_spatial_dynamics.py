@@ -17,6 +17,7 @@ gives the configuration's rotations
 from __future__ import annotations
 
 import numpy as np
+from typing_extensions import override
 
 from . import _spatial_mass_kernels as kmass
 from . import _spatial_velocity_kernels as kvel
@@ -44,23 +45,9 @@ class SpatialDynamics(SpatialReference):
         raise NotImplementedError
 
     # ------------------------------------------------------------------ dynamics
+    @override
     def mass_matrix(self, theta_d, q_b, q_m) -> np.ndarray:
-        """M(q, theta_d) of Eq. (9a), (n+3) x (n+3).
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters (Eq. 12); may be complex.
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        ndarray, shape (n + 3, n + 3)
-            M [kg m^2], for w = (w_b, w_m) with w_b in the inertial frame.
-        """
+        # M(q, theta_d) of Eq. (9a), (n+3) x (n+3).
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         if self._use_fast(theta_d, q_b, q_m):
             R, z = self._rz(q_b, q_m)
@@ -70,48 +57,17 @@ class SpatialDynamics(SpatialReference):
         kin = self.kinematics(q_b, q_m)
         return self._mass_core(kin.R, kin.S, theta_d)
 
+    @override
     def mass_matrix_rate(self, theta_d, q_b, q_m, w) -> np.ndarray:
-        """dM/dt (q, w, theta_d), (n+3) x (n+3), exact (complex step of the numpy reference).
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters (Eq. 12).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame: the motion along which dM/dt is
-            taken.
-
-        Returns
-        -------
-        ndarray, shape (n + 3, n + 3)
-            dM/dt [kg m^2/s].
-        """
+        # dM/dt (q, w, theta_d), (n+3) x (n+3), exact (complex step of the numpy reference).
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         kin = self.kinematics(q_b, q_m)
         dR, dS = self._motion_tangent(kin, np.asarray(w, dtype=float))
         return self._mass_core(kin.R + 1j * _H * dR, kin.S + 1j * _H * dS, theta_d).imag / _H
 
+    @override
     def Y_M(self, q_b, q_m, a) -> np.ndarray:
-        """Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+3, n_d).
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        a : ndarray, shape (n + 3,)
-            The vector M multiplies (e.g. an acceleration [rad/s^2], w_b part inertial).
-
-        Returns
-        -------
-        ndarray, shape (n + 3, n_d)
-            Y_M(q, a).
-        """
+        # Regressor of M(q) a: ``Y_M(q, a) theta_d = M(q, theta_d) a``. Shape (n+3, n_d).
         if self._use_fast(q_b, q_m, a):
             R, z = self._rz(q_b, q_m)
             Y = np.empty((self._N, self.n_d))
@@ -120,25 +76,9 @@ class SpatialDynamics(SpatialReference):
         kin = self.kinematics(q_b, q_m)
         return self._ym_core(kin.R, kin.S, np.asarray(a))
 
+    @override
     def velocity_regressors(self, q_b, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
-        """(Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`.
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-        s_vec : ndarray, shape (n + 3,)
-            The vector dM/dt multiplies.
-
-        Returns
-        -------
-        Y_Mdot, Y_h : ndarray, shape (n + 3, n_d)
-            The two regressors.
-        """
+        # (Y_Mdot(w, s), Y_h(w)) in one pass; see :meth:`Y_Mdot` and :meth:`Y_h`.
         w = np.ascontiguousarray(w, dtype=float)
         s_vec = np.ascontiguousarray(s_vec, dtype=float)
         if self._use_fast(q_b, q_m):
@@ -164,26 +104,9 @@ class SpatialDynamics(SpatialReference):
         kvel.subtract_dT(R, z, w, Y_h)
         return Y_Mdot, Y_h
 
+    @override
     def Y_Mdot(self, q_b, q_m, w, s_vec) -> np.ndarray:
-        """Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``.
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame: the motion along which dM/dt is
-            taken.
-        s_vec : ndarray, shape (n + 3,)
-            The vector dM/dt multiplies.
-
-        Returns
-        -------
-        ndarray, shape (n + 3, n_d)
-            The regressor.
-        """
+        # Regressor of dM/dt s along w: ``Y theta_d = (d/dt M(q(t), theta_d)) s``.
         w = np.ascontiguousarray(w, dtype=float)
         if self._use_fast(q_b, q_m):
             return self._fast_velocity(q_b, q_m, w, np.ascontiguousarray(s_vec, dtype=float))[0]
@@ -192,24 +115,10 @@ class SpatialDynamics(SpatialReference):
         Rc, Sc = kin.R + 1j * _H * dR, kin.S + 1j * _H * dS
         return self._ym_core(Rc, Sc, np.asarray(s_vec, dtype=float)).imag / _H
 
+    @override
     def Y_h(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8), i.e. of
-        ``h = dM/dt w - (0_3, dT/dq_m)`` (docs/spatial.md section 4).
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (n + 3, n_d)
-            Y_h.
-        """
+        # Regressor of the velocity product: ``Y theta_d = C(q, w) w`` (Eq. 8), i.e. of ``h =
+        # dM/dt w - (0_3, dT/dq_m)`` (docs/spatial.md section 4).
         w = np.ascontiguousarray(w, dtype=float)
         if self._use_fast(q_b, q_m):
             return self._fast_velocity(q_b, q_m, w, w)[1]
@@ -235,73 +144,22 @@ class SpatialDynamics(SpatialReference):
         kin = self.kinematics(q_b, q_m)
         return self._energy_core(kin.R, kin.S, np.asarray(w, dtype=float))
 
+    @override
     def Y_d(self, q_b, q_m, w, s1, s2) -> np.ndarray:
-        """Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``.
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-        s1, s2 : ndarray, shape (n + 3,)
-            The vectors of Eq. (12).
-
-        Returns
-        -------
-        ndarray, shape (n + 3, n_d)
-            Y_d.
-        """
+        # Eq. (12) with s3 = w: ``Y_d theta_d = M s1 - dM/dt s2 + C(q, w) w``.
         Y_Mdot, Y_h = self.velocity_regressors(q_b, q_m, w, s2)
         return self.Y_M(q_b, q_m, s1) - Y_Mdot + Y_h
 
+    @override
     def velocity_product(self, theta_d, q_b, q_m, w) -> np.ndarray:
-        """C(q, w, theta_d) w, (n+3), Eq. (8).
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters (Eq. 12).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (n + 3,)
-            C w [N m], the first three rows in the inertial frame.
-        """
+        # C(q, w, theta_d) w, (n+3), Eq. (8).
         return self.Y_h(q_b, q_m, w) @ self._check(theta_d, self.n_d, "theta_d")
 
+    @override
     def reaction_torque(self, theta_d, q_b, q_m, w, w_dot) -> np.ndarray:
-        """Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m], 3-vector.
-
-        ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b + 1/2 w_b x (M_bb w_b)`` (see
-        :func:`ffsm_pin.model._state_spatial.reaction_torque`).
-
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters (Eq. 12).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-        w_dot : ndarray, shape (n + 3,)
-            (dw_b/dt, dw_m/dt) [rad/s^2]; only dw_b/dt is read.
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            F_r [N m], inertial frame.
-        """
+        # Reaction torque of the manipulator on the base, Eqs. (6)-(7) [N m], 3-vector.
+        # ``F_r = M_bb dw_b/dt + 1/2 dM_bb/dt w_b + 1/2 w_b x (M_bb w_b)`` (see
+        # :func:`ffsm_pin.model._state_spatial.reaction_torque`).
         theta_d = self._check(theta_d, self.n_d, "theta_d")
         w = np.asarray(w, dtype=float)
         M_bb = self.mass_matrix(theta_d, q_b, q_m)[:3, :3]
@@ -309,24 +167,9 @@ class SpatialDynamics(SpatialReference):
         return _reaction_torque(M_bb, M_bb_dot, w[:3], np.asarray(w_dot, dtype=float)[:3])
 
     # ------------------------------------------------------------------ momentum
+    @override
     def Y_b(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (3, n_b).
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (3, n_b)
-            Y_b = [-E_3, first three rows of Y_M(q, w)]; Y_b theta_b in the inertial frame
-            [kg m^2/s].
-        """
+        # Regressor of Eq. (14): ``Y_b theta_b = H_bb w_b + H_bm w_m - A_0``. Shape (3, n_b).
         Y = np.empty((3, self.n_b))
         Y[:, :3] = -np.eye(3)
         if self._use_fast(q_b, q_m, w):
@@ -338,27 +181,9 @@ class SpatialDynamics(SpatialReference):
             Y[:, 3:] = self.Y_M(q_b, q_m, w)[:3]
         return Y
 
+    @override
     def momentum_matrices(self, theta_b, q_b, q_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(H_bb (3x3), H_bm (3 x n), A_0 (3)) of Eq. (13) from a parameter vector theta_b.
-
-        Parameters
-        ----------
-        theta_b : array_like, shape (n_b,)
-            Momentum parameters col(A_0, theta_d) (Eq. 14); may be complex.
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        H_bb : ndarray, shape (3, 3)
-            Base inertia [kg m^2], the first three rows and columns of M.
-        H_bm : ndarray, shape (3, n)
-            Coupling inertia [kg m^2].
-        A_0 : ndarray, shape (3,)
-            Angular momentum about the CoM [kg m^2/s], inertial frame (theta_b[:3]).
-        """
+        # (H_bb (3x3), H_bm (3 x n), A_0 (3)) of Eq. (13) from a parameter vector theta_b.
         theta_b = self._check(theta_b, self.n_b, "theta_b")
         rows = self.mass_matrix(theta_b[3:], q_b, q_m)[:3]
         return rows[:, :3], rows[:, 3:], theta_b[:3]

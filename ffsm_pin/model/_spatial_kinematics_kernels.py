@@ -13,6 +13,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._docstrings import fill_doc
+from ._kernel_docs import KERNEL_DOC
+
 
 @njit(cache=True, inline="always")
 def mm(A, B, out):
@@ -120,15 +123,11 @@ def body_rates(z, a, out):
 
 
 @njit(cache=True)
+@fill_doc(KERNEL_DOC)
 def position_jacobian(R, z, V, J):
     """J (3, N) = -sum_k [R_k V_k]x S_k (d(p_e - p_com)/dt = J w); real or complex (dtype of J).
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k.
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(params_R_z)s
     V : ndarray (n+1, 3)
         Barycentric vectors V_k [m], each in body k's frame.
     J : ndarray (3, N)
@@ -155,15 +154,11 @@ def position_jacobian(R, z, V, J):
 
 
 @njit(cache=True)
+@fill_doc(KERNEL_DOC)
 def y_z(R, z, w, Y):
     """Position rows of Y_z: (E_3, [w_k]x R_k for each V_k); Y (3, n_z).
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(params_R_real_z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame.
     Y : ndarray (3, n_z)

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._docstrings import fill_doc
+from ._kernel_docs import KERNEL_DOC
 from ._spatial_kinematics_kernels import body_rates, mm, mmt
 
 
@@ -111,6 +113,7 @@ def ym(R, z, a, Y, base_only):
 
 
 @njit(cache=True)
+@fill_doc(KERNEL_DOC)
 def mass_matrix(R, z, theta, M):
     """M(q, theta_d) (Eq. 9a), or its first columns when M has fewer columns than rows:
     with M (N, 3), the base columns, i.e. the transposed momentum rows (H_bb H_bm) of
@@ -119,12 +122,7 @@ def mass_matrix(R, z, theta, M):
     complex-step evaluation of the kinematic law in :mod:`ffsm_pin.control.fast_spatial` passes
     complex arguments).
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k.
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(params_R_z)s
     theta : ndarray (n_d,)
         Dynamic parameters theta_d of Eq. (12) [kg m^2].
     M : ndarray (N, N), (N, 3) or (3, 3)

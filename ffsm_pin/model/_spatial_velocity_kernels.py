@@ -17,10 +17,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._docstrings import fill_doc
+from ._kernel_docs import KERNEL_DOC
 from ._spatial_kinematics_kernels import body_rates
 
 
 @njit(cache=True)
+@fill_doc(KERNEL_DOC)
 def subtract_dT(R, z, w, Y_h):
     """Y_h[3 + j] -= dT/dq_j regressor (T at fixed base attitude and w) for every joint j.
 
@@ -31,12 +34,7 @@ def subtract_dT(R, z, w, Y_h):
     dQ = R_k^T [z_j]x R_l, dw_l, and d(R_l^T w_k) = ([z_j]x R_l)^T w_k. Q, u, g and the dot
     products do not depend on j and are computed once.
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(params_R_real_z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame.
     Y_h : ndarray (N, n_d)
@@ -215,6 +213,7 @@ _PHI_I1 = (0, 1, 2, 1, 2, 2)
 
 
 @njit(cache=True)
+@fill_doc(KERNEL_DOC)
 def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     """Y_M(a), Y_Mdot(w, s), the dM/dt w part of Y_h(w) (before :func:`subtract_dT`) and the
     base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above).
@@ -223,12 +222,7 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     ``a`` resp. ``s`` is then not read). The others are the same values either way: each entry
     is its own expression.
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
+    %(params_R_real_z)s
     w : ndarray (N,)
         Velocity ``(w_b, dq_m)`` [rad/s], w_b in the inertial frame: the motion along which
         M changes.

@@ -19,8 +19,39 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .._docstrings import doc_entries, fill_doc
+
+# the Parameters entries the methods share (ffsm_pin._docstrings); the planar and spatial
+# models inherit these docstrings (they derive from ReducedModel)
+_DOC = doc_entries(
+    theta_d="""
+        theta_d : array_like, shape (n_d,)
+            Dynamic parameters.""",
+    theta_z="""
+        theta_z : array_like, shape (n_z,)
+            Kinematic parameters.""",
+    q="""
+        q_b : float or ndarray
+            Base attitude [rad] (planar) or MRP (spatial).
+        q_m : ndarray, shape (m1,)
+            Joint angles [rad].""",
+    q_w="""
+        %(q)s
+        w : ndarray, shape (m3 + m1,)
+            (w_b, w_m) [rad/s].""",
+    params_q=("q",),
+    params_q_w=("q_w",),
+    params_theta_z_q=("theta_z", "q"),
+    params_theta_d_q=("theta_d", "q"),
+    params_theta_d_q_w=("theta_d", "q_w"),
+    s_vec="""
+        s_vec : ndarray, shape (m3 + m1,)
+            The vector dM/dt multiplies.""",
+)
+
 
 @runtime_checkable
+@fill_doc(_DOC)
 class ReducedModel(Protocol):
     """Parametric reduced model of a free-floating manipulator (Eqs. 3, 4, 8, 9a, 12-14)."""
 
@@ -60,14 +91,7 @@ class ReducedModel(Protocol):
     def ee_offset(self, theta_z, q_b: Any, q_m) -> np.ndarray:
         """p_e - p_com (m2) [m], inertial frame.
 
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(params_theta_z_q)s
 
         Returns
         -------
@@ -79,14 +103,7 @@ class ReducedModel(Protocol):
     def ee_pose(self, theta_z, q_b: Any, q_m, com_position) -> np.ndarray:
         """z_e = (p_e, q_e) (m2 + m3) [m, rad or MRP] for the system CoM position [m].
 
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(params_theta_z_q)s
         com_position : array_like, shape (m2,)
             The system's CoM position [m].
 
@@ -100,14 +117,7 @@ class ReducedModel(Protocol):
     def jacobians(self, theta_z, q_b: Any, q_m) -> tuple[np.ndarray, np.ndarray]:
         """(J_b ((m2+m3) x m3), J_m ((m2+m3) x m1)) of Eq. (3); attitude rows parameter-free.
 
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(params_theta_z_q)s
 
         Returns
         -------
@@ -122,14 +132,7 @@ class ReducedModel(Protocol):
         """((m2+m3) x n_z): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, dq_e/dt), Eq. (4);
         the attitude rows are zero.
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_q_w)s
 
         Returns
         -------
@@ -141,14 +144,7 @@ class ReducedModel(Protocol):
     def mass_matrix(self, theta_d, q_b: Any, q_m) -> np.ndarray:
         """M(q, theta_d), (m3+m1) square, Eq. (9a) [kg m^2].
 
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(params_theta_d_q)s
 
         Returns
         -------
@@ -160,16 +156,7 @@ class ReducedModel(Protocol):
     def mass_matrix_rate(self, theta_d, q_b: Any, q_m, w) -> np.ndarray:
         """dM/dt along w, (m3+m1) square [kg m^2/s].
 
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_theta_d_q_w)s
 
         Returns
         -------
@@ -181,12 +168,7 @@ class ReducedModel(Protocol):
     def Y_M(self, q_b: Any, q_m, a) -> np.ndarray:
         """((m3+m1) x n_d): Y_M theta_d = M a.
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(params_q)s
         a : ndarray, shape (m3 + m1,)
             The vector M multiplies.
 
@@ -200,16 +182,10 @@ class ReducedModel(Protocol):
     def Y_Mdot(self, q_b: Any, q_m, w, s_vec) -> np.ndarray:
         """((m3+m1) x n_d): Y theta_d = dM/dt s along w.
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(params_q)s
         w : ndarray, shape (m3 + m1,)
             (w_b, w_m) [rad/s], the motion along which dM/dt is taken.
-        s_vec : ndarray, shape (m3 + m1,)
-            The vector dM/dt multiplies.
+        %(s_vec)s
 
         Returns
         -------
@@ -221,14 +197,7 @@ class ReducedModel(Protocol):
     def Y_h(self, q_b: Any, q_m, w) -> np.ndarray:
         """((m3+m1) x n_d): Y theta_d = C(q, w) w, Eq. (8).
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_q_w)s
 
         Returns
         -------
@@ -240,16 +209,8 @@ class ReducedModel(Protocol):
     def velocity_regressors(self, q_b: Any, q_m, w, s_vec) -> tuple[np.ndarray, np.ndarray]:
         """(Y_Mdot(w, s), Y_h(w)) in one pass.
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
-        s_vec : ndarray, shape (m3 + m1,)
-            The vector dM/dt multiplies.
+        %(params_q_w)s
+        %(s_vec)s
 
         Returns
         -------
@@ -261,14 +222,7 @@ class ReducedModel(Protocol):
     def Y_d(self, q_b: Any, q_m, w, s1, s2) -> np.ndarray:
         """Eq. (12) with s3 = w: Y_d theta_d = M s1 - dM/dt s2 + C w.
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_q_w)s
         s1, s2 : ndarray, shape (m3 + m1,)
             The vectors of Eq. (12).
 
@@ -282,16 +236,7 @@ class ReducedModel(Protocol):
     def velocity_product(self, theta_d, q_b: Any, q_m, w) -> np.ndarray:
         """C(q, w, theta_d) w (m3+m1) [N m], Eq. (8).
 
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_theta_d_q_w)s
 
         Returns
         -------
@@ -303,16 +248,7 @@ class ReducedModel(Protocol):
     def reaction_torque(self, theta_d, q_b: Any, q_m, w, w_dot) -> Any:
         """F_r of Eqs. (6)-(7) [N m] (float planar, 3-vector spatial).
 
-        Parameters
-        ----------
-        theta_d : array_like, shape (n_d,)
-            Dynamic parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_theta_d_q_w)s
         w_dot : ndarray, shape (m3 + m1,)
             (dw_b/dt, dw_m/dt) [rad/s^2].
 
@@ -326,14 +262,7 @@ class ReducedModel(Protocol):
     def Y_b(self, q_b: Any, q_m, w) -> np.ndarray:
         """(m3 x n_b): Y_b theta_b = H_bb w_b + H_bm w_m - A_0, Eq. (14).
 
-        Parameters
-        ----------
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
-        w : ndarray, shape (m3 + m1,)
-            (w_b, w_m) [rad/s].
+        %(params_q_w)s
 
         Returns
         -------
@@ -349,10 +278,7 @@ class ReducedModel(Protocol):
         ----------
         theta_b : array_like, shape (n_b,)
             Momentum parameters.
-        q_b : float or ndarray
-            Base attitude [rad] (planar) or MRP (spatial).
-        q_m : ndarray, shape (m1,)
-            Joint angles [rad].
+        %(q)s
 
         Returns
         -------

@@ -35,12 +35,25 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from typing_extensions import override
 
 from .._arrays import read_only
+from .._docstrings import doc_entries, fill_doc
 from ..errors import ParameterError
 from ..robot import PlanarGeometry
 from ._common import barycentric_vectors
 from ._planar_dynamics import BodyAngles, PlanarDynamics
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    q_b="""
+        q_b : float
+            Base angle [rad].""",
+    q_m="""
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].""",
+    params_q_b_q_m=("q_b", "q_m"),
+)
 
 _COLLINEAR_TOL = 1e-12
 
@@ -110,6 +123,7 @@ class PlanarKernelConstants(NamedTuple):
     collinear: bool  # the paper's collinear layout (no Ds_kl parameters)
 
 
+@fill_doc(_DOC)
 class BarycentricModel(PlanarDynamics):
     """The reduced, parametric free-floating model of a planar serial chain.
 
@@ -279,12 +293,7 @@ class BarycentricModel(PlanarDynamics):
     def angles(self, q_b: float, q_m) -> np.ndarray:
         """phi_k [rad], absolute angle of each body's line frame.
 
-        Parameters
-        ----------
-        q_b : float
-            Base angle [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(params_q_b_q_m)s
 
         Returns
         -------
@@ -296,12 +305,7 @@ class BarycentricModel(PlanarDynamics):
     def ee_angle(self, q_b: float, q_m) -> float:
         """End-effector attitude q_e [rad] (unwrapped, follows q_b and q_m).
 
-        Parameters
-        ----------
-        q_b : float
-            Base angle [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(params_q_b_q_m)s
 
         Returns
         -------
@@ -314,67 +318,21 @@ class BarycentricModel(PlanarDynamics):
         return dphi if self.layout.collinear else np.repeat(dphi, 2)
 
     # ------------------------------------------------------------------ kinematics
+    @override
     def ee_offset(self, theta_z, q_b: float, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R(phi_k) V_k.
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        ndarray, shape (2,)
-            p_e - p_com [m].
-        """
+        # p_e - p_com [m] = sum_k R(phi_k) V_k.
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         return self.body_angles(q_b, q_m).pos @ theta_z[2:]
 
+    @override
     def ee_pose(self, theta_z, q_b: float, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        com_position : array_like, shape (2,)
-            The system's CoM position [m].
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            z_e = (p_e, q_e).
-        """
+        # z_e = (p_e, q_e) [m, m, rad] given the system CoM position [m].
         p = np.asarray(com_position, dtype=float) + self.ee_offset(theta_z, q_b, q_m)
         return np.array([p[0], p[1], self.ee_angle(q_b, q_m)])
 
+    @override
     def jacobians(self, theta_z, q_b: float, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters.
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-
-        Returns
-        -------
-        J_b : ndarray, shape (3, 1)
-            Base Jacobian.
-        J_m : ndarray, shape (3, n)
-            Manipulator Jacobian.
-        """
+        # J_b (3 x 1) and J_m (3 x n) of Eq. (3) for a parameter vector theta_z.
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         rate = self.body_angles(q_b, q_m).rate
         nb = self.n_joints + 1
@@ -388,26 +346,11 @@ class BarycentricModel(PlanarDynamics):
         J[2] = self._ee_row
         return J[:, :1], J[:, 1:]
 
+    @override
     def Y_z(self, q_b: float, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, 0, dq_e/dt).
-
-        Shape (3, n_z); the attitude row is zero (parameter-free, see
-        :meth:`ee_attitude_rate`).
-
-        Parameters
-        ----------
-        q_b : float
-            Base attitude [rad].
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 1,)
-            (w_b, w_m) [rad/s].
-
-        Returns
-        -------
-        ndarray, shape (3, n_z)
-            Y_z.
-        """
+        # Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0, 0, dq_e/dt).
+        # Shape (3, n_z); the attitude row is zero (parameter-free, see
+        # :meth:`ee_attitude_rate`).
         w = np.asarray(w, dtype=float)
         rate = self.body_angles(q_b, q_m).rate
         Y = np.zeros((3, self.n_z))

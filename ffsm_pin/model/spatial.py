@@ -57,8 +57,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from typing_extensions import override
 
 from .._arrays import read_only
+from .._docstrings import doc_entries, fill_doc
 from ..attitude import mrp
 from ..errors import ParameterError
 from ..robot import SpatialGeometry
@@ -69,6 +71,28 @@ from ._spatial_dynamics import SpatialDynamics
 from ._spatial_layout import SYM6, SpatialParameterLayout
 from ._spatial_reference import Kinematics, skew_batch
 from ._spatial_terms import ControllerTerms, TermsBuffers
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    q_b_complex="""
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP; may be complex.""",
+    q_m_complex="""
+        q_m : ndarray, shape (n,)
+            Joint angles [rad]; may be complex.""",
+    q_b="""
+        q_b : ndarray, shape (3,)
+            Base attitude, MRP.""",
+    q_m="""
+        q_m : ndarray, shape (n,)
+            Joint angles [rad].""",
+    w="""
+        w : ndarray, shape (n + 3,)
+            (w_b, w_m) [rad/s], w_b in the inertial frame.""",
+    params_q_complex=("q_b_complex", "q_m_complex"),
+    params_q=("q_b", "q_m"),
+    params_w_q=("w", "q_b", "q_m"),
+)
 
 
 class SpatialKernelConstants(NamedTuple):
@@ -81,6 +105,7 @@ class SpatialKernelConstants(NamedTuple):
     ee_body: int  # body carrying the end effector (1..n)
 
 
+@fill_doc(_DOC)
 class SpatialBarycentricModel(SpatialDynamics):
     """The reduced, parametric free-floating model of a spatial serial chain.
 
@@ -177,12 +202,7 @@ class SpatialBarycentricModel(SpatialDynamics):
         """Body rotations R_k, joint axes z_j and S_k for one configuration (memoised; real or
         complex arguments).
 
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
+        %(params_q_complex)s
 
         Returns
         -------
@@ -242,23 +262,9 @@ class SpatialBarycentricModel(SpatialDynamics):
         return R, z
 
     # ------------------------------------------------------------------ kinematics
+    @override
     def ee_offset(self, theta_z, q_b, q_m) -> np.ndarray:
-        """p_e - p_com [m] = sum_k R_k V_k (inertial frame).
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters (Eq. 4).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            p_e - p_com [m], inertial frame.
-        """
+        # p_e - p_com [m] = sum_k R_k V_k (inertial frame).
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         R = self.kinematics(q_b, q_m).R
         return np.einsum("kxy,ky->x", R, theta_z[3:].reshape(self._nb, 3))
@@ -266,12 +272,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_rotation(self, q_b, q_m) -> np.ndarray:
         """R_e, the end-effector frame's rotation (body to inertial); parameter-free.
 
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
+        %(params_q_complex)s
 
         Returns
         -------
@@ -283,12 +284,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_attitude(self, q_b, q_m) -> np.ndarray:
         """q_e, the end-effector attitude as an MRP on the |s| <= 1 branch.
 
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(params_q)s
 
         Returns
         -------
@@ -297,25 +293,9 @@ class SpatialBarycentricModel(SpatialDynamics):
         """
         return mrp.from_rotation(self.ee_rotation(q_b, q_m))
 
+    @override
     def ee_pose(self, theta_z, q_b, q_m, com_position) -> np.ndarray:
-        """z_e = (p_e, q_e) [m, MRP] given the system CoM position [m].
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters (Eq. 4).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        com_position : array_like, shape (3,)
-            The system's CoM position [m], inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (6,)
-            z_e = (p_e [m], q_e MRP).
-        """
+        # z_e = (p_e, q_e) [m, MRP] given the system CoM position [m].
         p = np.asarray(com_position) + self.ee_offset(theta_z, q_b, q_m)
         return np.concatenate((p, self.ee_attitude(q_b, q_m)))
 
@@ -324,28 +304,11 @@ class SpatialBarycentricModel(SpatialDynamics):
         q_e = mrp.from_rotation(R_e)  # analytic: complex steps pass through
         return mrp.L_matrix(q_e, R_e) @ kin.S[self.geometry.ee_body]
 
+    @override
     def jacobians(self, theta_z, q_b, q_m) -> tuple[np.ndarray, np.ndarray]:
-        """J_b (6 x 3) and J_m (6 x n) of Eq. (3) for a parameter vector theta_z.
-
-        Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate
-        1/4 B(q_e) R_e^T S_m w (parameter-free).
-
-        Parameters
-        ----------
-        theta_z : array_like, shape (n_z,)
-            Kinematic parameters (Eq. 4).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP; may be complex.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad]; may be complex.
-
-        Returns
-        -------
-        J_b : ndarray, shape (6, 3)
-            Base Jacobian (w_b in the inertial frame).
-        J_m : ndarray, shape (6, n)
-            Manipulator Jacobian.
-        """
+        # J_b (6 x 3) and J_m (6 x n) of Eq. (3) for a parameter vector theta_z.
+        # Rows 1-3: d(p_e - p_com)/dt = -sum_k [R_k V_k]x S_k w; rows 4-6: the MRP rate 1/4
+        # B(q_e) R_e^T S_m w (parameter-free).
         theta_z = self._check(theta_z, self.n_z, "theta_z")
         if self._use_fast(theta_z, q_b, q_m):
             R, z = self._rz(q_b, q_m)
@@ -362,25 +325,10 @@ class SpatialBarycentricModel(SpatialDynamics):
         J[3:] = self._attitude_rows(kin, q_b, q_m)
         return J[:, :3], J[:, 3:]
 
+    @override
     def Y_z(self, q_b, q_m, w) -> np.ndarray:
-        """Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
-
-        Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
-
-        Parameters
-        ----------
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-
-        Returns
-        -------
-        ndarray, shape (6, n_z)
-            Y_z: rows 1-3 [E_3, [w_k]x R_k for k = 0..n] (inertial frame), rows 4-6 zero.
-        """
+        # Regressor of Eq. (4): J_b w_b + J_m w_m + v0bar = Y_z theta_z + (0_3, dq_e/dt).
+        # Shape (6, n_z); the attitude rows are zero (see :meth:`ee_attitude_rate`).
         if self._use_fast(q_b, q_m, w):
             R, z = self._rz(q_b, q_m)
             Y = np.zeros((6, self.n_z))
@@ -396,14 +344,7 @@ class SpatialBarycentricModel(SpatialDynamics):
     def ee_attitude_rate(self, w, q_b, q_m) -> np.ndarray:
         """dq_e/dt [1/s], the parameter-free MRP rate of the end effector (rows 4-6 of Eq. 3).
 
-        Parameters
-        ----------
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
+        %(params_w_q)s
 
         Returns
         -------
@@ -425,12 +366,9 @@ class SpatialBarycentricModel(SpatialDynamics):
             Kinematic parameters (Eq. 4).
         theta_d : array_like, shape (n_d,)
             Dynamic parameters (Eq. 12).
-        q_b : ndarray, shape (3,)
-            Base attitude, MRP.
-        q_m : ndarray, shape (n,)
-            Joint angles [rad].
-        w : ndarray, shape (n + 3,)
-            (w_b, w_m) [rad/s], w_b in the inertial frame.
+        %(q_b)s
+        %(q_m)s
+        %(w)s
         a : ndarray, shape (n + 3,)
             The vector of Y_M(a).
         s_vec : ndarray, shape (n + 3,)

@@ -25,14 +25,32 @@ from types import ModuleType
 import numpy as np
 
 from .._arrays import read_only
+from .._docstrings import doc_entries, fill_doc
 from ..errors import ParameterError
 from ..robot import Robot
 from . import _state_planar, _state_spatial
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    q="""
+        q : ndarray, shape (nq,)
+            Configuration in Pinocchio's convention.""",
+    v="""
+        v : ndarray, shape (nv,)
+            Velocity in Pinocchio's convention.""",
+    returns_state="""
+        Returns
+        -------
+        State
+            This state, updated.""",
+    params_q_v=("q", "v"),
+)
 
 #: the module that computes a state, by root joint
 FILLERS: dict[str, ModuleType] = {"planar": _state_planar, "free-flyer": _state_spatial}
 
 
+@fill_doc(_DOC)
 class State:
     """Reduced CoM-frame dynamics and kinematics of a free-floating robot at (q, v).
 
@@ -147,17 +165,9 @@ class State:
     def update(self, q, v) -> State:
         """Compute every quantity for the plant state (q, v) in Pinocchio conventions.
 
-        Parameters
-        ----------
-        q : ndarray, shape (nq,)
-            Configuration in Pinocchio's convention.
-        v : ndarray, shape (nv,)
-            Velocity in Pinocchio's convention.
+        %(params_q_v)s
 
-        Returns
-        -------
-        State
-            This state, updated.
+        %(returns_state)s
         """
         self._filler.fill(self, *self._store(q, v))
         return self
@@ -168,17 +178,9 @@ class State:
         quantity keeps the value of an earlier :meth:`update`. What a controller given the
         true model needs each period, at a fraction of the cost.
 
-        Parameters
-        ----------
-        q : ndarray, shape (nq,)
-            Configuration in Pinocchio's convention.
-        v : ndarray, shape (nv,)
-            Velocity in Pinocchio's convention.
+        %(params_q_v)s
 
-        Returns
-        -------
-        State
-            This state, updated.
+        %(returns_state)s
         """
         self._filler.fill_dynamics(self, *self._store(q, v))
         return self

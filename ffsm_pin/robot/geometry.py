@@ -17,12 +17,39 @@ import numpy as np
 import pinocchio as pin
 
 from .._arrays import read_only
+from .._docstrings import doc_entries, fill_doc
 from ..errors import (
     FrameNotFoundError,
     InertiaError,
     UnsupportedJointError,
     choices_text,
     did_you_mean,
+)
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    masses="""
+        masses : ndarray, shape (n+1,)
+            Body masses [kg].""",
+    ee_body="""
+        ee_body : int
+            Body carrying the end-effector frame (1..n).""",
+    source="""
+        source : str
+            Where the model comes from, for the message.""",
+    model="""
+        model : pin.Model
+            The robot's model.""",
+    fid="""
+        fid : int
+            The end-effector frame.""",
+    names="""
+        names : tuple of str
+            URDF link name of each body 0..n (:func:`body_names`), for the messages.""",
+    source_model="""
+        source : str
+            Where the model comes from, for the messages.""",
+    params_model_fid_source=("model", "fid", "source"),
 )
 
 _REVOLUTE = {
@@ -61,6 +88,7 @@ class _Chain:
 
 
 @dataclass(frozen=True)
+@fill_doc(_DOC)
 class PlanarGeometry(_Chain):
     """Planar serial chain extracted from a Pinocchio model (bodies 0..n, 0 = base).
 
@@ -68,8 +96,7 @@ class PlanarGeometry(_Chain):
 
     Attributes
     ----------
-    masses : ndarray, shape (n+1,)
-        Body masses [kg].
+    %(masses)s
     inertias : ndarray, shape (n+1,)
         I_zz about each body CoM [kg m^2].
     coms : ndarray, shape (n+1, 2)
@@ -80,8 +107,7 @@ class PlanarGeometry(_Chain):
         Fixed yaw of joint k's placement in its parent [rad].
     axis_signs : ndarray, shape (n,)
         s_j = +1 (axis +z) or -1 (axis -z).
-    ee_body : int
-        Body carrying the end-effector frame (1..n).
+    %(ee_body)s
     ee_position : ndarray, shape (2,)
         e, end-effector origin in body frame ee_body.
     ee_yaw : float
@@ -100,6 +126,7 @@ class PlanarGeometry(_Chain):
 
 
 @dataclass(frozen=True)
+@fill_doc(_DOC)
 class SpatialGeometry(_Chain):
     """Spatial serial chain extracted from a Pinocchio model (bodies 0..n, 0 = base).
 
@@ -108,8 +135,7 @@ class SpatialGeometry(_Chain):
 
     Attributes
     ----------
-    masses : ndarray, shape (n+1,)
-        Body masses [kg].
+    %(masses)s
     inertias : ndarray, shape (n+1, 3, 3)
         I_k about the body CoM, body frame [kg m^2].
     coms : ndarray, shape (n+1, 3)
@@ -120,8 +146,7 @@ class SpatialGeometry(_Chain):
         a_k, origin of joint k+1 in body frame k.
     axes : ndarray, shape (n, 3)
         Unit axis of joint k in its own frame.
-    ee_body : int
-        Body carrying the end-effector frame (1..n).
+    %(ee_body)s
     ee_position : ndarray, shape (3,)
         e, end-effector origin in body frame ee_body.
     ee_rotation : ndarray, shape (3, 3)
@@ -173,6 +198,7 @@ def check_inertia(mass: float, inertia: np.ndarray, what: str) -> None:
         )
 
 
+@fill_doc(_DOC)
 def joint_axis(jm, name: str, source: str) -> np.ndarray:
     """Unit axis of a revolute joint in its own frame; :class:`UnsupportedJointError` naming
     the kind of any other joint.
@@ -183,8 +209,7 @@ def joint_axis(jm, name: str, source: str) -> np.ndarray:
         The joint.
     name : str
         Its name, for the message.
-    source : str
-        Where the model comes from, for the message.
+    %(source)s
 
     Returns
     -------
@@ -215,18 +240,17 @@ def body_names(model: pin.Model) -> tuple[str, ...]:
     return tuple(out)
 
 
+@fill_doc(_DOC)
 def end_effector_frame(model: pin.Model, name: str, source: str, hint: str = "") -> int:
     """Frame id of the end effector; :class:`FrameNotFoundError` naming the frames there are,
     or when the frame sits on the base.
 
     Parameters
     ----------
-    model : pin.Model
-        The robot's model.
+    %(model)s
     name : str
         The frame's name.
-    source : str
-        Where the model comes from, for the message.
+    %(source)s
     hint : str
         Appended to the message.
 
@@ -249,20 +273,14 @@ def end_effector_frame(model: pin.Model, name: str, source: str, hint: str = "")
     return fid
 
 
+@fill_doc(_DOC)
 def check_serial(model: pin.Model, fid: int, source: str, lock_hint: str | None) -> None:
     """Refuse joints that branch off the chain from the base to the end effector.
 
     ``lock_hint``: None where joints cannot be locked; otherwise the text appended to the list
     of joints to lock (e.g. the usual ones of an example-robot-data arm).
 
-    Parameters
-    ----------
-    model : pin.Model
-        The robot's model.
-    fid : int
-        The end-effector frame.
-    source : str
-        Where the model comes from, for the message.
+    %(params_model_fid_source)s
     lock_hint : str or None
         None where joints cannot be locked; otherwise the text appended to the list of joints
         to lock.
@@ -295,6 +313,7 @@ def _read_only_arrays(**items: Any) -> dict[str, Any]:
     return {name: read_only(np.array(value)) for name, value in items.items()}
 
 
+@fill_doc(_DOC)
 def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: str):
     """:class:`PlanarGeometry` of a chain on a planar root; refuses what is not planar.
 
@@ -302,12 +321,9 @@ def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: 
     ----------
     model : pin.Model
         The robot's model (planar root).
-    fid : int
-        The end-effector frame.
-    names : tuple of str
-        URDF link name of each body 0..n (:func:`body_names`), for the messages.
-    source : str
-        Where the model comes from, for the messages.
+    %(fid)s
+    %(names)s
+    %(source_model)s
     """
     masses, inertias, coms = [], [], []
     for j in range(1, model.njoints):
@@ -366,6 +382,7 @@ def planar_geometry(model: pin.Model, fid: int, names: tuple[str, ...], source: 
     return PlanarGeometry(**arrays, ee_body=int(frame.parentJoint) - 1, ee_yaw=_yaw(rot))
 
 
+@fill_doc(_DOC)
 def spatial_geometry(
     model: pin.Model, fid: int, names: tuple[str, ...], source: str, base_hint: str = ""
 ):
@@ -377,12 +394,9 @@ def spatial_geometry(
     ----------
     model : pin.Model
         The robot's model (free-flyer root).
-    fid : int
-        The end-effector frame.
-    names : tuple of str
-        URDF link name of each body 0..n (:func:`body_names`), for the messages.
-    source : str
-        Where the model comes from, for the messages.
+    %(fid)s
+    %(names)s
+    %(source_model)s
     base_hint : str
         Appended to an inertia error of the floating base.
     """

@@ -15,7 +15,20 @@ import xml.etree.ElementTree as ET
 from importlib import resources
 from pathlib import Path
 
+from .._docstrings import doc_entries, fill_doc
 from ..errors import RobotFileError, UrdfError, choices_text, did_you_mean, not_a_file
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    relative_to="""
+        relative_to : str or Path or None
+            Folder a relative path is looked up in first.""",
+    text_source="""
+        text : str
+            URDF text.
+        source : str
+            Where it comes from, for the messages.""",
+)
 
 ERD_PREFIX = "example-robot-data:"
 
@@ -63,6 +76,7 @@ def shipped_urdfs() -> list[str]:
     return sorted(p.name for p in urdf_dir().glob("*.urdf"))
 
 
+@fill_doc(_DOC)
 def resolve_urdf(urdf: str | Path, relative_to: str | Path | None = None) -> Path:
     """Find a URDF: a path (absolute, or relative to ``relative_to`` or the working
     directory), or the name of a robot shipped with the package (``"ffsm_planar4.urdf"``).
@@ -71,8 +85,7 @@ def resolve_urdf(urdf: str | Path, relative_to: str | Path | None = None) -> Pat
     ----------
     urdf : str or Path
         A path or the name of a shipped robot.
-    relative_to : str or Path or None
-        Folder a relative path is looked up in first.
+    %(relative_to)s
 
     Returns
     -------
@@ -134,6 +147,7 @@ def example_robot_name(urdf: str | Path) -> str | None:
     return None
 
 
+@fill_doc(_DOC)
 def resolve_source(
     urdf: str | Path, relative_to: str | Path | None = None
 ) -> tuple[Path, tuple[Path, ...]]:
@@ -145,8 +159,7 @@ def resolve_source(
     ----------
     urdf : str or Path
         A path, a shipped name or ``example-robot-data:<name>``.
-    relative_to : str or Path or None
-        Folder a relative path is looked up in first.
+    %(relative_to)s
 
     Returns
     -------
@@ -181,15 +194,13 @@ def read_urdf(path: Path) -> str:
 
 
 # ---------------------------------------------------------------------------- XML
+@fill_doc(_DOC)
 def parse_urdf(text: str, source: str) -> ET.Element:
     """The ``<robot>`` element of a URDF text; :class:`UrdfError` for anything else.
 
     Parameters
     ----------
-    text : str
-        URDF text.
-    source : str
-        Where it comes from, for the message.
+    %(text_source)s
 
     Returns
     -------
@@ -279,16 +290,14 @@ def repair_limits(root: ET.Element, source: str) -> bool:
     return changed
 
 
+@fill_doc(_DOC)
 def add_missing_limits(text: str, source: str = "URDF") -> str:
     """Return URDF text repaired by :func:`repair_limits` (the text itself when nothing was
     missing).
 
     Parameters
     ----------
-    text : str
-        URDF text.
-    source : str
-        Where it comes from, for the messages.
+    %(text_source)s
 
     Returns
     -------

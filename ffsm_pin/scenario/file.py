@@ -53,10 +53,23 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from .._docstrings import doc_entries, fill_doc
 from ..errors import ScenarioError, choices_text, did_you_mean, not_a_file
 from . import schema
 from .builder import build
 from .spec import Scenario
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    source="""
+        source : str or Path or None
+            The file it came from.""",
+    returns_scenario="""
+        Returns
+        -------
+        Scenario
+            The scenario.""",
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -103,6 +116,7 @@ def load_scenario(path: str | Path) -> Scenario:
     return scenario_from_toml(text, source=path)
 
 
+@fill_doc(_DOC)
 def scenario_from_toml(text: str, source: str | Path | None = None) -> Scenario:
     """Parse TOML text into a validated :class:`Scenario` (see :func:`scenario_from_dict`).
 
@@ -110,13 +124,9 @@ def scenario_from_toml(text: str, source: str | Path | None = None) -> Scenario:
     ----------
     text : str
         TOML text.
-    source : str or Path or None
-        The file it came from.
+    %(source)s
 
-    Returns
-    -------
-    Scenario
-        The scenario.
+    %(returns_scenario)s
     """
     where = str(source) if source is not None else "scenario"
     try:
@@ -141,6 +151,7 @@ def builtin_path(name: str) -> Path:
     return Path(str(resources.files("ffsm_pin.scenario.builtin").joinpath(BUILTIN[name])))
 
 
+@fill_doc(_DOC)
 def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -> Scenario:
     """Validate a parsed TOML document and build the :class:`Scenario`.
 
@@ -151,13 +162,9 @@ def scenario_from_dict(d: Mapping[str, Any], source: str | Path | None = None) -
     ----------
     d : mapping
         The parsed document.
-    source : str or Path or None
-        The file it came from.
+    %(source)s
 
-    Returns
-    -------
-    Scenario
-        The scenario.
+    %(returns_scenario)s
     """
     if not isinstance(d, Mapping):
         raise ScenarioError(f"a scenario is a table of sections, got {type(d).__name__}")

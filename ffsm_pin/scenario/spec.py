@@ -24,11 +24,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._docstrings import fill_doc
 from ..attitude import mrp
 from ..control.funnel import FunnelParams
 from ..control.gains import SingularityPolicy
 from ..control.lu_jia_params import LuJiaParams
 from ..errors import ParameterError
+from ._docs import SCENARIO_DOC
 from .devices import ActuatorSpec, SensorSpec
 from .target_spec import TargetSpec
 from .trajectory import PiecewisePolynomial, ReferenceData
@@ -70,15 +72,13 @@ class ComponentReference:
     cos: tuple[Harmonic, ...] = ()
     sin: tuple[Harmonic, ...] = ()
 
+    @fill_doc(SCENARIO_DOC)
     def derivative(self, t, order: int = 0):
         """d^order value / dt^order at t (t may be complex, for complex-step derivatives).
 
         Parameters
         ----------
-        t : float or complex
-            Time [s].
-        order : int
-            Order of the derivative (0: the value).
+        %(t_order)s
         """
         out = self.c if order == 0 else 0.0
         for h in self.cos:  # d^k/dt^k cos(wt) = w^k cos(wt + k pi/2)

@@ -17,7 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from .._docstrings import fill_doc
 from ..errors import ParameterError, choices_text
+from ._docs import SCENARIO_DOC
 
 #: How samples become a reference: "spline" (C2 cubic through every sample, ``ee_file`` /
 #: ``ee_samples``) or "waypoints" (rest-to-rest quintic between consecutive waypoints).
@@ -157,16 +159,14 @@ class PiecewisePolynomial:
         """Components of the value."""
         return (self.table.shape[0] - 1) // (DEGREE + 1)
 
+    @fill_doc(SCENARIO_DOC)
     def derivative(self, t: Any, order: int = 0) -> np.ndarray:
         """d^order value / dt^order at the scalar time ``t`` [s] (complex t for complex steps:
         the segment is chosen by Re t). Shape ``(n,)``.
 
         Parameters
         ----------
-        t : float or complex
-            Time [s].
-        order : int
-            Order of the derivative (0: the value).
+        %(t_order)s
 
         Returns
         -------

@@ -19,7 +19,7 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
-from .._cli import Parser, UsageError, fail, positive_float, positive_int
+from .._cli import UsageError, command_parser, fail, positive_float, positive_int
 from ..errors import FfsmError, OutputError, ScenarioError
 from ..scenario.file import BUILTIN, builtin_scenario, load_scenario
 from ..scenario.spec import Scenario
@@ -60,12 +60,11 @@ exit status: 0 completed, 3 stopped early or recovered (outputs still written), 
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line parser (options of docs/cli.md)."""
-    p = Parser(
-        prog="python -m ffsm_pin.sim",
-        description="Simulate a free-floating space manipulator under the adaptive "
+    p = command_parser(
+        "ffsm_pin.sim",
+        "Simulate a free-floating space manipulator under the adaptive "
         "prescribed-performance coordinated controller of Lu & Jia (2019).",
-        epilog=_EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        _EPILOG,
     )
     what = p.add_mutually_exclusive_group()
     what.add_argument(

@@ -26,9 +26,27 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import doc_entries, fill_doc
 from ..errors import ParameterError
 from ..robot import Payload, Robot
 from .target import Target, TargetState
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    capture="""
+        capture : CaptureModel
+            The combined model.""",
+    q_v_before="""
+        q, v : array_like
+            Configuration and velocity before the impact.""",
+    state="""
+        state : TargetState
+            The target's state.""",
+    q_v_combined="""
+        q, v : array_like
+            The combined configuration and velocity.""",
+    params_capture_q_v_before=("capture", "q_v_before"),
+)
 
 #: the weld must hold to this (relative twist / largest velocity) before a merge
 WELD_TOL = 1e-9
@@ -60,6 +78,7 @@ class CaptureTolerances:
 
 
 @dataclass(frozen=True, eq=False)
+@fill_doc(_DOC)
 class CaptureModel:
     """The robot and the free target as one Pinocchio model.
 
@@ -107,8 +126,7 @@ class CaptureModel:
         ----------
         q_robot : array_like, shape (nq_robot,)
             The robot's configuration (Pinocchio convention).
-        state : TargetState
-            The target's state.
+        %(state)s
 
         Returns
         -------
@@ -124,8 +142,7 @@ class CaptureModel:
         ----------
         v_robot : array_like, shape (nv_robot,)
             The robot's velocity (Pinocchio convention).
-        state : TargetState
-            The target's state.
+        %(state)s
 
         Returns
         -------
@@ -139,8 +156,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        q, v : array_like
-            The combined configuration and velocity.
+        %(q_v_combined)s
 
         Returns
         -------
@@ -176,8 +192,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        q, v : array_like
-            The combined configuration and velocity.
+        %(q_v_combined)s
 
         Returns
         -------
@@ -192,8 +207,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        q, v : array_like
-            The combined configuration and velocity.
+        %(q_v_combined)s
 
         Returns
         -------
@@ -210,8 +224,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        q, v : array_like
-            The combined configuration and velocity.
+        %(q_v_combined)s
         tolerances : CaptureTolerances
             Distance [m] and relative speed [m/s] allowed.
 
@@ -234,8 +247,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        q, v : array_like
-            The combined configuration and velocity.
+        %(q_v_combined)s
 
         Returns
         -------
@@ -252,8 +264,7 @@ class CaptureModel:
 
         Parameters
         ----------
-        q, v : array_like
-            The combined configuration and velocity.
+        %(q_v_combined)s
 
         Returns
         -------
@@ -317,17 +328,13 @@ class Impact(NamedTuple):
     energy_loss: float  # kinetic energy lost [J] (>= 0)
 
 
+@fill_doc(_DOC)
 def impact(capture: CaptureModel, q, v) -> Impact:
     """The weld impact by the impulse formula: with M = M(q) and J = :meth:`weld_jacobian
     <CaptureModel.weld_jacobian>`, lambda = -(J M^-1 J^T)^-1 J v-, v+ = v- + M^-1 J^T lambda.
     lambda is the impulse on the hand (the target receives its opposite); J v+ = 0.
 
-    Parameters
-    ----------
-    capture : CaptureModel
-        The combined model.
-    q, v : array_like
-        Configuration and velocity before the impact.
+    %(params_capture_q_v_before)s
 
     Returns
     -------
@@ -344,6 +351,7 @@ def impact(capture: CaptureModel, q, v) -> Impact:
     return Impact(v_plus, impulse, 0.5 * float(v @ M @ v - v_plus @ M @ v_plus))
 
 
+@fill_doc(_DOC)
 def impact_pinocchio(capture: CaptureModel, q, v) -> Impact:
     """The weld impact by Pinocchio's ``impulseDynamics`` with a ``CONTACT_6D`` constraint
     between the two grasp frames (LOCAL), restitution 0.
@@ -355,12 +363,7 @@ def impact_pinocchio(capture: CaptureModel, q, v) -> Impact:
     given the target's spatial velocity), which changes neither J v nor the impulse; w is added
     back to the result.
 
-    Parameters
-    ----------
-    capture : CaptureModel
-        The combined model.
-    q, v : array_like
-        Configuration and velocity before the impact.
+    %(params_capture_q_v_before)s
 
     Returns
     -------
@@ -400,6 +403,7 @@ def impact_pinocchio(capture: CaptureModel, q, v) -> Impact:
     return Impact(np.array(v_plus), np.array(datas[0].contact_force.vector), loss)
 
 
+@fill_doc(_DOC)
 def merge_after_capture(
     capture: CaptureModel, q, v, *, known: bool | None = None
 ) -> tuple[Robot, np.ndarray, np.ndarray]:
@@ -415,8 +419,7 @@ def merge_after_capture(
 
     Parameters
     ----------
-    capture : CaptureModel
-        The combined model.
+    %(capture)s
     q, v : array_like
         Its configuration and velocity after the impact.
     known : bool or None

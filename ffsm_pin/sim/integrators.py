@@ -19,6 +19,9 @@ import numpy as np
 import pinocchio as pin
 from numba import njit
 
+from .._docstrings import fill_doc
+from ._docs import SIM_DOC
+
 _ARG1 = pin.ArgumentPosition.ARG1
 
 
@@ -75,16 +78,14 @@ def _chart_rate(model: pin.Model, q0, theta, v, nb: int) -> np.ndarray:
     return rate
 
 
+@fill_doc(SIM_DOC)
 def rkmk4_step(model: pin.Model, data: pin.Data, q0, v0, tau, dt: float, nb: int | None = None):
     """One RK4 step of size ``dt`` [s] with generalised forces ``tau`` held; ``nb`` is
     :func:`chart_block` (computed when not given).
 
     Parameters
     ----------
-    model : pin.Model
-        The Pinocchio model.
-    data : pin.Data
-        Its data.
+    %(model_data)s
     q0, v0 : ndarray
         The state at the start (Pinocchio convention).
     tau : ndarray, shape (nv,)

@@ -28,10 +28,30 @@ import numpy as np
 import pinocchio as pin
 from numba import njit
 
+from .._docstrings import doc_entries, fill_doc
 from ..control import _first_compile
 from ..errors import ParameterError, choices_text
 from ..scenario.spec import INTEGRATORS
 from .integrators import chart_block, gauss_solve, rkmk4_step
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    q_v="""
+        q, v : ndarray
+            State (Pinocchio convention).""",
+    q_v_start="""
+        q, v : ndarray
+            State at the start (Pinocchio convention).""",
+    u_m="""
+        u_m : ndarray, shape (n,)
+            Joint torques [N m], held.""",
+    returns_stepresult="""
+        Returns
+        -------
+        StepResult
+            (q, v) after dt and the acceleration at the start.""",
+    params_q_v_start_u_m=("q_v_start", "u_m"),
+)
 
 # root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept,
 # linear entries of the base velocity (= entries of P))
@@ -119,6 +139,7 @@ def root_kind(model: pin.Model) -> str:
     return name
 
 
+@fill_doc(_DOC)
 class Plant:
     """Momentum-exact integrator of a free-floating robot (planar or free-flyer root).
 
@@ -164,8 +185,7 @@ class Plant:
 
         Parameters
         ----------
-        q, v : ndarray
-            State (Pinocchio convention).
+        %(q_v)s
 
         Returns
         -------
@@ -221,8 +241,7 @@ class Plant:
 
         Parameters
         ----------
-        q, v : ndarray
-            State (Pinocchio convention).
+        %(q_v)s
         u_m : ndarray, shape (n,)
             Joint torques [N m].
 
@@ -244,21 +263,13 @@ class Plant:
         restores :attr:`momentum0`, belongs to the caller then (``project_momentum=False`` and
         :meth:`project` with the momentum to keep).
 
-        Parameters
-        ----------
-        q, v : ndarray
-            State at the start (Pinocchio convention).
-        u_m : ndarray, shape (n,)
-            Joint torques [N m], held.
+        %(params_q_v_start_u_m)s
         dt : float
             Step [s].
         base_wrench : ndarray or None
             Generalized force on the root joint, held.
 
-        Returns
-        -------
-        StepResult
-            (q, v) after dt and the acceleration at the start.
+        %(returns_stepresult)s
         """
         if self.momentum0 is None:
             self.reset(q, v)
@@ -289,12 +300,7 @@ class Plant:
         ``dt / substeps``, ``u_m`` [N m] (and ``base_wrench``, :meth:`step`) held. ``a`` is the
         acceleration at the start.
 
-        Parameters
-        ----------
-        q, v : ndarray
-            State at the start (Pinocchio convention).
-        u_m : ndarray, shape (n,)
-            Joint torques [N m], held.
+        %(params_q_v_start_u_m)s
         dt : float
             Control step [s].
         substeps : int
@@ -302,10 +308,7 @@ class Plant:
         base_wrench : ndarray or None
             Generalized force on the root joint, held (:meth:`step`).
 
-        Returns
-        -------
-        StepResult
-            (q, v) after dt and the acceleration at the start.
+        %(returns_stepresult)s
         """
         if substeps < 1:
             raise ParameterError(f"plant: substeps must be >= 1, got {substeps}")
@@ -323,8 +326,7 @@ class Plant:
 
         Parameters
         ----------
-        q, v : ndarray
-            State (Pinocchio convention).
+        %(q_v)s
         rate_limit : float
             Largest angular rate [rad/s].
 
@@ -342,8 +344,7 @@ class Plant:
 
         Parameters
         ----------
-        q, v : ndarray
-            State (Pinocchio convention).
+        %(q_v)s
         momentum : ndarray or None
             The conserved rows to restore; None: :attr:`momentum0`.
 

@@ -20,7 +20,9 @@ from typing import Protocol
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import fill_doc
 from ..errors import ParameterError
+from ._docs import SIM_DOC
 from .meshes import (
     DaeMeshGeometry,
     ReplayWarning,
@@ -273,6 +275,7 @@ def _shapes(gmodel: pin.GeometryModel, max_mesh_mb: float) -> list:
     return compacted
 
 
+@fill_doc(SIM_DOC)
 def placements(
     model: pin.Model,
     data: pin.Data,
@@ -284,10 +287,7 @@ def placements(
 
     Parameters
     ----------
-    model : pin.Model
-        The Pinocchio model.
-    data : pin.Data
-        Its data.
+    %(model_data)s
     gmodel : pin.GeometryModel
         The geometries.
     gdata : pin.GeometryData

@@ -36,8 +36,23 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import doc_entries, fill_doc
 from ..errors import ParameterError, check_keys
 from .plant import Plant
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    h="""
+        h : array_like, shape (k,)
+            Wheel momenta [N m s].""",
+    w_bus="""
+        w_bus : array_like, shape (3,)
+            The bus's angular velocity, bus frame [rad/s].""",
+    h_ndarray="""
+        h : ndarray, shape (k,)
+            Wheel momenta [N m s].""",
+    params_h_w_bus=("h", "w_bus"),
+)
 
 _KEYS = ("axes", "inertia", "max_torque", "max_momentum")
 
@@ -55,6 +70,7 @@ def _per_wheel(value, n: int, key: str, *, positive: bool = True) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
+@fill_doc(_DOC)
 class Wheels:
     """N reaction wheels fixed in the bus.
 
@@ -129,8 +145,7 @@ class Wheels:
 
         Parameters
         ----------
-        h : array_like, shape (k,)
-            Wheel momenta [N m s].
+        %(h)s
         tau : array_like, shape (k,)
             Commanded torques [N m].
         dt : float
@@ -154,12 +169,10 @@ class Wheels:
 
         Parameters
         ----------
-        h : array_like, shape (k,)
-            Wheel momenta [N m s].
+        %(h)s
         tau : array_like, shape (k,)
             Wheel torques [N m].
-        w_bus : array_like, shape (3,)
-            The bus's angular velocity, bus frame [rad/s].
+        %(w_bus)s
 
         Returns
         -------
@@ -171,12 +184,7 @@ class Wheels:
     def spin_rates(self, h, w_bus) -> np.ndarray:
         """Each wheel's spin relative to the bus [rad/s]: h_i / J_s,i - a_i . w_bus.
 
-        Parameters
-        ----------
-        h : array_like, shape (k,)
-            Wheel momenta [N m s].
-        w_bus : array_like, shape (3,)
-            The bus's angular velocity, bus frame [rad/s].
+        %(params_h_w_bus)s
 
         Returns
         -------
@@ -196,6 +204,7 @@ class WheelStep(NamedTuple):
     tau_w: np.ndarray  # wheel torques applied in the last plant step (after the limits) [N m]
 
 
+@fill_doc(_DOC)
 class WheeledPlant:
     """A :class:`~.plant.Plant` whose bus carries :class:`Wheels`; L_total is kept.
 
@@ -250,8 +259,7 @@ class WheeledPlant:
         ----------
         q : ndarray
             Robot configuration (Pinocchio convention).
-        h : ndarray, shape (k,)
-            Wheel momenta [N m s].
+        %(h_ndarray)s
 
         Returns
         -------
@@ -268,8 +276,7 @@ class WheeledPlant:
         ----------
         q, v : ndarray
             Robot state (Pinocchio convention).
-        h : ndarray, shape (k,)
-            Wheel momenta [N m s].
+        %(h_ndarray)s
 
         Returns
         -------
@@ -305,8 +312,7 @@ class WheeledPlant:
         ----------
         q, v : ndarray
             Robot state at the start (Pinocchio convention).
-        h : ndarray, shape (k,)
-            Wheel momenta [N m s].
+        %(h_ndarray)s
         u_m : ndarray, shape (n,)
             Joint torques [N m], held.
         tau_w : ndarray, shape (k,)

@@ -19,6 +19,8 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any
 
+from .._docstrings import fill_doc
+from ._docs import SWEEP_DOC
 from .campaign import Campaign
 from .cases import Case, expand
 from .stats import runs_for_half_width, wilson_half_width
@@ -111,6 +113,7 @@ def grow(campaign: Campaign, table) -> tuple[Campaign, list[Case], list[Case]] |
     return campaign, cases, [c for c in cases if c.case_hash not in table.rows]
 
 
+@fill_doc(SWEEP_DOC)
 def resumed(
     campaign: Campaign, cases: list[Case], rows: Iterable[Mapping[str, Any]]
 ) -> tuple[Campaign, list[Case]]:
@@ -119,10 +122,7 @@ def resumed(
 
     Parameters
     ----------
-    campaign : Campaign
-        The campaign.
-    cases : list of Case
-        Its cases.
+    %(campaign_cases)s
     rows : iterable of mapping
         The rows the folder holds.
 

@@ -21,8 +21,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .._cli import Parser, UsageError, fail, positive_int
+from .._cli import UsageError, command_parser, fail, positive_int
+from .._docstrings import fill_doc
 from ..errors import FfsmError
+from ._docs import SWEEP_DOC
 from .campaign import BUILTIN_CAMPAIGNS, Campaign, load_campaign
 from .cases import Case, expand
 from .check import check_cases
@@ -54,12 +56,10 @@ folder is in use, or holds another campaign), 130 interrupted."""
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line parser (docs/campaigns.md)."""
-    p = Parser(
-        prog="python -m ffsm_pin.sweep",
-        description="Run many variations of a scenario on a Dask cluster; write "
-        "results.parquet and report.md.",
-        epilog=_EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    p = command_parser(
+        "ffsm_pin.sweep",
+        "Run many variations of a scenario on a Dask cluster; write results.parquet and report.md.",
+        _EPILOG,
     )
     p.add_argument("campaign", metavar="CAMPAIGN", help="campaign file (TOML) or built-in name")
     p.add_argument("--out", metavar="DIR", help="output folder (an existing one is resumed)")
@@ -160,6 +160,7 @@ def _main(argv: Sequence[str] | None) -> int:
         return fail(f"cannot write{name}: {exc.strerror or exc}")
 
 
+@fill_doc(SWEEP_DOC)
 def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespace) -> int:
     """Resume or start the campaign in ``out``, write the report; the exit status.
 
@@ -173,10 +174,7 @@ def run(campaign: Campaign, cases: list[Case], out: Path, args: argparse.Namespa
 
     Parameters
     ----------
-    campaign : Campaign
-        The campaign.
-    cases : list of Case
-        Its cases.
+    %(campaign_cases)s
     out : Path
         The campaign folder.
     args : argparse.Namespace

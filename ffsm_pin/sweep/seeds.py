@@ -20,6 +20,22 @@ from typing import Any
 
 import numpy as np
 
+from .._docstrings import doc_entries, fill_doc
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    root_seed="""
+        root_seed : int
+            The campaign's seed.""",
+    point="""
+        point : mapping
+            The case's grid point.""",
+    repeat="""
+        repeat : int
+            Its repeat index.""",
+    params_root_seed_point_repeat=("root_seed", "point", "repeat"),
+)
+
 __all__ = ["case_stream", "estimates_seed", "words"]
 
 
@@ -47,19 +63,13 @@ def point_key(point: Mapping[str, Any]) -> str:
     return json.dumps(dict(point), sort_keys=True, separators=(",", ":"))
 
 
+@fill_doc(_DOC)
 def case_stream(
     root_seed: int, point: Mapping[str, Any], repeat: int, purpose: str
 ) -> np.random.SeedSequence:
     """The SeedSequence of one case (grid point, repeat index) for one purpose.
 
-    Parameters
-    ----------
-    root_seed : int
-        The campaign's seed.
-    point : mapping
-        The case's grid point.
-    repeat : int
-        Its repeat index.
+    %(params_root_seed_point_repeat)s
     purpose : str
         What the stream is for (e.g. ``"estimates"``).
 
@@ -72,17 +82,11 @@ def case_stream(
     return np.random.SeedSequence(int(root_seed), spawn_key=spawn_key)
 
 
+@fill_doc(_DOC)
 def estimates_seed(root_seed: int, point: Mapping[str, Any], repeat: int) -> int:
     """A non-negative 63-bit integer for ``controller.estimates.seed`` (fits a TOML integer).
 
-    Parameters
-    ----------
-    root_seed : int
-        The campaign's seed.
-    point : mapping
-        The case's grid point.
-    repeat : int
-        Its repeat index.
+    %(params_root_seed_point_repeat)s
 
     Returns
     -------

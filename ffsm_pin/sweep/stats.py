@@ -10,6 +10,32 @@ from __future__ import annotations
 
 import math
 
+from .._docstrings import doc_entries, fill_doc
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    kept="""
+        kept : int
+            Successes.""",
+    n="""
+        n : int
+            Runs.""",
+    z="""
+        z : float
+            The normal quantile (1.96: 95 %).""",
+    returns_lower="""
+        Returns
+        -------
+        lower, upper : float or None
+            The interval.""",
+    p="""
+        p : float
+            The observed rate.""",
+    params_kept_n_z=("kept", "n", "z"),
+    params_p_n_z=("p", "n", "z"),
+    params_kept_n=("kept", "n"),
+)
+
 __all__ = [
     "Z95", "clopper_pearson", "mcnemar_exact", "runs_for_half_width", "runs_to_separate",
     "wilson", "wilson_half_width",
@@ -18,22 +44,13 @@ __all__ = [
 Z95 = 1.959963984540054  # standard normal quantile of 0.975
 
 
+@fill_doc(_DOC)
 def wilson(kept: int, n: int, z: float = Z95) -> tuple[float, float] | tuple[None, None]:
     """95 % Wilson score interval of ``kept`` of ``n`` (None, None for n = 0).
 
-    Parameters
-    ----------
-    kept : int
-        Successes.
-    n : int
-        Runs.
-    z : float
-        The normal quantile (1.96: 95 %).
+    %(params_kept_n_z)s
 
-    Returns
-    -------
-    lower, upper : float or None
-        The interval.
+    %(returns_lower)s
     """
     if n <= 0:
         return None, None
@@ -43,17 +60,11 @@ def wilson(kept: int, n: int, z: float = Z95) -> tuple[float, float] | tuple[Non
     return max((centre - half) / scale, 0.0), min((centre + half) / scale, 1.0)
 
 
+@fill_doc(_DOC)
 def wilson_half_width(p: float, n: int, z: float = Z95) -> float:
     """Half the width of the Wilson interval at an observed rate ``p`` of ``n`` runs.
 
-    Parameters
-    ----------
-    p : float
-        The observed rate.
-    n : int
-        Runs.
-    z : float
-        The normal quantile (1.96: 95 %).
+    %(params_p_n_z)s
 
     Returns
     -------
@@ -63,25 +74,18 @@ def wilson_half_width(p: float, n: int, z: float = Z95) -> float:
     return z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
 
 
+@fill_doc(_DOC)
 def clopper_pearson(
     kept: int, n: int, level: float = 0.95
 ) -> tuple[float, float] | tuple[None, None]:
     """Exact (Clopper-Pearson) interval of ``kept`` of ``n`` (None, None for n = 0): never
     narrower than its level promises, so wider than Wilson's.
 
-    Parameters
-    ----------
-    kept : int
-        Successes.
-    n : int
-        Runs.
+    %(params_kept_n)s
     level : float
         Confidence level.
 
-    Returns
-    -------
-    lower, upper : float or None
-        The interval.
+    %(returns_lower)s
     """
     if n <= 0:
         return None, None
@@ -115,18 +119,17 @@ def mcnemar_exact(only_a: int, only_b: int) -> float:
     return float(binomtest(int(only_a), int(only_a + only_b), 0.5).pvalue)
 
 
+@fill_doc(_DOC)
 def runs_for_half_width(p: float, half_width: float, z: float = Z95) -> int:
     """The fewest runs whose Wilson interval at an observed rate ``p`` is no wider than
     +- ``half_width`` (the half-width falls with n at any fixed p).
 
     Parameters
     ----------
-    p : float
-        The observed rate.
+    %(p)s
     half_width : float
         The half-width aimed at.
-    z : float
-        The normal quantile (1.96: 95 %).
+    %(z)s
 
     Returns
     -------

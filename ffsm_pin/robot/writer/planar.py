@@ -34,22 +34,34 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..._docstrings import doc_entries, fill_doc
 from ...errors import ParameterError
 from ._xml import end_effector, get, header, num, revolute_joint, vec
 
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    mass="""
+        mass : float
+            Mass [kg].""",
+    inertia="""
+        inertia : float
+            I_zz about the body CoM [kg m^2].""",
+    com="""
+        com : tuple of float
+            CoM in the body frame [m].""",
+)
+
 
 @dataclass(frozen=True)
+@fill_doc(_DOC)
 class PlanarBody:
     """Mass properties of one rigid body of the chain (planar).
 
     Attributes
     ----------
-    mass : float
-        Mass [kg].
-    inertia : float
-        I_zz about the body CoM [kg m^2].
-    com : tuple of float
-        CoM in the body frame [m].
+    %(mass)s
+    %(inertia)s
+    %(com)s
     """
 
     mass: float  # [kg]
@@ -64,17 +76,15 @@ class PlanarBody:
 
 
 @dataclass(frozen=True)
+@fill_doc(_DOC)
 class PlanarLink(PlanarBody):
     """A link: its mass properties and where its child joint (or tip) sits.
 
     Attributes
     ----------
-    mass : float
-        Mass [kg].
-    inertia : float
-        I_zz about the body CoM [kg m^2].
-    com : tuple of float
-        CoM in the body frame [m].
+    %(mass)s
+    %(inertia)s
+    %(com)s
     tip : tuple of float
         Child joint / end effector in the link frame [m].
     axis : int

@@ -37,8 +37,22 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..._docstrings import doc_entries, fill_doc
 from ...errors import ParameterError
 from ._xml import end_effector, get, header, num, revolute_joint, vec
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    mass="""
+        mass : float
+            Mass [kg].""",
+    inertia="""
+        inertia : tuple of float
+            (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].""",
+    com="""
+        com : tuple of float
+            CoM in the body frame [m].""",
+)
 
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")  # table order (as the scenario files)
 
@@ -52,18 +66,16 @@ def _v6(x, key: str) -> tuple[float, float, float, float, float, float]:
 
 
 @dataclass(frozen=True)
+@fill_doc(_DOC)
 class SpatialBody:
     """Mass properties of one rigid body: mass [kg], inertia (ixx iyy izz ixy ixz iyz) about
     the CoM in the body frame [kg m^2], CoM in the body frame [m].
 
     Attributes
     ----------
-    mass : float
-        Mass [kg].
-    inertia : tuple of float
-        (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].
-    com : tuple of float
-        CoM in the body frame [m].
+    %(mass)s
+    %(inertia)s
+    %(com)s
     """
 
     mass: float
@@ -77,17 +89,15 @@ class SpatialBody:
 
 
 @dataclass(frozen=True)
+@fill_doc(_DOC)
 class SpatialLink(SpatialBody):
     """A link: its mass properties and its joint (placement in the parent, axis).
 
     Attributes
     ----------
-    mass : float
-        Mass [kg].
-    inertia : tuple of float
-        (ixx, iyy, izz, ixy, ixz, iyz) about the CoM in the body frame [kg m^2].
-    com : tuple of float
-        CoM in the body frame [m].
+    %(mass)s
+    %(inertia)s
+    %(com)s
     origin_xyz : tuple of float
         Joint origin in the parent's frame [m].
     origin_rpy : tuple of float

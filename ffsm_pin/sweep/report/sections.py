@@ -7,9 +7,28 @@ import itertools
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..._docstrings import doc_entries, fill_doc
 from ..stats import mcnemar_exact, runs_for_half_width, runs_to_separate, wilson_half_width
 from .sql import CONTROLLER_KEY
 from .text import f, relabel, table
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    runs="""
+        runs : sequence of Row
+            Every run (``RUNS_SQL``).""",
+    by="""
+        by : tuple of str
+            Columns grouped by besides the controller.""",
+    labels="""
+        labels : mapping of str to str
+            Controller type -> its label.""",
+    returns_list_of_str="""
+        Returns
+        -------
+        list of str
+            The section's lines.""",
+)
 
 __all__ = ["failed_section", "how_many_section", "paired_rows", "paired_section"]
 
@@ -23,6 +42,7 @@ def _left(r: Row) -> str:
     return f"{r['funnel']}[{component}]" if component is not None else str(r["funnel"])
 
 
+@fill_doc(_DOC)
 def failed_section(
     failed: list[dict[str, Any]],
     runs: Sequence[Row],
@@ -36,17 +56,11 @@ def failed_section(
     ----------
     failed : list of dict
         The rows of ``FAILED_SQL``.
-    runs : sequence of Row
-        Every run (``RUNS_SQL``).
-    by : tuple of str
-        Columns grouped by besides the controller.
-    labels : mapping of str to str
-        Controller type -> its label.
+    %(runs)s
+    %(by)s
+    %(labels)s
 
-    Returns
-    -------
-    list of str
-        The section's lines.
+    %(returns_list_of_str)s
     """
     totals: dict[tuple, int] = {}
     for r in runs:
@@ -84,6 +98,7 @@ def failed_section(
     return [*lines, ""]
 
 
+@fill_doc(_DOC)
 def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]]:
     """Per pair of controllers (and scenario): the runs of the same grid point (the other
     axes' values) and repeat index, both kept / only A / only B / neither, and the exact
@@ -91,8 +106,7 @@ def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]
 
     Parameters
     ----------
-    runs : sequence of Row
-        Every run (``RUNS_SQL``).
+    %(runs)s
     cols : sequence of str
         The grid's columns.
 
@@ -127,6 +141,7 @@ def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]
     return out
 
 
+@fill_doc(_DOC)
 def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> list[str]:
     """The section "Paired comparison" from :func:`paired_rows`.
 
@@ -134,13 +149,9 @@ def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> lis
     ----------
     rows : list of dict
         From :func:`paired_rows`.
-    labels : mapping of str to str
-        Controller type -> its label.
+    %(labels)s
 
-    Returns
-    -------
-    list of str
-        The section's lines.
+    %(returns_list_of_str)s
     """
     lines = [
         "## Paired comparison",
@@ -184,6 +195,7 @@ def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> lis
     return [*lines, ""]
 
 
+@fill_doc(_DOC)
 def how_many_section(
     rates: Sequence[Row], controllers: Sequence[Row], by: tuple[str, ...], auto_text: str
 ) -> list[str]:
@@ -196,15 +208,11 @@ def how_many_section(
         The rows of ``RATE_SQL``.
     controllers : sequence of Row
         The rows of ``CONTROLLER_SQL``.
-    by : tuple of str
-        Columns grouped by besides the controller.
+    %(by)s
     auto_text : str
         The auto-repeat sentence (:func:`~ffsm_pin.sweep.auto_repeat.status_text`), or empty.
 
-    Returns
-    -------
-    list of str
-        The section's lines.
+    %(returns_list_of_str)s
     """
     lines = ["## How many runs", ""]
     if auto_text:

@@ -16,7 +16,24 @@ from typing import Any
 
 import duckdb
 
+from ..._docstrings import doc_entries, fill_doc
 from ..stats import Z95
+
+# numpydoc entries its docstrings share (ffsm_pin._docstrings)
+_DOC = doc_entries(
+    path="""
+        path : Path
+            ``results.parquet``.""",
+    returns_str="""
+        Returns
+        -------
+        str
+            The query.""",
+    by="""
+        by : tuple of str
+            Columns grouped by besides the controller.""",
+    params_path_by=("path", "by"),
+)
 
 __all__ = [
     "CAUSES_SQL", "CONTROLLER_KEY", "CONTROLLER_SQL", "FAILED_SQL", "KEPT", "KEPT_Z",
@@ -176,6 +193,7 @@ RUNS_EXTRA = {
 }
 
 
+@fill_doc(_DOC)
 def sql(template: str, path: Path, cols: list[str] | tuple[str, ...] = (), **more: str) -> str:
     """``template`` with the placeholders filled (module docstring); ``more``: the others.
 
@@ -183,15 +201,11 @@ def sql(template: str, path: Path, cols: list[str] | tuple[str, ...] = (), **mor
     ----------
     template : str
         The query with placeholders.
-    path : Path
-        ``results.parquet``.
+    %(path)s
     cols : sequence of str
         The grid's columns.
 
-    Returns
-    -------
-    str
-        The query.
+    %(returns_str)s
     """
     names = [ident(c) for c in cols]
     text = template.format(
@@ -263,38 +277,27 @@ def present(path: Path) -> set[str]:
     return {r["column_name"] for r in rows}
 
 
+@fill_doc(_DOC)
 def controller_sql(path: Path, by: tuple[str, ...] = (), have: set[str] | None = None) -> str:
     """:data:`CONTROLLER_SQL` for the file at ``path`` (``have``: its columns).
 
-    Parameters
-    ----------
-    path : Path
-        ``results.parquet``.
-    by : tuple of str
-        Columns grouped by besides the controller.
+    %(params_path_by)s
     have : set of str or None
         The file's columns; None: read from the file.
 
-    Returns
-    -------
-    str
-        The query.
+    %(returns_str)s
     """
     have = present(path) if have is None else have
     ext = extra(CONTROLLER_EXTRA, have, indent="\n         ")
     return CONTROLLER_SQL.format(path=quoted(path), by=by_sel(by), extra=ext)
 
 
+@fill_doc(_DOC)
 def controller_table(path: Path, by: tuple[str, ...] = ()) -> list[dict[str, Any]]:
     """The per-controller rows of :data:`CONTROLLER_SQL` for ``results.parquet`` at ``path``,
     per value of the columns ``by`` too (``("scenario",)``: per scenario and controller).
 
-    Parameters
-    ----------
-    path : Path
-        ``results.parquet``.
-    by : tuple of str
-        Columns grouped by besides the controller.
+    %(params_path_by)s
 
     Returns
     -------
