@@ -14,6 +14,7 @@ import numpy as np
 from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
 from .recorder import Signals, Thinned, write_npz
+from .relaxation import relaxation_summary
 from .target_run import TARGET_SIGNALS, target_summary
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
@@ -165,8 +166,7 @@ class RunResult:
     # what the controller's sigma_min is the smallest singular value of (its sigma_measure)
     sigma_measure: str | None = None
     saturation_fraction: float = 0.0  # control periods with a joint at its torque limit
-    # per joint: control periods with that joint at its torque limit (None: not counted)
-    saturation_per_joint: list[float] | None = None
+    saturation_per_joint: list[float] | None = None  # per joint (None: not counted)
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     target: Any = None  # the [target] body (sim.target.Target), None without one
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
@@ -270,8 +270,7 @@ class RunResult:
             return self._scanned
         keys = ["err_b", "err_z", "bound_b_lower", "bound_b_upper", "bound_z_lower"]
         keys += ["bound_z_upper", "u_m", "P", "L", "F_r", "t", "q_b"]
-        # u_cmd is absent in older recordings, sigma_min and damping for controllers that
-        # do not report them (docs/controllers.md)
+        # absent: u_cmd in older recordings, sigma_min, damping of some controllers
         keys += [k for k in ("u_cmd", "sigma_min", "damping") if k in self.signals]
         scan = _Scan(outside={"b": None, "z": None})
         P0 = L0 = q_b0 = None
@@ -383,6 +382,7 @@ class RunResult:
             "final_theta_z_error": _final_norm(s, "theta_z"),
             "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),
+            **relaxation_summary(self.signals.keys(), self.signals_blocks),
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
             out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
