@@ -382,7 +382,7 @@ class RunResult:
             "final_theta_z_error": _final_norm(s, "theta_z"),
             "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),
-            **relaxation_summary(self.signals.keys(), self.signals_blocks),
+            **relaxation_summary(self.signals, self.signals_blocks, (self.rhoinf_b, self.rhoinf_z)),
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
             out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
