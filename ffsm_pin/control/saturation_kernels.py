@@ -43,7 +43,13 @@ def auxiliary_maps(geo, law, meas, state):
 
 
 def planar_maps(geo, law, meas, state):
-    """:func:`auxiliary_maps` of a planar robot (L_b = 1)."""
+    """:func:`auxiliary_maps` of a planar robot (L_b = 1).
+
+    Parameters
+    ----------
+    geo, law, meas, state
+        As :func:`auxiliary_maps`.
+    """
     S, off, K, L, ee_row, collinear = geo
     nb = S.shape[0]
     c, s, pc, ps = trig(S, off, K, L, meas.q_b, meas.q_m)
@@ -56,7 +62,13 @@ def planar_maps(geo, law, meas, state):
 
 
 def spatial_maps(geo, law, meas, state):
-    """:func:`auxiliary_maps` of a spatial robot (L_b of the base MRP)."""
+    """:func:`auxiliary_maps` of a spatial robot (L_b of the base MRP).
+
+    Parameters
+    ----------
+    geo, law, meas, state
+        As :func:`auxiliary_maps`.
+    """
     jr, ax, er, m = geo
     q_b, q_m, theta_z = meas.q_b, meas.q_m, state.theta_z
     n = q_m.size
