@@ -178,10 +178,23 @@ def test_bad_saturation_keys_are_one_line():
         Saturation("clip")
     with pytest.raises(ParameterError, match=r"controller.k_v = -1\.0: must be > 0"):
         Saturation("auxiliary", k_v=-1.0)
-    text = builtin_path("case1").read_text().replace(
-        'scheme = "ppc"', 'scheme = "ppc"\nsaturation = "clip"'
+    text = (
+        builtin_path("case1")
+        .read_text()
+        .replace('scheme = "ppc"', 'scheme = "ppc"\nsaturation = "clip"')
     )
     with pytest.raises(FfsmError) as err:
         scenario_from_toml(text)
     message = str(err.value)
     assert "\n" not in message and "saturation" in message and "auxiliary" in message
+
+
+def test_the_option_survives_the_saved_scenario():
+    """A run's saved scenario.toml keeps the option and its rates (read back equal); the
+    default writes no saturation key."""
+    from ffsm_pin.scenario.writer import scenario_to_toml
+
+    sc = _scenario("case1", "auxiliary", 3.0, 1.0, k_chi=0.5)
+    back = scenario_from_toml(scenario_to_toml(sc))
+    assert back.controller.lu_jia.saturation == Saturation("auxiliary", k_chi=0.5)
+    assert "saturation" not in scenario_to_toml(builtin_scenario("case1"))
