@@ -55,6 +55,7 @@ class CompiledPeriod:
     theta_d_true: np.ndarray | None
     signal_layout: SignalLayout
     state: PeriodState
+    auxiliary: Any  # AuxiliarySystem or None (saturation.py)
     _watch: SingularityWatch
 
     def funnel_stop(self, meas: Measurement, exc: FunnelExit) -> Exception:
@@ -94,6 +95,8 @@ class CompiledPeriod:
         # what the period takes every period: the bundles' fields (period's docstring)
         self._fields = (self._geo, law_fields(self._law), tuple(self._ref))
         self._out_fields = tuple(self._out)
+        aux = self.auxiliary  # its state is the numpy reference's array, advanced in place
+        self._aux = None if aux is None else (aux.term, aux.state)
 
     def _kernel_meas(self, meas: Measurement) -> tuple:
         """The fields of ``meas`` as the period takes them: the true M and C w read-only (known
@@ -121,7 +124,8 @@ class CompiledPeriod:
         km = self._kernel_meas(meas)
         compile_in_parallel(self._geo, self._law, self._ref, Measurement(*km), self.state)
         geo, law, ref = self._fields
-        period(geo, law, ref, dt, km, tuple(self.state), self._out_fields)
+        aux = None if self._aux is None else (self._aux[0], self._aux[1].copy())  # (a copy)
+        period(geo, law, ref, dt, km, tuple(self.state), self._out_fields, aux)
 
     def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
         if self.theta_d_true is None:
@@ -158,8 +162,9 @@ class CompiledPeriod:
         raise the stop its status says."""
         geo, law, ref = self._fields
         status, idx, value = period(
-            geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields
-        )
+            geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields,
+            self._aux,
+        )  # fmt: skip
         damping = self._out.damping[0]
         if status == kernels.STATUS_OK and damping == 0.0 and self._watch.since is None:
             return  # the common period: nothing to book, no stop

@@ -39,10 +39,12 @@ from .compiled_period import CompiledPeriod
 from .funnel import Funnel, FunnelExit, FunnelParams, IdentityFunnel
 from .gains import Gains, SingularityPolicy
 from .interface import Measurement, SignalLayout
+from .kernels import COMPLEX_STEP
 from .kinematic import KinematicInputs, KinematicLaw, attitude_matrix, task_errors, task_size
 from .manifold import manifold_input
 from .null_space import NullSpace
 from .period import PeriodState
+from .saturation import AuxiliarySystem, AuxiliaryTerm
 from .schemes import (
     ATTITUDE_SIZE,
     SCHEMES,
@@ -95,6 +97,9 @@ class CoordinatedController(CompiledPeriod, CompiledController):
     theta_d_true : array_like or None
         The true theta_d, for the diagnostic e of Eq. (54) (:attr:`ControlOutput.e`, with the
         true M); never read by the law. None: e is not computed.
+    auxiliary : AuxiliaryTerm or None
+        The auxiliary system of ``saturation = "auxiliary"`` (:mod:`.saturation`); None: the
+        paper's law.
     """
 
     def __init__(
@@ -116,6 +121,7 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         null_space: NullSpace | None = None,
         task: str = "pose",
         theta_d_true=None,
+        auxiliary: AuxiliaryTerm | None = None,
     ):
         self.m2, self.m3 = model.m2, model.m3
         self.task = task
@@ -190,6 +196,9 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         self.events: list[str] = []
         self._initial = initial
         self._watch = SingularityWatch(singularity, self.events)
+        self.auxiliary = None if auxiliary is None else AuxiliarySystem(
+            auxiliary, nb, self.m3, self.n_task
+        )  # fmt: skip
         self.bind_backend(backend, initial, 1e-3)
 
     # ------------------------------------------------------------------ the state
@@ -308,16 +317,29 @@ class CoordinatedController(CompiledPeriod, CompiledController):
 
         # 2. kinematic level, Eqs. (25)+(36) or (81), and d w_mc / dt
         q_b_rate = w[0] if m3 == 1 else attitude_matrix(q_b, m3) @ w_b  # Eq. (1)
-        x = KinematicInputs(t, q_b, q_m, meas.z_e, self.theta_b, self.theta_z,
+        z_e, z_e_dot, q_bd, aux = meas.z_e, meas.z_e_dot, self.q_bd, self.auxiliary
+        if aux is not None:  # the relaxed errors e_b - chi_b, e_z - chi_z (saturation.py)
+            maps = self._auxiliary_maps(meas, theta_d=self.theta_d, theta_z=self.theta_z)
+            (chi_v, chi_b, chi_z), chi_dot = aux.parts(), aux.rates(*maps[1:])
+            z_e, z_e_dot, nt = (
+                np.array(z_e, dtype=float),
+                np.array(z_e_dot, dtype=float),
+                chi_z.size,
+            )
+            z_e[:nt], z_e_dot[:nt] = z_e[:nt] - chi_z, z_e_dot[:nt] - chi_dot[2]
+            self.kinematic.q_bd = (q_bd + chi_b) + 1j * COMPLEX_STEP * chi_dot[1]
+        x = KinematicInputs(t, q_b, q_m, z_e, self.theta_b, self.theta_z,
                             w[0] if m3 == 1 else w_b)  # fmt: skip
         rates = KinematicInputs(
-            1.0, q_b_rate, w[m3:], meas.z_e_dot,
+            1.0, q_b_rate, w[m3:], z_e_dot,
             (theta_b - self.theta_b) / dt, (theta_z - self.theta_z) / dt, 0.0,
         )  # fmt: skip
         try:
             kc = self.kinematic.command(x, rates)
         except FunnelExit as exc:
             raise self.funnel_stop(meas, exc) from None
+        finally:
+            self.kinematic.q_bd = q_bd
         # (the warning points at the caller of step / step_row)
         self._watch.update(t, kc.sigma_min, kc.damping, stacklevel=3)
         if self.scheme != "no-attitude" and not kc.H_bm_norm > 1e-9:
@@ -338,7 +360,10 @@ class CoordinatedController(CompiledPeriod, CompiledController):
             w_tilde = np.zeros_like(w)
             assert meas.M is not None and meas.h is not None  # the sensor's full model
             M_hat, r, w_hat = meas.M, -meas.h, w
-        mi = manifold_input(M_hat, r, w_hat, kc.w_mc, kc.w_mc_dot, kc.dwmc_dwb, g.k_d, t)
+        w_dyn, w_dyn_dot = kc.w_mc, kc.w_mc_dot
+        if aux is not None:  # the dynamic level tracks w_mc + chi_v (the deficit let go)
+            w_dyn, w_dyn_dot = kc.w_mc + chi_v[m3:], kc.w_mc_dot + chi_dot[0][m3:]
+        mi = manifold_input(M_hat, r, w_hat, w_dyn, w_dyn_dot, kc.dwmc_dwb, g.k_d, t)
         if not np.all(np.isfinite(mi.u_m)):
             raise nonfinite_stop(t)
         e = None  # Eq. (54) with the true M and theta_d, before the estimates advance
@@ -362,6 +387,10 @@ class CoordinatedController(CompiledPeriod, CompiledController):
             self.theta_b, self.theta_z = theta_b, theta_z
         else:
             self.w_hat = w + dt * mi.w_hat_dot
+        if aux is not None:  # the excess drives chi; the filter integrates the torque applied
+            dw = aux.advance(mi.u_m, *maps)
+            if np.any(dw != 0.0):
+                self.w_hat = self.w_hat + dt * dw
         return ControlOutput(
             u_m=mi.u_m,
             w_mc=kc.w_mc,
@@ -376,6 +405,14 @@ class CoordinatedController(CompiledPeriod, CompiledController):
             e=e,
             signals=signals,
         )
+
+    def _auxiliary_maps(self, meas: Measurement, *, theta_d, theta_z) -> tuple:
+        """(M-hat, J-hat over (w_b, w_m), L_b) at ``meas`` (the auxiliary system's maps,
+        :func:`.saturation_kernels.auxiliary_maps`); the true M for the known-model scheme."""
+        m = self.model
+        M = m.mass_matrix(theta_d, meas.q_b, meas.q_m) if self.adaptive else meas.M
+        J = np.hstack(m.jacobians(theta_z, meas.q_b, meas.q_m))[: self.n_task]
+        return M, np.real(J), np.real(attitude_matrix(meas.q_b, self.m3))
 
     # ------------------------------------------------------------------ stops
     def funnel_stop(self, meas: Measurement, exc: FunnelExit) -> SimulationError:

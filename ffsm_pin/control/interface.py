@@ -135,6 +135,10 @@ class ControllerContext:
     truth : tuple of ndarray or None
         The true parameters (theta_z, theta_d, theta_b): for diagnostics and known-model
         baselines only; an adaptive controller must not use them in its law.
+    torque_limit : ndarray or None
+        The actuators' torque limit of each joint (n_joints,) [N m], inf where none
+        (``[actuators] torque_limit``), for a law that accounts for it
+        (``controller.saturation``); None: not given (no limits).
     """
 
     n_joints: int
@@ -152,6 +156,7 @@ class ControllerContext:
     scenario: Scenario
     estimates_source: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
     truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    torque_limit: np.ndarray | None = None
 
     def required_estimates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:attr:`estimates`, for a controller that cannot run without them."""

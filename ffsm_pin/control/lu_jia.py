@@ -9,13 +9,16 @@ the start of each period, before the period advances the estimates.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import ParameterError, choices_text
 from .backend import BACKENDS
 from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
-from .interface import ControllerContext, Measurement, SignalRow
+from .interface import ControllerContext, Measurement, SignalLayout, SignalRow
 from .kinematic import KinematicInputs
 from .lu_jia_params import LuJiaParams
+from .saturation import auxiliary_term, demand_problem
 
 
 def backend_from(ctx: ControllerContext, backend: str = "auto") -> str:
@@ -135,6 +138,12 @@ class LuJiaController:
             task=ctx.task,
             backend=backend,
             theta_d_true=ctx.truth[1],  # for Eq. (54)'s e alone
+            auxiliary=auxiliary_term(
+                p.saturation,
+                np.full(ctx.n_joints, np.inf) if ctx.torque_limit is None else ctx.torque_limit,
+                p.saturation.rates(perf.funnel_b, perf.funnel_z, p.gains.k_d),
+                ctx.dt,
+            ),
         )
         law = self.law
         self.scheme = p.scheme  # reported as summary.json's scheme
@@ -146,12 +155,37 @@ class LuJiaController:
         # the period's signals at t, returned as its row (a SignalRow of this declared
         # layout: recorded in one copy)
         self.signal_layout = law.signal_layout
+        if law.auxiliary is not None:  # and the relaxation at t (ctrl_chi_b, ctrl_chi_z)
+            _, chi_b, chi_z = law.auxiliary.parts()
+            shapes = {**law.signal_layout.shapes, "chi_b": chi_b.shape, "chi_z": chi_z.shape}
+            self.signal_layout = SignalLayout(shapes)
         self.signal_shapes = dict(law.signal_layout.shapes)  # (as before the layout)
 
     @property
     def backend(self) -> str:
         """The backend the law runs on: ``"numba"`` (the compiled period) or ``"numpy"``."""
         return self.law.backend
+
+    def torque_demand(self, meas: Measurement) -> str | None:
+        """``--check``'s feasibility estimate (:func:`~.saturation.demand_problem`): the law's
+        command at ``meas`` (t = 0) against the context's torque limit; advances the law's
+        estimates (for a check that never runs the law).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement at t = 0.
+
+        Returns
+        -------
+        str or None
+            The warning's text, or None (within the limits, or no limits).
+        """
+        limit = self.context.torque_limit
+        if limit is None or not np.any(np.isfinite(limit)):
+            return None
+        u_c = self.law.step_numpy(meas, self._dt).u_m
+        return demand_problem(u_c, limit, self.context.scenario.controller.lu_jia.saturation.mode)
 
     def singular_value(self, meas: Measurement) -> float:
         """sigma_min of the inverted task Jacobian (J_m-hat U-hat, or J_m-hat for Eq. 81) at
@@ -166,5 +200,10 @@ class LuJiaController:
         :class:`~ffsm_pin.control.interface.SignalRow` of :attr:`signal_layout`: w~ and e
         of Eq. (54) with the true M and theta_d, the estimates and w-hat, w_mc, sigma_min
         and the damping."""
+        aux = self.law.auxiliary
+        if aux is None:
+            out = self.law.step_row(meas, self._dt)
+            return out.u_m, SignalRow(out.signals, self.signal_layout)
+        chi = aux.state[aux.nb :].copy()  # chi_b, chi_z at t, before the period advances them
         out = self.law.step_row(meas, self._dt)
-        return out.u_m, SignalRow(out.signals, self.signal_layout)
+        return out.u_m, SignalRow(np.concatenate((out.signals, chi)), self.signal_layout)

@@ -7,6 +7,7 @@ them (docs/cli.md), at the ``[controller]`` level::
 
     [controller]
     scheme = "ppc"                  # k_b, k_z, k_de, k_d, gamma_1, gamma_2, gamma_3 beside it
+    saturation = "ignore"           # or "auxiliary" (k_chi, k_v beside it; docs/saturation.md)
     [controller.null_space]         # objective, gain, center
     [controller.singularity]        # max_damped_time (threshold is the run's, below)
 
@@ -41,6 +42,7 @@ from .._schema import Num, Pos, Table, Vec, default, fail
 from .controller import SCHEMES
 from .gains import ATTITUDE_RATE_SQUARED, Gains, SingularityPolicy, derived_gain
 from .null_space import OBJECTIVES, NullSpace
+from .saturation import SATURATION_MODES, Saturation
 
 #: The gains' keys at the ``[controller]`` level of a scenario file (the fields of Gains).
 GAIN_KEYS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
@@ -62,12 +64,16 @@ class LuJiaParams:
     max_damped_time : float
         The run stops (cause ``"singular"``) when the inverted task Jacobian stays damped for
         longer than this [s] (:class:`~.gains.SingularityPolicy`).
+    saturation : Saturation
+        Beyond the paper: ``saturation`` and the auxiliary system's rates ``k_chi``, ``k_v``
+        (:class:`~.saturation.Saturation`).
     """
 
     scheme: str = "ppc"
     gains: Gains = field(default_factory=Gains)
     null_space: NullSpace = field(default_factory=NullSpace)
     max_damped_time: float = SingularityPolicy.max_damped_time
+    saturation: Saturation = field(default_factory=Saturation)
 
     def policy(self, threshold: float) -> SingularityPolicy:
         """The singularity policy of the law: damped below the run's ``threshold`` [m] (its
@@ -108,6 +114,7 @@ class LuJiaParams:
             gains=Gains(**gains),
             null_space=NullSpace(objective=ns.objective, gain=ns.gain, center=center),
             max_damped_time=keys.singularity.max_damped_time,
+            saturation=Saturation(keys.saturation, keys.k_chi, keys.k_v),
         )
 
 
@@ -154,6 +161,9 @@ class LuJiaKeys(Table):
     gamma_3: Pos = _G.gamma_3
     null_space: NullSpaceKeys = NullSpaceKeys()
     singularity: LuJiaSingularityKeys = LuJiaSingularityKeys()
+    saturation: Literal[SATURATION_MODES] = "ignore"  # docs/saturation.md
+    k_chi: Pos | None = None  # [1/s] None: the slowest funnel's beta
+    k_v: Pos | None = None  # [1/s] None: k_d
 
 
 __all__ = ["GAIN_KEYS", "LuJiaKeys", "LuJiaParams", "LuJiaSingularityKeys", "NullSpaceKeys"]

@@ -38,13 +38,13 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit, types
-from numba.extending import overload
+from numba import njit
 
 from .._array_kernels import put
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
+from ._dispatch import JIT_OPTIONS, overload_for_geometry
 from .interface import Measurement, SignalLayout
 from .kernels import (
     COMPLEX_STEP,
@@ -56,6 +56,7 @@ from .kernels import (
     null_space_term,
 )
 from .reference_kernels import ReferenceArrays
+from .saturation_kernels import auxiliary_advance, auxiliary_maps, relaxed
 
 #: The compiled kernels of each geometry, by the type of the model's kernel constants. Each
 #: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
@@ -313,23 +314,10 @@ def _register(cls: type, kernels: Any) -> None:
     pass of LLVM over all the code below it, about 2 s of a first run for the three steps).
     """
     for stub in (geometry_terms, kinematic_law, dynamic_level):
-        _overload(stub, cls, getattr(kernels, stub.__name__).py_func)
+        overload_for_geometry(stub, cls, getattr(kernels, stub.__name__).py_func)
 
 
-#: The jit options of the steps compiled through :func:`_overload`: those of the kernels'
-#: ``@njit(cache=True)``. numba keys a cache entry by the function and the argument types,
-#: not the options, so both must compile the same code: overload's default
-#: ``no_cpython_wrapper=True`` would leave a cache entry that a call from Python (the second
-#: process, a test) loads and crashes on.
-_JIT_OPTIONS: Any = {"nopython": True, "cache": True, "no_cpython_wrapper": False}
-
-
-def _overload(stub: Any, cls: type, impl: Any) -> None:
-    @overload(stub, jit_options=_JIT_OPTIONS, strict=False)
-    def _typed(geo, *args):
-        if isinstance(geo, types.BaseNamedTuple) and getattr(geo, "instance_class", None) is cls:
-            return impl
-        return None  # another geometry's
+_JIT_OPTIONS = JIT_OPTIONS  # (the steps' jit options: tests read them here)
 
 
 for _cls, _kernels in GEOMETRIES.items():
@@ -338,7 +326,7 @@ for _cls, _kernels in GEOMETRIES.items():
 
 # ---------------------------------------------------------------------- one period
 @njit(cache=True)
-def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
+def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
     """One control period at the measurement (time t [s]) over [t, t + dt): advances the
     state in place, writes the outputs and returns (status, exit index, value).
 
@@ -370,6 +358,10 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
         The fields of a :class:`PeriodState`, advanced in place.
     out_f : tuple
         The fields of a :class:`PeriodOutputs`, written.
+    aux : tuple or None
+        ``(AuxiliaryTerm, state)``, the auxiliary system of ``controller.saturation =
+        "auxiliary"`` (:mod:`.saturation_kernels`; its state advanced in place), or None: the
+        paper's law (numba compiles none of it).
     """
     g = law_f[4]
     law = PeriodLaw(law_f[0], law_f[1], law_f[2], law_f[3], KernelGains(*g), law_f[5], law_f[6],
@@ -388,12 +380,23 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
     # kinematic level, value and exact derivative in one complex evaluation
     hj = 1j * COMPLEX_STEP
     theta_b, theta_z = state.theta_b, state.theta_z
-    w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = kinematic_law(
-        geo, law, ref, law.null_space,
-        meas.t + hj, meas.q_b + hj * q_b_rate, meas.q_m + hj * w[w.size - n:],
-        meas.z_e + hj * meas.z_e_dot, theta_b + hj * (tb_new - theta_b) / dt,
-        theta_z + hj * (tz_new - theta_z) / dt, w_b + 0j,
-    )  # fmt: skip
+    q_c, q_m_c = meas.q_b + hj * q_b_rate, meas.q_m + hj * w[w.size - n :]
+    tb_c, tz_c = theta_b + hj * (tb_new - theta_b) / dt, theta_z + hj * (tz_new - theta_z) / dt
+    if aux is None:
+        w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = kinematic_law(
+            geo, law, ref, law.null_space, meas.t + hj, q_c, q_m_c,
+            meas.z_e + hj * meas.z_e_dot, tb_c, tz_c, w_b + 0j,
+        )  # fmt: skip
+    else:  # the relaxed errors e_b - chi_b, e_z - chi_z (saturation.py)
+        M_a, J_a, L_a = auxiliary_maps(geo, law, meas, state)
+        q_bd_r, z_c, chi_v, chi_v_dot = relaxed(
+            aux[0], aux[1], J_a, L_a, law.q_bd, meas.z_e, meas.z_e_dot, hj
+        )
+        law_r = PeriodLaw(law[0], law[1], law[2], law[3], law[4], law[5], q_bd_r, law[7],
+                          law[8], law[9], law[10])  # fmt: skip
+        w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = kinematic_law(
+            geo, law_r, ref, law.null_space, meas.t + hj, q_c, q_m_c, z_c, tb_c, tz_c, w_b + 0j
+        )
     for i in range(err_b.size):
         out.err_b[i] = err_b[i].real
     for i in range(err_z.size):
@@ -408,11 +411,19 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f):
     w_mc = w_mc_c.real.copy()
     w_mc_dot = w_mc_c.imag / COMPLEX_STEP
 
+    w_dyn, w_dyn_dot = w_mc, w_mc_dot
+    if aux is not None:  # the dynamic level tracks w_mc + chi_v (the deficit let go)
+        m3 = w.size - n
+        w_dyn, w_dyn_dot = w_mc + chi_v[m3:], w_mc_dot + chi_v_dot[m3:]
     status, value, u_m, w_mc_dot_fed, w_tilde, e_54 = dynamic_level(
-        geo, terms, law, dt, meas, w_mc, w_mc_dot, np.ascontiguousarray(sens), state
+        geo, terms, law, dt, meas, w_dyn, w_dyn_dot, np.ascontiguousarray(sens), state
     )
     if status != STATUS_OK:
         return status, -1, value  # (a singular filter: the smallest singular value)
+    if aux is not None:  # the excess drives chi; the filter integrates the torque applied
+        dw = auxiliary_advance(aux[0], aux[1], u_m, M_a, J_a, L_a)
+        if np.any(dw != 0.0):
+            put(state.w_hat, 0, state.w_hat + dt * dw)
     if law.adaptive:
         put(theta_b, 0, tb_new)
         put(theta_z, 0, tz_new)

@@ -75,6 +75,10 @@ def scenario_to_toml(scenario: Scenario) -> str:
     p, perf = c.lu_jia, scenario.performance
     lines += ["", "[controller]", f"type = {_param_toml(kind)}", f"scheme = {_toml(p.scheme)}"]
     lines += [f"{k} = {_toml(getattr(p.gains, k))}" for k in GAIN_KEYS]
+    if p.saturation.mode != "ignore":  # (beyond the paper; the default writes nothing)
+        lines.append(f"saturation = {_toml(p.saturation.mode)}")
+        rates = (("k_chi", p.saturation.k_chi), ("k_v", p.saturation.k_v))
+        lines += [f"{k} = {_toml(v)}" for k, v in rates if v is not None]
     lines += ["", "[controller.funnel]"]
     for fun, tag in ((perf.funnel_b, "b"), (perf.funnel_z, "z")):
         lines += [

@@ -163,6 +163,7 @@ def check(scenario: Scenario) -> CheckReport:
     """Build the scenario (``prepare``) and evaluate the t = 0 conditions; never simulates."""
     from ..control.compiled import no_warm_up
     from ..control.gains import GainWarning
+    from ..control.saturation import SaturationWarning
     from .measurement import Sensor
     from .reach import ReachWarning
     from .setup import prepare
@@ -193,6 +194,10 @@ def check(scenario: Scenario) -> CheckReport:
             "from a stretched or folded pose) or lower the threshold (its default, 0.05 m, "
             "suits the paper's planar arm; the shipped spatial cases use 0.01 m)"
         )
+    torque_demand = getattr(setup.controller, "torque_demand", None)  # (limits vs funnels)
+    demand = None if torque_demand is None else torque_demand(meas)
+    if demand is not None:  # a warning: the saturation-aware law is made for it
+        warnings.warn(demand, SaturationWarning, stacklevel=2)
     horizon = setup.reach_horizon
     if horizon is not None:
         problems.append(

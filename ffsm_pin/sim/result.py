@@ -14,6 +14,7 @@ import numpy as np
 from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
 from .recorder import Signals, Thinned, write_npz
+from .relaxation import relaxation_summary
 from .target_run import TARGET_SIGNALS, target_summary
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
@@ -270,8 +271,7 @@ class RunResult:
             return self._scanned
         keys = ["err_b", "err_z", "bound_b_lower", "bound_b_upper", "bound_z_lower"]
         keys += ["bound_z_upper", "u_m", "P", "L", "F_r", "t", "q_b"]
-        # u_cmd is absent in older recordings, sigma_min and damping for controllers that
-        # do not report them (docs/controllers.md)
+        # absent: u_cmd in older recordings, sigma_min, damping of some controllers
         keys += [k for k in ("u_cmd", "sigma_min", "damping") if k in self.signals]
         scan = _Scan(outside={"b": None, "z": None})
         P0 = L0 = q_b0 = None
@@ -383,6 +383,7 @@ class RunResult:
             "final_theta_z_error": _final_norm(s, "theta_z"),
             "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),
+            **relaxation_summary(self.signals, self.signals_blocks, (self.rhoinf_b, self.rhoinf_z)),
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
             out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))

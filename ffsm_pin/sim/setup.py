@@ -207,6 +207,9 @@ def prepare(
                 f"funnel at t = 0 (bounds {np.round(lo, 4).tolist()} .. "
                 f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key} or {hint}"
             )
+    n = robot.n_joints
+    effort = robot.effort_limits  # the arm joints' URDF <limit effort>, NaN where none
+    actuators = Actuators(scenario.actuators, n, scenario.dt, effort, robot.joint_names)
     ctx = ControllerContext(
         n_joints=robot.n_joints,
         m2=model.m2,
@@ -223,6 +226,7 @@ def prepare(
         scenario=scenario,
         estimates_source=estimates,
         truth=truth,
+        torque_limit=actuators.limit.copy(),  # what a saturation-aware law knows
     )
     if before_controller is not None:
         before_controller()
@@ -238,9 +242,6 @@ def prepare(
         )
         events.append(msg)
         warnings.warn(msg, ReachWarning, stacklevel=2)
-    n = robot.n_joints
-    effort = robot.effort_limits  # the arm joints' URDF <limit effort>, NaN where none
-    actuators = Actuators(scenario.actuators, n, scenario.dt, effort, robot.joint_names)
     sensors = Sensors(scenario.sensors, n, m3, model.m2 + m3)
     return Setup(
         scenario, robot, model, q0, v0, *truth, controller, horizon, events,

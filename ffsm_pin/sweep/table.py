@@ -62,6 +62,9 @@ SUMMARY_TYPES = {
     "max_torque_norm": pa.float64(),  # = max_abs_u: max over time of the norm of u_m
     "max_joint_torque": pa.float64(),  # max over time and joints of |u_m[i]|
     "max_abs_u_cmd": pa.float64(),
+    "funnel_relaxed_time": pa.float64(),  # [s] saturation = "auxiliary" (None: not on)
+    "first_relaxed_t": pa.float64(),
+    "last_relaxed_t": pa.float64(),
     "saturation_fraction": pa.float64(),
     "saturation_per_joint": pa.list_(pa.float64()),
     "joint_torque_limits": pa.list_(pa.float64()),  # [N m], null: none
