@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -396,7 +395,7 @@ class RunResult:
         if n <= max_rows:
             return self
         step = -(-(n - 1) // max(1, max_rows - 1))  # ceil: rows 0, step, ... and n - 1
-        return dataclasses.replace(self, signals=Thinned(self.signals, step, TRUTH_KEYS))
+        return replace(self, signals=Thinned(self.signals, step, TRUTH_KEYS))
 
     # ---------------------------------------------------------------- files
     def save(self, out_dir: str | Path, *, figures: bool = False, compress: bool = False) -> dict:
