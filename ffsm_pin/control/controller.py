@@ -43,6 +43,7 @@ from .kinematic import KinematicInputs, KinematicLaw, attitude_matrix, task_erro
 from .manifold import manifold_input
 from .null_space import NullSpace
 from .period import PeriodState
+from .physical import ADAPTATIONS, PhysicalTerm, increment, initial_projection, physical_term
 from .schemes import (
     ATTITUDE_SIZE,
     SCHEMES,
@@ -58,6 +59,7 @@ from .stops import (
     component_names,
     inertia_stop,
     nonfinite_stop,
+    physical_stop,
 )
 
 
@@ -95,6 +97,11 @@ class CoordinatedController(CompiledPeriod, CompiledController):
     theta_d_true : array_like or None
         The true theta_d, for the diagnostic e of Eq. (54) (:attr:`ControlOutput.e`, with the
         true M); never read by the law. None: e is not computed.
+    adaptation : str
+        The law of theta_d-hat, one of :data:`~.physical.ADAPTATIONS` (``"physical"``: Eq. 51
+        projected onto the physical set, :mod:`.physical`).
+    physical_margin : float or None
+        eps of the physical set (None: derived, :func:`~.physical.physical_term`).
     """
 
     def __init__(
@@ -116,6 +123,8 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         null_space: NullSpace | None = None,
         task: str = "pose",
         theta_d_true=None,
+        adaptation: str = "gradient",
+        physical_margin: float | None = None,
     ):
         self.m2, self.m3 = model.m2, model.m3
         self.task = task
@@ -177,6 +186,11 @@ class CoordinatedController(CompiledPeriod, CompiledController):
                 f"theta_d_true has {self.theta_d_true.size} entries, the robot's layout needs "
                 f"{model.n_d}"
             )
+        self.adaptive = scheme != "known-model"
+        self.events: list[str] = []
+        self.physical = self._physical(adaptation, physical_margin, theta_d)
+        if self.physical is not None:
+            theta_d = initial_projection(self.physical, theta_d, self.events)
         nb = model.n_joints + self.m3
         #: the signals a period reports at t, as one row (:attr:`ControlOutput.signals`)
         self.signal_layout = SignalLayout({
@@ -186,8 +200,6 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         })  # fmt: skip
         #: what a period advances: the estimates, w-hat(0) = 0 and Y_df(0) = 0 (Table 2)
         self.state = PeriodState(theta_z, theta_d, theta_b, np.zeros(nb), np.zeros((nb, model.n_d)))
-        self.adaptive = scheme != "known-model"
-        self.events: list[str] = []
         self._initial = initial
         self._watch = SingularityWatch(singularity, self.events)
         self.bind_backend(backend, initial, 1e-3)
@@ -206,6 +218,17 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         damped; a stretch longer than the singularity policy's ``max_damped_time`` stops the
         run."""
         return self._watch.since
+
+    def _physical(self, adaptation: str, margin: float | None, theta_d) -> PhysicalTerm | None:
+        """The projection of ``adaptation = "physical"`` (None: the paper's Eq. 51, or the
+        known-model scheme, which does not adapt)."""
+        if adaptation not in ADAPTATIONS:
+            raise ParameterError(
+                f"controller.adaptation = {adaptation!r}: valid choices: {ADAPTATIONS}"
+            )
+        if adaptation == "gradient" or not self.adaptive:
+            return None
+        return physical_term(self.model, theta_d, margin)
 
     # ------------------------------------------------------------------ backend
     def choose(self, backend: str) -> str:
@@ -331,6 +354,10 @@ class CoordinatedController(CompiledPeriod, CompiledController):
                 raise inertia_stop(t)
             Y_Mdot, Y_h = m.velocity_regressors(q_b, q_m, w, w_tilde)
             d_theta_d = theta_d_increment(self.Y_df, w_tilde, M_hat, g.gamma_3, dt)
+            if self.physical is not None:  # projected onto the physical set (physical.py)
+                d_theta_d, count = increment(self.physical, self.theta_d, d_theta_d)
+                if count > self.physical.max_iter:
+                    raise physical_stop(t, self.physical.max_iter)
             eta_x = -self.Y_df @ d_theta_d / dt  # Eq. (52)
             r = (Y_Mdot - Y_h) @ self.theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
             w_hat = self.w_hat

@@ -135,6 +135,8 @@ class LuJiaController:
             task=ctx.task,
             backend=backend,
             theta_d_true=ctx.truth[1],  # for Eq. (54)'s e alone
+            adaptation=p.adaptation,
+            physical_margin=p.physical_margin,
         )
         law = self.law
         self.scheme = p.scheme  # reported as summary.json's scheme
