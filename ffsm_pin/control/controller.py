@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ParameterError, SimulationError
+from ..errors import ParameterError, SimulationError, choices_text
 from ..model.interface import ReducedModel
 from ..model.planar import BarycentricModel
 from ..model.spatial import SpatialBarycentricModel
@@ -224,7 +224,8 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         known-model scheme, which does not adapt)."""
         if adaptation not in ADAPTATIONS:
             raise ParameterError(
-                f"controller.adaptation = {adaptation!r}: valid choices: {ADAPTATIONS}"
+                f"controller.adaptation = {adaptation!r}: valid choices: "
+                f"{choices_text(ADAPTATIONS)}"
             )
         if adaptation == "gradient" or not self.adaptive:
             return None
