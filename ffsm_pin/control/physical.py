@@ -6,7 +6,8 @@ pseudo_inertia`, docs/model.md section 8), linear in theta_d, positive semidefin
 parameters; on C the estimated inertia M(q, theta_d-hat) is positive definite at every
 configuration. C is convex (a linear matrix inequality). After the law's increment, while
 ``lambda_min(P(theta)) < eps (1 - tol)``, theta moves to the Euclidean projection onto the
-half-space ``{theta : v^T P(theta) v >= eps}`` of the smallest eigenvector v. The half-space
+half-space ``{theta : v^T P(theta) v >= eps}`` of each eigenvector v whose eigenvalue is below
+eps, in turn (one sweep per eigendecomposition). The half-space
 contains C, so the distance to any point of C (the truth included, when eps <= lambda_min of
 the true P) never increases: the parameter term |theta~|^2 / gamma of the paper's Lyapunov
 function (Theorem 1) does not increase at a projection (docs/robust.md). A step that needs
@@ -39,7 +40,7 @@ ADAPTATIONS = ("gradient", "physical")
 MARGIN_FRACTION = 0.1
 #: accepted: lambda_min(P) >= eps (1 - PROJECTION_TOL)
 PROJECTION_TOL = 1e-3
-#: half-space projections per period before the run stops (docs/robust.md)
+#: sweeps of half-space projections per period before the run stops (docs/robust.md)
 MAX_PROJECTIONS = 200
 
 
@@ -113,7 +114,7 @@ def project(term: PhysicalTerm, theta_d) -> tuple[np.ndarray, int, float]:
     theta_d : ndarray
         The projected estimate (``theta_d`` itself, not a copy, when no projection acts).
     count : int
-        Projections made; ``max_iter + 1`` when lambda_min is still below after max_iter.
+        Sweeps made; ``max_iter + 1`` when lambda_min is still below after max_iter.
     lam_min : float
         lambda_min(P) of the returned estimate.
     """
@@ -124,8 +125,13 @@ def project(term: PhysicalTerm, theta_d) -> tuple[np.ndarray, int, float]:
     while lam[0] < eps * (1.0 - term.tol):
         if count == term.max_iter:
             return theta_d, count + 1, float(lam[0])
-        a = pseudo_inertia_adjoint(table, V[:, 0], len(theta_d))
-        theta_d = theta_d + ((eps - lam[0]) / (a @ a)) * a  # (a . theta_d = lam[0])
+        for i in range(len(lam)):  # a sweep: each eigenvector below eps, in turn
+            if lam[i] >= eps:
+                break
+            a = pseudo_inertia_adjoint(table, V[:, i], len(theta_d))
+            gap = eps - a @ theta_d  # (a . theta_d = v^T P v, lam[i] before the sweep)
+            if gap > 0:
+                theta_d = theta_d + (gap / (a @ a)) * a
         count += 1
         lam, V = np.linalg.eigh(pseudo_inertia(table, theta_d))
     return theta_d, count, float(lam[0])
@@ -152,7 +158,7 @@ def initial_projection(term: PhysicalTerm, theta_d: np.ndarray, events: list[str
     theta, count, lam = project(term._replace(max_iter=10 * term.max_iter), theta_d)
     if count:
         events.append(
-            f"the initial theta_d-hat was not physical: projected ({count} half-spaces, "
+            f"the initial theta_d-hat was not physical: projected ({count} sweeps, "
             f"moved by {np.linalg.norm(theta - theta_d):.3g}) to lambda_min(P) = {lam:.3g}"
         )
     return np.array(theta, dtype=float)
@@ -176,18 +182,17 @@ def increment(term: PhysicalTerm, theta_d, d_theta_d) -> tuple[np.ndarray, int]:
     increment : ndarray
         The increment to apply.
     count : int
-        Projections made (``max_iter + 1``: the cap was reached).
+        Sweeps made (``max_iter + 1``: the cap was reached).
     """
     theta, count, _ = project(term, theta_d + d_theta_d)
     return (d_theta_d, 0) if count == 0 else (theta - theta_d, count)
 
 
 @njit(cache=True)
-def _lowest(term, theta_d):
-    lam, V = np.linalg.eigh(
+def _spectrum(term, theta_d):
+    return np.linalg.eigh(
         assemble(term.rows, term.cols, term.params, term.coefs, term.size, theta_d)
     )
-    return lam[0], np.ascontiguousarray(V[:, 0])
 
 
 @njit(cache=True)
@@ -202,16 +207,23 @@ def project_kernel(term, theta_d):
         The estimate.
     """
     theta = theta_d.copy()
-    lam, v = _lowest(term, theta)
+    eps = term.margin
+    lam, V = _spectrum(term, theta)
     count = 0
-    while lam < term.margin * (1.0 - term.tol):
+    while lam[0] < eps * (1.0 - term.tol):
         if count == term.max_iter:
-            return theta, count + 1, lam
-        a = adjoint(term.rows, term.cols, term.params, term.coefs, v, theta.size)
-        theta += ((term.margin - lam) / (a @ a)) * a
+            return theta, count + 1, lam[0]
+        for i in range(lam.size):
+            if lam[i] >= eps:
+                break
+            v = np.ascontiguousarray(V[:, i])
+            a = adjoint(term.rows, term.cols, term.params, term.coefs, v, theta.size)
+            gap = eps - a @ theta
+            if gap > 0:
+                theta += (gap / (a @ a)) * a
         count += 1
-        lam, v = _lowest(term, theta)
-    return theta, count, lam
+        lam, V = _spectrum(term, theta)
+    return theta, count, lam[0]
 
 
 @njit(cache=True)
