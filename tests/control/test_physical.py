@@ -166,19 +166,23 @@ def test_long_run_with_large_errors_stays_physical(ctype, seed, loses):
 
 
 @pytest.mark.parametrize(
-    "geometry, ctype, fraction, duration",
-    [("planar", "lu-jia", 0.95, 5.0), ("spatial", "lu-jia", 0.5, 0.3),
-     ("planar", "adaptive-ct", 0.1, 1.0), ("spatial", "adaptive-ct", 0.5, 0.3)],
+    "source, ctype, fraction, duration",
+    [("case1", "lu-jia", 0.95, 5.0), ("spatial", "lu-jia", 0.5, 0.3),
+     ("campaign", "adaptive-ct", 0.1, 1.0), ("spatial", "adaptive-ct", 0.5, 0.3)],
 )  # fmt: skip
 def test_lyapunov_parameter_term_never_increases_at_a_projection(
-    geometry, ctype, fraction, duration, monkeypatch
+    source, ctype, fraction, duration, monkeypatch
 ):
     """The numpy reference run, every increment recorded: at each projection, |theta_d-hat -
     theta_d|^2 (the parameter term of Theorem 1's Lyapunov function, times gamma_3) after it
-    never exceeds its value before, and the estimate has lambda_min(P) >= eps (1 - tol)."""
-    sc = builtin_scenario(CASES[geometry])
-    truth = prepare(dataclasses.replace(sc, duration=0.01))
-    eps = fraction * lam_min(truth.model, truth.theta_d if ctype == "x" else truth.model.theta_d)
+    never exceeds its value before, and the estimate has lambda_min(P) >= eps (1 - tol).
+    ``campaign``: case 1 of the compare-controllers campaign, 30 % error (seed 3)."""
+    if source == "campaign":
+        sc = _campaign_case1(ctype, "gradient", seed=3)
+    else:
+        sc = builtin_scenario(source)
+    m = prepare(dataclasses.replace(sc, duration=0.01)).model
+    eps = fraction * lam_min(m, m.theta_d)  # the truth in C
     sc = _with(sc, adaptation="physical", physical_margin=eps)
     if ctype == "adaptive-ct":
         ctrl = dataclasses.replace(sc.controller, type="adaptive-ct")
@@ -217,35 +221,31 @@ def test_default_margin_leaves_case1_bitwise_unchanged():
 
 @pytest.mark.parametrize("geometry", ["planar", "spatial"])
 @pytest.mark.parametrize("ctype", ["lu-jia", "adaptive-ct"])
-def test_compiled_projected_period_equals_the_numpy_reference(geometry, ctype):
+def test_compiled_projected_run_follows_the_numpy_run(geometry, ctype):
     """A margin above the initial estimate's lambda_min(P): the initial estimate is projected
-    (an event says so) and the periods project; compiled and numpy periods agree to rounding
-    over a sequence of random measurements."""
+    (an event says so) and the periods project where the law pushes it back below; the
+    compiled and the numpy runs (0.3 s) agree to rounding growth, every estimate at the margin
+    or above."""
     sc = builtin_scenario(CASES[geometry])
-    m = prepare(dataclasses.replace(sc, duration=0.01)).model
-    sc = _with(sc, adaptation="physical", physical_margin=0.99 * lam_min(m, m.theta_d))
+    start = prepare(dataclasses.replace(sc, duration=0.01))
+    margin = 1.01 * lam_min(start.model, start.controller.law.theta_d)  # the initial estimate's
+    sc = _with(sc, adaptation="physical", physical_margin=margin)
     if ctype == "adaptive-ct":
         sc = dataclasses.replace(sc, controller=dataclasses.replace(sc.controller,
                                                                     type="adaptive-ct"))
-    setup = prepare(dataclasses.replace(sc, duration=1.0))
-    ctx = setup.controller.context
     cls = LuJiaController if ctype == "lu-jia" else AdaptiveComputedTorque
-    fast, ref = (cls(ctx, backend=b) for b in ("numba", "numpy"))
-    assert fast.backend == "numba" and ref.backend == "numpy"
-    assert any("projected" in e for e in ref.events)
-    sensor = Sensor(setup.robot, setup.model, full_model=False)
-    rng = np.random.default_rng(5)
-    n = setup.robot.n_joints
-    law_f, law_r = (getattr(c, "law", c) for c in (fast, ref))
-    for k in range(6):
-        q, v = setup.q0.copy(), setup.v0.copy()
-        q[-n:] += rng.uniform(-0.2, 0.2, n)
-        v[-n:] += rng.normal(0.0, 0.3, n)
-        meas = sensor.measure(0.01 * k, q, v)
-        before = np.array(law_r.theta_d)
-        got, want = fast.step(meas), ref.step(meas)
-        np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-9 * np.abs(want[0]).max())
-        b = law_r.theta_d
-        np.testing.assert_allclose(law_f.theta_d, b, rtol=0, atol=1e-10 * np.abs(b).max())
-        assert lam_min(setup.model, b) >= law_r.physical.margin * (1 - 1e-3)
-        assert not np.array_equal(b, before)
+    runs = []
+    for backend in ("numba", "numpy"):
+        setup = prepare(dataclasses.replace(sc, duration=0.3))
+        setup.controller = cls(setup.controller.context, backend=backend)
+        assert setup.controller.backend == backend
+        assert any("projected" in e for e in setup.controller.events)
+        runs.append(simulate(setup))
+    fast, ref = runs
+    assert fast.completed and ref.completed
+    theta = np.asarray(ref["theta_d_hat"])
+    np.testing.assert_allclose(fast["theta_d_hat"], theta, rtol=0, atol=1e-8 * np.abs(theta).max())
+    np.testing.assert_allclose(fast["q"], ref["q"], rtol=0, atol=1e-9)
+    lam = np.array([lam_min(start.model, x) for x in theta])
+    assert lam.min() >= margin * (1 - 1e-3)
+    assert lam[0] < 1.001 * margin  # the initial estimate projected to the margin
