@@ -17,12 +17,12 @@ import argparse
 import copy
 import sys
 import time
-import tomllib
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+import tomllib
 
 REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:

@@ -2,7 +2,7 @@
 onto the set C = {theta_d : P(theta_d) >= eps I} after each step of the adaptation law.
 
 P is the model's barycentric pseudo-inertia (:meth:`~ffsm_pin.model.planar.BarycentricModel.
-pseudo_inertia`, docs/model.md section 8), linear in theta_d, positive semidefinite for the true
+pseudo_inertia`, docs/robust.md section 1), linear in theta_d, positive semidefinite for the true
 parameters; on C the estimated inertia M(q, theta_d-hat) is positive definite at every
 configuration. C is convex (a linear matrix inequality). After the law's increment, while
 ``lambda_min(P(theta)) < eps (1 - tol)``, theta moves to the Euclidean projection onto the

@@ -79,7 +79,7 @@ class BarycentricCommon:
 
     def pseudo_inertia_table(self) -> PseudoInertiaTable:
         """The linear map theta_d -> P(theta_d), the barycentric pseudo-inertia of this
-        model's layout (:mod:`._pseudo_inertia`, docs/model.md section 8).
+        model's layout (:mod:`._pseudo_inertia`, docs/robust.md section 1).
 
         Returns
         -------
@@ -91,7 +91,7 @@ class BarycentricCommon:
     def pseudo_inertia(self, theta_d) -> np.ndarray:
         """P(theta_d), positive semidefinite for the true parameters; ``P >= eps I`` gives
         ``M(q, theta_d) >= eps sigma_min(S)^2 I`` (planar) or positive definite M (spatial) at
-        every configuration (docs/model.md section 8).
+        every configuration (docs/robust.md section 1).
 
         Parameters
         ----------

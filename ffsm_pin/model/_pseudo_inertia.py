@@ -1,8 +1,8 @@
 """The barycentric pseudo-inertia P(theta_d): the linear map whose positive semidefiniteness
-makes an estimate of theta_d physical (docs/model.md section 8).
+makes an estimate of theta_d physical (docs/robust.md section 1).
 
 theta_d is a linear image of a positive semidefinite matrix built from the bodies' masses and
-inertias (docs/model.md section 8 derives both):
+inertias (docs/robust.md section 1 derives both):
 
 * planar: the Hermitian (n+1)x(n+1) ``H_kl = Dc_kl + i Ds_kl = sum_i m_i conj(w_ik) w_il +
   I_k delta_kl`` (each 2-vector W_ik a complex number), written as the real symmetric

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 import ffsm_pin
 from ffsm_pin.control import adaptive_ct, controller
@@ -31,7 +31,7 @@ from ffsm_pin.control.physical import (
 from ffsm_pin.errors import ParameterError, ScenarioError
 from ffsm_pin.model._pseudo_inertia import pseudo_inertia
 from ffsm_pin.scenario.file import builtin_scenario, scenario_from_dict
-from ffsm_pin.sim.run import Sensor, prepare, simulate
+from ffsm_pin.sim.run import prepare, simulate
 
 CASES = {"planar": "case1", "spatial": "spatial"}
 
@@ -231,8 +231,9 @@ def test_compiled_projected_run_follows_the_numpy_run(geometry, ctype):
     margin = 1.01 * lam_min(start.model, start.controller.law.theta_d)  # the initial estimate's
     sc = _with(sc, adaptation="physical", physical_margin=margin)
     if ctype == "adaptive-ct":
-        sc = dataclasses.replace(sc, controller=dataclasses.replace(sc.controller,
-                                                                    type="adaptive-ct"))
+        sc = dataclasses.replace(
+            sc, controller=dataclasses.replace(sc.controller, type="adaptive-ct")
+        )
     cls = LuJiaController if ctype == "lu-jia" else AdaptiveComputedTorque
     runs = []
     for backend in ("numba", "numpy"):

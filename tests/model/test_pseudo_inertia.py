@@ -1,4 +1,4 @@
-"""The barycentric pseudo-inertia P(theta_d) (model/_pseudo_inertia.py, docs/model.md section 8):
+"""The barycentric pseudo-inertia P(theta_d) (model/_pseudo_inertia.py, docs/robust.md section 1):
 positive semidefinite for the true parameters of the shipped and random robots, the planar
 kinetic-energy identity it comes from, and P >= eps I => M(q, theta_d) >= eps M(q, theta_I)
 (P(theta_I) = I) positive definite at random configurations, planar and spatial alike."""
