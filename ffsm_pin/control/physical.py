@@ -88,7 +88,7 @@ def physical_term(model, theta_d0, margin: float | None) -> PhysicalTerm:
             raise ParameterError(
                 "controller.physical_margin: the initial estimate of theta_d is not physical "
                 f"(lambda_min(P) = {lam:.3g}), so no margin can be derived from it; give "
-                "physical_margin > 0 (the estimate is then projected at the first period)"
+                "physical_margin > 0 (the estimate is then projected before the first period)"
             )
         margin = MARGIN_FRACTION * lam
     if not margin >= 0:
