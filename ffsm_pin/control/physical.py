@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .._array_kernels import positive_definite
 from ..errors import ParameterError
 from ..model._pseudo_inertia import (
     PseudoInertiaTable,
@@ -230,7 +231,11 @@ def project_kernel(term, theta_d):
 def physical_increment(term, theta_d, d_theta_d):
     """The increment the law applies: ``d_theta_d`` itself when ``term`` is None (the paper's
     law) or theta_d + d_theta_d needs no projection; else projected - theta_d. Returns
-    (increment, ok): ok False when :func:`project_kernel` reached its cap.
+    (increment, ok): ok False when :func:`project_kernel` reached its cap. Whether a
+    projection is needed is decided by a Cholesky factorisation of P - eps (1 - tol) I
+    (:func:`~ffsm_pin._array_kernels.positive_definite`: 24 x 24 for the Panda, a few us
+    against LAPACK's eigenvalues), LAPACK deciding when a pivot is not positive; it differs from
+    the numpy reference's ``lambda_min >= eps (1 - tol)`` only at that boundary to rounding.
 
     Parameters
     ----------
@@ -243,7 +248,13 @@ def physical_increment(term, theta_d, d_theta_d):
     """
     if term is None:
         return d_theta_d, True
-    theta, count, _ = project_kernel(term, theta_d + d_theta_d)
+    theta = theta_d + d_theta_d
+    P = assemble(term.rows, term.cols, term.params, term.coefs, term.size, theta)
+    for i in range(term.size):
+        P[i, i] -= term.margin * (1.0 - term.tol)
+    if positive_definite(P):  # the common period: a Cholesky decides, no eigenvalues
+        return d_theta_d, True
+    theta, count, _ = project_kernel(term, theta)
     if count == 0:
         return d_theta_d, True
     return theta - theta_d, count <= term.max_iter
