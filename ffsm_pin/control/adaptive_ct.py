@@ -20,6 +20,8 @@ symmetric in their two velocity indices), by polarization
 ``C(q, w) w_r = 1/4 (Y_h(w + w_r) - Y_h(w - w_r)) theta_d``. The kinematic
 estimates theta_b and theta_z adapt by the paper's Eqs. (28) and (42) (gains gamma_1, gamma_2).
 No funnel, no filter, no attractive manifold: it is the textbook adaptive law on the same model.
+The scenario's ``[controller] adaptation = "physical"`` (with ``physical_margin``) projects each
+step of theta_d-hat onto the physical set, as for lu-jia (:mod:`.physical`, docs/robust.md).
 
 The base rows are not actuated, so Slotine & Li's Lyapunov argument covers only the joint rows;
 the base follows by momentum conservation. Their argument also needs dM/dt - 2 C skew-symmetric
@@ -42,7 +44,9 @@ from .compiled import state_field
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .kinematic import along_measured_motion
+from .physical import PhysicalTerm, increment, initial_projection, physical_term
 from .resolved_motion import ResolvedMotionBaseline, rate_gains
+from .stops import physical_stop
 
 
 @dataclass(frozen=True)
@@ -116,6 +120,11 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
         self.take_context(ctx)
         estimates = ctx.required_estimates()
         self.state = Estimates(*(np.array(x, dtype=float) for x in estimates))
+        p = ctx.scenario.controller.lu_jia  # the theta_d law: [controller] adaptation
+        self.physical: PhysicalTerm | None = None
+        if p.adaptation == "physical":
+            self.physical = physical_term(ctx.model, self.theta_d, p.physical_margin)
+            self.theta_d[:] = initial_projection(self.physical, self.theta_d, self.events)
         derived = AdaptiveCtGains.derived(ctx.scenario, ctx.dt, self.m2, self.nt, self.drift())
         self.set_gains(AdaptiveCtGains, derived)
         self.dt = ctx.dt
@@ -132,7 +141,7 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
         g = self.gains
         gains = AdaptiveCtKernelGains(
             self._k_z, float(g.k_s), float(g.gamma_b), float(g.gamma_z), float(g.gamma_d),
-            float(self.threshold), int(self.nt), float(self.dt),
+            float(self.threshold), int(self.nt), float(self.dt), self.physical,
         )  # fmt: skip
         self.prepare_period(gains, PERIOD)
 
@@ -153,7 +162,10 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
             "theta_d_hat": self.theta_d.copy(),
             "theta_b_hat": self.theta_b.copy(),
         }
-        u, w_r, sigma, damping, finite = self.run_period(meas)
+        u, w_r, sigma, damping, finite, physical = self.run_period(meas)
+        if not physical:
+            assert self.physical is not None
+            raise physical_stop(meas.t, self.physical.max_iter)
         if not finite:
             raise SimulationError(
                 f"t = {meas.t:.4f} s: the adaptive-ct torque became non-finite", time=meas.t,
@@ -196,7 +208,12 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
                 cause="nonfinite",
             )  # fmt: skip
         # the gradient law, linearly implicit in its stiff mode (as Eq. 51's, theta_d_increment)
-        self.theta_d = self.theta_d + theta_d_increment(Y_m, s_m, M_hat[m3:, m3:], g.gamma_d, dt)
+        d_theta_d = theta_d_increment(Y_m, s_m, M_hat[m3:, m3:], g.gamma_d, dt)
+        if self.physical is not None:  # projected onto the physical set (physical.py)
+            d_theta_d, count = increment(self.physical, self.theta_d, d_theta_d)
+            if count > self.physical.max_iter:
+                raise physical_stop(t, self.physical.max_iter)
+        self.theta_d = self.theta_d + d_theta_d
         self.theta_b, self.theta_z = theta_b, theta_z
         signals.update(w_mc=w_r[m3:], sigma_min=sigma, damping=damping)
         return u, signals

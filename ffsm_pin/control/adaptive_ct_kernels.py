@@ -10,7 +10,8 @@ stepped linearly implicitly. A period takes named bundles (the model's kernel co
 :class:`AdaptiveCtKernelGains`, the reference, the measurement and the estimates,
 :class:`~.kernels.Estimates`; all but the model's constants as the plain tuples of their
 fields, named again on entry, as in :func:`.period.period`); the estimates are updated in
-place; the period returns (u_m, w_mr, sigma_min, damping, finite).
+place; the period returns (u_m, w_mr, sigma_min, damping, finite, physical): physical False
+when the projection of ``adaptation = "physical"`` (:mod:`.physical`) reached its cap.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import fast, fast_spatial
 from .fast_spatial import measured_kinematics
 from .kernels import COMPLEX_STEP, theta_z_step
+from .physical import PhysicalTerm, physical_increment
 from .resolved_motion_kernels import period_bundles, rates_planar, rates_spatial
 
 
@@ -43,6 +45,7 @@ class AdaptiveCtKernelGains(NamedTuple):
     threshold: float  # [m] damped least squares below this sigma_min of J*
     n_task: int
     dt: float  # [s] the control period
+    physical: PhysicalTerm | None  # adaptation = "physical" (physical.py); None: gradient
 
 
 @njit(cache=True)
@@ -54,21 +57,25 @@ def _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt):
 
 
 @njit(cache=True)
-def _torque_and_update(Y, s, M_hat, m3, k_s, gamma_d, dt, theta_d, theta_b, theta_z,
-                       tb_new, tz_new):  # fmt: skip
+def _torque_and_update(Y, s, M_hat, m3, gains, theta_d, theta_b, theta_z, tb_new, tz_new):
     """u_m = [Y theta_d-hat]_m - k_s M-hat_mm s_m from the joint rows (after the m3 base rows),
-    then, if it is finite, the gradient law and the kinematic estimates of this period.
-    Returns (u_m, finite)."""
+    then, if it is finite, the gradient law (projected when ``gains.physical`` is a
+    projection) and the kinematic estimates of this period. Returns (u_m, finite, physical):
+    physical False when the projection reached its cap (nothing advanced)."""
     Y_m = np.ascontiguousarray(Y[m3:])
     s_m = s[m3:].copy()
     M_mm = np.ascontiguousarray(M_hat[m3:, m3:])
-    u = Y_m @ theta_d - k_s * (M_mm @ s_m)
+    u = Y_m @ theta_d - gains.k_s * (M_mm @ s_m)
     if not np.all(np.isfinite(u)):
-        return u, False
-    theta_d += _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt)
+        return u, False, True
+    d = _theta_d_increment(Y_m, s_m, M_mm, gains.gamma_d, gains.dt)
+    d, physical = physical_increment(gains.physical, theta_d, d)
+    if not physical:
+        return u, True, False
+    theta_d += d
     theta_b[:] = tb_new
     theta_z[:] = tz_new
-    return u, True
+    return u, True, True
 
 
 @njit(cache=True)
@@ -119,9 +126,9 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     )
     Y = planar_kernels.y_m(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
     M_hat = S.T @ planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
-    u, finite = _torque_and_update(Y, w - w_r, M_hat, 1, gains.k_s, gains.gamma_d, dt,
-                                   theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
-    return u, w_r[1:].copy(), sigma, damping, finite
+    u, finite, physical = _torque_and_update(Y, w - w_r, M_hat, 1, gains, theta_d, theta_b,
+                                             theta_z, tb_new, tz_new)  # fmt: skip
+    return u, w_r[1:].copy(), sigma, damping, finite, physical
 
 
 @njit(cache=True)
@@ -180,9 +187,9 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
         Y += (0.25 * sign) * Yh
     M_hat = np.empty((N, N))
     mass_matrix(R, z, theta_d, M_hat)
-    u, finite = _torque_and_update(Y, w - w_r, M_hat, 3, gains.k_s, gains.gamma_d, dt,
-                                   theta_d, theta_b, theta_z, tb_new, tz_new)  # fmt: skip
-    return u, w_r[3:].copy(), sigma, damping, finite
+    u, finite, physical = _torque_and_update(Y, w - w_r, M_hat, 3, gains, theta_d, theta_b,
+                                             theta_z, tb_new, tz_new)  # fmt: skip
+    return u, w_r[3:].copy(), sigma, damping, finite, physical
 
 
 #: The compiled period by attitude dimension m3 (planar 1, spatial 3).

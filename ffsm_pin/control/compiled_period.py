@@ -32,7 +32,14 @@ from .period import (
 )
 from .reference_kernels import reference_arrays
 from .schemes import ControlOutput, RowOutput
-from .stops import SingularityWatch, base_row_stop, collapse_stop, inertia_stop, nonfinite_stop
+from .stops import (
+    SingularityWatch,
+    base_row_stop,
+    collapse_stop,
+    inertia_stop,
+    nonfinite_stop,
+    physical_stop,
+)
 
 
 class CompiledPeriod:
@@ -53,6 +60,7 @@ class CompiledPeriod:
     m3: int
     adaptive: bool
     theta_d_true: np.ndarray | None
+    physical: Any  # PhysicalTerm or None
     signal_layout: SignalLayout
     state: PeriodState
     auxiliary: Any  # AuxiliarySystem or None (saturation.py)
@@ -86,7 +94,7 @@ class CompiledPeriod:
             n_task=self.n_task, scheme=self.scheme, gains=self.gains,
             threshold=self.policy.threshold, q_bd=self.q_bd, funnel_b=self.funnel_b,
             funnel_z=self.funnel_z, null_space=self.null_space, center=self.kinematic.center,
-            n_joints=m.n_joints, theta_d_true=self.theta_d_true,
+            n_joints=m.n_joints, theta_d_true=self.theta_d_true, physical=self.physical,
         )  # fmt: skip
         self._ref = reference_arrays(self.reference)
         self._out, self._row = period_outputs(self.signal_layout, m.n_joints, self.m3, self.n_task)
@@ -184,6 +192,8 @@ class CompiledPeriod:
             raise base_row_stop(t, self.m3)
         if status == kernels.STATUS_NONFINITE:
             raise nonfinite_stop(t)
+        if status == kernels.STATUS_NOT_PHYSICAL:
+            raise physical_stop(t, self.physical.max_iter)
 
 
 __all__ = ["CompiledPeriod"]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ParameterError, SimulationError
+from ..errors import ParameterError, SimulationError, choices_text
 from ..model.interface import ReducedModel
 from ..model.planar import BarycentricModel
 from ..model.spatial import SpatialBarycentricModel
@@ -44,6 +44,7 @@ from .kinematic import KinematicInputs, KinematicLaw, attitude_matrix, task_erro
 from .manifold import manifold_input
 from .null_space import NullSpace
 from .period import PeriodState
+from .physical import ADAPTATIONS, PhysicalTerm, increment, initial_projection, physical_term
 from .saturation import AuxiliarySystem, AuxiliaryTerm
 from .schemes import (
     ATTITUDE_SIZE,
@@ -60,6 +61,7 @@ from .stops import (
     component_names,
     inertia_stop,
     nonfinite_stop,
+    physical_stop,
 )
 
 
@@ -100,6 +102,11 @@ class CoordinatedController(CompiledPeriod, CompiledController):
     auxiliary : AuxiliaryTerm or None
         The auxiliary system of ``saturation = "auxiliary"`` (:mod:`.saturation`); None: the
         paper's law.
+    adaptation : str
+        The law of theta_d-hat, one of :data:`~.physical.ADAPTATIONS` (``"physical"``: Eq. 51
+        projected onto the physical set, :mod:`.physical`).
+    physical_margin : float or None
+        eps of the physical set (None: derived, :func:`~.physical.physical_term`).
     """
 
     def __init__(
@@ -122,6 +129,8 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         task: str = "pose",
         theta_d_true=None,
         auxiliary: AuxiliaryTerm | None = None,
+        adaptation: str = "gradient",
+        physical_margin: float | None = None,
     ):
         self.m2, self.m3 = model.m2, model.m3
         self.task = task
@@ -183,6 +192,11 @@ class CoordinatedController(CompiledPeriod, CompiledController):
                 f"theta_d_true has {self.theta_d_true.size} entries, the robot's layout needs "
                 f"{model.n_d}"
             )
+        self.adaptive = scheme != "known-model"
+        self.events: list[str] = []
+        self.physical = self._physical(adaptation, physical_margin, theta_d)
+        if self.physical is not None:
+            theta_d = initial_projection(self.physical, theta_d, self.events)
         nb = model.n_joints + self.m3
         #: the signals a period reports at t, as one row (:attr:`ControlOutput.signals`)
         self.signal_layout = SignalLayout({
@@ -192,8 +206,6 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         })  # fmt: skip
         #: what a period advances: the estimates, w-hat(0) = 0 and Y_df(0) = 0 (Table 2)
         self.state = PeriodState(theta_z, theta_d, theta_b, np.zeros(nb), np.zeros((nb, model.n_d)))
-        self.adaptive = scheme != "known-model"
-        self.events: list[str] = []
         self._initial = initial
         self._watch = SingularityWatch(singularity, self.events)
         self.auxiliary = None if auxiliary is None else AuxiliarySystem(
@@ -215,6 +227,18 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         damped; a stretch longer than the singularity policy's ``max_damped_time`` stops the
         run."""
         return self._watch.since
+
+    def _physical(self, adaptation: str, margin: float | None, theta_d) -> PhysicalTerm | None:
+        """The projection of ``adaptation = "physical"`` (None: the paper's Eq. 51, or the
+        known-model scheme, which does not adapt)."""
+        if adaptation not in ADAPTATIONS:
+            raise ParameterError(
+                f"controller.adaptation = {adaptation!r}: valid choices: "
+                f"{choices_text(ADAPTATIONS)}"
+            )
+        if adaptation == "gradient" or not self.adaptive:
+            return None
+        return physical_term(self.model, theta_d, margin)
 
     # ------------------------------------------------------------------ backend
     def choose(self, backend: str) -> str:
@@ -353,6 +377,10 @@ class CoordinatedController(CompiledPeriod, CompiledController):
                 raise inertia_stop(t)
             Y_Mdot, Y_h = m.velocity_regressors(q_b, q_m, w, w_tilde)
             d_theta_d = theta_d_increment(self.Y_df, w_tilde, M_hat, g.gamma_3, dt)
+            if self.physical is not None:  # projected onto the physical set (physical.py)
+                d_theta_d, count = increment(self.physical, self.theta_d, d_theta_d)
+                if count > self.physical.max_iter:
+                    raise physical_stop(t, self.physical.max_iter)
             eta_x = -self.Y_df @ d_theta_d / dt  # Eq. (52)
             r = (Y_Mdot - Y_h) @ self.theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
             w_hat = self.w_hat

@@ -44,6 +44,7 @@ from .kernels import (
     STATUS_H_COLLAPSE,
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
+    STATUS_NOT_PHYSICAL,
     STATUS_OK,
     damped_pinv,
     filter_regressor_update,
@@ -54,6 +55,7 @@ from .kernels import (
     theta_z_step,
     wrap_angle,
 )
+from .physical import physical_increment
 from .reference_kernels import reference_at
 
 
@@ -234,6 +236,9 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g.gamma_3 * dt
     d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+    d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)  # physical.py
+    if not physical:
+        return STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
     eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
     rr = difference(Ymd, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
     status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g.k_d)

@@ -57,6 +57,7 @@ from .kernels import (
     STATUS_H_COLLAPSE,
     STATUS_M_NOT_PD,
     STATUS_NONFINITE,
+    STATUS_NOT_PHYSICAL,
     STATUS_OK,
     damped_pinv,
     filter_regressor_update,
@@ -66,6 +67,7 @@ from .kernels import (
     perturbed_joints,
     theta_z_step,
 )
+from .physical import physical_increment
 from .reference_kernels import reference_at
 
 __all__ = [
@@ -285,8 +287,7 @@ def geometry_terms(geo, law, dt, meas, state):
         g = law.gains
         w_tilde = w - w_hat
         Yb = np.empty((3, nd + 3))
-        # (Y_M(a) is the dynamic level's, at a known only there: not computed here)
-        velocity_terms(R, z, w, w, w_tilde, None, YMdot, Yh, Yb[:, 3:])
+        velocity_terms(R, z, w, w, w_tilde, None, YMdot, Yh, Yb[:, 3:])  # (Y_M: dynamic level)
         subtract_dT(R, z, w, Yh)
         tb_new = theta_b_step(theta_b, Yb, g.gamma_1, dt)
         Yz = np.empty((3, nz))
@@ -320,10 +321,11 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         mass_matrix(R, z, theta_d, M_hat)
         if not positive_definite(M_hat):
             return STATUS_M_NOT_PD, 0.0, none, none, none, none
-        cg = g.gamma_3 * dt
-        d_theta_d = -cg * (
-            Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde)
-        )  # Eq. (51), linearly implicit
+        cg = g.gamma_3 * dt  # Eq. (51), linearly implicit; projected if physical (physical.py)
+        d_theta_d = -cg * (Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+        d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)
+        if not physical:
+            return STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
         rr = difference(YMdot, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
         wh = w_hat
@@ -332,8 +334,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         rr = -h_true
         wh = w
         d_theta_d = np.zeros(nd)
-    # Eqs. (60a), (64)-(65), base rows 3x3
-    tgt = w_mc_dot - g.k_d * (wh[3:] - w_mc)
+    tgt = w_mc_dot - g.k_d * (wh[3:] - w_mc)  # Eqs. (60a), (64)-(65), base rows 3x3
     Mbb = np.ascontiguousarray(M_hat[:3, :3])
     Mbm = np.ascontiguousarray(M_hat[:3, 3:])
     denom = Mbb + Mbm @ sens
@@ -355,8 +356,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
             e = M @ w_tilde + Y_df @ (theta_d_true - theta_d)
         else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
             e = np.zeros(N)
-    # advance the controller's states to t + dt
-    if adaptive:
+    if adaptive:  # advance the controller's states to t + dt
         ym(R, z, w_hat_dot - g.k_de * w_tilde, YM, False)  # Eq. (49)
         decay = np.exp(-g.k_de * dt)
         gain = -np.expm1(-g.k_de * dt) / g.k_de

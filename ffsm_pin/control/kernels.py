@@ -38,6 +38,7 @@ STATUS_M_NOT_PD = 3  # M(q, theta_d-hat) not positive definite
 STATUS_BASE_ROW = 4  # singular base row of the filter
 STATUS_H_COLLAPSE = 5  # |H_bm-hat| ~ 0
 STATUS_NONFINITE = 6  # u_m not finite
+STATUS_NOT_PHYSICAL = 7  # the projection of theta_d-hat (physical.py) reached its cap
 
 #: the code of the joint-centering objective (:data:`.null_space.OBJECTIVE_CODE`)
 JOINT_CENTERING = OBJECTIVE_CODE["joint-centering"]
@@ -330,7 +331,8 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
 
 __all__ = [
     "COMPLEX_STEP", "JOINT_CENTERING", "STATUS_BASE_ROW", "STATUS_FUNNEL_B", "STATUS_FUNNEL_Z",
-    "STATUS_H_COLLAPSE", "STATUS_M_NOT_PD", "STATUS_NONFINITE", "STATUS_OK", "Estimates",
+    "STATUS_H_COLLAPSE", "STATUS_M_NOT_PD", "STATUS_NONFINITE", "STATUS_NOT_PHYSICAL",
+    "STATUS_OK", "Estimates",
     "FUNNEL_RECORD", "NullSpaceTerm", "damped_pinv", "filter_regressor_update",
     "funnel_constants", "funnel_terms", "joint_centering_gradient", "manipulability",
     "manipulability_gradient", "null_space_term", "perturbed_joints", "spd_det",

@@ -144,6 +144,8 @@ class LuJiaController:
                 p.saturation.rates(perf.funnel_b, perf.funnel_z, p.gains.k_d),
                 ctx.dt,
             ),
+            adaptation=p.adaptation,
+            physical_margin=p.physical_margin,
         )
         law = self.law
         self.scheme = p.scheme  # reported as summary.json's scheme

@@ -8,6 +8,7 @@ them (docs/cli.md), at the ``[controller]`` level::
     [controller]
     scheme = "ppc"                  # k_b, k_z, k_de, k_d, gamma_1, gamma_2, gamma_3 beside it
     saturation = "ignore"           # or "auxiliary" (k_chi, k_v beside it; docs/saturation.md)
+    adaptation = "gradient"         # or "physical" (and physical_margin): theta_d-hat's law
     [controller.null_space]         # objective, gain, center
     [controller.singularity]        # max_damped_time (threshold is the run's, below)
 
@@ -24,7 +25,8 @@ damping threshold from there (:meth:`LuJiaParams.policy`), and derives an omitte
 ``k_z`` from those funnels (:meth:`LuJiaParams.from_keys`).
 
 Other controllers may read these keys where they use them (the adaptive-ct baseline takes
-gamma_1, gamma_2, gamma_3 as the defaults of its adaptation gains); a scenario of any type
+gamma_1, gamma_2, gamma_3 as the defaults of its adaptation gains, and its theta_d law
+``adaptation`` with ``physical_margin``); a scenario of any type
 may give them, and they are validated the same way whatever the type.
 """
 
@@ -42,6 +44,7 @@ from .._schema import Num, Pos, Table, Vec, default, fail
 from .controller import SCHEMES
 from .gains import ATTITUDE_RATE_SQUARED, Gains, SingularityPolicy, derived_gain
 from .null_space import OBJECTIVES, NullSpace
+from .physical import ADAPTATIONS
 from .saturation import SATURATION_MODES, Saturation
 
 #: The gains' keys at the ``[controller]`` level of a scenario file (the fields of Gains).
@@ -67,6 +70,13 @@ class LuJiaParams:
     saturation : Saturation
         Beyond the paper: ``saturation`` and the auxiliary system's rates ``k_chi``, ``k_v``
         (:class:`~.saturation.Saturation`).
+    adaptation : str
+        The law of theta_d-hat, one of :data:`~.physical.ADAPTATIONS`: ``"gradient"`` (the
+        paper's Eq. 51) or ``"physical"`` (Eq. 51 projected onto the physical set,
+        :mod:`.physical`, docs/robust.md).
+    physical_margin : float or None
+        eps of the physical set ``P(theta_d) >= eps I``; None: derived from the initial
+        estimate (docs/gains.md).
     """
 
     scheme: str = "ppc"
@@ -74,6 +84,8 @@ class LuJiaParams:
     null_space: NullSpace = field(default_factory=NullSpace)
     max_damped_time: float = SingularityPolicy.max_damped_time
     saturation: Saturation = field(default_factory=Saturation)
+    adaptation: str = "gradient"
+    physical_margin: float | None = None
 
     def policy(self, threshold: float) -> SingularityPolicy:
         """The singularity policy of the law: damped below the run's ``threshold`` [m] (its
@@ -115,6 +127,8 @@ class LuJiaParams:
             null_space=NullSpace(objective=ns.objective, gain=ns.gain, center=center),
             max_damped_time=keys.singularity.max_damped_time,
             saturation=Saturation(keys.saturation, keys.k_chi, keys.k_v),
+            adaptation=keys.adaptation,
+            physical_margin=keys.physical_margin,
         )
 
 
@@ -164,6 +178,8 @@ class LuJiaKeys(Table):
     saturation: Literal[SATURATION_MODES] = "ignore"  # docs/saturation.md
     k_chi: Pos | None = None  # [1/s] None: the slowest funnel's beta
     k_v: Pos | None = None  # [1/s] None: k_d
+    adaptation: Literal[ADAPTATIONS] = default(LuJiaParams, "adaptation")
+    physical_margin: Annotated[Num, Field(ge=0)] | None = None  # None: derived (gains.md)
 
 
 __all__ = ["GAIN_KEYS", "LuJiaKeys", "LuJiaParams", "LuJiaSingularityKeys", "NullSpaceKeys"]

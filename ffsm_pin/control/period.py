@@ -18,9 +18,9 @@ exactly its own.
 What a period needs travels as named bundles (NamedTuples numba types by their class):
 
 * ``geo``: the model's kernel constants;
-* :class:`PeriodLaw`: the scheme's flags, the gains (:class:`KernelGains`), the singularity
-  threshold, the desired base attitude, the funnels and the null-space option
-  (:mod:`.kernels`), the true theta_d of the diagnostic e;
+* :class:`PeriodLaw`: the scheme's flags, gains (:class:`KernelGains`), singularity threshold,
+  desired base attitude, funnels, null-space option (:mod:`.kernels`), the true theta_d of
+  the diagnostic e, the projection of ``adaptation = "physical"`` (:mod:`.physical`);
 * :class:`~.reference_kernels.ReferenceArrays`: the end-effector reference;
 * the measurement (:class:`~.interface.Measurement`, with the true M and C w of a known-model
   run, read-only stand-ins otherwise);
@@ -55,6 +55,7 @@ from .kernels import (
     funnel_constants,
     null_space_term,
 )
+from .physical import PhysicalTerm
 from .reference_kernels import ReferenceArrays
 from .saturation_kernels import auxiliary_advance, auxiliary_maps, relaxed
 
@@ -98,6 +99,7 @@ class PeriodLaw(NamedTuple):
     funnel_z: np.ndarray
     null_space: NullSpaceTerm | None  # None: the paper's Eq. (36), nothing compiled for it
     theta_d_true: np.ndarray  # the true theta_d for the diagnostic e (empty: not computed)
+    physical: PhysicalTerm | None  # the projection of Eq. (51)'s step; None: the paper's law
 
 
 class PeriodState(NamedTuple):
@@ -137,7 +139,8 @@ SIGNALS = ("w_tilde", "e", "theta_z_hat", "theta_d_hat", "theta_b_hat", "w_hat",
 
 
 def period_law(*, n_task: int, scheme: str, gains, threshold: float, q_bd, funnel_b, funnel_z,
-               null_space, center, n_joints: int, theta_d_true) -> PeriodLaw:  # fmt: skip
+               null_space, center, n_joints: int, theta_d_true,
+               physical: PhysicalTerm | None = None) -> PeriodLaw:  # fmt: skip
     """The :class:`PeriodLaw` of a controller: its scheme, :class:`~.gains.Gains`, the
     singularity threshold [m], desired base attitude, its two
     :class:`~.funnel.Funnel` (sides fixed), :class:`~.null_space.NullSpace` with the
@@ -165,6 +168,8 @@ def period_law(*, n_task: int, scheme: str, gains, threshold: float, q_bd, funne
         Number of joints n.
     theta_d_true : array_like or None
         The true theta_d (None: e is not computed).
+    physical : PhysicalTerm or None
+        The projection of ``adaptation = "physical"`` (None: the paper's Eq. 51).
 
     Returns
     -------
@@ -176,7 +181,7 @@ def period_law(*, n_task: int, scheme: str, gains, threshold: float, q_bd, funne
         KernelGains(*(float(getattr(gains, k)) for k in KernelGains._fields)), float(threshold),
         np.array(q_bd, dtype=float).reshape(-1), funnel_constants(funnel_b),
         funnel_constants(funnel_z), null_space_term(null_space, center, n_joints),
-        np.empty(0) if theta_d_true is None else np.array(theta_d_true, dtype=float),
+        np.empty(0) if theta_d_true is None else np.array(theta_d_true, dtype=float), physical,
     )  # fmt: skip
 
 
@@ -365,7 +370,7 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
     """
     g = law_f[4]
     law = PeriodLaw(law_f[0], law_f[1], law_f[2], law_f[3], KernelGains(*g), law_f[5], law_f[6],
-                    law_f[7], law_f[8], law_f[9], law_f[10])  # fmt: skip
+                    law_f[7], law_f[8], law_f[9], law_f[10], law_f[11])  # fmt: skip
     ref, meas = ReferenceArrays(*ref_f), Measurement(*meas_f)
     state, out = PeriodState(*state_f), PeriodOutputs(*out_f)
     n = meas.q_m.size

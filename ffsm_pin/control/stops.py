@@ -81,6 +81,30 @@ def inertia_stop(t: float) -> SimulationError:
     )
 
 
+def physical_stop(t: float, max_iter: int) -> SimulationError:
+    """The projection of theta_d-hat onto the physical set (``adaptation = "physical"``,
+    :mod:`.physical`) did not reach the margin within its cap of half-space projections.
+
+    Parameters
+    ----------
+    t : float
+        Time [s].
+    max_iter : int
+        The cap.
+
+    Returns
+    -------
+    SimulationError
+        The stop, cause ``"estimate"``.
+    """
+    return SimulationError(
+        f"t = {t:.4f} s: theta_d-hat stays outside the physical set after {max_iter} "
+        "projections (adaptation = 'physical'); the estimate is not physical",
+        time=t,
+        cause="estimate",
+    )
+
+
 def base_row_stop(t: float, m3: int) -> SimulationError:
     """The base row(s) of the filter's Eqs. (60a), (64)-(65) are singular.
 
@@ -160,5 +184,5 @@ class SingularityWatch:
 
 __all__ = [
     "SingularityWarning", "SingularityWatch", "base_row_stop", "collapse_stop",
-    "component_names", "inertia_stop", "nonfinite_stop",
+    "component_names", "inertia_stop", "nonfinite_stop", "physical_stop",
 ]  # fmt: skip

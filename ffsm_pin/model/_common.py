@@ -10,6 +10,7 @@ import numpy as np
 
 from .._arrays import read_only
 from ..errors import ParameterError
+from ._pseudo_inertia import PseudoInertiaTable, pseudo_inertia
 from .interface import ReducedModel
 
 
@@ -77,6 +78,35 @@ class BarycentricCommon(ReducedModel):
         (planar a number, spatial a 3-vector), Eq. (14)."""
         A0 = np.asarray(angular_momentum, dtype=float).reshape(self.m3)
         return read_only(np.concatenate((A0, self.theta_d)))
+
+    def pseudo_inertia_table(self) -> PseudoInertiaTable:
+        """The linear map theta_d -> P(theta_d), the barycentric pseudo-inertia of this
+        model's layout (:mod:`._pseudo_inertia`, docs/robust.md section 1).
+
+        Returns
+        -------
+        PseudoInertiaTable
+            The map as a table (P's size: 2(n+1) planar, n+1 collinear, 3(n+1) spatial).
+        """
+        return self.layout.pseudo_inertia_table()
+
+    def pseudo_inertia(self, theta_d) -> np.ndarray:
+        """P(theta_d), positive semidefinite for the true parameters; ``P >= eps I`` gives
+        ``M(q, theta_d) >= eps sigma_min(S)^2 I`` (planar) or positive definite M (spatial) at
+        every configuration (docs/robust.md section 1).
+
+        Parameters
+        ----------
+        theta_d : array_like
+            Dynamic parameters (Eq. 12).
+
+        Returns
+        -------
+        ndarray
+            The symmetric pseudo-inertia.
+        """
+        theta_d = self._check(theta_d, self.n_d, "theta_d")
+        return pseudo_inertia(self.pseudo_inertia_table(), theta_d)
 
     def _check(self, theta, size: int, name: str) -> np.ndarray:
         """``theta`` as a float (or complex) array of shape (size,); a ParameterError naming

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ._pseudo_inertia import PseudoInertiaTable, spatial_table
+
 #: the entries (i, j) of a symmetric 3x3 matrix in theta_d's order (xx, xy, xz, yy, yz, zz)
 SYM6 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
@@ -40,6 +42,10 @@ class SpatialParameterLayout:
     def n_b(self) -> int:
         """n_3, size of theta_b."""
         return 3 + self.n_d
+
+    def pseudo_inertia_table(self) -> PseudoInertiaTable:
+        """The map theta_d -> P (:func:`._pseudo_inertia.spatial_table`)."""
+        return spatial_table(self.n_bodies)
 
     def theta_z_names(self) -> list[str]:
         """Names of the theta_z entries, in the vector's order (Eq. 4)."""

@@ -43,6 +43,7 @@ from ..errors import ParameterError
 from ..robot import PlanarGeometry
 from ._common import barycentric_vectors
 from ._planar_dynamics import BodyAngles, PlanarDynamics
+from ._pseudo_inertia import PseudoInertiaTable, planar_table
 
 # numpydoc entries its docstrings share (ffsm_pin._docstrings)
 _DOC = doc_entries(
@@ -102,6 +103,10 @@ class ParameterLayout:
         if not self.collinear:
             names += [f"Ds{k}{l}" for k, l in pairs]
         return names
+
+    def pseudo_inertia_table(self) -> PseudoInertiaTable:
+        """The map theta_d -> P (:func:`._pseudo_inertia.planar_table`)."""
+        return planar_table(self.n_bodies, self.collinear)
 
     def theta_z_names(self) -> list[str]:
         """Names of the theta_z entries, in the vector's order (Eq. 4)."""

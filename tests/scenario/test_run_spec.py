@@ -61,7 +61,8 @@ def test_the_lu_jia_controller_declares_its_keys():
     assert LuJiaController.params_model is LuJiaParams
     assert issubclass(ControllerModel, LuJiaKeys)
     own = set(LuJiaKeys.model_fields)
-    assert own == {"scheme", *GAIN_KEYS, "null_space", "singularity", "saturation", "k_chi", "k_v"}
+    assert own == {"scheme", *GAIN_KEYS, "null_space", "singularity", "saturation", "k_chi", "k_v",
+                   "adaptation", "physical_margin"}  # fmt: skip
     assert set(ControllerModel.model_fields) - own == {"type", "params", "funnel", "estimates"}
 
 
