@@ -398,7 +398,7 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
             aux[0], aux[1], J_a, L_a, law.q_bd, meas.z_e, meas.z_e_dot, hj
         )
         law_r = PeriodLaw(law[0], law[1], law[2], law[3], law[4], law[5], q_bd_r, law[7],
-                          law[8], law[9], law[10])  # fmt: skip
+                          law[8], law[9], law[10], law[11])  # fmt: skip
         w_mc_c, sens, sigma, damping, hnorm, err_b, err_z, status, idx = kinematic_law(
             geo, law_r, ref, law.null_space, meas.t + hj, q_c, q_m_c, z_c, tb_c, tz_c, w_b + 0j
         )
