@@ -79,6 +79,10 @@ def scenario_to_toml(scenario: Scenario) -> str:
         lines.append(f"saturation = {_toml(p.saturation.mode)}")
         rates = (("k_chi", p.saturation.k_chi), ("k_v", p.saturation.k_v))
         lines += [f"{k} = {_toml(v)}" for k, v in rates if v is not None]
+    if p.adaptation != "gradient":  # (beyond the paper; the default writes nothing)
+        lines.append(f"adaptation = {_toml(p.adaptation)}")
+        if p.physical_margin is not None:
+            lines.append(f"physical_margin = {_toml(p.physical_margin)}")
     lines += ["", "[controller.funnel]"]
     for fun, tag in ((perf.funnel_b, "b"), (perf.funnel_z, "z")):
         lines += [

@@ -250,3 +250,21 @@ def test_compiled_projected_run_follows_the_numpy_run(geometry, ctype):
     lam = np.array([lam_min(start.model, x) for x in theta])
     assert lam.min() >= margin * (1 - 1e-3)
     assert lam[0] < 1.001 * margin  # the initial estimate projected to the margin
+
+
+@pytest.mark.parametrize("margin", [None, 0.25])
+def test_the_option_survives_the_saved_scenario(margin):
+    """A run's saved scenario.toml (and a campaign's worst-case file, written the same way)
+    keeps ``adaptation`` and ``physical_margin`` (read back equal); the default writes
+    neither key."""
+    from ffsm_pin.scenario.file import scenario_from_toml
+    from ffsm_pin.scenario.writer import scenario_to_toml
+
+    sc = builtin_scenario("case1")
+    law = dataclasses.replace(sc.controller.lu_jia, adaptation="physical", physical_margin=margin)
+    sc = dataclasses.replace(sc, controller=dataclasses.replace(sc.controller, lu_jia=law))
+    back = scenario_from_toml(scenario_to_toml(sc))
+    assert back.controller.lu_jia.adaptation == "physical"
+    assert back.controller.lu_jia.physical_margin == margin
+    text = scenario_to_toml(builtin_scenario("case1"))
+    assert "adaptation" not in text and "physical_margin" not in text
