@@ -7,6 +7,21 @@ from __future__ import annotations
 from .._docstrings import doc_entries
 
 CONTROL_DOC = doc_entries(
+    # one period of the paper's law (control/controller.py, control/compiled_period.py)
+    params_step_period="""
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement at the period's start t [s].
+        dt : float
+            The period [s].""",
+    sections_step_period="""
+        %(params_step_period)s
+
+        Returns
+        -------
+        ControlOutput
+            The period's outputs (copies, on the compiled backend).""",
     geo="""
         geo : PlanarKernelConstants or SpatialKernelConstants
             The model's kernel constants.""",
@@ -114,11 +129,7 @@ CONTROL_DOC = doc_entries(
         theta_z, theta_b : ndarray
             The estimates.""",
     # the baselines' default gains (control/resolved_motion.py)
-    params_funnel="""
-        Parameters
-        ----------
-        funnel : FunnelParams
-            The scenario's end-effector funnel.
+    funnel_task_drift="""
         dt : float
             The control period [s].
         m2 : int
@@ -126,5 +137,11 @@ CONTROL_DOC = doc_entries(
         n_task : int
             Task components.
         drift : float
-            Drift speed the model may miss [m/s].""",
+            Drift speed the model may miss [m/s] (:func:`~.resolved_motion.drift_bound`).""",
+    params_funnel="""
+        Parameters
+        ----------
+        funnel : FunnelParams
+            The scenario's end-effector funnel.
+        %(funnel_task_drift)s""",
 )

@@ -25,7 +25,7 @@ def theta_b_step(theta_b: np.ndarray, Y_b: np.ndarray, gamma_1: float, dt: float
     gamma_1 : float
         Adaptation gain.
     dt : float
-        Step [s].
+        Step [s]; exact at any step for Y_b constant over it.
 
     Returns
     -------
@@ -61,7 +61,7 @@ def theta_z_step(
     gamma_2 : float
         Adaptation gain.
     dt : float
-        Step [s].
+        Step [s] (backward Euler: stable at any step).
 
     Returns
     -------
@@ -85,7 +85,7 @@ def regressor_filter_step(Y_df: np.ndarray, Y_dc: np.ndarray, k_de: float, dt: f
     k_de : float
         Filter rate [1/s].
     dt : float
-        Step [s].
+        Step [s]; exact for Y_dc constant over it.
     """
     decay = np.exp(-k_de * dt)
     return decay * Y_df + (-np.expm1(-k_de * dt) / k_de) * Y_dc
@@ -114,7 +114,7 @@ def theta_d_increment(
     gamma_3 : float
         Adaptation gain.
     dt : float
-        Step [s].
+        Step [s]; c = Gamma_3 dt sets how implicit the step is.
 
     Returns
     -------

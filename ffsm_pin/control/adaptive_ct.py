@@ -37,7 +37,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._docstrings import fill_doc
 from ..errors import SimulationError
+from ._docs import CONTROL_DOC
 from .adaptation import theta_b_step, theta_d_increment, theta_z_step
 from .adaptive_ct_kernels import PERIOD, AdaptiveCtKernelGains
 from .compiled import state_field
@@ -50,6 +52,7 @@ from .stops import physical_stop
 
 
 @dataclass(frozen=True)
+@fill_doc(CONTROL_DOC)
 class AdaptiveCtGains:
     """Gains of the adaptive-ct baseline.
 
@@ -79,14 +82,7 @@ class AdaptiveCtGains:
         ----------
         scenario : Scenario
             Its end-effector funnel and the paper's adaptation gains are read.
-        dt : float
-            The control period [s].
-        m2 : int
-            Position coordinates.
-        n_task : int
-            Task components.
-        drift : float
-            Drift speed the model may miss [m/s] (:func:`~.resolved_motion.drift_bound`).
+        %(funnel_task_drift)s
 
         Returns
         -------

@@ -22,11 +22,13 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kinematics_kernels import y_z
 from ..model._spatial_mass_kernels import mass_matrix, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import fast, fast_spatial
+from ._docs import CONTROL_DOC
 from .fast_spatial import measured_kinematics
 from .kernels import COMPLEX_STEP, theta_z_step
 from .physical import PhysicalTerm, physical_increment
@@ -79,27 +81,16 @@ def _torque_and_update(Y, s, M_hat, m3, gains, theta_d, theta_b, theta_z, tb_new
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def period_planar(geo, gains_f, ref_f, meas_f, est_f):
-    """One adaptive-ct period (planar); updates the estimates in place.
+    """One adaptive-ct period (planar); updates the estimates (``est_f``) in place.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants
-        The model's kernel constants.
-    gains_f : tuple
-        The fields of an ``AdaptiveCtKernelGains``.
-    ref_f : tuple
-        The fields of a ``ReferenceArrays``.
-    meas_f : tuple
-        The fields of a ``Measurement``.
-    est_f : tuple
-        The fields of the ``Estimates``, advanced in place.
+    %(params_baseline_period)s
     """
-    # (the bundles named again: module docstring)
-    gains, ref, meas, est = period_bundles(AdaptiveCtKernelGains, gains_f, ref_f, meas_f, est_f)
     S, off, K, L, ee_row, collinear = geo
-    q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
+    gains, ref, meas, est = period_bundles(AdaptiveCtKernelGains, gains_f, ref_f, meas_f, est_f)
     theta_z, theta_d, theta_b = est
+    q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
     nb = S.shape[0]
     nd = theta_d.size
     c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
@@ -132,26 +123,16 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
 
 
 @njit(cache=True)
+@fill_doc(CONTROL_DOC)
 def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
-    """One adaptive-ct period (spatial); updates the estimates in place.
+    """One adaptive-ct period (spatial); updates the estimates (``est_f``) in place.
 
-    Parameters
-    ----------
-    geo : SpatialKernelConstants
-        The model's kernel constants.
-    gains_f : tuple
-        The fields of an ``AdaptiveCtKernelGains``.
-    ref_f : tuple
-        The fields of a ``ReferenceArrays``.
-    meas_f : tuple
-        The fields of a ``Measurement``.
-    est_f : tuple
-        The fields of the ``Estimates``, advanced in place.
+    %(params_baseline_period)s
     """
-    gains, ref, meas, est = period_bundles(AdaptiveCtKernelGains, gains_f, ref_f, meas_f, est_f)
     jr, ax, er, m = geo
-    q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
+    gains, ref, meas, est = period_bundles(AdaptiveCtKernelGains, gains_f, ref_f, meas_f, est_f)
     theta_z, theta_d, theta_b = est
+    q_b, q_m, w, dt = meas.q_b, meas.q_m, meas.w, gains.dt
     n = q_m.size
     N, nd = n + 3, theta_d.size
     R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)

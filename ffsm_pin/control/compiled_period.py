@@ -12,13 +12,16 @@ kit's (:class:`~.compiled.CompiledController`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from .._arrays import read_only, read_only_view
+from .._docstrings import fill_doc
 from ..errors import ParameterError
 from . import kernels  # the status codes (STATUS_*)
+from ._docs import CONTROL_DOC
 from .funnel import Funnel, FunnelExit
 from .gains import Gains, SingularityPolicy
 from .interface import Measurement, SignalLayout
@@ -42,6 +45,7 @@ from .stops import (
 )
 
 
+@fill_doc(CONTROL_DOC)
 class CompiledPeriod:
     """The compiled side of :class:`~.controller.CoordinatedController` (a mixin: the law's
     attributes below are the controller's)."""
@@ -65,23 +69,7 @@ class CompiledPeriod:
     state: PeriodState
     auxiliary: Any  # AuxiliarySystem or None (saturation.py)
     _watch: SingularityWatch
-
-    def funnel_stop(self, meas: Measurement, exc: FunnelExit) -> Exception:
-        """The stop of a funnel exit (the controller's).
-
-        Parameters
-        ----------
-        meas : Measurement
-            The measurement at the exit.
-        exc : FunnelExit
-            The exit.
-
-        Returns
-        -------
-        Exception
-            The stop to raise.
-        """
-        raise NotImplementedError
+    funnel_stop: Callable[[Measurement, FunnelExit], Exception]  # the controller's method
 
     def prepare_kernels(self) -> None:
         """The compiled period's bundles (:mod:`.period`): the law's constants, the model's
@@ -135,26 +123,20 @@ class CompiledPeriod:
         aux = None if self._aux is None else (self._aux[0], self._aux[1].copy())  # (a copy)
         period(geo, law, ref, dt, km, tuple(self.state), self._out_fields, aux)
 
-    def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
+    def _require_truth(self) -> None:
+        """Refuse a row without the true theta_d (its e of Eq. 54 needs it)."""
         if self.theta_d_true is None:
             raise ParameterError("step_row needs theta_d_true (the row's e of Eq. 54)")
+
+    def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
+        self._require_truth()
         self._run_compiled(meas, dt)
         return RowOutput(self._out.u_m.copy(), self._row.copy())
 
     def step_compiled(self, meas: Measurement, dt: float) -> ControlOutput:
         """:meth:`step` by the compiled period; the outputs are copies.
 
-        Parameters
-        ----------
-        meas : Measurement
-            The measurement at t.
-        dt : float
-            The period [s].
-
-        Returns
-        -------
-        ControlOutput
-            Copies of the period's outputs.
+        %(sections_step_period)s
         """
         self._run_compiled(meas, dt)
         o, truth = self._out, self.theta_d_true is not None

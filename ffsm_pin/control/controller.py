@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docstrings import fill_doc
 from ..errors import ParameterError, SimulationError, choices_text
 from ..model.interface import ReducedModel
 from ..model.planar import BarycentricModel
 from ..model.spatial import SpatialBarycentricModel
+from ._docs import CONTROL_DOC
 from .adaptation import (
     regressor_filter_step,
     theta_b_step,
@@ -65,6 +67,7 @@ from .stops import (
 )
 
 
+@fill_doc(CONTROL_DOC)
 class CoordinatedController(CompiledPeriod, CompiledController):
     """Adaptive prescribed-performance coordinated controller, planar or spatial.
 
@@ -275,12 +278,7 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         compiled backend both are copies of the period's outputs and the other named outputs
         of :class:`ControlOutput` are not made.
 
-        Parameters
-        ----------
-        meas : Measurement
-            The measurement at the period's start t [s].
-        dt : float
-            The period [s].
+        %(params_step_period)s
 
         Returns
         -------
@@ -301,8 +299,7 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         return self._row_numpy(meas, dt)
 
     def _row_numpy(self, meas: Measurement, dt: float) -> RowOutput:
-        if self.theta_d_true is None:
-            raise ParameterError("step_row needs theta_d_true (the row's e of Eq. 54)")
+        self._require_truth()
         full = self._numpy_period(meas, dt)
         assert full.signals is not None  # (theta_d_true is given)
         return RowOutput(full.u_m, full.signals)
@@ -310,17 +307,7 @@ class CoordinatedController(CompiledPeriod, CompiledController):
     def step_numpy(self, meas: Measurement, dt: float) -> ControlOutput:
         """:meth:`step` by the readable numpy reference.
 
-        Parameters
-        ----------
-        meas : Measurement
-            The measurement at t.
-        dt : float
-            The period [s].
-
-        Returns
-        -------
-        ControlOutput
-            The period's outputs.
+        %(sections_step_period)s
         """
         return self._numpy_period(meas, dt)
 

@@ -41,10 +41,12 @@ import numpy as np
 from numba import njit
 
 from .._array_kernels import put
+from .._docstrings import fill_doc
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
 from ._dispatch import JIT_OPTIONS, overload_for_geometry
+from ._docs import CONTROL_DOC
 from .interface import Measurement, SignalLayout
 from .kernels import (
     COMPLEX_STEP,
@@ -224,6 +226,7 @@ def period_outputs(
 
 
 # ---------------------------------------------------------------------- the geometry's steps
+@fill_doc(CONTROL_DOC)
 def geometry_terms(geo, law, dt, meas, state):
     """The geometry's terms at the measured state, and Eqs. (28), (42) over the period.
 
@@ -232,78 +235,31 @@ def geometry_terms(geo, law, dt, meas, state):
     ``law.adaptive`` is False), the attitude's rate (Eq. 1) and the base's angular velocity.
     Compiled per geometry (:data:`GEOMETRIES`); this Python body is never run.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants or SpatialKernelConstants
-        The geometry's kernel constants.
-    law : PeriodLaw
-        The run's constants.
-    dt : float
-        The period [s].
-    meas : Measurement
-        The measurement at t.
-    state : PeriodState
-        The estimates at t.
+    %(params_geometry_terms)s
     """
     raise NotImplementedError
 
 
+@fill_doc(CONTROL_DOC)
 def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     """w_mc of Eqs. (25)+(36) or (81) at complex arguments: (w_mc, d w_mc / d w_b, sigma_min,
     damping, |H_bm|, err_b, err_z, status, exit index). ``ns`` is ``law.null_space``, an
     argument of its own so that numba prunes the null-space term when it is None. Compiled per
     geometry.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants or SpatialKernelConstants
-        The geometry's kernel constants.
-    law : PeriodLaw
-        The run's constants.
-    ref : ReferenceArrays
-        The task reference.
-    ns : NullSpaceTerm or None
-        ``law.null_space``.
-    t : complex
-        Time [s].
-    q_b : complex or ndarray
-        Base attitude [rad] or MRP.
-    q_m : ndarray, shape (n,)
-        Joint angles [rad].
-    z_e : ndarray
-        End-effector pose.
-    theta_b, theta_z : ndarray
-        Estimates of Eqs. (28) and (42).
-    w_b : ndarray, shape (m3,)
-        Base angular velocity [rad/s].
+    %(params_kinematic_law)s
     """
     raise NotImplementedError
 
 
+@fill_doc(CONTROL_DOC)
 def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     """Eqs. (46), (49)-(52), (60)-(64): (status, exit value, u_m, w_mc_dot fed with the
     base's acceleration, w~, e); advances theta_d-hat, w-hat and Y_df of ``state`` in place
     when the status is ``STATUS_OK``. ``e`` the diagnostic e of Eq. (54) with the true M and
     ``law.theta_d_true`` (empty when that is). Compiled per geometry.
 
-    Parameters
-    ----------
-    geo : PlanarKernelConstants or SpatialKernelConstants
-        The geometry's kernel constants.
-    terms : tuple
-        What :func:`geometry_terms` computed.
-    law : PeriodLaw
-        The run's constants.
-    dt : float
-        The period [s].
-    meas : Measurement
-        The measurement at t.
-    w_mc, w_mc_dot : ndarray, shape (n,)
-        Commanded joint rates [rad/s] and their derivative [rad/s^2].
-    sens : ndarray
-        d w_mc / d w_b (zero except for Eq. 81).
-    state : PeriodState
-        Advanced in place.
+    %(params_dynamic_level)s
     """
     raise NotImplementedError
 

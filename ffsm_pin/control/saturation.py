@@ -140,7 +140,7 @@ def state_size(nb: int, m3: int, n_task: int) -> int:
     nb : int
         m3 + n.
     m3 : int
-        Attitude coordinates.
+        Attitude coordinates (1 planar, 3 spatial).
     n_task : int
         Task rows.
 

@@ -110,9 +110,9 @@ def auxiliary_rates(term, x, J, L_b):
     ----------
     term : AuxiliaryTerm
         The constants.
-    x : ndarray
-        The auxiliary state.
-    J, L_b : ndarray
+    x : ndarray, shape (nb + m3 + n_task,)
+        The auxiliary state (chi_v, chi_b, chi_z).
+    J, L_b : ndarray, shapes (n_task, nb) and (m3, m3)
         The task Jacobian and L_b at t.
     """
     m3 = L_b.shape[0]
@@ -163,9 +163,9 @@ def relaxed(term, x, J, L_b, q_bd, z_e, z_e_dot, hj):
     term : AuxiliaryTerm
         The constants.
     x : ndarray
-        The auxiliary state.
+        The auxiliary state, as :func:`auxiliary_rates` reads it.
     J, L_b : ndarray
-        The task Jacobian and L_b at t.
+        The task Jacobian and L_b at t (:func:`auxiliary_maps`).
     q_bd : ndarray
         The desired base attitude.
     z_e, z_e_dot : ndarray
