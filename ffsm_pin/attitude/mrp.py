@@ -80,36 +80,16 @@ def from_rotation(R) -> np.ndarray:
     d = np.real(np.array([tr, R[0, 0], R[1, 1], R[2, 2]]))
     if d[0] > 0.0:
         t = np.sqrt(tr + 1.0) * 2.0
-        qw, qx, qy, qz = (
-            0.25 * t,
-            (R[2, 1] - R[1, 2]) / t,
-            (R[0, 2] - R[2, 0]) / t,
-            (R[1, 0] - R[0, 1]) / t,
-        )
-    elif d[1] > d[2] and d[1] > d[3]:
-        t = np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) * 2.0
-        qw, qx, qy, qz = (
-            (R[2, 1] - R[1, 2]) / t,
-            0.25 * t,
-            (R[0, 1] + R[1, 0]) / t,
-            (R[0, 2] + R[2, 0]) / t,
-        )
-    elif d[2] > d[3]:
-        t = np.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2]) * 2.0
-        qw, qx, qy, qz = (
-            (R[0, 2] - R[2, 0]) / t,
-            (R[0, 1] + R[1, 0]) / t,
-            0.25 * t,
-            (R[1, 2] + R[2, 1]) / t,
-        )
-    else:
-        t = np.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1]) * 2.0
-        qw, qx, qy, qz = (
-            (R[1, 0] - R[0, 1]) / t,
-            (R[0, 2] + R[2, 0]) / t,
-            (R[1, 2] + R[2, 1]) / t,
-            0.25 * t,
-        )
+        qw = 0.25 * t
+        qx, qy, qz = ((R[k, j] - R[j, k]) / t for j, k in ((1, 2), (2, 0), (0, 1)))
+    else:  # the largest diagonal entry i, (i, j, k) cyclic
+        i = 0 if d[1] > d[2] and d[1] > d[3] else (1 if d[2] > d[3] else 2)
+        j, k = (i + 1) % 3, (i + 2) % 3
+        others = sorted((j, k))
+        t = np.sqrt(1.0 + R[i, i] - R[others[0], others[0]] - R[others[1], others[1]]) * 2.0
+        q_v = [0.0 * t] * 3
+        q_v[i], q_v[j], q_v[k] = 0.25 * t, (R[i, j] + R[j, i]) / t, (R[i, k] + R[k, i]) / t
+        qw, (qx, qy, qz) = (R[k, j] - R[j, k]) / t, q_v
     if np.real(qw) < 0.0:
         qw, qx, qy, qz = -qw, -qx, -qy, -qz
     return np.array([qx, qy, qz]) / (1.0 + qw)

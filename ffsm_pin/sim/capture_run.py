@@ -151,7 +151,7 @@ class CaptureMotion(TargetMotion):
             self.state = self._held_state(q, v)
             return plant, sensor, v
         cap = self.capture
-        qc, vc = cap.configuration(q, self.state), cap.velocity(v, self.state)
+        qc, vc = cap.joint_state(q, v, self.state)
         if not cap.ready(qc, vc, self.tolerances):
             return plant, sensor, v
         distance, speed = cap.relative_motion(qc, vc)
@@ -213,7 +213,7 @@ class CaptureMotion(TargetMotion):
         for i in np.flatnonzero(~held):
             pose, twist = block["target_pose"][i], block["target_twist"][i]
             state = TargetState(pin.XYZQUATToSE3(pose), twist[:3], twist[3:])
-            h = cap.momentum(cap.configuration(q[i], state), cap.velocity(v[i], state))
+            h = cap.momentum(*cap.joint_state(q[i], v[i], state))
             P[i], L[i] = h[:3], h[3:]
         return P, L
 

@@ -119,37 +119,25 @@ class CaptureModel:
         """Size of the robot's v."""
         return int(self.robot.model.nv)
 
-    def configuration(self, q_robot, state: TargetState) -> np.ndarray:
-        """The combined q from the robot's q and the target's state.
+    def joint_state(self, q_robot, v_robot, state: TargetState) -> tuple[np.ndarray, np.ndarray]:
+        """The combined (q, v): the robot's, then the target's free-flyer q and twist.
 
         Parameters
         ----------
-        q_robot : array_like, shape (nq_robot,)
-            The robot's configuration (Pinocchio convention).
+        q_robot, v_robot : array_like, shapes (nq_robot,) and (nv_robot,)
+            The robot's configuration and velocity (Pinocchio convention).
         %(state)s
 
         Returns
         -------
-        ndarray
-            The combined q.
+        q, v : ndarray
+            The combined configuration and velocity.
         """
-        return np.concatenate((np.asarray(q_robot, float), state.to_pinocchio(self.target)[0]))
-
-    def velocity(self, v_robot, state: TargetState) -> np.ndarray:
-        """The combined v from the robot's v and the target's state.
-
-        Parameters
-        ----------
-        v_robot : array_like, shape (nv_robot,)
-            The robot's velocity (Pinocchio convention).
-        %(state)s
-
-        Returns
-        -------
-        ndarray
-            The combined v.
-        """
-        return np.concatenate((np.asarray(v_robot, float), state.to_pinocchio(self.target)[1]))
+        q_target, v_target = state.to_pinocchio(self.target)
+        return (
+            np.concatenate((np.asarray(q_robot, float), q_target)),
+            np.concatenate((np.asarray(v_robot, float), v_target)),
+        )
 
     def target_state(self, q, v) -> TargetState:
         """The target's state in the combined (q, v).

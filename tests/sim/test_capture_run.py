@@ -46,7 +46,7 @@ def _states(result, rows):
 
 
 def _combined(cap, result, i, state):
-    return cap.configuration(result["q"][i], state), cap.velocity(result["v"][i], state)
+    return cap.joint_state(result["q"][i], result["v"][i], state)
 
 
 def test_capture_happens_when_the_tolerances_are_met_and_not_before(run):
@@ -147,7 +147,7 @@ def test_the_hook_at_capture(run, estimates):
     plant.reset(q, v)
     sensor = Sensor(robot, setup.model, full_model=True)
     cap = motion.capture
-    qc, vc = cap.configuration(q, state), cap.velocity(v, state)
+    qc, vc = cap.joint_state(q, v, state)
     reference = impact_pinocchio(cap, qc, vc)
     new_plant, new_sensor, v_new = motion.at_period(0.5, q, v, plant, sensor)
     assert new_plant is not plant and motion.outcome.captured and motion.outcome.time == 0.5
@@ -169,7 +169,7 @@ def test_the_hook_at_capture(run, estimates):
     q1, v1, _ = new_plant.advance(q, v_new, np.zeros(robot.n_joints), 0.002, 1)
     new_plant.project(q1, v1)
     motion.at_period(0.502, q1, v1, new_plant, new_sensor)
-    q1c, v1c = cap.configuration(q1, motion.state), cap.velocity(v1, motion.state)
+    q1c, v1c = cap.joint_state(q1, v1, motion.state)
     assert np.abs(cap.relative_twist(q1c, v1c)).max() < 1e-12 * np.abs(v1c).max()
     assert np.abs(cap.momentum(q1c, v1c) - h_before).max() < 1e-12 * np.abs(h_before).max()
 
