@@ -11,4 +11,9 @@ SIM_DOC = doc_entries(
             The Pinocchio model.
         data : pin.Data
             Its data.""",
+    target_motion="""
+        target : Target
+            The body.
+        state : TargetState
+            Its state at t = 0.""",
 )

@@ -22,7 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import fill_doc
 from ..scenario.target_spec import CaptureSpec
+from ._docs import SIM_DOC
 from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merge_after_capture
 from .measurement import Sensor
 from .plant import Plant
@@ -86,15 +88,13 @@ class CaptureOutcome:
         }
 
 
+@fill_doc(SIM_DOC)
 class CaptureMotion(TargetMotion):
     """The target over a run with ``[capture]``: free until the hand grasps it, then held.
 
     Parameters
     ----------
-    target : Target
-        The body.
-    state : TargetState
-        Its state at t = 0.
+    %(target_motion)s
     robot : Robot
         The plant's robot (free-flyer root).
     spec : CaptureSpec

@@ -16,8 +16,10 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import fill_doc
 from ..errors import ScenarioError
 from ..scenario.target_spec import TargetSpec
+from ._docs import SIM_DOC
 from .target import Target, TargetState, torque_free_step
 
 #: The per-step signals of a run with a target (shape of one row): the target frame's pose
@@ -129,15 +131,13 @@ def check_clear_of_bus(target: Target, state: TargetState, robot, q0, bus_size=N
         )
 
 
+@fill_doc(SIM_DOC)
 class TargetMotion:
     """The target over a run: its state, stepped torque-free, recorded per row.
 
     Parameters
     ----------
-    target : Target
-        The body.
-    state : TargetState
-        Its state at t = 0.
+    %(target_motion)s
     """
 
     def __init__(self, target: Target, state: TargetState) -> None:

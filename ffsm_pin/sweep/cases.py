@@ -49,11 +49,34 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Case", "expand"]
+__all__ = ["Case", "expand", "keeps_draws"]
 
-#: Grid axes that do not change a case's random draws (estimates, samples, dispersions): the
-#: cases of every scenario and every controller type at one grid point and repeat draw alike.
-COMMON_DRAWS = (SCENARIO_COLUMN, TYPE_KEY)
+#: The prefix of the keys that say what the controller knows to begin with: they define the
+#: draw (its spread, its seed), so they change the draws; every other ``controller.`` key is
+#: a treatment compared on common draws.
+DRAW_KEYS = "controller.estimates."
+
+
+def keeps_draws(key: str) -> bool:
+    """Whether a grid axis leaves a case's random draws (estimates, samples, dispersions) as
+    they are: the scenario and every choice of the controller (``controller.type``, its options
+    and gains: any ``controller.`` key but ``controller.estimates.*``), so that the cases of
+    every scenario and every controller variant at one grid point and repeat draw alike
+    (common random numbers, the report's paired comparison).
+
+    Parameters
+    ----------
+    key : str
+        The axis: a dotted scenario key or the column ``scenario``.
+
+    Returns
+    -------
+    bool
+        True for the scenario and the controller's treatments.
+    """
+    if key == SCENARIO_COLUMN:
+        return True
+    return key.startswith("controller.") and not key.startswith(DRAW_KEYS)
 
 
 @dataclass(frozen=True)
@@ -137,11 +160,11 @@ def expand(campaign: Campaign) -> list[Case]:
         sizes = _disperse_sizes(campaign, base, path, cases[-1].scenario_toml)
         for p, values in enumerate(points):
             point = {**tag, **{v.key: x for v, x in zip(campaign.vary, values, strict=True)}}
-            # every scenario and every controller type draws the same seeds (common random
-            # numbers: the paired comparison of the report compares controllers on the same
-            # draws; a campaign over one scenario and one controller draws what it drew before)
+            # every scenario and every controller variant draws the same seeds (common random
+            # numbers: the paired comparison of the report compares them on the same draws; a
+            # campaign over one scenario and one controller draws what it drew before)
             grid = {k: v for k, v in point.items() if k != SCENARIO_COLUMN}
-            draws = {k: v for k, v in grid.items() if k not in COMMON_DRAWS}
+            draws = {k: v for k, v in grid.items() if not keeps_draws(k)}
             for r in range(campaign.repeat):
                 seed = estimates_seed(campaign.seed, draws, r)
                 keys = {**common, **campaign.set, **own, **grid, SEED_KEY: seed}

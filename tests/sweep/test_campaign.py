@@ -291,6 +291,36 @@ def test_several_scenarios(campaign_file):
     assert len({c.point_index for c in cases if not c.nominal}) == 4
 
 
+@pytest.mark.parametrize(
+    ("axis", "values"),
+    [
+        ("controller.type", ["lu-jia", "gjm-ct"]),
+        ("controller.saturation", ["ignore", "auxiliary"]),
+        ("controller.gamma_3", [1.0, 2.0]),
+    ],
+)
+def test_controller_variants_draw_alike(campaign_file, axis, values):
+    """Common random numbers over every controller choice (a type, an option, a gain): the
+    cases that differ only in it draw the same estimates seed and dispersed values, while
+    the spread (a ``controller.estimates`` key: it defines the draw) draws anew."""
+    text = (
+        SMALL
+        + f'\n[[vary]]\nkey = "{axis}"\nvalues = {values!r}\n'.replace("'", '"')
+        + '\n[campaign.disperse]\n"actuators.torque_limit" = { uniform = [50.0, 150.0] }\n'
+    )
+    cases = expand(load_campaign(campaign_file(text, "variants.toml")))
+    by: dict[tuple, list] = {}
+    for c in cases[1:]:
+        key = tuple((k, v) for k, v in c.point.items() if k != axis) + (c.repeat,)
+        by.setdefault(key, []).append(c)
+    assert by and all(len(group) == len(values) for group in by.values())
+    for group in by.values():
+        assert len({c.values[axis] for c in group}) == len(values)
+        assert len({c.estimates_seed for c in group}) == 1
+        assert len({c.values["actuators.torque_limit"] for c in group}) == 1
+    assert len({group[0].estimates_seed for group in by.values()}) == len(by)
+
+
 def test_controllers_draw_alike_at_one_grid_point(campaign_file):
     """Common random numbers: cases that differ only in controller.type draw the same
     estimates seed, sampled and dispersed values, so the report's paired comparison compares

@@ -197,3 +197,30 @@ def test_a_user_campaign_says_how_to_reproduce_it_from_anywhere(campaign_dir, tm
     assert Path(file).is_absolute() and Path(file).is_file()
     assert Path(folder).is_absolute() and Path(folder) == out.resolve()
     assert "from any folder" in report
+
+
+def test_option_variants_are_paired_on_their_draws():
+    """Controller options (not only controller.type) are paired run by run: the runs of the
+    same spread and repeat index, one row per spread; a variant is named by its option's
+    value; the counts and the exact McNemar p-value follow the kept flags."""
+    from ffsm_pin.sweep.report.sections import paired_rows
+
+    cols = ["controller.saturation", "controller.estimates.spread"]
+    kept = {  # (saturation, spread) -> kept per repeat
+        ("ignore", 0.1): [True, True, True], ("auxiliary", 0.1): [True, True, True],
+        ("ignore", 0.3): [False, False, True], ("auxiliary", 0.3): [True, True, True],
+    }  # fmt: skip
+    runs = [
+        {"controller.saturation": sat, "controller.estimates.spread": spread, "repeat": r,
+         "kept": k, "estimates_seed": 100 * r + int(10 * spread)}
+        for (sat, spread), ks in kept.items() for r, k in enumerate(ks)
+    ]  # fmt: skip
+    rows = paired_rows(runs, cols)
+    assert len(rows) == 1  # one pair of variants, the spreads pooled by grid point and repeat
+    (row,) = rows
+    assert {row["a"], row["b"]} == {"saturation=ignore", "saturation=auxiliary"}
+    assert row["pairs"] == 6 and row["both"] == 4 and row["neither"] == 0
+    only_aux = row["only_a"] if row["a"] == "saturation=auxiliary" else row["only_b"]
+    assert only_aux == 2 and row["only_a"] + row["only_b"] == 2
+    assert row["p"] == 0.5  # two discordant pairs, both one way: 2 / 2^2
+    assert row["common"]

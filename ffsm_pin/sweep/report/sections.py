@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..._docstrings import doc_entries, fill_doc
+from ..cases import keeps_draws
 from ..stats import mcnemar_exact, runs_for_half_width, runs_to_separate, wilson_half_width
 from .sql import CONTROLLER_KEY
 from .text import f, relabel, table
@@ -30,7 +31,13 @@ _DOC = doc_entries(
             The section's lines.""",
 )
 
-__all__ = ["failed_section", "how_many_section", "paired_rows", "paired_section"]
+__all__ = [
+    "failed_section",
+    "how_many_section",
+    "paired_rows",
+    "paired_section",
+    "variant_name",
+]
 
 Row = Mapping[str, Any]
 
@@ -100,9 +107,11 @@ def failed_section(
 
 @fill_doc(_DOC)
 def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]]:
-    """Per pair of controllers (and scenario): the runs of the same grid point (the other
-    axes' values) and repeat index, both kept / only A / only B / neither, and the exact
-    McNemar p-value; ``common``: every pair drew the same estimates (same seed).
+    """Per pair of controller variants (and scenario): the runs of the same grid point (the
+    other axes' values) and repeat index, both kept / only A / only B / neither, and the exact
+    McNemar p-value; ``common``: every pair drew the same estimates (same seed). A variant is
+    the run's values of the varied controller keys (:func:`~ffsm_pin.sweep.cases.keeps_draws`:
+    ``controller.type``, options, gains), named by its type alone when only the type varies.
 
     Parameters
     ----------
@@ -116,12 +125,13 @@ def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]
         One row per pair.
     """
     scen = [c for c in cols if c == "scenario"]
-    others = [c for c in cols if c not in (CONTROLLER_KEY, "scenario")]
+    treat = [c for c in cols if c != "scenario" and keeps_draws(c)]
+    others = [c for c in cols if c != "scenario" and c not in treat]
     cells: dict[tuple, dict[str, dict[tuple, Row]]] = {}
     for r in runs:
         group = tuple(r[c] for c in scen)
         key = (*(str(r[c]) for c in others), r["repeat"])
-        cells.setdefault(group, {}).setdefault(r[CONTROLLER_KEY], {})[key] = r
+        cells.setdefault(group, {}).setdefault(variant_name(r, treat), {})[key] = r
     out = []
     for group, per in cells.items():
         for a, b in itertools.combinations(sorted(per), 2):
@@ -141,6 +151,27 @@ def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]
     return out
 
 
+def variant_name(run: Row, treat: Sequence[str]) -> str:
+    """A run's controller variant: its ``controller.type`` when that is the one varied
+    controller key, else ``key=value`` of each (the ``controller.`` prefix left out).
+
+    Parameters
+    ----------
+    run : mapping
+        A row of the run table.
+    treat : sequence of str
+        The varied controller keys.
+
+    Returns
+    -------
+    str
+        The variant's name.
+    """
+    if list(treat) == [CONTROLLER_KEY]:
+        return str(run[CONTROLLER_KEY])
+    return ", ".join(f"{c.removeprefix('controller.')}={run[c]}" for c in treat)
+
+
 @fill_doc(_DOC)
 def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> list[str]:
     """The section "Paired comparison" from :func:`paired_rows`.
@@ -156,8 +187,8 @@ def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> lis
     lines = [
         "## Paired comparison",
         "",
-        "Controllers A and B compared run by run: the runs of the same grid point and repeat "
-        "index (the same draw when the estimates' seeds agree: `same draws`). `both`, "
+        "Controller variants A and B compared run by run: the runs of the same grid point and "
+        "repeat index (the same draw when the estimates' seeds agree: `same draws`). `both`, "
         "`only A`, `only B`, `neither`: pairs by which kept both funnels. p: the exact McNemar "
         "test on the pairs where they differ (the binomial test of `only A` of `only A + only "
         "B` against 1/2, two-sided); a small p says the two keep their funnels at different "
@@ -188,9 +219,9 @@ def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> lis
     if not all(r["common"] for r in rows):
         lines += [
             "",
-            "`same draws = no`: the estimates' seed comes from the grid point, "
-            "`controller.type` included, so the paired runs drew different estimates; the "
-            "test is still valid for equal rates, without the precision that common draws give.",
+            "`same draws = no`: the paired runs drew different estimates (a seed set by hand, "
+            "or results of an older version that drew per controller option); the test is "
+            "still valid for equal rates, without the precision that common draws give.",
         ]
     return [*lines, ""]
 

@@ -9,6 +9,7 @@ from typing import Any
 
 from ..auto_repeat import status_text
 from ..campaign import SCENARIO_COLUMN, Campaign
+from ..cases import keeps_draws
 from ..stats import clopper_pearson
 from .figures import figures, overlay_figures
 from .sections import failed_section, how_many_section, paired_rows, paired_section
@@ -99,7 +100,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
         failed = query(sql(FAILED_SQL, path, by=by_sel(by)))
         q["failed"] = sql(FAILED_SQL, Path("results.parquet"), by=by_sel(by))
         lines += failed_section(failed, runs, by, labels)
-    if CONTROLLER_KEY in cols:
+    if any(keeps_draws(c) for c in cols if c != SCENARIO_COLUMN):  # controller variants
         lines += paired_section(paired_rows(runs, cols), labels)
     lines += how_many_section(rates, controllers, by, auto)
     lines += _spread(cols, spread, files, have)
