@@ -76,7 +76,7 @@ def _capture_state(robot, seed: int, hand_grasp=None, offset=True):
     if offset:
         oMh = oMh * pin.SE3(pin.exp3(rng.normal(size=3) * 0.01), rng.normal(size=3) * 0.003)
     state = TargetState(oMh * TARGET.grasp.inverse(), rng.normal(size=3) * 0.1, rng.normal(size=3))
-    return cm, cm.configuration(q_r, state), cm.velocity(v_r, state)
+    return (cm, *cm.joint_state(q_r, v_r, state))
 
 
 CASES = [("panda", 0), ("panda", 1), ("chain", 2), ("chain", 3)]
