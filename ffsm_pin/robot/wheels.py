@@ -136,10 +136,7 @@ class Wheels:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Wheels):
             return NotImplemented
-        return all(
-            np.array_equal(getattr(self, k), getattr(other, k))
-            for k in _KEYS
-        )
+        return all(np.array_equal(getattr(self, k), getattr(other, k)) for k in _KEYS)
 
     __hash__ = None  # type: ignore[assignment]  # arrays: equal by value, not hashable
 

@@ -45,7 +45,6 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .wheels_spec import WheelsModel
 from .target_spec import CAPTURE_ESTIMATES, TARGET_ORIGINS, TARGET_SHAPES, CaptureSpec, TargetSpec
 from .values import (
     Fraction,
@@ -59,6 +58,7 @@ from .values import (
     or_list,
     vec,
 )
+from .wheels_spec import WheelsModel
 
 #: For each supported base: (m2 end-effector position components, m3 attitude components).
 TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}

@@ -65,6 +65,7 @@ class WheelsModel(Table):
             Axes, inertias, limits and their command.
         """
         return Wheels(
-            self.axes, self.inertia, self.max_torque, self.max_momentum,
+            self.axes,  # type: ignore[arg-type]  # a str or rows: Wheels reads both
+            self.inertia, self.max_torque, self.max_momentum,  # type: ignore[arg-type]
             control=self.control, kp=self.kp, kd=self.kd,
         )  # fmt: skip
