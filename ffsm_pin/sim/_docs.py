@@ -11,4 +11,16 @@ SIM_DOC = doc_entries(
             The Pinocchio model.
         data : pin.Data
             Its data.""",
+    u_m_held="""
+        u_m : ndarray, shape (n,)
+            Joint torques [N m], held.""",
+    dt_substeps="""
+        dt : float
+            Control step [s].
+        substeps : int
+            Plant steps per control step.""",
+    setup="""
+        setup : Setup
+            The prepared run.""",
+    params_setup=("setup",),
 )

@@ -37,12 +37,13 @@ import pinocchio as pin
 from .._docstrings import doc_entries, fill_doc
 from ..errors import ParameterError
 from ..robot.wheels import Wheels
+from ._docs import SIM_DOC
 from .plant import Plant
 
 __all__ = ["WheelStep", "WheeledPlant", "Wheels"]
 
 # numpydoc entries its docstrings share (ffsm_pin._docstrings)
-_DOC = doc_entries(
+_DOC = SIM_DOC | doc_entries(
     h_ndarray="""
         h : ndarray, shape (k,)
             Wheel momenta [N m s].""",
@@ -168,14 +169,10 @@ class WheeledPlant:
         q, v : ndarray
             Robot state at the start (Pinocchio convention).
         %(h_ndarray)s
-        u_m : ndarray, shape (n,)
-            Joint torques [N m], held.
+        %(u_m_held)s
         tau_w : ndarray, shape (k,)
             Commanded wheel torques [N m], held.
-        dt : float
-            Control step [s].
-        substeps : int
-            Plant steps per control step.
+        %(dt_substeps)s
 
         Returns
         -------

@@ -23,8 +23,10 @@ from typing import cast
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import fill_doc
 from ..attitude.mrp import to_rotation
 from ..robot.wheels import Wheels
+from ._docs import SIM_DOC
 from .plant import Plant
 from .setup import Setup
 from .wheels import WheeledPlant
@@ -36,13 +38,11 @@ WHEEL_COLUMNS = ("wheel_momentum", "wheel_speed", "wheel_torque")
 MomentumRows = Callable[[Mapping[str, np.ndarray]], tuple[np.ndarray, np.ndarray]]
 
 
+@fill_doc(SIM_DOC)
 def wheel_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     """The recorded shapes of the wheels' columns (none without wheels).
 
-    Parameters
-    ----------
-    setup : Setup
-        The run's setup.
+    %(params_setup)s
 
     Returns
     -------
@@ -77,6 +77,7 @@ class WheelsOutcome:
         return {"wheel_saturation_fraction": self.saturation_fraction}
 
 
+@fill_doc(SIM_DOC)
 class WheelsInLoop:
     """The loop's plant with reaction wheels on the bus (see the module docstring).
 
@@ -192,12 +193,8 @@ class WheelsInLoop:
         ----------
         q, v : ndarray
             The robot's state at the start.
-        u_m : ndarray, shape (n,)
-            Joint torques [N m], held.
-        dt : float
-            Control step [s].
-        substeps : int
-            Plant steps per control step.
+        %(u_m_held)s
+        %(dt_substeps)s
 
         Returns
         -------
@@ -292,14 +289,12 @@ class WheelsInLoop:
         return WheelsOutcome(self.saturated / max(1, periods))
 
 
+@fill_doc(SIM_DOC)
 def loop_plant(setup: Setup) -> tuple[Plant, WheelsInLoop | None]:
     """The loop's plant: a :class:`~.plant.Plant`, or with ``[robot.satellite.wheels]`` a
     :class:`WheelsInLoop` (returned twice: it is also the loop's wheel hook).
 
-    Parameters
-    ----------
-    setup : Setup
-        The prepared run.
+    %(params_setup)s
 
     Returns
     -------
