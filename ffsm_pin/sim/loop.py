@@ -31,6 +31,7 @@ from ..control.interface import (
 )
 from ..errors import SimulationError
 from .capture_run import target_motions
+from .detumble import detumble_outcome
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE
 from .recorder import Recorder
@@ -352,6 +353,9 @@ def simulate(
     if wheels is not None:
         momentum = wheels.total_momentum_rows(momentum)
     signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum)
+    outcomes: tuple = () if wheels is None else (wheels.outcome(k + 1),)  # more summary keys
+    if capture is not None:  # when the held target stops turning relative to the bus
+        outcomes += (detumble_outcome(signals.blocks, capture.outcome.time),)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))
@@ -365,5 +369,5 @@ def simulate(
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
         saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
         capture=None if capture is None else capture.outcome,
-        wheels=None if wheels is None else wheels.outcome(k + 1),
+        outcomes=outcomes,
     )

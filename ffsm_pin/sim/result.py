@@ -137,8 +137,8 @@ class RunResult:
         What the initial estimates were drawn as (``estimates.json``).
     target : Target or None
         The ``[target]`` body (:mod:`.target_run`): the summary's ``target_drift_*``.
-    capture, wheels : CaptureOutcome, WheelsOutcome or None
-        With ``[capture]`` (:mod:`.capture_run`), with wheels (:mod:`.wheels_run`): their keys.
+    capture, outcomes : CaptureOutcome or None, tuple
+        With ``[capture]`` (:mod:`.capture_run`); more (wheels, detumble): their summary keys.
     """
 
     scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
@@ -168,7 +168,7 @@ class RunResult:
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     target: Any = None  # the [target] body (sim.target.Target), None without one
     capture: Any = None  # the capture's outcome (sim.capture_run.CaptureOutcome) or None
-    wheels: Any = None  # the wheels' (sim.wheels_run.WheelsOutcome) or None
+    outcomes: tuple = ()  # objects with summary() (sim.wheels_run, sim.detumble)
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -385,7 +385,7 @@ class RunResult:
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
             out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
-        extras = (x.summary() for x in (self.capture, self.wheels) if x is not None)
+        extras = (x.summary() for x in (self.capture, *self.outcomes) if x is not None)
         return out | {k: v for extra in extras for k, v in extra.items()}
 
     def thinned(self, max_rows: int) -> RunResult:

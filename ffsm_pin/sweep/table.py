@@ -102,6 +102,7 @@ OPTIONAL_TYPES = {
     "relative_speed_at_capture": pa.float64(),  # [m/s]
     "impact_energy_lost": pa.float64(),  # [J]
     "wheel_saturation_fraction": pa.float64(),  # [robot.satellite.wheels]
+    "detumble_time": pa.float64(),  # [s], [capture]
 }
 
 

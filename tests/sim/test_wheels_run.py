@@ -219,3 +219,23 @@ def test_wheels_through_a_capture():
     stored = np.abs(h[held]).max()
     assert np.abs(L[held] - L[held][0]).max() < 1e-12 * max(stored, np.abs(L).max())
     assert np.abs(result["P"] - result["P"][0]).max() < 1e-12
+    # detumble_time: the row after the last one (from the capture on) at which the held box
+    # turns relative to the bus by 0.1 deg/s or more, recomputed with the quaternion's formula
+    # (None: still turning at the end; this case holds the hand's position, not its attitude)
+    x, y, z, w = result["target_pose"][:, 3:].T
+    R = np.stack(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    ).transpose(2, 0, 1)
+    rel = np.linalg.norm(
+        np.einsum("nij,nj->ni", R, result["target_twist"][:, 3:]) - result["w"][:, :3], axis=1
+    )
+    fast = np.flatnonzero(held & (rel >= np.deg2rad(0.1)))
+    if fast.size == 0:
+        expected = t[held][0]
+    else:
+        expected = None if fast[-1] == len(t) - 1 else t[fast[-1] + 1]
+    assert summary["detumble_time"] == expected
