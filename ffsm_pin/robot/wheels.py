@@ -29,9 +29,10 @@ _DOC = doc_entries(
 )
 
 #: The wheels' command when the controller gives none (``control``): ``"none"`` (zero
-#: torque) or ``"attitude-pd"`` (the bus attitude held at the reference by a PD law on the
-#: wheels, :meth:`Wheels.attitude_pd`; our extension, docs/capture.md).
-WHEEL_CONTROLS = ("none", "attitude-pd")
+#: torque), ``"attitude-pd"`` (the bus attitude held at the reference by a PD law on the
+#: wheels, :meth:`Wheels.attitude_pd`; our extension, docs/capture.md) or
+#: ``"attitude-pd-after-capture"`` (the same from a ``[capture]``'s grasp on, zero before).
+WHEEL_CONTROLS = ("none", "attitude-pd", "attitude-pd-after-capture")
 _LIMITS = ("axes", "inertia", "max_torque", "max_momentum")
 _KEYS = (*_LIMITS, "control", "kp", "kd")
 

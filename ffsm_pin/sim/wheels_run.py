@@ -106,6 +106,7 @@ class WheelsInLoop:
         self._row = (self.h, np.zeros(wheels.n))  # (h, torque applied) of the period
         self.saturated = 0  # control periods with a wheel cut by a limit
         self._R_d = to_rotation(np.asarray(base_attitude, dtype=float))
+        self.holding = False  # a [capture]'s hand holds the target (set by with_robot)
 
     def __getattr__(self, name: str):  # the inner plant's (model, data, robot, n_linear, ...)
         if name.startswith("__") or name == "wheeled":  # (copy.copy, before __dict__ is)
@@ -132,6 +133,7 @@ class WheelsInLoop:
             ``self``; :meth:`reset` sets the total momentum to keep.
         """
         self.wheeled = WheeledPlant(robot, self.wheels, integrator=self.wheeled.plant.integrator)
+        self.holding = True  # (only a capture swaps the robot)
         return self
 
     def reset(self, q, v) -> None:
@@ -178,7 +180,9 @@ class WheelsInLoop:
                     f"wheel_torque returned {tau.tolist()!r:.80} (shape {tau.shape}); expected "
                     f"({self.wheels.n},) finite numbers, one per wheel [N m]"
                 )
-        elif self.wheels.control == "attitude-pd":
+        elif self.wheels.control == "attitude-pd" or (
+            self.holding and self.wheels.control == "attitude-pd-after-capture"
+        ):
             R = to_rotation(np.asarray(meas.q_b, dtype=float))
             phi = pin.log3(self._R_d.T @ R)  # its axis: the same in both frames
             tau = self.wheels.attitude_pd(phi, R.T @ meas.w[:3])

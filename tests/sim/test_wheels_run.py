@@ -239,3 +239,27 @@ def test_wheels_through_a_capture():
     else:
         expected = None if fast[-1] == len(t) - 1 else t[fast[-1] + 1]
     assert summary["detumble_time"] == expected
+
+
+def test_attitude_pd_after_capture_starts_at_the_grasp():
+    """``control = "attitude-pd-after-capture"``: no wheel torque before the grasp (h stays
+    zero and the run is the one without wheels bit for bit), the PD's after it, with the whole
+    system's L kept from the capture on."""
+    table = (
+        '\n[robot.satellite.wheels]\ninertia = 0.05\ncontrol = "attitude-pd-after-capture"\n'
+        "kp = 20.0\nkd = 100.0\n"
+    )
+    runs = []
+    for extra in (table, ""):
+        sc = scenario_from_toml(builtin_path("capture").read_text() + extra)
+        runs.append(simulate(prepare(dataclasses.replace(sc, duration=3.3))))
+    wheeled, plain = runs
+    summary = wheeled.summary()
+    t, tau, h = wheeled["t"], wheeled["wheel_torque"], wheeled["wheel_momentum"]
+    before = t < summary["capture_time"]
+    assert summary["captured"] and not tau[before].any() and not h[before].any()
+    assert np.abs(tau[~before]).min(axis=1).max() > 0 and np.abs(h[-1]).max() > 0
+    for key in ("q", "v", "u_m"):
+        np.testing.assert_array_equal(wheeled[key][before], plain[key][before], err_msg=key)
+    L = wheeled["L"][~before]
+    assert np.abs(L - L[0]).max() < 1e-12 * np.abs(wheeled["L"]).max()
