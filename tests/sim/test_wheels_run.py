@@ -263,3 +263,14 @@ def test_attitude_pd_after_capture_starts_at_the_grasp():
         np.testing.assert_array_equal(wheeled[key][before], plain[key][before], err_msg=key)
     L = wheeled["L"][~before]
     assert np.abs(L - L[0]).max() < 1e-12 * np.abs(wheeled["L"]).max()
+
+
+def test_the_wheels_figure_is_drawn_for_runs_with_wheels(commanded, tmp_path):
+    from ffsm_pin.sim.figures import FIGURE_NAMES, WHEEL_FIGURE, write_figures
+
+    result, _ = commanded
+    paths = write_figures(result, tmp_path / "w")
+    assert [p.name for p in paths] == [*FIGURE_NAMES, WHEEL_FIGURE]
+    assert (tmp_path / "w" / WHEEL_FIGURE).stat().st_size > 10_000
+    plain, _ = _run("")
+    assert [p.name for p in write_figures(plain, tmp_path / "p")] == list(FIGURE_NAMES)
