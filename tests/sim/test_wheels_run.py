@@ -274,3 +274,11 @@ def test_the_wheels_figure_is_drawn_for_runs_with_wheels(commanded, tmp_path):
     assert (tmp_path / "w" / WHEEL_FIGURE).stat().st_size > 10_000
     plain, _ = _run("")
     assert [p.name for p in write_figures(plain, tmp_path / "p")] == list(FIGURE_NAMES)
+
+
+@pytest.mark.parametrize("tau_w", [[0.1, 0.2], [0.1, np.nan, 0.0]])
+def test_a_bad_wheel_torque_stops_the_run_as_a_controller_fault(tau_w):
+    result, _ = _run(WHEELS, tau_w=tau_w)
+    assert not result.completed and result.stop_cause == "controller"
+    assert "wheel_torque returned" in result.stop_reason and "one per wheel" in result.stop_reason
+    assert "\n" not in result.stop_reason
