@@ -139,7 +139,11 @@ class Wheels:
             return NotImplemented
         return all(np.array_equal(getattr(self, k), getattr(other, k)) for k in _KEYS)
 
-    __hash__ = None  # type: ignore[assignment]  # arrays: equal by value, not hashable
+    def __hash__(self) -> int:  # by value, as __eq__ (a RobotSpec is a cache key)
+        arrays = (self.axes, self.inertia, self.max_torque, self.max_momentum)
+        return hash(
+            (self.axes.shape, *(a.tobytes() for a in arrays), self.control, self.kp, self.kd)
+        )
 
     def table(self) -> dict:
         """The ``[robot.satellite.wheels]`` table that builds these wheels again

@@ -44,6 +44,8 @@ def test_round_trip(table):
     again = scenario_from_toml(text)
     assert again.robot.wheels == sc.robot.wheels and again.robot == sc.robot
     assert scenario_to_toml(again) == text
+    # a robot section is a cache key (a campaign's shared robots): hashable, by value
+    assert hash(again.robot) == hash(sc.robot) and len({again.robot, sc.robot}) == 1
     assert "[robot.satellite.wheels]" not in scenario_to_toml(scenario_from_toml(REALISTIC))
 
 
