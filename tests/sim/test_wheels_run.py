@@ -282,3 +282,34 @@ def test_a_bad_wheel_torque_stops_the_run_as_a_controller_fault(tau_w):
     assert not result.completed and result.stop_cause == "controller"
     assert "wheel_torque returned" in result.stop_reason and "one per wheel" in result.stop_reason
     assert "\n" not in result.stop_reason
+
+
+def test_a_campaign_varies_the_wheels_and_writes_their_column(tmp_path):
+    """A campaign over a scenario with wheels (the bus attitude PD on): the wheels' keys can be
+    varied, results.parquet has wheel_saturation_fraction typed, the nominal row (no limit)
+    0 and a 1 mN m torque limit cutting every period's command."""
+    import pyarrow.parquet as pq
+
+    from ffsm_pin.sweep.campaign import load_campaign
+    from ffsm_pin.sweep.cases import expand
+    from ffsm_pin.sweep.engine import run_case
+    from ffsm_pin.sweep.table import ResultsTable
+
+    table = '\n[robot.satellite.wheels]\ninertia = 0.05\ncontrol = "attitude-pd"\nkp = 3.0\n'
+    (tmp_path / "wheels.toml").write_text(builtin_path("spatial").read_text() + table)
+    path = tmp_path / "campaign.toml"
+    path.write_text(
+        '[campaign]\nname = "wheel-limit"\nscenario = "wheels.toml"\nseed = 1\n'
+        f"duration = {DURATION}\n\n"
+        '[[vary]]\nkey = "robot.satellite.wheels.max_torque"\nvalues = [0.001]\n',
+        encoding="utf-8",
+    )
+    campaign = load_campaign(path)
+    cases = expand(campaign)
+    results = ResultsTable(tmp_path / "results.parquet", campaign.columns)
+    for case in cases:
+        results.add(case, run_case(case.scenario_toml))
+    got = pq.read_table(tmp_path / "results.parquet")
+    assert got.schema.field("wheel_saturation_fraction").type == "double"
+    rows = sorted(got.to_pylist(), key=lambda r: r["case"])
+    assert [r["wheel_saturation_fraction"] for r in rows] == [0.0, 1.0]
