@@ -116,11 +116,14 @@ def _floats(x: list[float]) -> tuple[float, ...]:
 
 
 def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
-    satellite = None
+    satellite, wheels = None, None
     if r.satellite is not None:
         from ..robot import Satellite
 
-        satellite = Satellite(**r.satellite.model_dump())
+        if r.satellite.wheels is not None:
+            wheels = r.satellite.wheels.wheels()
+        if r.satellite.model_fields_set != {"wheels"}:  # (only wheels: the URDF's own bus)
+            satellite = Satellite(**r.satellite.model_dump(exclude={"wheels"}))
     payload = None
     if r.payload is not None:
         from ..robot import Payload
@@ -134,6 +137,7 @@ def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
         locked_joints=tuple((k, float(v)) for k, v in r.locked_joints.items()),
         satellite=satellite,
         payload=payload,
+        wheels=wheels,
     )
 
 

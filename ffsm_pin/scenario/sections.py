@@ -58,6 +58,7 @@ from .values import (
     or_list,
     vec,
 )
+from .wheels_spec import WheelsModel
 
 #: For each supported base: (m2 end-effector position components, m3 attitude components).
 TASK_SIZE = {"planar": (2, 1), "free-flyer": (3, 3)}
@@ -74,6 +75,7 @@ class SatelliteModel(Table):
     mount_xyz: vec(3) = default(Satellite, "mount_xyz")  # [m]
     mount_rpy: vec(3) = default(Satellite, "mount_rpy")  # [rad]
     name: str = default(Satellite, "name")
+    wheels: WheelsModel | None = None  # reaction wheels on the bus (scenario/wheels_spec.py)
 
 
 class PayloadModel(Table):
@@ -110,7 +112,10 @@ class RobotModel(Table):
 
     @model_validator(mode="after")
     def spatial_only(self):
-        """Refuse locked joints and a satellite body on a planar robot."""
+        """Refuse locked joints, a satellite body and wheels on a planar robot."""
+        if self.satellite is not None and self.satellite.wheels is not None:
+            if self.base != "free-flyer":
+                fail(("satellite", "wheels"), " apply only to base = 'free-flyer' (spatial)")
         if (self.locked_joints or self.satellite is not None) and self.base != "free-flyer":
             fail(("locked_joints",), " and [robot.satellite] apply only to base = 'free-flyer'")
         return self

@@ -258,10 +258,8 @@ class Reference:
 
 @dataclass(frozen=True)
 class RobotSpec:
-    """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also the
-    optional ``locked_joints``, ((name, value), ...) [rad or m], and ``satellite``, a
-    :class:`~ffsm_pin.robot.Satellite` added under an arm-only URDF's root); ``payload``, a
-    :class:`~ffsm_pin.robot.Payload` held by the end effector (either base).
+    """Which robot: ``base = "planar"`` or ``"free-flyer"`` (spatial; then also
+    ``locked_joints``, ``satellite`` and ``wheels``); ``payload`` (either base).
 
     Attributes
     ----------
@@ -275,10 +273,8 @@ class RobotSpec:
         Folder of the scenario file.
     locked_joints : tuple of (str, float)
         ((name, value), ...) [rad or m], free-flyer only.
-    satellite : Satellite or None
-        Added under an arm-only URDF's root, free-flyer only.
-    payload : Payload or None
-        Held by the end effector.
+    satellite, payload, wheels : Satellite, Payload, Wheels or None
+        A bus added under an arm-only URDF's root, a body in the hand, wheels on the bus.
     """
 
     urdf: str = "ffsm_planar4.urdf"  # shipped name or path (relative to relative_to)
@@ -288,6 +284,7 @@ class RobotSpec:
     locked_joints: tuple[tuple[str, float], ...] = ()
     satellite: Any = None  # ffsm_pin.robot.Satellite | None
     payload: Any = None  # ffsm_pin.robot.Payload | None, held by the end effector
+    wheels: Any = None  # ffsm_pin.robot.wheels.Wheels | None, on the bus
 
 
 @dataclass(frozen=True)

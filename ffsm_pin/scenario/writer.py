@@ -50,6 +50,9 @@ def scenario_to_toml(scenario: Scenario) -> str:
             f"{k} = {_toml(getattr(sat, k))}"
             for k in ("mass", "inertia", "size", "mount_xyz", "mount_rpy", "name")
         ]
+    if r.wheels is not None:  # (alone: on the URDF's own bus, scenario/wheels_spec.py)
+        lines += ["", "[robot.satellite.wheels]"]
+        lines += [f"{k} = {_toml(v)}" for k, v in r.wheels.table().items()]
     if r.payload is not None:
         pay = r.payload
         lines += ["", "[robot.payload]"]

@@ -16,4 +16,16 @@ SIM_DOC = doc_entries(
             The body.
         state : TargetState
             Its state at t = 0.""",
+    u_m_held="""
+        u_m : ndarray, shape (n,)
+            Joint torques [N m], held.""",
+    dt_substeps="""
+        dt : float
+            Control step [s].
+        substeps : int
+            Plant steps per control step.""",
+    setup="""
+        setup : Setup
+            The prepared run.""",
+    params_setup=("setup",),
 )

@@ -158,8 +158,7 @@ class CaptureMotion(TargetMotion):
         hit = impact(cap, qc, vc)
         known = self.estimates != "unknown"
         robot, q_new, v_new = merge_after_capture(cap, qc, hit.v, known=known)
-        self.plant = Plant(robot, integrator=plant.integrator,
-                           project_momentum=plant.project_momentum)  # fmt: skip
+        self.plant = plant.with_robot(robot)  # (with wheels, they stay on the bus)
         self.plant.reset(q_new, v_new)  # the merged system's momentum, kept from now on
         data = cap.model.createData()
         pin.framesForwardKinematics(cap.model, data, qc)

@@ -16,7 +16,9 @@ Figures written:
   and |u_m| [N m] (Fig. 4);
 * ``fig_torque.png``: reaction torque on the base F_r [N m] (Eq. 7) and the smallest
   singular value of J_m-hat U-hat [m] with the damping threshold;
-* ``fig_path.png``: end-effector path and its reference in the plane [m].
+* ``fig_path.png``: end-effector path and its reference in the plane [m];
+* ``fig_wheels.png``, runs with reaction wheels only (docs/capture.md): each wheel's momentum
+  h [N m s], motor torque [N m] and spin relative to the bus [rad/s].
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ FIGURE_NAMES = (
     "fig_torque.png",
     "fig_path.png",
 )
+WHEEL_FIGURE = "fig_wheels.png"  # (runs with [robot.satellite.wheels] only)
 MAX_COLUMNS = 1500  # envelope bins per line (2 points each)
 _FUNNEL_STYLE = {"color": "black", "linestyle": ":", "linewidth": 1.0}
 _JOINT_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown")
@@ -100,6 +103,11 @@ def write_figures(
         path = out_dir / name
         fig.savefig(path, dpi=dpi)
         paths.append(path)
+    if any("wheel_momentum" in run for run in runs):
+        fig = _wheels(runs, labels)
+        FigureCanvasAgg(fig)
+        fig.savefig(out_dir / WHEEL_FIGURE, dpi=dpi)
+        paths.append(out_dir / WHEEL_FIGURE)
     return paths
 
 
@@ -286,6 +294,24 @@ def _path(runs, labels, thresholds) -> Figure:
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_title("End-effector path (o: start)", fontsize=10)
     ax.legend(fontsize=8)
+    return fig
+
+
+def _wheels(runs, labels) -> Figure:
+    keys = ("wheel_momentum", "wheel_torque", "wheel_speed")
+    fig, axes = _grid(3, "Reaction wheels: momentum, motor torque, spin", runs)
+    for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
+        if "wheel_momentum" not in run:
+            continue
+        prefix = f"{label}, " if label else ""
+        for ax, key in zip(axes, keys, strict=True):
+            rows = np.asarray(run[key])
+            for i in range(rows.shape[1]):  # one line per wheel
+                _plot(ax, run["t"], rows[:, i], color=f"C{k}",
+                      linestyle=_RUN_STYLES[i % len(_RUN_STYLES)],
+                      label=f"{prefix}wheel {i}" if ax is axes[0] else None)  # fmt: skip
+    ylabels = ("$h$ [N m s]", r"$\tau_w$ [N m]", r"$\Omega$ [rad/s]")
+    _finish(axes, runs, ylabels, legends=(0,))
     return fig
 
 

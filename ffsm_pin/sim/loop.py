@@ -31,8 +31,9 @@ from ..control.interface import (
 )
 from ..errors import SimulationError
 from .capture_run import target_motions
+from .detumble import detumble_outcome
 from .measurement import Sensor
-from .plant import STATE_BLOW_UP, STATE_NONFINITE, Plant
+from .plant import STATE_BLOW_UP, STATE_NONFINITE
 from .recorder import Recorder
 from .recording import (
     recorded_signals,
@@ -45,6 +46,7 @@ from .recording import (
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
+from .wheels_run import MomentumRows, loop_plant
 
 #: The columns the loop writes at every recorded step (as recorder_shapes), and those of what
 #: the controller saw when there are sensors.
@@ -150,7 +152,8 @@ def simulate(
     check_storage(*recording_size(setup), record_every, spool_dir or tempfile.gettempdir())
     controller = setup.controller
     model = setup.model
-    plant = Plant(setup.robot, integrator=sc.integrator)
+    # the plant; with [robot.satellite.wheels] the robot and its wheels (sim/wheels_run.py)
+    plant, wheels = loop_plant(setup)
     needs_dynamics = bool(getattr(controller, "needs_dynamics", False))
     sensor = Sensor(setup.robot, model, full_model=needs_dynamics)  # Pinocchio M, C w
     shapes = recorder_shapes(setup)
@@ -227,6 +230,8 @@ def simulate(
             try:
                 u_cmd, signals = split_reply(controller.step(seen))
                 u_cmd = _checked_torque(u_cmd, n)
+                if wheels is not None:  # the controller's wheel torques, or the wheels' own
+                    wheels.command(controller, seen)
                 if k == 0:  # the controller's signals: names and shapes from the first period
                     names = {key: recorded_name(key) for key in signals}
                     for key, value in signals.items():
@@ -318,6 +323,8 @@ def simulate(
                     )  # fmt: skip
                     break
                 A_u_m[i], A_u_cmd[i] = u_m, u_cmd
+                if wheels is not None:
+                    wheels.write(A, i, v)
                 A_dw_b[i] = sensor.base_angular_acceleration(a)  # for F_r (Eq. 7)
                 rec.commit()
             if final:
@@ -341,8 +348,14 @@ def simulate(
         stop = SimulationError(
             f"t = {k * dt:.4f} s: interrupted (Ctrl-C)", time=k * dt, cause="interrupted"
         )
-    momentum = None if capture is None else capture.momentum_rows  # the whole system's
+    # the whole system's momentum: with the target, with the wheels
+    momentum: MomentumRows | None = None if capture is None else capture.momentum_rows
+    if wheels is not None:
+        momentum = wheels.total_momentum_rows(momentum)
     signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum)
+    outcomes: tuple = () if wheels is None else (wheels.outcome(k + 1),)  # more summary keys
+    if capture is not None:  # when the held target stops turning relative to the bus
+        outcomes += (detumble_outcome(signals.blocks, capture.outcome.time),)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))
@@ -356,4 +369,5 @@ def simulate(
         saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
         saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
         capture=None if capture is None else capture.outcome,
+        outcomes=outcomes,
     )

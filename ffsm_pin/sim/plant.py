@@ -236,14 +236,17 @@ class Plant:
         """
         self.momentum0 = self.momentum(q, v)
 
-    def acceleration(self, q, v, u_m) -> np.ndarray:
-        """Forward dynamics (ABA) with joint torques ``u_m`` [N m] and a free base.
+    def acceleration(self, q, v, u_m, base_wrench=None) -> np.ndarray:
+        """Forward dynamics (ABA) with joint torques ``u_m`` [N m] and a free base (or a
+        ``base_wrench`` on it, :meth:`step`).
 
         Parameters
         ----------
         %(q_v)s
         u_m : ndarray, shape (n,)
             Joint torques [N m].
+        base_wrench : ndarray or None
+            Generalized force on the root joint.
 
         Returns
         -------
@@ -251,7 +254,27 @@ class Plant:
             The acceleration (Pinocchio convention).
         """
         self._tau[self.n_base :] = u_m
-        return pin.aba(self.model, self.data, q, v, self._tau).copy()
+        if base_wrench is None:
+            return pin.aba(self.model, self.data, q, v, self._tau).copy()
+        tau = self._tau.copy()
+        tau[: self.n_base] = base_wrench
+        return pin.aba(self.model, self.data, q, v, tau).copy()
+
+    def with_robot(self, robot) -> Plant:
+        """A plant of the same kind (integrator, projection) for another robot (the merged
+        robot at a capture, :mod:`.capture_run`; with wheels, :mod:`.wheels_run`).
+
+        Parameters
+        ----------
+        robot : Robot or pin.Model
+            The new robot.
+
+        Returns
+        -------
+        Plant
+            The new plant (:meth:`reset` it).
+        """
+        return Plant(robot, integrator=self.integrator, project_momentum=self.project_momentum)
 
     def step(self, q, v, u_m, dt: float, base_wrench=None) -> StepResult:
         """Advance (q, v) by ``dt`` [s] with joint torques ``u_m`` held constant.

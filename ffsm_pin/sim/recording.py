@@ -22,6 +22,7 @@ from .recorder import Signals, extend
 from .result import RunResult
 from .setup import Setup
 from .target_run import TARGET_SIGNALS
+from .wheels_run import WHEEL_COLUMNS, wheel_shapes
 
 
 def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
@@ -48,6 +49,7 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
         }),
         **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
         **({} if setup.target is None else TARGET_SIGNALS),  # the target's pose and twist
+        **wheel_shapes(setup),  # the wheels' momenta, speeds and torques
     }  # fmt: skip
 
 
@@ -181,8 +183,8 @@ def recorded_signals(
     if momentum is None:
         rows = plant.momentum_rows
         momentum = lambda block: rows(block["q"], block["v"])  # noqa: E731
-    else:  # (a run with [capture]: the target's rows too)
-        inputs = (*inputs, *TARGET_SIGNALS)
+    else:  # (a run with [capture] or wheels: the target's and wheels' rows too)
+        inputs = (*inputs, *(k for k in (*TARGET_SIGNALS, *WHEEL_COLUMNS) if k in raw))
     per_row, truth = _after_run_signals(setup, reaction, momentum)
     return extend(raw, per_row, truth, inputs)
 

@@ -131,16 +131,14 @@ class RunResult:
         The controller type (``[controller] type``).
     sigma_measure : str or None
         What the controller's sigma_min is the smallest singular value of.
-    saturation_fraction : float
-        Fraction of control periods with a joint at its torque limit.
-    saturation_per_joint : list of float or None
-        The same per joint (None: not counted).
+    saturation_fraction, saturation_per_joint : float, list of float or None
+        Fraction of control periods with a joint at its torque limit, and per joint.
     estimates : dict or None
         What the initial estimates were drawn as (``estimates.json``).
     target : Target or None
         The ``[target]`` body (:mod:`.target_run`): the summary's ``target_drift_*``.
-    capture : CaptureOutcome or None
-        With ``[capture]`` (:mod:`.capture_run`): the summary's ``captured``, ``capture_time``...
+    capture, outcomes : CaptureOutcome or None, tuple
+        With ``[capture]`` (:mod:`.capture_run`); more (wheels, detumble): their summary keys.
     """
 
     scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
@@ -170,6 +168,7 @@ class RunResult:
     estimates: dict | None = None  # what the initial estimates were drawn as (estimates.json)
     target: Any = None  # the [target] body (sim.target.Target), None without one
     capture: Any = None  # the capture's outcome (sim.capture_run.CaptureOutcome) or None
+    outcomes: tuple = ()  # objects with summary() (sim.wheels_run, sim.detumble)
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -386,7 +385,8 @@ class RunResult:
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
             out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
-        return out if self.capture is None else {**out, **self.capture.summary()}
+        extras = (x.summary() for x in (self.capture, *self.outcomes) if x is not None)
+        return out | {k: v for extra in extras for k, v in extra.items()}
 
     def thinned(self, max_rows: int) -> RunResult:
         """The result with at most about ``max_rows`` evenly spaced rows (and the last one)
@@ -414,9 +414,8 @@ class RunResult:
             Also draw the figures (``fig_*.png``, as ``python -m ffsm_pin.sim`` does, from at
             most 100,000 evenly spaced rows).
         compress : bool
-            Deflate ``trajectory.npz`` (``numpy.savez_compressed``). Off by default: recorded
-            trajectories are floats that deflate by about a tenth, and deflating them costs
-            about 20 times the writing (3.4 s of a 40 s spatial run's 9 s; docs/cli.md).
+            Deflate ``trajectory.npz`` (``numpy.savez_compressed``); off by default: floats
+            deflate by about a tenth for 20 times the writing time (docs/cli.md).
 
         Raises
         ------

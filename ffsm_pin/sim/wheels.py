@@ -29,169 +29,25 @@ so L_total is kept to rounding; the held bus torque makes the trajectory first o
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
 
 from .._docstrings import doc_entries, fill_doc
-from ..errors import ParameterError, check_keys
+from ..errors import ParameterError
+from ..robot.wheels import Wheels
+from ._docs import SIM_DOC
 from .plant import Plant
 
+__all__ = ["WheelStep", "WheeledPlant", "Wheels"]
+
 # numpydoc entries its docstrings share (ffsm_pin._docstrings)
-_DOC = doc_entries(
-    h="""
-        h : array_like, shape (k,)
-            Wheel momenta [N m s].""",
-    w_bus="""
-        w_bus : array_like, shape (3,)
-            The bus's angular velocity, bus frame [rad/s].""",
+_DOC = SIM_DOC | doc_entries(
     h_ndarray="""
         h : ndarray, shape (k,)
             Wheel momenta [N m s].""",
-    params_h_w_bus=("h", "w_bus"),
 )
-
-_KEYS = ("axes", "inertia", "max_torque", "max_momentum")
-
-
-def _per_wheel(value, n: int, key: str, *, positive: bool = True) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
-    if arr.shape != (n,):
-        raise ParameterError(f"wheels.{key}: expected one number or {n}, got shape {arr.shape}")
-    if np.isnan(arr).any() or (positive and not (arr > 0).all()):
-        raise ParameterError(f"wheels.{key}: every value must be > 0, got {arr.tolist()}")
-    arr.setflags(write=False)
-    return arr
-
-
-@dataclass(frozen=True, eq=False)
-@fill_doc(_DOC)
-class Wheels:
-    """N reaction wheels fixed in the bus.
-
-    Attributes
-    ----------
-    axes : ndarray
-        (3, N) spin axes in the bus (root joint) frame, unit vectors (``"xyz"``: the three
-        frame axes; other columns are normalised, a zero column is refused).
-    inertia : ndarray
-        (N,) spin (axial) inertias J_s [kg m^2], > 0.
-    max_torque : ndarray
-        (N,) motor torque limits [N m], > 0 (``inf``: none).
-    max_momentum : ndarray
-        (N,) momentum capacities, ``abs(h_i) <= max_momentum`` [N m s], > 0 (``inf``: none).
-    """
-
-    axes: np.ndarray
-    inertia: np.ndarray
-    max_torque: np.ndarray = np.inf  # type: ignore[assignment]  # a number stands for all
-    max_momentum: np.ndarray = np.inf  # type: ignore[assignment]
-
-    def __post_init__(self) -> None:
-        axes = self.axes
-        if isinstance(axes, str):
-            if axes != "xyz":
-                raise ParameterError(
-                    f"wheels.axes: {axes!r} unknown; give 'xyz' or a 3 x N matrix of axes"
-                )
-            axes = np.eye(3)
-        axes = np.array(axes, dtype=float)
-        if axes.ndim != 2 or axes.shape[0] != 3 or axes.shape[1] < 1:
-            raise ParameterError(
-                f"wheels.axes: expected 'xyz' or a 3 x N matrix (one column per wheel), got "
-                f"shape {axes.shape}"
-            )
-        norms = np.linalg.norm(axes, axis=0)
-        if not (np.isfinite(norms).all() and (norms > 1e-12).all()):
-            bad = [i for i, x in enumerate(norms) if not (np.isfinite(x) and x > 1e-12)]
-            raise ParameterError(f"wheels.axes: wheel(s) {bad} have a zero or non-finite axis")
-        axes = axes / norms
-        axes.setflags(write=False)
-        n = axes.shape[1]
-        object.__setattr__(self, "axes", axes)
-        object.__setattr__(self, "inertia", _per_wheel(self.inertia, n, "inertia"))
-        object.__setattr__(self, "max_torque", _per_wheel(self.max_torque, n, "max_torque"))
-        object.__setattr__(self, "max_momentum", _per_wheel(self.max_momentum, n, "max_momentum"))
-
-    @classmethod
-    def from_mapping(cls, table: Mapping) -> Wheels:
-        """From a dict (e.g. a scenario's ``[robot.satellite.wheels]``): ``axes`` (default
-        ``"xyz"``), ``inertia`` (required), ``max_torque`` and ``max_momentum`` (default: no
-        limit); a number stands for every wheel. Unknown keys are errors."""
-        check_keys(table, _KEYS, "wheels")
-        if "inertia" not in table:
-            raise ParameterError("wheels: 'inertia' (each wheel's spin inertia, kg m^2) is missing")
-        return cls(
-            axes=table.get("axes", "xyz"),
-            inertia=table["inertia"],
-            max_torque=table.get("max_torque", np.inf),
-            max_momentum=table.get("max_momentum", np.inf),
-        )
-
-    @property
-    def n(self) -> int:
-        """The number of wheels."""
-        return int(self.axes.shape[1])
-
-    def limit(self, h, tau, dt: float) -> np.ndarray:
-        """The torques [N m] the wheels apply for commanded ``tau`` over ``dt`` [s] from
-        momenta ``h``: clipped to +-max_torque, then so that ``abs(h + tau dt) <= max_momentum``
-        (a wheel at its capacity gives no more torque that way).
-
-        Parameters
-        ----------
-        %(h)s
-        tau : array_like, shape (k,)
-            Commanded torques [N m].
-        dt : float
-            The step [s].
-
-        Returns
-        -------
-        ndarray, shape (k,)
-            The torques applied [N m].
-        """
-        h, tau = np.asarray(h, dtype=float), np.asarray(tau, dtype=float)
-        out = np.clip(tau, -self.max_torque, self.max_torque)
-        return np.clip(out, (-self.max_momentum - h) / dt, (self.max_momentum - h) / dt)
-
-    def momentum_bus(self, h) -> np.ndarray:
-        """A h: the wheels' angular momentum in the bus frame [N m s]."""
-        return self.axes @ np.asarray(h, dtype=float)
-
-    def bus_torque(self, h, tau, w_bus) -> np.ndarray:
-        """The torque on the bus [N m], bus frame: -(A tau + w_bus x A h).
-
-        Parameters
-        ----------
-        %(h)s
-        tau : array_like, shape (k,)
-            Wheel torques [N m].
-        %(w_bus)s
-
-        Returns
-        -------
-        ndarray, shape (3,)
-            The torque [N m], bus frame.
-        """
-        return -(self.axes @ np.asarray(tau, float) + np.cross(w_bus, self.momentum_bus(h)))
-
-    def spin_rates(self, h, w_bus) -> np.ndarray:
-        """Each wheel's spin relative to the bus [rad/s]: h_i / J_s,i - a_i . w_bus.
-
-        %(params_h_w_bus)s
-
-        Returns
-        -------
-        ndarray, shape (k,)
-            Spin rates [rad/s].
-        """
-        return np.asarray(h, float) / self.inertia - self.axes.T @ np.asarray(w_bus, float)
 
 
 class WheelStep(NamedTuple):
@@ -313,14 +169,10 @@ class WheeledPlant:
         q, v : ndarray
             Robot state at the start (Pinocchio convention).
         %(h_ndarray)s
-        u_m : ndarray, shape (n,)
-            Joint torques [N m], held.
+        %(u_m_held)s
         tau_w : ndarray, shape (k,)
             Commanded wheel torques [N m], held.
-        dt : float
-            Control step [s].
-        substeps : int
-            Plant steps per control step.
+        %(dt_substeps)s
 
         Returns
         -------

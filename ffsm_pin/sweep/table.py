@@ -93,13 +93,16 @@ SUMMARY_TYPES = {
     "case_cpu_s": pa.float64(),
 }
 TAIL = {"scenario_toml": pa.string()}
-# Columns of some runs only (a scenario with [capture], docs/capture.md), typed when present.
+# Columns of some runs only (a scenario with [capture] or wheels, docs/capture.md), typed
+# when present.
 OPTIONAL_TYPES = {
     "captured": pa.bool_(),
     "capture_time": pa.float64(),  # [s]
     "impact_impulse": pa.list_(pa.float64()),  # [N s] x 3, [N m s] x 3
     "relative_speed_at_capture": pa.float64(),  # [m/s]
     "impact_energy_lost": pa.float64(),  # [J]
+    "wheel_saturation_fraction": pa.float64(),  # [robot.satellite.wheels]
+    "detumble_time": pa.float64(),  # [s], [capture]
 }
 
 
