@@ -61,9 +61,9 @@ def reach_acceleration(distance, rho, lower, upper, ts) -> tuple[np.ndarray, np.
     return np.where(need, best, 0.0), np.where(need, t[k, 0], np.nan)
 
 
-def row_map(M, J, L_b, m3: int, attitude: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(M*, G): joint torque per joint acceleration and the funnel rows' acceleration per
-    joint acceleration, at rest with the base unactuated (module docstring).
+def row_map(M, J, L_b, m3: int, attitude: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M*, G, B): joint torque per joint acceleration, the funnel rows' acceleration per
+    joint acceleration, and the base's, at rest with the base unactuated (module docstring).
 
     Parameters
     ----------
@@ -84,13 +84,55 @@ def row_map(M, J, L_b, m3: int, attitude: bool) -> tuple[np.ndarray, np.ndarray]
         M_mm - M_mb M_bb^-1 M_bm.
     G : ndarray, shape (r, n)
         The rows' accelerations per joint acceleration.
+    B : ndarray, shape (m3, n)
+        -M_bb^-1 M_bm: the base's angular acceleration (and, without angular momentum, rate)
+        per joint acceleration (rate).
     """
     M, J = np.asarray(M, dtype=float), np.asarray(J, dtype=float)
-    base = -np.linalg.solve(M[:m3, :m3], M[:m3, m3:])  # dw_b/dt per dw_m/dt
-    M_star = M[m3:, m3:] + M[m3:, :m3] @ base
-    task = J[:, m3:] + J[:, :m3] @ base
-    G = np.vstack((np.asarray(L_b, dtype=float) @ base, task)) if attitude else task
-    return M_star, G
+    B = -np.linalg.solve(M[:m3, :m3], M[:m3, m3:])
+    M_star = M[m3:, m3:] + M[m3:, :m3] @ B
+    task = J[:, m3:] + J[:, :m3] @ B
+    G = np.vstack((np.asarray(L_b, dtype=float) @ B, task)) if attitude else task
+    return M_star, G, B
+
+
+def along_reference(maps, rates, q_b, q_m, ts) -> tuple[np.ndarray, list]:
+    """The configurations a robot passes that moves its rows at ``rates`` from (q_b, q_m)
+    without angular momentum, and (M*, G) at each (explicit Euler steps between the times
+    ``ts``; the least-norm joint rates G^+ rates, the base turning by B).
+
+    Parameters
+    ----------
+    maps : callable
+        ``maps(q_b, q_m)`` -> (M*, G, B, L_b) of the geometry at a configuration
+        (:func:`row_map` and the attitude matrix).
+    rates : callable
+        ``rates(t, q_b, q_m)`` -> the rows' rates (r,) there (the reference's, with its
+        error decaying, say).
+    q_b : float or ndarray
+        The initial base attitude [rad] or MRP.
+    q_m : ndarray, shape (n,)
+        The initial joint angles [rad].
+    ts : ndarray, shape (T,)
+        The times [s], increasing.
+
+    Returns
+    -------
+    q_ms : ndarray, shape (T, n)
+        The joint angles at ``ts``.
+    mapped : list of tuple
+        (M*, G) at each time.
+    """
+    q_b, q_m = np.array(q_b, dtype=float), np.array(q_m, dtype=float)
+    q_ms, mapped = [], []
+    for t, h in zip(ts, np.diff(ts, append=ts[-1]), strict=True):
+        M_star, G, B, L_b = maps(q_b, q_m)
+        q_ms.append(q_m.copy())
+        mapped.append((M_star, G))
+        w_m = np.linalg.pinv(G) @ rates(t, q_b, q_m)
+        q_m = q_m + h * w_m
+        q_b = np.reshape(q_b + h * (L_b @ (B @ w_m)), np.shape(q_b))
+    return np.array(q_ms), mapped
 
 
 def torque_needed(M_star, G, accel) -> np.ndarray:
@@ -128,9 +170,12 @@ class TorqueFeasibility:
     t_reach : ndarray, shape (r,)
         When the reach demand is largest [s] (nan where none).
     share : ndarray, shape (n, r)
-        :func:`torque_needed` of max(reach, follow).
+        :func:`torque_needed` of max(reach, follow) at the worst configuration along the
+        reference (:func:`along_reference`: the largest need-to-limit ratio).
     limit : ndarray, shape (n,)
         The torque limits [N m], inf where none.
+    t_config : float
+        The reference's time of that configuration [s] (0: the initial one).
     """
 
     rows: tuple[str, ...]
@@ -139,6 +184,7 @@ class TorqueFeasibility:
     t_reach: np.ndarray
     share: np.ndarray
     limit: np.ndarray
+    t_config: float = 0.0
 
     @property
     def needed(self) -> np.ndarray:
@@ -176,12 +222,13 @@ class TorqueFeasibility:
             why = "to follow the reference; slow reference.ee (its amplitudes or frequencies)"
         return (
             f"torque feasibility: joint {joint_names[j]!r} needs about {self.needed[j]:.4g} N m "
-            f"at the initial configuration, {ratio[j]:.3g} x its actuators.torque_limit "
+            f"in the configuration of t = {self.t_config:.3g} s along the reference, "
+            f"{ratio[j]:.3g} x its actuators.torque_limit "
             f"{self.limit[j]:.4g} N m; most of it for funnel row {funnel}[{comp}] "
             f"({max(self.reach[i], self.follow[i]):.3g} /s^2 {why}), or raise the limit"
         )
 
 
 __all__ = [
-    "TorqueFeasibility", "reach_acceleration", "row_map", "torque_needed",
+    "TorqueFeasibility", "along_reference", "reach_acceleration", "row_map", "torque_needed",
 ]  # fmt: skip

@@ -16,6 +16,7 @@ from ..attitude import mrp
 from ..control.kinematic import attitude_matrix, error_terms, task_size
 from ..control.saturation_feasibility import (
     TorqueFeasibility,
+    along_reference,
     reach_acceleration,
     row_map,
     torque_needed,
@@ -252,6 +253,8 @@ def check(scenario: Scenario) -> CheckReport:
 
 #: reference samples over the run of :func:`torque_feasibility`
 FEASIBILITY_SAMPLES = 2000
+#: configurations along the reference where :func:`torque_feasibility` maps the demand
+ALONG_SAMPLES = 400
 
 
 def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
@@ -262,9 +265,12 @@ def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
     The funnel rows are the base attitude (unless the controller's scheme is
     ``"no-attitude"`` or the robot has too few joints for it) and the task rows. Their reach
     demand is taken over :data:`FEASIBILITY_SAMPLES` times in (0, duration], their follow
-    demand from the reference's acceleration at the same times; the map to joint torques is
-    the one at the initial state, with the controller's initial estimates (the truth when it
-    has none). Nothing of the control law is evaluated or compiled.
+    demand from the reference's acceleration at the same times. The map to joint torques is
+    taken at :data:`ALONG_SAMPLES` configurations of a robot that follows the reference from
+    the initial one, its errors decaying at the funnels' rates beta
+    (:func:`~ffsm_pin.control.saturation_feasibility.along_reference`), with the controller's
+    initial estimates (the truth when it has none);
+    the worst one is kept. Nothing of the control law is evaluated or compiled.
 
     Parameters
     ----------
@@ -287,18 +293,21 @@ def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
     ctx = getattr(setup.controller, "context", None)
     est = None if ctx is None else ctx.estimates
     theta_z, theta_d = (setup.theta_z, setup.theta_d) if est is None else est[:2]
-    q_b, q_m = meas.q_b, meas.q_m
-    J_b, J_m = model.jacobians(theta_z, q_b, q_m)
-    J = np.hstack((J_b[:n_task], J_m[:n_task]))
-    M = model.mass_matrix(theta_d, q_b, q_m)
     attitude = getattr(setup.controller, "scheme", None) != "no-attitude"
     attitude = attitude and m3 + n_task <= setup.robot.n_joints
-    M_star, G = row_map(M, J, np.real(attitude_matrix(q_b, m3)), m3, attitude)
+
+    def maps(q_b, q_m):  # (M*, G, B, L_b) at a configuration, with the estimates
+        J_b, J_m = model.jacobians(theta_z, q_b, q_m)
+        J = np.hstack((J_b[:n_task], J_m[:n_task]))
+        L_b = np.real(attitude_matrix(q_b, m3))
+        return (*row_map(model.mass_matrix(theta_d, q_b, q_m), J, L_b, m3, attitude), L_b)
+
     ts = np.linspace(sc.duration / FEASIBILITY_SAMPLES, sc.duration, FEASIBILITY_SAMPLES)
     z_d = ref.sample(ts)[0]
     at_rest = np.tile(np.asarray(meas.z_e, dtype=float)[:n_task], (ts.size, 1))
     q_bd = np.asarray(ref.base_attitude, dtype=float)
-    d_b, d_z = error_terms(np.tile(np.atleast_1d(q_b), (ts.size, 1)), q_bd, at_rest, z_d, m3)
+    resting_b = np.tile(np.atleast_1d(meas.q_b), (ts.size, 1))
+    d_b, d_z = error_terms(resting_b, q_bd, at_rest, z_d, m3)
     follow_z = np.max(np.abs([ref.ee_accel(t) for t in ts]), axis=0)
     funnels = [("z", setup.funnel_z, d_z, follow_z)]
     if attitude:
@@ -312,6 +321,23 @@ def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
         follow.append(f)
         t_reach.append(t_a)
     reach_a, follow_a = np.concatenate(reach), np.concatenate(follow)
-    share = torque_needed(M_star, G, np.maximum(reach_a, follow_a))
-    return TorqueFeasibility(tuple(rows), reach_a, follow_a, np.concatenate(t_reach), share,
-                             np.asarray(limit, dtype=float))  # fmt: skip
+    demand = np.maximum(reach_a, follow_a)
+    # the reference followed with the errors decaying at the funnels' rates beta
+    com = np.asarray(meas.z_e, dtype=float)[: model.m2] - np.real(
+        model.ee_offset(theta_z, meas.q_b, meas.q_m)
+    )
+    beta_b, beta_z = np.array(setup.funnel_b.params.beta), np.array(setup.funnel_z.params.beta)
+
+    def rates(t, q_b, q_m):
+        z_e = np.real(model.ee_pose(theta_z, q_b, q_m, com))
+        e_b, e_z = error_terms(np.atleast_1d(q_b), q_bd, z_e[:n_task], ref.ee_pose(t), m3)
+        task = ref.ee_rate(t) - beta_z * e_z
+        return np.concatenate((-beta_b * e_b, task)) if attitude else task
+
+    at = np.linspace(0.0, sc.duration, ALONG_SAMPLES)
+    _, mapped = along_reference(maps, rates, meas.q_b, meas.q_m, at)
+    shares = [torque_needed(M_star, G, demand) for M_star, G in mapped]
+    limit = np.asarray(limit, dtype=float)
+    k = int(np.argmax([np.max(share.sum(axis=1) / limit) for share in shares]))
+    return TorqueFeasibility(tuple(rows), reach_a, follow_a, np.concatenate(t_reach), shares[k],
+                             limit, float(at[k]))  # fmt: skip

@@ -54,7 +54,7 @@ def test_one_joint_by_hand():
     a, b, d, jb, jm = 3.0, 0.7, 1.2, 0.4, 1.5
     M = np.array([[a, b], [b, d]])
     J = np.array([[jb, jm]])
-    M_star, G = row_map(M, J, np.ones((1, 1)), 1, attitude=False)
+    M_star, G, _ = row_map(M, J, np.ones((1, 1)), 1, attitude=False)
     assert M_star[0, 0] == pytest.approx(d - b * b / a, rel=1e-14)
     assert G[0, 0] == pytest.approx(jm - jb * b / a, rel=1e-14)
     need = abs((d - b * b / a) / (jm - jb * b / a)) * 0.25
@@ -95,9 +95,33 @@ def test_the_map_inverts_the_forward_dynamics(case):
     J = np.hstack((J_b[:n_task], J_m[:n_task]))
     M = model.mass_matrix(setup.theta_d, q_b, q_m)
     L_b = np.real(attitude_matrix(q_b, m3))
-    M_star, G = row_map(M, J, L_b, m3, attitude=True)
+    M_star, G, _ = row_map(M, J, L_b, m3, attitude=True)
     a = np.random.default_rng(0).normal(size=G.shape[0])
     u = M_star @ np.linalg.pinv(G) @ a
     w_dot = np.linalg.solve(M, np.concatenate((np.zeros(m3), u)))
     rows = np.concatenate((L_b @ w_dot[:m3], J @ w_dot))
     np.testing.assert_allclose(rows, a, rtol=0, atol=1e-9 * np.abs(a).max())
+
+
+def test_along_reference_integrates_the_least_norm_rates():
+    """Constant maps and row rates: the joints move on the straight line q_m0 + G^+ r t and
+    the base by L_b B G^+ r t (explicit Euler is exact here), and every configuration's maps
+    are returned."""
+    from ffsm_pin.control.saturation_feasibility import along_reference
+
+    G = np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 2.0]])
+    B = np.array([[0.1, -0.2, 0.3]])
+    L_b = np.array([[2.0]])
+    seen = []
+
+    def maps(q_b, q_m):
+        seen.append(float(q_b))
+        return np.eye(3), G, B, L_b
+
+    r = np.array([0.3, -0.1])
+    ts = np.linspace(0.0, 4.0, 9)
+    q_ms, mapped = along_reference(maps, lambda t, q_b, q_m: r, 0.2, np.zeros(3), ts)
+    w_m = np.linalg.pinv(G) @ r
+    np.testing.assert_allclose(q_ms, np.outer(ts, w_m), atol=1e-14)
+    np.testing.assert_allclose(seen, 0.2 + ts * (L_b @ B @ w_m)[0], atol=1e-14)
+    assert len(mapped) == ts.size
