@@ -194,7 +194,8 @@ def check(scenario: Scenario) -> CheckReport:
         if w.category is not GainWarning:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     m3 = setup.model.m3
-    meas = Sensor(setup.robot, setup.model, full_model=False).measure(0.0, setup.q0, setup.v0)
+    full = bool(getattr(setup.controller, "needs_dynamics", False))  # a known-model law's M
+    meas = Sensor(setup.robot, setup.model, full_model=full).measure(0.0, setup.q0, setup.v0)
     # distance to singularity, for controllers that invert a task Jacobian
     singular_value = getattr(setup.controller, "singular_value", None)
     sigma = None if singular_value is None else float(singular_value(meas))
@@ -285,13 +286,14 @@ def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
         The numbers; None without finite torque limits.
     """
     limit = None if setup.actuators is None else setup.actuators.limit
-    if limit is None or not np.any(np.isfinite(limit)):
+    if limit is None or not np.any(np.isfinite(limit)) or setup.funnel_z is None:
         return None
     sc, model = setup.scenario, setup.model
     m3, ref = model.m3, setup.scenario.reference
     n_task = task_size(model.m2, m3, ref.task)
     ctx = getattr(setup.controller, "context", None)
-    est = None if ctx is None else ctx.estimates
+    reads = ctx is not None and getattr(setup.controller, "needs_estimates", False)
+    est = ctx.estimates if reads else None
     theta_z, theta_d = (setup.theta_z, setup.theta_d) if est is None else est[:2]
     attitude = getattr(setup.controller, "scheme", None) != "no-attitude"
     attitude = attitude and m3 + n_task <= setup.robot.n_joints

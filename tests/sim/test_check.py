@@ -271,3 +271,22 @@ def test_check_warns_when_the_funnels_need_more_torque_than_the_limits(case, tmp
             assert "funnel row" in lines[0]
         else:
             assert not lines
+
+
+def test_check_with_limits_measures_what_a_known_model_law_reads():
+    """--check of the known-model scheme with torque limits evaluates the law's first command,
+    which reads the measured M and C w: the check measures them for such a law (it raised
+    an AssertionError before)."""
+    import dataclasses
+    import warnings
+
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.check import check
+
+    sc = builtin_scenario("known-model")
+    sc = dataclasses.replace(sc, actuators=dataclasses.replace(sc.actuators, torque_limit=0.05))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = check(sc)
+    texts = [str(w.message) for w in caught]
+    assert report.ok and any(t.startswith("torque demand at t = 0") for t in texts), texts
