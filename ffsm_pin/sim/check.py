@@ -292,8 +292,8 @@ def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
     m3, ref = model.m3, setup.scenario.reference
     n_task = task_size(model.m2, m3, ref.task)
     ctx = getattr(setup.controller, "context", None)
-    reads = ctx is not None and getattr(setup.controller, "needs_estimates", False)
-    est = ctx.estimates if reads else None
+    reads = getattr(setup.controller, "needs_estimates", False)
+    est = ctx.estimates if ctx is not None and reads else None
     theta_z, theta_d = (setup.theta_z, setup.theta_d) if est is None else est[:2]
     attitude = getattr(setup.controller, "scheme", None) != "no-attitude"
     attitude = attitude and m3 + n_task <= setup.robot.n_joints
