@@ -18,6 +18,7 @@ from .gains import step_problems
 from .interface import ControllerContext, Measurement, SignalLayout, SignalRow
 from .kinematic import KinematicInputs
 from .lu_jia_params import LuJiaParams
+from .physical import margin_kernel
 from .saturation import auxiliary_term, demand_problem
 
 
@@ -157,10 +158,14 @@ class LuJiaController:
         # the period's signals at t, returned as its row (a SignalRow of this declared
         # layout: recorded in one copy)
         self.signal_layout = law.signal_layout
+        extra: dict[str, tuple[int, ...]] = {}
         if law.auxiliary is not None:  # and the relaxation at t (ctrl_chi_b, ctrl_chi_z)
             _, chi_b, chi_z = law.auxiliary.parts()
-            shapes = {**law.signal_layout.shapes, "chi_b": chi_b.shape, "chi_z": chi_z.shape}
-            self.signal_layout = SignalLayout(shapes)
+            extra.update(chi_b=chi_b.shape, chi_z=chi_z.shape)
+        if law.physical is not None:  # and the distance to the boundary (ctrl_lambda_min_P)
+            extra["lambda_min_P"] = ()
+        if extra:
+            self.signal_layout = SignalLayout({**law.signal_layout.shapes, **extra})
         self.signal_shapes = dict(law.signal_layout.shapes)  # (as before the layout)
 
     @property
@@ -202,10 +207,14 @@ class LuJiaController:
         :class:`~ffsm_pin.control.interface.SignalRow` of :attr:`signal_layout`: w~ and e
         of Eq. (54) with the true M and theta_d, the estimates and w-hat, w_mc, sigma_min
         and the damping."""
-        aux = self.law.auxiliary
-        if aux is None:
-            out = self.law.step_row(meas, self._dt)
+        law = self.law
+        if law.auxiliary is None and law.physical is None:
+            out = law.step_row(meas, self._dt)
             return out.u_m, SignalRow(out.signals, self.signal_layout)
-        chi = aux.state[aux.nb :].copy()  # chi_b, chi_z at t, before the period advances them
-        out = self.law.step_row(meas, self._dt)
-        return out.u_m, SignalRow(np.concatenate((out.signals, chi)), self.signal_layout)
+        at_t = []  # at t, before the period advances them
+        if law.auxiliary is not None:  # chi_b, chi_z
+            at_t.append(law.auxiliary.state[law.auxiliary.nb :].copy())
+        if law.physical is not None:  # lambda_min of P(theta_d-hat)
+            at_t.append(np.array([margin_kernel(law.physical, law.theta_d)]))
+        out = law.step_row(meas, self._dt)
+        return out.u_m, SignalRow(np.concatenate((out.signals, *at_t)), self.signal_layout)

@@ -99,6 +99,42 @@ def physical_term(model, theta_d0, margin: float | None) -> PhysicalTerm:
                         MAX_PROJECTIONS)  # fmt: skip
 
 
+def margin_of(term: PhysicalTerm, theta_d) -> float:
+    """lambda_min(P(theta_d)): the distance of the estimate to the boundary of the physical
+    set (negative outside it; the projection keeps it >= eps (1 - tol)), recorded as the
+    signal ``ctrl_lambda_min_P`` of ``adaptation = "physical"`` (docs/robust.md).
+
+    Parameters
+    ----------
+    term : PhysicalTerm
+        The table.
+    theta_d : array_like
+        The estimate.
+
+    Returns
+    -------
+    float
+        The smallest eigenvalue of P [kg m^2].
+    """
+    table = PseudoInertiaTable(term.rows, term.cols, term.params, term.coefs, term.size)
+    return float(np.linalg.eigvalsh(pseudo_inertia(table, np.asarray(theta_d)))[0])
+
+
+@njit(cache=True)
+def margin_kernel(term, theta_d):
+    """:func:`margin_of`, compiled (what a run records each period).
+
+    Parameters
+    ----------
+    term : PhysicalTerm
+        The table.
+    theta_d : ndarray
+        The estimate.
+    """
+    P = assemble(term.rows, term.cols, term.params, term.coefs, term.size, theta_d)
+    return np.linalg.eigvalsh(P)[0]
+
+
 def project(term: PhysicalTerm, theta_d) -> tuple[np.ndarray, int, float]:
     """theta_d moved into {lambda_min(P) >= eps (1 - tol)} by half-space projections (module
     docstring); the numpy reference of :func:`project_kernel`.
@@ -262,6 +298,8 @@ def physical_increment(term, theta_d, d_theta_d):
 
 __all__ = [
     "ADAPTATIONS", "MARGIN_FRACTION", "MAX_PROJECTIONS", "PROJECTION_TOL", "PhysicalTerm",
-    "increment", "initial_projection", "physical_increment", "physical_term", "project",
+    "increment", "initial_projection", "margin_kernel", "margin_of", "physical_increment",
+    "physical_term",
+    "project",
     "project_kernel",
 ]  # fmt: skip

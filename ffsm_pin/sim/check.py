@@ -13,6 +13,14 @@ import numpy as np
 import pinocchio as pin
 
 from ..attitude import mrp
+from ..control.kinematic import attitude_matrix, error_terms, task_size
+from ..control.saturation_feasibility import (
+    TorqueFeasibility,
+    along_reference,
+    reach_acceleration,
+    row_map,
+    torque_needed,
+)
 from ..errors import FfsmError
 from ..scenario.spec import Scenario
 
@@ -43,6 +51,9 @@ class CheckReport:
         With ``reference.origin = "initial"``: the references resolved against the initial
         pose (base attitude, end-effector reference at t = 0), so that an error the relative
         origin cancels is seen before the run; None otherwise.
+    torque : TorqueFeasibility | None
+        The torque the funnels and the reference ask of each joint against its limit
+        (:func:`torque_feasibility`); None without torque limits.
     """
 
     name: str
@@ -53,6 +64,7 @@ class CheckReport:
     attitude_error: float | None = None
     problems: list[str] = field(default_factory=list)
     resolved: str | None = None
+    torque: TorqueFeasibility | None = None
 
     @property
     def ok(self) -> bool:
@@ -182,7 +194,8 @@ def check(scenario: Scenario) -> CheckReport:
         if w.category is not GainWarning:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     m3 = setup.model.m3
-    meas = Sensor(setup.robot, setup.model, full_model=False).measure(0.0, setup.q0, setup.v0)
+    full = bool(getattr(setup.controller, "needs_dynamics", False))  # a known-model law's M
+    meas = Sensor(setup.robot, setup.model, full_model=full).measure(0.0, setup.q0, setup.v0)
     # distance to singularity, for controllers that invert a task Jacobian
     singular_value = getattr(setup.controller, "singular_value", None)
     sigma = None if singular_value is None else float(singular_value(meas))
@@ -198,6 +211,10 @@ def check(scenario: Scenario) -> CheckReport:
     demand = None if torque_demand is None else torque_demand(meas)
     if demand is not None:  # a warning: the saturation-aware law is made for it
         warnings.warn(demand, SaturationWarning, stacklevel=2)
+    torque = torque_feasibility(setup, meas)  # the funnels' torque against the limits
+    text = None if torque is None else torque.problem(setup.robot.joint_names)
+    if text is not None:
+        warnings.warn(text, SaturationWarning, stacklevel=2)
     horizon = setup.reach_horizon
     if horizon is not None:
         problems.append(
@@ -230,4 +247,99 @@ def check(scenario: Scenario) -> CheckReport:
             f"{np.round(np.atleast_1d(meas.q_b), 4).tolist()}, z_e(0) = "
             f"{np.round(np.asarray(meas.z_e)[: ref.n_components], 4).tolist()})"
         )
-    return CheckReport(scenario.name, sigma, thr, horizon, authority, att, problems, resolved)
+    return CheckReport(
+        scenario.name, sigma, thr, horizon, authority, att, problems, resolved, torque
+    )
+
+
+#: reference samples over the run of :func:`torque_feasibility`
+FEASIBILITY_SAMPLES = 2000
+#: configurations along the reference where :func:`torque_feasibility` maps the demand
+ALONG_SAMPLES = 400
+
+
+def torque_feasibility(setup, meas) -> TorqueFeasibility | None:
+    """The torque each joint needs for the funnels and the reference, against its limit
+    (docs/saturation.md, "The feasibility condition";
+    :mod:`~ffsm_pin.control.saturation_feasibility`).
+
+    The funnel rows are the base attitude (unless the controller's scheme is
+    ``"no-attitude"`` or the robot has too few joints for it) and the task rows. Their reach
+    demand is taken over :data:`FEASIBILITY_SAMPLES` times in (0, duration], their follow
+    demand from the reference's acceleration at the same times. The map to joint torques is
+    taken at :data:`ALONG_SAMPLES` configurations of a robot that follows the reference from
+    the initial one, its errors decaying at the funnels' rates beta
+    (:func:`~ffsm_pin.control.saturation_feasibility.along_reference`), with the controller's
+    initial estimates (the truth when it has none);
+    the worst one is kept. Nothing of the control law is evaluated or compiled.
+
+    Parameters
+    ----------
+    setup : Setup
+        The prepared run (its reference resolved).
+    meas : Measurement
+        The measurement at t = 0.
+
+    Returns
+    -------
+    TorqueFeasibility or None
+        The numbers; None without finite torque limits.
+    """
+    limit = None if setup.actuators is None else setup.actuators.limit
+    if limit is None or not np.any(np.isfinite(limit)) or setup.funnel_z is None:
+        return None
+    sc, model = setup.scenario, setup.model
+    m3, ref = model.m3, setup.scenario.reference
+    n_task = task_size(model.m2, m3, ref.task)
+    ctx = getattr(setup.controller, "context", None)
+    reads = getattr(setup.controller, "needs_estimates", False)
+    est = ctx.estimates if ctx is not None and reads else None
+    theta_z, theta_d = (setup.theta_z, setup.theta_d) if est is None else est[:2]
+    attitude = getattr(setup.controller, "scheme", None) != "no-attitude"
+    attitude = attitude and m3 + n_task <= setup.robot.n_joints
+
+    def maps(q_b, q_m):  # (M*, G, B, L_b) at a configuration, with the estimates
+        J_b, J_m = model.jacobians(theta_z, q_b, q_m)
+        J = np.hstack((J_b[:n_task], J_m[:n_task]))
+        L_b = np.real(attitude_matrix(q_b, m3))
+        return (*row_map(model.mass_matrix(theta_d, q_b, q_m), J, L_b, m3, attitude), L_b)
+
+    ts = np.linspace(sc.duration / FEASIBILITY_SAMPLES, sc.duration, FEASIBILITY_SAMPLES)
+    z_d = ref.sample(ts)[0]
+    at_rest = np.tile(np.asarray(meas.z_e, dtype=float)[:n_task], (ts.size, 1))
+    q_bd = np.asarray(ref.base_attitude, dtype=float)
+    resting_b = np.tile(np.atleast_1d(meas.q_b), (ts.size, 1))
+    d_b, d_z = error_terms(resting_b, q_bd, at_rest, z_d, m3)
+    follow_z = np.max(np.abs([ref.ee_accel(t) for t in ts]), axis=0)
+    funnels = [("z", setup.funnel_z, d_z, follow_z)]
+    if attitude:
+        funnels.insert(0, ("b", setup.funnel_b, d_b, np.zeros(m3)))  # q_bd is constant
+    rows, reach, follow, t_reach = [], [], [], []
+    for name, funnel, d, f in funnels:
+        rho = funnel.params.rho(ts[:, None])
+        a, t_a = reach_acceleration(d, rho, funnel.lower, funnel.upper, ts)
+        rows += [f"{name}{i}" for i in range(a.size)]
+        reach.append(a)
+        follow.append(f)
+        t_reach.append(t_a)
+    reach_a, follow_a = np.concatenate(reach), np.concatenate(follow)
+    demand = np.maximum(reach_a, follow_a)
+    # the reference followed with the errors decaying at the funnels' rates beta
+    com = np.asarray(meas.z_e, dtype=float)[: model.m2] - np.real(
+        model.ee_offset(theta_z, meas.q_b, meas.q_m)
+    )
+    beta_b, beta_z = np.array(setup.funnel_b.params.beta), np.array(setup.funnel_z.params.beta)
+
+    def rates(t, q_b, q_m):
+        z_e = np.real(model.ee_pose(theta_z, q_b, q_m, com))
+        e_b, e_z = error_terms(np.atleast_1d(q_b), q_bd, z_e[:n_task], ref.ee_pose(t), m3)
+        task = ref.ee_rate(t) - beta_z * e_z
+        return np.concatenate((-beta_b * e_b, task)) if attitude else task
+
+    at = np.linspace(0.0, sc.duration, ALONG_SAMPLES)
+    _, mapped = along_reference(maps, rates, meas.q_b, meas.q_m, at)
+    shares = [torque_needed(M_star, G, demand) for M_star, G in mapped]
+    limit = np.asarray(limit, dtype=float)
+    k = int(np.argmax([np.max(share.sum(axis=1) / limit) for share in shares]))
+    return TorqueFeasibility(tuple(rows), reach_a, follow_a, np.concatenate(t_reach), shares[k],
+                             limit, float(at[k]))  # fmt: skip

@@ -23,6 +23,8 @@ from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.control.physical import (
     MARGIN_FRACTION,
     increment,
+    margin_kernel,
+    margin_of,
     physical_increment,
     physical_term,
     project,
@@ -86,6 +88,21 @@ def test_projection_reaches_the_margin_and_never_moves_away_from_C(geometry, red
     assert increment(term, m.theta_d, d)[0] is d
     assert physical_increment(term, np.array(m.theta_d), d)[0] is d
     assert physical_increment(None, np.array(m.theta_d), d)[0] is d
+
+
+@pytest.mark.parametrize("geometry", ["planar", "spatial"])
+def test_recorded_margin_numpy_equals_compiled(geometry, reduced_model_of):
+    """The recorded distance to the boundary, lambda_min(P): the numpy reference, the compiled
+    kernel and the model's P agree, inside the set and outside it (negative there)."""
+    m = reduced_model_of(geometry)
+    term = physical_term(m, m.theta_d, None)
+    theta, inside = _outside(m, np.random.default_rng(9))
+    for x in (theta, *inside):
+        x = np.asarray(x, dtype=float)
+        lam = margin_of(term, x)
+        assert lam == pytest.approx(lam_min(m, x), rel=1e-12, abs=1e-15)
+        assert margin_kernel(term, x) == pytest.approx(lam, rel=1e-9, abs=1e-14)
+    assert margin_of(term, theta) < 0 <= margin_of(term, m.theta_d)
 
 
 def test_margin_refusals(reduced_model_of):
@@ -217,6 +234,12 @@ def test_default_margin_leaves_case1_bitwise_unchanged():
     assert a.completed and b.completed
     for key in a.signals:
         assert np.array_equal(np.asarray(a[key]), np.asarray(b[key]), equal_nan=True), key
+    # the option records the distance to the boundary; the paper's law does not
+    assert "ctrl_lambda_min_P" not in a.signals and set(b.signals) - set(a.signals) == {
+        "ctrl_lambda_min_P"
+    }
+    lam0 = lam_min(prepare(sc).model, np.asarray(b["theta_d_hat"])[0])
+    assert np.ravel(b["ctrl_lambda_min_P"])[0] == pytest.approx(lam0, rel=1e-12)
 
 
 @pytest.mark.parametrize("geometry", ["planar", "spatial"])
@@ -250,6 +273,11 @@ def test_compiled_projected_run_follows_the_numpy_run(geometry, ctype):
     lam = np.array([lam_min(start.model, x) for x in theta])
     assert lam.min() >= margin * (1 - 1e-3)
     assert lam[0] < 1.001 * margin  # the initial estimate projected to the margin
+    if ctype == "lu-jia":  # its recorded distance to the boundary: lambda_min(P) of the row's
+        for run in runs:  # estimate (both at t, before the period's update), both backends
+            lam_run = [lam_min(start.model, x) for x in np.asarray(run["theta_d_hat"])]
+            recorded = np.ravel(run["ctrl_lambda_min_P"])
+            np.testing.assert_allclose(recorded, lam_run, rtol=1e-10, atol=1e-14)
 
 
 @pytest.mark.parametrize("margin", [None, 0.25])

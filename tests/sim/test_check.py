@@ -240,3 +240,53 @@ def test_check_compiles_no_control_kernel(tmp_path, case):
     compiled_control = sorted(n for n in entries if n.split(".")[0] in stems)
     assert compiled_control == [], compiled_control
     assert "compiling the controller kernels" not in proc.stderr
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_check_warns_when_the_funnels_need_more_torque_than_the_limits(case, tmp_path, capsys):
+    """The torque feasibility condition (docs/saturation.md): with limits at half the largest
+    need --check warns, naming that joint and the funnel row; at twice it, it does not. Both
+    exit 0 (a warning, not a problem), planar and spatial."""
+    import dataclasses
+
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.check import check
+    from ffsm_pin.sim.robots import robot_of
+
+    sc = builtin_scenario(case)
+    unlimited = dataclasses.replace(sc.actuators, torque_limit=1e9)
+    free = check(dataclasses.replace(sc, actuators=unlimited))
+    assert free.torque is not None and free.torque.problem(("j",) * 9) is None
+    needed = free.torque.needed
+    j = int(np.argmax(needed))
+    text = (SCEN / f"{case.replace('-', '_')}.toml").read_text()
+    for factor, warned in ((0.5, True), (2.0, False)):
+        path = tmp_path / f"{factor}.toml"
+        path.write_text(text + f"\n[actuators]\ntorque_limit = {float(factor * needed[j])!r}\n")
+        assert main(["--check", "--scenario", str(path)]) == 0
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if "torque feasibility" in ln]
+        if warned:
+            assert len(lines) == 1 and "2 x its actuators.torque_limit" in lines[0], lines
+            assert f"joint {robot_of(sc.robot).joint_names[j]!r}" in lines[0]
+            assert "funnel row" in lines[0]
+        else:
+            assert not lines
+
+
+def test_check_with_limits_measures_what_a_known_model_law_reads():
+    """--check of the known-model scheme with torque limits evaluates the law's first command,
+    which reads the measured M and C w: the check measures them for such a law (it raised
+    an AssertionError before)."""
+    import dataclasses
+    import warnings
+
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.check import check
+
+    sc = builtin_scenario("known-model")
+    sc = dataclasses.replace(sc, actuators=dataclasses.replace(sc.actuators, torque_limit=0.05))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = check(sc)
+    texts = [str(w.message) for w in caught]
+    assert report.ok and any(t.startswith("torque demand at t = 0") for t in texts), texts
