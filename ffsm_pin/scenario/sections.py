@@ -45,7 +45,14 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .target_spec import CAPTURE_ESTIMATES, TARGET_ORIGINS, TARGET_SHAPES, CaptureSpec, TargetSpec
+from .target_spec import (
+    CAPTURE_ESTIMATES,
+    TARGET_ORIGINS,
+    TARGET_SHAPES,
+    ApproachSpec,
+    CaptureSpec,
+    TargetSpec,
+)
 from .values import (
     Fraction,
     NonNeg,
@@ -397,3 +404,24 @@ class CaptureModel(Table):
     tolerance_position: Pos  # [m]
     tolerance_velocity: Pos  # [m/s]
     estimates: Literal[CAPTURE_ESTIMATES] = default(CaptureSpec, "estimates")
+    hand_xyz: vec(3) = default(CaptureSpec, "hand_xyz")  # [m], end-effector frame
+    hand_rpy: vec(3) = default(CaptureSpec, "hand_rpy")  # [rad], end-effector frame
+
+
+class ApproachNoiseModel(Table):
+    """``[approach.noise]``: one standard deviation per key of the target's sensor."""
+
+    position: NonNeg = 0.0  # [m]
+    attitude: NonNeg = 0.0  # [rad], a rotation vector
+    velocity: NonNeg = 0.0  # [m/s], CoM, world frame
+    angular_velocity: NonNeg = 0.0  # [rad/s], body frame
+
+
+class ApproachModel(Table):
+    """``[approach]``, :class:`~ffsm_pin.scenario.target_spec.ApproachSpec`: the end-effector
+    reference follows the target's grasp frame (docs/capture.md, "The approach")."""
+
+    time: Pos  # [s], the blend from the [reference]'s to the grasp frame
+    seed: Annotated[int, Field(ge=0)] = default(ApproachSpec, "seed")
+    delay: Annotated[int, Field(ge=0)] = default(ApproachSpec, "delay")  # [control periods]
+    noise: ApproachNoiseModel = ApproachNoiseModel()

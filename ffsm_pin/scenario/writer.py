@@ -19,7 +19,7 @@ from ..control.null_space import NullSpace
 from ..control.registry import resolved_type
 from .devices import ActuatorSpec, SensorSpec
 from .spec import Reference, Scenario
-from .target_spec import TargetSpec
+from .target_spec import APPROACH_NOISE_KEYS, TargetSpec
 
 
 def scenario_to_toml(scenario: Scenario) -> str:
@@ -152,7 +152,17 @@ def _target_lines(target: TargetSpec) -> list[str]:
     if c is not None:  # [capture] belongs to the target: written after it, only when given
         lines += ["[capture]", f"tolerance_position = {_toml(c.tolerance_position)}"]
         lines += [f"tolerance_velocity = {_toml(c.tolerance_velocity)}"]
-        lines += [f"estimates = {_toml(c.estimates)}", ""]
+        lines += [f"estimates = {_toml(c.estimates)}"]
+        for key in ("hand_xyz", "hand_rpy"):  # (only when given: older files stay the same)
+            if any(getattr(c, key)):
+                lines.append(f"{key} = {_toml(getattr(c, key))}")
+        lines.append("")
+    a = target.approach
+    if a is not None:
+        lines += ["[approach]", f"time = {_toml(a.time)}", f"seed = {a.seed}"]
+        lines += [f"delay = {a.delay}", "", "[approach.noise]"]
+        lines += [f"{k} = {_toml(x)}" for k, x in zip(APPROACH_NOISE_KEYS, a.noise, strict=True)]
+        lines.append("")
     return lines
 
 

@@ -107,7 +107,7 @@ class CaptureMotion(TargetMotion):
         self, target: Target, state: TargetState, robot, spec: CaptureSpec, substeps: int = 1
     ) -> None:
         super().__init__(target, state)
-        self.capture: CaptureModel = capture_model(robot, target)
+        self.capture: CaptureModel = capture_model(robot, target, hand_grasp(spec))
         self.tolerances = CaptureTolerances(spec.tolerance_position, spec.tolerance_velocity)
         self.estimates = spec.estimates
         self.substeps = max(1, int(substeps))
@@ -238,6 +238,29 @@ def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | N
     if setup.target is None or setup.target_state is None or spec is None:
         return None, None
     if spec.capture is None:
-        return TargetMotion(setup.target, setup.target_state), None
-    motion = CaptureMotion(setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps)
-    return motion, motion
+        motion: TargetMotion = TargetMotion(setup.target, setup.target_state)
+        capture = None
+    else:
+        capture = CaptureMotion(
+            setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps
+        )
+        motion = capture
+    if setup.approach is not None:  # the approach's target sensor reads the true state
+        setup.approach.follow(motion)
+    return motion, capture
+
+
+def hand_grasp(spec: CaptureSpec) -> pin.SE3:
+    """The hand's grasp frame in the end-effector frame (``[capture] hand_xyz``, ``hand_rpy``).
+
+    Parameters
+    ----------
+    spec : CaptureSpec
+        The ``[capture]`` table.
+
+    Returns
+    -------
+    pin.SE3
+        The placement.
+    """
+    return pin.SE3(pin.rpy.rpyToMatrix(*spec.hand_rpy), np.array(spec.hand_xyz, dtype=float))

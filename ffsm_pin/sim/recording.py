@@ -109,6 +109,7 @@ def _after_run_signals(
     reads a block of rows (a run with ``[capture]``: the whole system's,
     :meth:`~ffsm_pin.sim.capture_run.CaptureMotion.momentum_rows`)."""
     ref = setup.scenario.reference
+    given = ref if setup.approach is None else setup.approach  # the reference the law had
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
     m3 = setup.model.m3
@@ -132,7 +133,7 @@ def _after_run_signals(
             out[f"rho_{name}"] = rho
             out[f"bound_{name}_lower"] = funnel.lower * rho
             out[f"bound_{name}_upper"] = funnel.upper * rho
-        out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
+        out["z_e_d"], out["z_e_d_dot"] = given.sample(t)
         out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
         out["P"], out["L"] = momentum(block)
         return out
