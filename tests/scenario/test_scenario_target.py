@@ -8,8 +8,8 @@ import pytest
 
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario import CaptureSpec, TargetSpec
-from ffsm_pin.scenario.target_spec import ApproachSpec
 from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.target_spec import ApproachSpec
 from ffsm_pin.scenario.writer import scenario_to_toml
 
 REALISTIC = builtin_path("spatial-realistic").read_text()
@@ -216,7 +216,7 @@ angular_velocity = 5e-4
 
 
 def test_hand_offset_and_approach_are_read_and_written_back():
-    hand = 'hand_xyz = [0.0, 0.0, 0.1]\nhand_rpy = [0.0, 0.0, 0.5]\n'
+    hand = "hand_xyz = [0.0, 0.0, 0.1]\nhand_rpy = [0.0, 0.0, 0.5]\n"
     sc = scenario_from_toml(with_target(MINIMAL + CAPTURE + hand + APPROACH))
     assert sc.target is not None and sc.target.capture is not None
     assert sc.target.capture.hand_xyz == (0.0, 0.0, 0.1)
