@@ -164,6 +164,7 @@ def check(scenario: Scenario) -> CheckReport:
     from ..control.compiled import no_warm_up
     from ..control.gains import GainWarning
     from ..control.saturation import SaturationWarning
+    from .capture_check import CaptureWarning, capture_warnings
     from .measurement import Sensor
     from .reach import ReachWarning
     from .setup import prepare
@@ -198,6 +199,8 @@ def check(scenario: Scenario) -> CheckReport:
     demand = None if torque_demand is None else torque_demand(meas)
     if demand is not None:  # a warning: the saturation-aware law is made for it
         warnings.warn(demand, SaturationWarning, stacklevel=2)
+    for line in capture_warnings(setup):  # [target]: reach in time, impact (capture_check.py)
+        warnings.warn(line, CaptureWarning, stacklevel=2)
     horizon = setup.reach_horizon
     if horizon is not None:
         problems.append(
