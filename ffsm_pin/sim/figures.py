@@ -16,7 +16,9 @@ Figures written:
   and |u_m| [N m] (Fig. 4);
 * ``fig_torque.png``: reaction torque on the base F_r [N m] (Eq. 7) and the smallest
   singular value of J_m-hat U-hat [m] with the damping threshold;
-* ``fig_path.png``: end-effector path and its reference in the plane [m].
+* ``fig_path.png``: end-effector path and its reference in the plane [m];
+* runs with ``[capture]``: ``fig_approach.png`` and ``fig_impulse.png``
+  (:mod:`.capture_figures`).
 """
 
 from __future__ import annotations
@@ -100,7 +102,9 @@ def write_figures(
         path = out_dir / name
         fig.savefig(path, dpi=dpi)
         paths.append(path)
-    return paths
+    from .capture_figures import write_capture_figures  # runs with [capture]: approach, impulse
+
+    return paths + write_capture_figures(runs, labels, out_dir, dpi)
 
 
 # ------------------------------------------------------------------------------ figures

@@ -17,6 +17,7 @@ from ..control.diagnostics import reaction_torques, rows_beside
 from ..control.interface import recorded_name
 from ..control.kinematic import error_terms
 from ..errors import SimulationError
+from .capture_run import capture_signals
 from .plant import Plant
 from .recorder import Signals, extend
 from .result import RunResult
@@ -48,6 +49,7 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
         }),
         **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
         **({} if setup.target is None else TARGET_SIGNALS),  # the target's pose and twist
+        **capture_signals(setup),  # with [capture]: the grasp frames' distance and speed
     }  # fmt: skip
 
 

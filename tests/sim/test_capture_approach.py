@@ -25,6 +25,7 @@ from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.scenario.target_spec import ApproachSpec
 from ffsm_pin.sim.approach import ApproachController, blend, grasp_motion, hand_offset
 from ffsm_pin.sim.capture_run import CaptureMotion, hand_grasp
+from ffsm_pin.sim.figures import write_figures
 from ffsm_pin.sim.impact import capture_model
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.measurement import Sensor
@@ -226,10 +227,16 @@ def test_noise_acts_on_the_controller_only(exact):
         assert np.abs(h - h[0]).max() < 1e-13 * max(1.0, np.abs(h[0]).max())
 
 
-def test_the_case_goes_to_the_box_and_captures_it():
+@pytest.fixture(scope="module")
+def case():
+    """The case for 5.5 s (it captures at about 4.9 s)."""
+    return _run(_scenario(5.5))
+
+
+def test_the_case_goes_to_the_box_and_captures_it(case):
     """The box's grasp face starts 25 cm from the hand; the hand goes to it within its
     funnels and grasps it (the relative speed within the tolerance)."""
-    setup, result = _run(_scenario(5.5))
+    setup, result = case
     summary = result.summary()
     tol = setup.scenario.target.capture
     assert result.completed and summary["funnel_ok_b"] and summary["funnel_ok_z"]
@@ -239,6 +246,40 @@ def test_the_case_goes_to_the_box_and_captures_it():
     assert out.captured and 3.0 < out.time < 5.5
     assert out.distance <= tol.tolerance_position
     assert out.relative_speed <= tol.tolerance_velocity
+
+
+def test_the_recorded_grasp_distance_and_speed(case):
+    """grasp_distance and grasp_speed: the relative motion of the two grasp frames of an
+    independent capture model on the recorded q, v and target state (before, at and after
+    the capture); at the capture row the distance is the outcome's and the speed zero (the
+    row's state is after the impact)."""
+    setup, result = case
+    cap = capture_model(setup.robot, setup.target)
+    t = result["t"]
+    i_c = int(np.flatnonzero(t == result.capture.time)[0])
+    pose, twist = result["target_pose"], result["target_twist"]
+    for i in (0, i_c // 2, i_c - 1, i_c, i_c + 1, len(t) - 1):
+        state = TargetState(pin.XYZQUATToSE3(pose[i]), twist[i, :3], twist[i, 3:])
+        qc, vc = cap.configuration(result["q"][i], state), cap.velocity(result["v"][i], state)
+        distance, speed = cap.relative_motion(qc, vc)
+        assert result["grasp_distance"][i] == pytest.approx(distance, rel=1e-12, abs=1e-15)
+        assert result["grasp_speed"][i] == pytest.approx(speed, rel=1e-9, abs=1e-12)
+    assert result["grasp_distance"][i_c] == result.capture.distance
+    assert result["grasp_speed"][i_c] < 1e-12 and result["grasp_speed"][i_c - 1] > 1e-3
+
+
+def test_the_capture_figures(case, tmp_path):
+    """A run with [capture] gets fig_approach.png and fig_impulse.png beside the others; a
+    run without the capture's signals does not."""
+    _, result = case
+    paths = write_figures(result, tmp_path / "with")
+    names = {p.name for p in paths}
+    assert {"fig_approach.png", "fig_impulse.png", "fig_errors.png"} <= names
+    assert all(p.stat().st_size > 1000 for p in paths)
+    signals = {k: v for k, v in result.signals.items() if not k.startswith("grasp_")}
+    plain = dataclasses.replace(result, signals=signals, capture=None)
+    names = {p.name for p in write_figures(plain, tmp_path / "without")}
+    assert not names & {"fig_approach.png", "fig_impulse.png"}
 
 
 def test_the_capture_welds_the_hand_frame_of_hand_xyz_and_hand_rpy():
