@@ -78,7 +78,7 @@ def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
         substeps=m.sim.substeps,
         actuators=_actuators(m.actuators),
         sensors=_sensors(m.sensors),
-        target=_target(m.target, m.capture, m.approach),
+        target=_target(m.target, m.capture, m.approach, src),
     )
 
 
@@ -139,7 +139,7 @@ def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
 
 
 def _target(
-    t: TargetModel | None, c: CaptureModel | None, a: ApproachModel | None
+    t: TargetModel | None, c: CaptureModel | None, a: ApproachModel | None, src: Path | None
 ) -> TargetSpec | None:
     if t is None:
         return None
@@ -152,9 +152,12 @@ def _target(
     if a is not None:
         noise = tuple(float(getattr(a.noise, key)) for key in APPROACH_NOISE_KEYS)
         approach = ApproachSpec(float(a.time), int(a.seed), int(a.delay), noise)
-    vectors = ("size", "position", "attitude_rpy", "velocity", "angular_velocity")
+    vectors = ("position", "attitude_rpy", "velocity", "angular_velocity")
     return TargetSpec(
-        mass=float(t.mass),
+        mass=None if t.mass is None else float(t.mass),
+        size=None if t.size is None else _floats(t.size),
+        urdf=t.urdf,
+        relative_to=str(src.parent.resolve()) if src is not None and t.urdf else None,
         shape=t.shape,
         inertia=_vec(t.inertia),
         origin=t.origin,

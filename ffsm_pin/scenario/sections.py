@@ -355,8 +355,9 @@ class TargetModel(Table):
     torque-free beside a free-flyer robot (docs/capture.md)."""
 
     shape: Literal[TARGET_SHAPES] = default(TargetSpec, "shape")
-    size: vec(3)  # [m], edges of a box centred on the target frame; each > 0
-    mass: Pos  # [kg]
+    urdf: str | None = None  # a one-body URDF instead of a box: its link's inertial
+    size: vec(3) | None = None  # [m], edges of a box centred on the target frame; each > 0
+    mass: Pos | None = None  # [kg]
     inertia: vec(6) | None = None  # ixx, iyy, izz, ixy, ixz, iyz about its CoM [kg m^2]
     position: vec(3)  # [m], of the target frame (the box's centre)
     attitude_rpy: vec(3) = default(TargetSpec, "attitude_rpy")  # [rad]
@@ -369,7 +370,18 @@ class TargetModel(Table):
     @model_validator(mode="after")
     def physical(self):
         """Refuse a box edge <= 0, an inertia no rigid body has and a grasp frame outside
-        the box."""
+        the box; a box without size or mass; box keys beside a URDF."""
+        if self.urdf is not None:
+            for key in ("size", "mass", "inertia"):
+                if getattr(self, key) is not None:
+                    fail((key,), ": not with target.urdf (the URDF's inertial is the body)")
+            if "shape" in self.model_fields_set:
+                fail(("shape",), ": not with target.urdf (the URDF's link is the body)")
+            return self
+        for key in ("size", "mass"):
+            if getattr(self, key) is None:
+                fail((key,), ": missing (a box needs size and mass; or give target.urdf)")
+        assert self.size is not None and self.mass is not None
         for i, edge in enumerate(self.size):
             if not edge > 0:
                 fail(("size", i), f" = {edge}: a box edge must be > 0 [m]")
@@ -392,6 +404,7 @@ class TargetModel(Table):
 
     def box_inertia(self) -> list[float]:
         """The uniform box's ixx, iyy, izz, ixy, ixz, iyz about its centre [kg m^2]."""
+        assert self.size is not None and self.mass is not None
         a, b, c = self.size
         m = self.mass / 12.0
         return [m * (b * b + c * c), m * (a * a + c * c), m * (a * a + b * b), 0.0, 0.0, 0.0]

@@ -76,14 +76,14 @@ class ApproachSpec:
 
 @dataclass(frozen=True)
 class TargetSpec:
-    """``[target]``: a box tumbling torque-free (free-flyer robots only).
+    """``[target]``: a box, or a one-body URDF, tumbling torque-free (free-flyer robots only).
 
     Attributes
     ----------
-    size : tuple of float
-        Edges (a, b, c) of a box centred on the target frame [m].
-    mass : float
-        [kg].
+    size : tuple of float or None
+        Edges (a, b, c) of a box centred on the target frame [m] (None with ``urdf``).
+    mass : float or None
+        [kg] (None with ``urdf``).
     position : tuple of float
         The target frame's origin (the box's centre) [m]: in the world, or relative to the
         end effector's position at t = 0 (``origin``), world axes.
@@ -106,10 +106,15 @@ class TargetSpec:
         The file's ``[capture]`` table (None: the robot never grasps the target).
     approach : ApproachSpec or None
         The file's ``[approach]`` table (None: the reference is the ``[reference]``'s).
+    urdf : str or None
+        A one-body URDF whose link's inertial is the target (instead of a box): its mass, CoM
+        and inertia; the link frame is the target frame.
+    relative_to : str or None
+        The folder a relative ``urdf`` path is relative to (the scenario file's).
     """
 
-    size: tuple[float, ...]
-    mass: float
+    size: tuple[float, ...] | None
+    mass: float | None
     position: tuple[float, ...]
     shape: str = "box"
     inertia: tuple[float, ...] | None = None
@@ -121,3 +126,5 @@ class TargetSpec:
     grasp_rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
     capture: CaptureSpec | None = None
     approach: ApproachSpec | None = None
+    urdf: str | None = None
+    relative_to: str | None = None

@@ -143,7 +143,14 @@ def scenario_to_toml(scenario: Scenario) -> str:
 
 def _target_lines(target: TargetSpec) -> list[str]:
     """The [target] table (``inertia`` only when given: else the uniform box's)."""
-    lines = ["[target]", f"shape = {_toml(target.shape)}"]
+    lines = ["[target]"]
+    if target.urdf is None:
+        lines.append(f"shape = {_toml(target.shape)}")
+    else:  # (a path made absolute, as the robot's)
+        urdf = target.urdf
+        if target.relative_to is not None and (Path(target.relative_to) / urdf).is_file():
+            urdf = str((Path(target.relative_to) / urdf).resolve())
+        lines.append(f"urdf = {_toml(urdf)}")
     keys = ["size", "mass", "inertia", "position", "attitude_rpy", "velocity"]
     keys += ["angular_velocity", "origin", "grasp_xyz", "grasp_rpy"]
     lines += [f"{k} = {_toml(getattr(target, k))}" for k in keys if getattr(target, k) is not None]
