@@ -19,7 +19,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .figures import _finish, _grid, _legend, _plot
+from .figure_kit import _finish, _grid, _legend, _plot
 
 CAPTURE_FIGURE_NAMES = ("fig_approach.png", "fig_impulse.png")
 _TOLERANCE_STYLE: dict[str, Any] = {"color": "black", "linestyle": "--", "linewidth": 0.9}
