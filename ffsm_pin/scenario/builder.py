@@ -22,6 +22,7 @@ from .devices import NOISE_KEYS, ActuatorSpec, SensorSpec
 from .reference_csv import read_reference_csv
 from .sections import (
     ActuatorsModel,
+    ApproachModel,
     CaptureModel,
     ControllerModel,
     InitialModel,
@@ -41,7 +42,7 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .target_spec import CaptureSpec, TargetSpec
+from .target_spec import APPROACH_NOISE_KEYS, ApproachSpec, CaptureSpec, TargetSpec
 from .trajectory import ReferenceData
 
 
@@ -77,7 +78,7 @@ def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
         substeps=m.sim.substeps,
         actuators=_actuators(m.actuators),
         sensors=_sensors(m.sensors),
-        target=_target(m.target, m.capture),
+        target=_target(m.target, m.capture, m.approach, src),
     )
 
 
@@ -141,22 +142,32 @@ def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
     )
 
 
-def _target(t: TargetModel | None, c: CaptureModel | None) -> TargetSpec | None:
+def _target(
+    t: TargetModel | None, c: CaptureModel | None, a: ApproachModel | None, src: Path | None
+) -> TargetSpec | None:
     if t is None:
         return None
-    capture = None
+    capture = approach = None
     if c is not None:
         capture = CaptureSpec(
-            float(c.tolerance_position), float(c.tolerance_velocity), estimates=c.estimates
-        )
-    vectors = ("size", "position", "attitude_rpy", "velocity", "angular_velocity")
+            float(c.tolerance_position), float(c.tolerance_velocity), estimates=c.estimates,
+            hand_xyz=_floats(c.hand_xyz), hand_rpy=_floats(c.hand_rpy),
+        )  # fmt: skip
+    if a is not None:
+        noise = tuple(float(getattr(a.noise, key)) for key in APPROACH_NOISE_KEYS)
+        approach = ApproachSpec(float(a.time), int(a.seed), int(a.delay), noise)
+    vectors = ("position", "attitude_rpy", "velocity", "angular_velocity")
     return TargetSpec(
-        mass=float(t.mass),
+        mass=None if t.mass is None else float(t.mass),
+        size=None if t.size is None else _floats(t.size),
+        urdf=t.urdf,
+        relative_to=str(src.parent.resolve()) if src is not None and t.urdf else None,
         shape=t.shape,
         inertia=_vec(t.inertia),
         origin=t.origin,
         **{k: _floats(getattr(t, k)) for k in (*vectors, "grasp_xyz", "grasp_rpy")},
         capture=capture,
+        approach=approach,
     )
 
 

@@ -92,6 +92,7 @@ BUILTIN: dict[str, str] = {
     "spatial-realistic": "spatial_realistic.toml",
     "target-tumbling": "target_tumbling.toml",
     "capture": "capture.toml",
+    "capture-approach": "capture_approach.toml",
 }
 
 

@@ -22,6 +22,7 @@ from ..errors import ScenarioError
 from .sections import (
     TASK_SIZE,
     ActuatorsModel,
+    ApproachModel,
     CaptureModel,
     ControllerModel,
     FunnelModel,
@@ -51,6 +52,7 @@ class ScenarioModel(Table):
     sensors: SensorsModel = SensorsModel()
     target: TargetModel | None = None  # free-flyer only
     capture: CaptureModel | None = None  # with [target] only
+    approach: ApproachModel | None = None  # with [target] and task = "position" only
 
     @property
     def sizes(self) -> tuple[int, int, int]:
@@ -68,6 +70,14 @@ class ScenarioModel(Table):
             fail(("target",), ": applies only to robot.base = 'free-flyer' (capture is spatial)")
         if self.capture is not None and self.target is None:
             fail(("capture",), ": needs a [target] table (the body the hand grasps)")
+        if self.approach is not None and self.target is None:
+            fail(("approach",), ": needs a [target] table (the body the hand goes to)")
+        if self.approach is not None and ref.task != "position":
+            fail(
+                ("reference", "task"),
+                f" = {ref.task!r}: [approach] follows the grasp frame's position; valid "
+                "choices with [approach]: 'position'",
+            )
         # [initial]: base pose and velocities, planar / spatial sizes
         alt = ini.base_attitude_rpy is not None or ini.base_attitude_quaternion is not None
         if not spatial:

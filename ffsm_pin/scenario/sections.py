@@ -45,7 +45,14 @@ from .spec import (
     RobotSpec,
     Scenario,
 )
-from .target_spec import CAPTURE_ESTIMATES, TARGET_ORIGINS, TARGET_SHAPES, CaptureSpec, TargetSpec
+from .target_spec import (
+    CAPTURE_ESTIMATES,
+    TARGET_ORIGINS,
+    TARGET_SHAPES,
+    ApproachSpec,
+    CaptureSpec,
+    TargetSpec,
+)
 from .values import (
     Fraction,
     NonNeg,
@@ -353,8 +360,9 @@ class TargetModel(Table):
     torque-free beside a free-flyer robot (docs/capture.md)."""
 
     shape: Literal[TARGET_SHAPES] = default(TargetSpec, "shape")
-    size: vec(3)  # [m], edges of a box centred on the target frame; each > 0
-    mass: Pos  # [kg]
+    urdf: str | None = None  # a one-body URDF instead of a box: its link's inertial
+    size: vec(3) | None = None  # [m], edges of a box centred on the target frame; each > 0
+    mass: Pos | None = None  # [kg]
     inertia: vec(6) | None = None  # ixx, iyy, izz, ixy, ixz, iyz about its CoM [kg m^2]
     position: vec(3)  # [m], of the target frame (the box's centre)
     attitude_rpy: vec(3) = default(TargetSpec, "attitude_rpy")  # [rad]
@@ -367,7 +375,18 @@ class TargetModel(Table):
     @model_validator(mode="after")
     def physical(self):
         """Refuse a box edge <= 0, an inertia no rigid body has and a grasp frame outside
-        the box."""
+        the box; a box without size or mass; box keys beside a URDF."""
+        if self.urdf is not None:
+            for key in ("size", "mass", "inertia"):
+                if getattr(self, key) is not None:
+                    fail((key,), ": not with target.urdf (the URDF's inertial is the body)")
+            if "shape" in self.model_fields_set:
+                fail(("shape",), ": not with target.urdf (the URDF's link is the body)")
+            return self
+        for key in ("size", "mass"):
+            if getattr(self, key) is None:
+                fail((key,), ": missing (a box needs size and mass; or give target.urdf)")
+        assert self.size is not None and self.mass is not None
         for i, edge in enumerate(self.size):
             if not edge > 0:
                 fail(("size", i), f" = {edge}: a box edge must be > 0 [m]")
@@ -390,6 +409,7 @@ class TargetModel(Table):
 
     def box_inertia(self) -> list[float]:
         """The uniform box's ixx, iyy, izz, ixy, ixz, iyz about its centre [kg m^2]."""
+        assert self.size is not None and self.mass is not None
         a, b, c = self.size
         m = self.mass / 12.0
         return [m * (b * b + c * c), m * (a * a + c * c), m * (a * a + b * b), 0.0, 0.0, 0.0]
@@ -402,3 +422,24 @@ class CaptureModel(Table):
     tolerance_position: Pos  # [m]
     tolerance_velocity: Pos  # [m/s]
     estimates: Literal[CAPTURE_ESTIMATES] = default(CaptureSpec, "estimates")
+    hand_xyz: vec(3) = default(CaptureSpec, "hand_xyz")  # [m], end-effector frame
+    hand_rpy: vec(3) = default(CaptureSpec, "hand_rpy")  # [rad], end-effector frame
+
+
+class ApproachNoiseModel(Table):
+    """``[approach.noise]``: one standard deviation per key of the target's sensor."""
+
+    position: NonNeg = 0.0  # [m]
+    attitude: NonNeg = 0.0  # [rad], a rotation vector
+    velocity: NonNeg = 0.0  # [m/s], CoM, world frame
+    angular_velocity: NonNeg = 0.0  # [rad/s], body frame
+
+
+class ApproachModel(Table):
+    """``[approach]``, :class:`~ffsm_pin.scenario.target_spec.ApproachSpec`: the end-effector
+    reference follows the target's grasp frame (docs/capture.md, "The approach")."""
+
+    time: Pos  # [s], the blend from the [reference]'s to the grasp frame
+    seed: Annotated[int, Field(ge=0)] = default(ApproachSpec, "seed")
+    delay: Annotated[int, Field(ge=0)] = default(ApproachSpec, "delay")  # [control periods]
+    noise: ApproachNoiseModel = ApproachNoiseModel()

@@ -17,6 +17,8 @@ TARGET_SHAPES = ("box",)
 TARGET_ORIGINS = ("world", "end-effector")
 #: What the controller is told of the target after capture (``[capture] estimates``).
 CAPTURE_ESTIMATES = ("unknown", "perturbed", "true")
+#: The ``[approach.noise]`` keys of the target's sensor, in the order the noise is drawn.
+APPROACH_NOISE_KEYS = ("position", "attitude", "velocity", "angular_velocity")
 
 
 @dataclass(frozen=True)
@@ -33,23 +35,55 @@ class CaptureSpec:
     estimates : str
         What the controller knows of the target after capture (:data:`CAPTURE_ESTIMATES`):
         ``"unknown"`` (not told), ``"perturbed"`` or ``"true"``.
+    hand_xyz, hand_rpy : tuple of float
+        The hand's grasp frame in the end-effector frame [m], [rad] (the frame welded to the
+        target's grasp frame; default the end-effector frame itself).
     """
 
     tolerance_position: float
     tolerance_velocity: float
     estimates: str = "unknown"
+    hand_xyz: tuple[float, ...] = (0.0, 0.0, 0.0)
+    hand_rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class ApproachSpec:
+    """``[approach]``: the end-effector reference goes, over ``time`` seconds, from the
+    ``[reference]``'s to the target's grasp frame, predicted from the target's measured state
+    (a sensor with noise and delay: what the controller sees, never the plant;
+    docs/capture.md, "The approach").
+
+    Attributes
+    ----------
+    time : float
+        The blend's duration [s], > 0 (a quintic from the ``[reference]`` to the grasp frame).
+    seed : int
+        Seed of the target sensor's noise.
+    delay : int
+        The target sensor's delay [control periods], >= 0 (compensated by the prediction).
+    noise : tuple of float
+        Standard deviations of the target sensor's noise, in :data:`APPROACH_NOISE_KEYS`
+        order: position [m], attitude [rad] (a rotation vector), CoM velocity [m/s], body
+        angular velocity [rad/s].
+    """
+
+    time: float
+    seed: int = 0
+    delay: int = 0
+    noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
 class TargetSpec:
-    """``[target]``: a box tumbling torque-free (free-flyer robots only).
+    """``[target]``: a box, or a one-body URDF, tumbling torque-free (free-flyer robots only).
 
     Attributes
     ----------
-    size : tuple of float
-        Edges (a, b, c) of a box centred on the target frame [m].
-    mass : float
-        [kg].
+    size : tuple of float or None
+        Edges (a, b, c) of a box centred on the target frame [m] (None with ``urdf``).
+    mass : float or None
+        [kg] (None with ``urdf``).
     position : tuple of float
         The target frame's origin (the box's centre) [m]: in the world, or relative to the
         end effector's position at t = 0 (``origin``), world axes.
@@ -70,10 +104,17 @@ class TargetSpec:
         The grasp frame in the target frame [m], [rad]; inside the box.
     capture : CaptureSpec or None
         The file's ``[capture]`` table (None: the robot never grasps the target).
+    approach : ApproachSpec or None
+        The file's ``[approach]`` table (None: the reference is the ``[reference]``'s).
+    urdf : str or None
+        A one-body URDF whose link's inertial is the target (instead of a box): its mass, CoM
+        and inertia; the link frame is the target frame.
+    relative_to : str or None
+        The folder a relative ``urdf`` path is relative to (the scenario file's).
     """
 
-    size: tuple[float, ...]
-    mass: float
+    size: tuple[float, ...] | None
+    mass: float | None
     position: tuple[float, ...]
     shape: str = "box"
     inertia: tuple[float, ...] | None = None
@@ -84,3 +125,6 @@ class TargetSpec:
     grasp_xyz: tuple[float, ...] = (0.0, 0.0, 0.0)
     grasp_rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
     capture: CaptureSpec | None = None
+    approach: ApproachSpec | None = None
+    urdf: str | None = None
+    relative_to: str | None = None

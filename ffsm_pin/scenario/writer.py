@@ -19,7 +19,7 @@ from ..control.null_space import NullSpace
 from ..control.registry import resolved_type
 from .devices import ActuatorSpec, SensorSpec
 from .spec import Reference, Scenario
-from .target_spec import TargetSpec
+from .target_spec import APPROACH_NOISE_KEYS, TargetSpec
 
 
 def scenario_to_toml(scenario: Scenario) -> str:
@@ -146,7 +146,14 @@ def scenario_to_toml(scenario: Scenario) -> str:
 
 def _target_lines(target: TargetSpec) -> list[str]:
     """The [target] table (``inertia`` only when given: else the uniform box's)."""
-    lines = ["[target]", f"shape = {_toml(target.shape)}"]
+    lines = ["[target]"]
+    if target.urdf is None:
+        lines.append(f"shape = {_toml(target.shape)}")
+    else:  # (a path made absolute, as the robot's)
+        urdf = target.urdf
+        if target.relative_to is not None and (Path(target.relative_to) / urdf).is_file():
+            urdf = str((Path(target.relative_to) / urdf).resolve())
+        lines.append(f"urdf = {_toml(urdf)}")
     keys = ["size", "mass", "inertia", "position", "attitude_rpy", "velocity"]
     keys += ["angular_velocity", "origin", "grasp_xyz", "grasp_rpy"]
     lines += [f"{k} = {_toml(getattr(target, k))}" for k in keys if getattr(target, k) is not None]
@@ -155,7 +162,17 @@ def _target_lines(target: TargetSpec) -> list[str]:
     if c is not None:  # [capture] belongs to the target: written after it, only when given
         lines += ["[capture]", f"tolerance_position = {_toml(c.tolerance_position)}"]
         lines += [f"tolerance_velocity = {_toml(c.tolerance_velocity)}"]
-        lines += [f"estimates = {_toml(c.estimates)}", ""]
+        lines += [f"estimates = {_toml(c.estimates)}"]
+        for key in ("hand_xyz", "hand_rpy"):  # (only when given: older files stay the same)
+            if any(getattr(c, key)):
+                lines.append(f"{key} = {_toml(getattr(c, key))}")
+        lines.append("")
+    a = target.approach
+    if a is not None:
+        lines += ["[approach]", f"time = {_toml(a.time)}", f"seed = {a.seed}"]
+        lines += [f"delay = {a.delay}", "", "[approach.noise]"]
+        lines += [f"{k} = {_toml(x)}" for k, x in zip(APPROACH_NOISE_KEYS, a.noise, strict=True)]
+        lines.append("")
     return lines
 
 

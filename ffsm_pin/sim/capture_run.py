@@ -42,6 +42,13 @@ CAPTURE_KEYS = (
 )
 
 
+#: The per-step signals of a run with ``[capture]``: the distance between the two grasp
+#: frames' origins [m] and the relative speed of the two bodies at the hand's grasp point
+#: [m/s] (:meth:`~.impact.CaptureModel.relative_motion`; at the capture's row, after the
+#: impact).
+CAPTURE_SIGNALS: dict[str, tuple[int, ...]] = {"grasp_distance": (), "grasp_speed": ()}
+
+
 @dataclass(frozen=True)
 class CaptureOutcome:
     """What happened to the target: captured or not, when, and the impact.
@@ -60,6 +67,8 @@ class CaptureOutcome:
         The distance between the two grasp frames' origins then [m].
     energy_lost : float or None
         The kinetic energy the plastic impact took [J].
+    tolerance_position, tolerance_velocity : float or None
+        The ``[capture]`` tolerances [m], [m/s] (for the figures).
     """
 
     captured: bool = False
@@ -68,6 +77,8 @@ class CaptureOutcome:
     relative_speed: float | None = None
     distance: float | None = None
     energy_lost: float | None = None
+    tolerance_position: float | None = None
+    tolerance_velocity: float | None = None
 
     def summary(self) -> dict:
         """The summary.json keys (:data:`CAPTURE_KEYS`).
@@ -107,11 +118,14 @@ class CaptureMotion(TargetMotion):
         self, target: Target, state: TargetState, robot, spec: CaptureSpec, substeps: int = 1
     ) -> None:
         super().__init__(target, state)
-        self.capture: CaptureModel = capture_model(robot, target)
+        self.capture: CaptureModel = capture_model(robot, target, hand_grasp(spec))
         self.tolerances = CaptureTolerances(spec.tolerance_position, spec.tolerance_velocity)
         self.estimates = spec.estimates
         self.substeps = max(1, int(substeps))
-        self.outcome = CaptureOutcome()
+        self.outcome = CaptureOutcome(
+            tolerance_position=spec.tolerance_position, tolerance_velocity=spec.tolerance_velocity
+        )
+        self.relative: tuple[float, float] = (np.nan, np.nan)  # grasp distance, speed now
         self.plant: Plant | None = None  # the merged robot's, after capture
         self._held: pin.SE3 | None = None  # the target frame in the end-effector frame
 
@@ -147,15 +161,18 @@ class CaptureMotion(TargetMotion):
         v : ndarray
             The robot's velocity (after the impact at capture).
         """
+        cap = self.capture
         if self.plant is not None:
             self.state = self._held_state(q, v)
+            self.relative = cap.relative_motion(*cap.joint_state(q, v, self.state))
             return plant, sensor, v
-        cap = self.capture
         qc, vc = cap.joint_state(q, v, self.state)
-        if not cap.ready(qc, vc, self.tolerances):
+        distance, speed = self.relative = cap.relative_motion(qc, vc)
+        tol = self.tolerances
+        if not (distance <= tol.position and speed <= tol.velocity):  # (CaptureModel.ready)
             return plant, sensor, v
-        distance, speed = cap.relative_motion(qc, vc)
         hit = impact(cap, qc, vc)
+        self.relative = cap.relative_motion(qc, hit.v)  # the row's state: after the impact
         known = self.estimates != "unknown"
         robot, q_new, v_new = merge_after_capture(cap, qc, hit.v, known=known)
         self.plant = plant.with_robot(robot)  # (with wheels, they stay on the bus)
@@ -166,11 +183,24 @@ class CaptureMotion(TargetMotion):
         self.state = cap.target_state(qc, hit.v)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
-            float(hit.energy_loss),
+            float(hit.energy_loss), tol.position, tol.velocity,
         )  # fmt: skip
         if self.estimates == "true":  # a controller measuring M, h sees the merged robot's
             sensor = Sensor(robot, sensor.model, full_model=sensor.full_model)
         return self.plant, sensor, v_new
+
+    def write(self, arrays: Mapping[str, np.ndarray], i: int) -> None:
+        """Record the target's state and the two grasp frames' relative motion in row ``i``.
+
+        Parameters
+        ----------
+        arrays : mapping of str to ndarray
+            The recorder's columns (:data:`CAPTURE_SIGNALS` among them).
+        i : int
+            The row.
+        """
+        super().write(arrays, i)
+        arrays["grasp_distance"][i], arrays["grasp_speed"][i] = self.relative
 
     def _held_state(self, q, v) -> TargetState:
         """The held target's state from the merged robot's (q, v)."""
@@ -237,6 +267,47 @@ def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | N
     if setup.target is None or setup.target_state is None or spec is None:
         return None, None
     if spec.capture is None:
-        return TargetMotion(setup.target, setup.target_state), None
-    motion = CaptureMotion(setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps)
-    return motion, motion
+        motion: TargetMotion = TargetMotion(setup.target, setup.target_state)
+        capture = None
+    else:
+        capture = CaptureMotion(
+            setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps
+        )
+        motion = capture
+    if setup.approach is not None:  # the approach's target sensor reads the true state
+        setup.approach.follow(motion)
+    return motion, capture
+
+
+def hand_grasp(spec: CaptureSpec) -> pin.SE3:
+    """The hand's grasp frame in the end-effector frame (``[capture] hand_xyz``, ``hand_rpy``).
+
+    Parameters
+    ----------
+    spec : CaptureSpec
+        The ``[capture]`` table.
+
+    Returns
+    -------
+    pin.SE3
+        The placement.
+    """
+    return pin.SE3(pin.rpy.rpyToMatrix(*spec.hand_rpy), np.array(spec.hand_xyz, dtype=float))
+
+
+def capture_signals(setup: Setup) -> dict[str, tuple[int, ...]]:
+    """The recorded per-step signals a run has for its ``[capture]`` (:data:`CAPTURE_SIGNALS`;
+    none without one).
+
+    Parameters
+    ----------
+    setup : Setup
+        The prepared run.
+
+    Returns
+    -------
+    dict
+        Name -> shape of one row.
+    """
+    spec = setup.scenario.target
+    return {} if spec is None or spec.capture is None else CAPTURE_SIGNALS

@@ -176,6 +176,7 @@ def check(scenario: Scenario) -> CheckReport:
     from ..control.compiled import no_warm_up
     from ..control.gains import GainWarning
     from ..control.saturation import SaturationWarning
+    from .capture_check import CaptureWarning, capture_warnings
     from .measurement import Sensor
     from .reach import ReachWarning
     from .setup import prepare
@@ -215,6 +216,8 @@ def check(scenario: Scenario) -> CheckReport:
     text = None if torque is None else torque.problem(setup.robot.joint_names)
     if text is not None:
         warnings.warn(text, SaturationWarning, stacklevel=2)
+    for line in capture_warnings(setup):  # [target]: reach in time, impact (capture_check.py)
+        warnings.warn(line, CaptureWarning, stacklevel=2)
     horizon = setup.reach_horizon
     if horizon is not None:
         problems.append(

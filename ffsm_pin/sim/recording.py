@@ -17,6 +17,7 @@ from ..control.diagnostics import reaction_torques, rows_beside
 from ..control.interface import recorded_name
 from ..control.kinematic import error_terms
 from ..errors import SimulationError
+from .capture_run import capture_signals
 from .plant import Plant
 from .recorder import Signals, extend
 from .result import RunResult
@@ -50,6 +51,7 @@ def recorder_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
         **{recorded_name(k): tuple(shape) for k, shape in declared.items()},
         **({} if setup.target is None else TARGET_SIGNALS),  # the target's pose and twist
         **wheel_shapes(setup),  # the wheels' momenta, speeds and torques
+        **capture_signals(setup),  # with [capture]: the grasp frames' distance and speed
     }  # fmt: skip
 
 
@@ -111,6 +113,7 @@ def _after_run_signals(
     reads a block of rows (a run with ``[capture]``: the whole system's,
     :meth:`~ffsm_pin.sim.capture_run.CaptureMotion.momentum_rows`)."""
     ref = setup.scenario.reference
+    given = ref if setup.approach is None else setup.approach  # the reference the law had
     nq_root = setup.robot.root.nq  # q = (root, q_m)
     q_bd = np.asarray(ref.base_attitude, dtype=float)
     m3 = setup.model.m3
@@ -134,7 +137,7 @@ def _after_run_signals(
             out[f"rho_{name}"] = rho
             out[f"bound_{name}_lower"] = funnel.lower * rho
             out[f"bound_{name}_upper"] = funnel.upper * rho
-        out["z_e_d"], out["z_e_d_dot"] = ref.sample(t)
+        out["z_e_d"], out["z_e_d_dot"] = given.sample(t)
         out["err_b"], out["err_z"] = error_terms(block["q_b"], q_bd, block["z_e"], out["z_e_d"], m3)
         out["P"], out["L"] = momentum(block)
         return out

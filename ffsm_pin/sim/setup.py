@@ -40,6 +40,7 @@ from ..robot import Robot
 from ..scenario.check import check_scenario
 from ..scenario.spec import RobotSpec, Scenario
 from .actuators import Actuators, urdf_limits
+from .approach import Approach, approach_of
 from .estimates import initial_estimates
 from .initial import initial_state
 from .measurement import Sensor
@@ -86,6 +87,8 @@ class Setup:
         The ``[target]`` body (:mod:`.target_run`), None without one.
     target_state : TargetState or None
         Its state at t = 0 (``origin = "end-effector"`` resolved).
+    approach : Approach or None
+        ``[approach]``: the reference the controller reads (:mod:`.approach`), None without.
     """
 
     scenario: Scenario
@@ -108,6 +111,7 @@ class Setup:
     drawn_estimates: dict = dataclasses.field(default_factory=dict)
     target: Target | None = None  # [target], stepped torque-free by the loop
     target_state: TargetState | None = None  # at t = 0
+    approach: Approach | None = None  # [approach]: the reference the controller reads
 
     @property
     def n_task(self) -> int:
@@ -207,6 +211,7 @@ def prepare(
                 f"funnel at t = 0 (bounds {np.round(lo, 4).tolist()} .. "
                 f"{np.round(hi, 4).tolist()}); increase controller.funnel.{key} or {hint}"
             )
+    approach, ctl_scenario = approach_of(scenario, ref, target)  # [approach], else scenario
     n = robot.n_joints
     effort = robot.effort_limits  # the arm joints' URDF <limit effort>, NaN where none
     actuators = Actuators(scenario.actuators, n, scenario.dt, effort, robot.joint_names)
@@ -218,12 +223,12 @@ def prepare(
         n_task=n_task,
         dt=scenario.dt,
         params=dict(ctrl.params),
-        reference=_reference_function(ref),
+        reference=_reference_function(ctl_scenario.reference),
         base_attitude_reference=q_bd,
         robot=robot,
         model=model,
         initial=meas0,
-        scenario=scenario,
+        scenario=ctl_scenario,
         estimates_source=estimates,
         truth=truth,
         torque_limit=actuators.limit.copy(),  # what a saturation-aware law knows
@@ -231,6 +236,8 @@ def prepare(
     if before_controller is not None:
         before_controller()
     controller = _build_controller(cls, ctx, ctrl.type)
+    if approach is not None:  # its reference written before each of the controller's periods
+        controller = approach.wrap(controller)
     events = []
     horizon = reach_horizon(model, truth[0], st.com_position, scenario.reference, scenario.duration)
     if horizon is not None:
@@ -246,7 +253,7 @@ def prepare(
     return Setup(
         scenario, robot, model, q0, v0, *truth, controller, horizon, events,
         None if actuators.ideal else actuators, None if sensors.ideal else sensors,
-        funnels["b"], funnels["z"], drawn, target, target_state,
+        funnels["b"], funnels["z"], drawn, target, target_state, approach,
     )  # fmt: skip
 
 

@@ -21,6 +21,7 @@ from ..errors import ScenarioError
 from ..scenario.target_spec import TargetSpec
 from ._docs import SIM_DOC
 from .target import Target, TargetState, torque_free_step
+from .target_urdf import target_from_urdf
 
 #: The per-step signals of a run with a target (shape of one row): the target frame's pose
 #: (position [m], quaternion x, y, z, w) and twist (CoM velocity, world [m/s]; body angular
@@ -47,9 +48,14 @@ def build_target(spec: TargetSpec, hand_position) -> tuple[Target, TargetState]:
         Its initial state: ``position`` in the world (the hand's position added for
         ``origin = "end-effector"``), the attitude, CoM velocity and body rates.
     """
-    target = Target.box(
-        spec.size, spec.mass, spec.inertia, grasp_xyz=spec.grasp_xyz, grasp_rpy=spec.grasp_rpy
-    )
+    if spec.urdf is not None:  # a one-body URDF: its link's inertial
+        grasp = pin.SE3(pin.rpy.rpyToMatrix(*spec.grasp_rpy), np.array(spec.grasp_xyz, float))
+        target = target_from_urdf(spec.urdf, spec.relative_to, grasp)
+    else:
+        assert spec.size is not None and spec.mass is not None  # (the schema's)
+        target = Target.box(
+            spec.size, spec.mass, spec.inertia, grasp_xyz=spec.grasp_xyz, grasp_rpy=spec.grasp_rpy
+        )
     position = np.array(spec.position, dtype=float)
     if spec.origin == "end-effector":
         position = position + np.asarray(hand_position, dtype=float)[:3]
@@ -96,7 +102,8 @@ def check_clear_of_bus(target: Target, state: TargetState, robot, q0, bus_size=N
     With the bus's size known (``[robot.satellite] size``: the satellite link is a box of
     that size centred on the root frame, its visual) the two boxes must not overlap (touching
     is allowed); otherwise (a URDF with its own root body, whose size the package does not
-    know) the root frame's origin must lie outside the target's box.
+    know) the root frame's origin must lie outside the target's box. A target without a size
+    (a URDF target) is checked by its CoM: outside the bus box, when its size is known.
 
     Parameters
     ----------
@@ -116,6 +123,14 @@ def check_clear_of_bus(target: Target, state: TargetState, robot, q0, bus_size=N
     bus = data.oMi[_ROOT_JOINT]
     where = np.round(state.pose.translation, 4).tolist()
     size = bus_size
+    if target.size is None:  # (a URDF target: its CoM outside the bus box, when known)
+        com = bus.actInv(state.com_position(target))
+        if size is not None and (np.abs(com) < 0.5 * np.asarray(size)).all():
+            raise ScenarioError(
+                f"target.position: the target's CoM at {np.round(com, 4).tolist()} m (bus "
+                f"frame) is inside the bus (a {list(size)} m box) at t = 0"
+            )
+        return
     if size is not None:
         if boxes_overlap(bus, size, state.pose, target.size):
             raise ScenarioError(

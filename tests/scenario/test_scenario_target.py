@@ -9,6 +9,7 @@ import pytest
 from ffsm_pin.errors import ScenarioError
 from ffsm_pin.scenario import CaptureSpec, TargetSpec
 from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.target_spec import ApproachSpec
 from ffsm_pin.scenario.writer import scenario_to_toml
 
 REALISTIC = builtin_path("spatial-realistic").read_text()
@@ -197,3 +198,85 @@ def test_a_capture_without_a_target_is_refused():
         scenario_from_toml(REALISTIC + CAPTURE)
     msg = str(info.value)
     assert "\n" not in msg and msg.startswith("capture: needs a [target] table"), msg
+
+
+# ------------------------------------------------ [capture] hand offset and [approach]
+APPROACH = """
+[approach]
+time = 6.0
+seed = 5
+delay = 2
+
+[approach.noise]
+position = 1e-3
+attitude = 2e-3
+velocity = 1e-3
+angular_velocity = 5e-4
+"""
+
+
+def test_hand_offset_and_approach_are_read_and_written_back():
+    hand = "hand_xyz = [0.0, 0.0, 0.1]\nhand_rpy = [0.0, 0.0, 0.5]\n"
+    sc = scenario_from_toml(with_target(MINIMAL + CAPTURE + hand + APPROACH))
+    assert sc.target is not None and sc.target.capture is not None
+    assert sc.target.capture.hand_xyz == (0.0, 0.0, 0.1)
+    assert sc.target.capture.hand_rpy == (0.0, 0.0, 0.5)
+    assert sc.target.approach == ApproachSpec(6.0, 5, 2, (1e-3, 2e-3, 1e-3, 5e-4))
+    assert scenario_from_toml(scenario_to_toml(sc)) == sc
+    # defaults: no offset (and the saved text has no hand keys), an exact sensor
+    plain = scenario_from_toml(with_target(MINIMAL + CAPTURE + "[approach]\ntime = 2.0\n"))
+    assert plain.target is not None and plain.target.capture is not None
+    assert plain.target.capture.hand_xyz == plain.target.capture.hand_rpy == (0.0, 0.0, 0.0)
+    assert plain.target.approach == ApproachSpec(2.0)
+    assert "hand_xyz" not in scenario_to_toml(plain)
+
+
+BAD_APPROACH = {
+    "hand-count": (CAPTURE + "hand_xyz = [0.0, 0.1]\n", "capture.hand_xyz"),
+    "hand-text": (CAPTURE + 'hand_rpy = [0.0, 0.0, "x"]\n', "capture.hand_rpy: expected a list of"),
+    "hand-nan": (CAPTURE + "hand_xyz = [0.0, nan, 0.0]\n", "capture.hand_xyz[1]"),
+    "time-zero": ("[approach]\ntime = 0.0\n", "approach.time = 0.0: must be > 0"),
+    "time-missing": ("[approach]\nseed = 1\n", "approach.time: missing"),
+    "delay": ("[approach]\ntime = 1.0\ndelay = -1\n", "approach.delay = -1"),
+    "noise": (
+        "[approach]\ntime = 1.0\n[approach.noise]\nposition = -1e-3\n",
+        "approach.noise.position = -0.001",
+    ),
+    "noise-key": (
+        "[approach]\ntime = 1.0\n[approach.noise]\nrate = 1e-3\n",
+        "approach.noise.rate: unknown key in [approach.noise]",
+    ),
+    "unknown": ("[approach]\ntime = 1.0\nhorizon = 2\n", "approach.horizon: unknown key"),
+}
+
+
+@pytest.mark.parametrize("what", list(BAD_APPROACH))
+def test_bad_hand_or_approach_input_is_one_line_naming_the_key(what):
+    table, fragment = BAD_APPROACH[what]
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(with_target(MINIMAL + table))
+    msg = str(info.value)
+    assert "\n" not in msg and fragment in msg, msg
+
+
+def test_an_approach_needs_a_target_and_the_position_task():
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(REALISTIC + "[approach]\ntime = 1.0\n")
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith("approach: needs a [target] table"), msg
+    pose = builtin_path("spatial-pose").read_text()
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_toml(with_target(MINIMAL + "[approach]\ntime = 1.0\n", pose))
+    msg = str(info.value)
+    assert "\n" not in msg and "reference.task = 'pose'" in msg and "'position'" in msg, msg
+
+
+def test_builtin_capture_approach_is_capture_with_the_box_farther():
+    approach, capture = builtin_scenario("capture-approach"), builtin_scenario("capture")
+    assert approach.target is not None and capture.target is not None
+    assert approach.target.approach is not None and capture.target.approach is None
+    assert approach.target.capture == capture.target.capture
+    assert dataclasses.replace(approach.target, position=capture.target.position,
+                               approach=None) == capture.target  # fmt: skip
+    for key in ("robot", "initial", "reference", "controller", "sensors", "actuators", "dt"):
+        assert getattr(approach, key) == getattr(capture, key), key

@@ -17,7 +17,24 @@ from ffsm_pin.sim.run import prepare, simulate
 LU_JIA_GAINS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
 
 
-@pytest.mark.parametrize("name", sorted(BUILTIN))
+# The paper's default adaptation gains (10) do not survive the capture of an unknown 40 kg box
+# after an approach: theta_d-hat leaves the physical set about 1.2 s after the grasp and the run
+# stops (adaptation = "physical" keeps it physical but the hand then leaves its funnel at about
+# 6.9 s). The case ships gains of 0.1, as `capture` does (docs/capture.md). Strict: a change
+# that makes the defaults hold here shows as a pass to turn into a plain case.
+_DEFAULTS_FAIL = {
+    "capture-approach": "default adaptation gains drive theta_d-hat out of the physical set "
+    "after the capture (docs/capture.md)"
+}
+_CASES = [
+    pytest.param(n, marks=pytest.mark.xfail(reason=_DEFAULTS_FAIL[n], strict=True))
+    if n in _DEFAULTS_FAIL
+    else n
+    for n in sorted(BUILTIN)
+]
+
+
+@pytest.mark.parametrize("name", _CASES)
 def test_omitted_gains_keep_the_shipped_funnels(name):
     """Every built-in scenario with all its gains removed: the derived k_b, k_z and the
     paper's other defaults satisfy every condition, and the run keeps the funnels wherever

@@ -1,0 +1,97 @@
+"""``--check`` on a run with a target (issue 40): the target out of reach, no capture on the
+predicted motion, an impact beyond the joints' torque limits (``ffsm_pin/sim/capture_check.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.sim.capture_check import CaptureWarning, capture_warnings, predict_capture
+from ffsm_pin.sim.check import check
+from ffsm_pin.sim.setup import prepare
+
+
+def _setup(scenario):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return prepare(scenario)
+
+
+def _target(name: str, **changes):
+    sc = builtin_scenario(name)
+    assert sc.target is not None
+    return dataclasses.replace(sc, target=dataclasses.replace(sc.target, **changes))
+
+
+def _check_warnings(scenario) -> list[str]:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        report = check(scenario)
+    assert report.ok, report.problems
+    return [str(w.message) for w in caught if w.category is CaptureWarning]
+
+
+@pytest.mark.parametrize("name", ["capture", "capture-approach", "target-tumbling"])
+def test_the_shipped_cases_get_no_warning(name):
+    assert _check_warnings(builtin_scenario(name)) == []
+
+
+def test_the_predicted_capture_of_the_capture_case():
+    """The box's grasp point starts 4 cm from the hand, which holds its place, and closes at
+    1 cm/s (its spin is about the line between them): within the 1 cm tolerance at 3 s."""
+    pred = predict_capture(_setup(builtin_scenario("capture")))
+    assert pred is not None and pred.capture_time is not None
+    assert abs(pred.capture_time - 3.0) < 0.1  # (the spin is mostly, not only, about it)
+    assert abs(pred.distance[0] - 0.04) < 1e-3
+    assert pred.reachable.all()
+
+
+def test_a_target_the_reference_never_meets_is_warned_of():
+    """'capture-approach' without its [approach]: the box starts 25 cm away and closes by
+    10 cm in 10 s; with it, the blend takes the hand there."""
+    sc = _target("capture-approach", approach=None)
+    (line,) = _check_warnings(sc)
+    assert line.startswith("no capture predicted") and "capture.tolerance_position" in line
+    assert "\n" not in line
+    pred = predict_capture(_setup(sc))
+    assert pred is not None and pred.capture_time is None
+    assert pred.distance.min() == pytest.approx(0.25 - 0.01 * 10.0, abs=5e-3)
+
+
+def test_a_target_beyond_the_reach_is_warned_of():
+    sc = _target("target-tumbling", position=(5.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0))
+    lines = _check_warnings(sc)
+    assert any(x.startswith("target out of reach") for x in lines), lines
+    pred = predict_capture(_setup(sc))
+    assert pred is not None and not pred.reachable.any()
+
+
+def test_an_impact_beyond_the_torque_limits_is_warned_of():
+    """A 100 times heavier box arriving 10 times faster (tolerance_velocity raised so that it
+    is grasped): the stopping torques exceed the Panda's limits; they grow with the mass."""
+    base = builtin_scenario("capture-approach")
+    assert base.target is not None and base.target.capture is not None
+    capture = dataclasses.replace(base.target.capture, tolerance_velocity=1.0)
+    fast = tuple(10.0 * x for x in base.target.velocity)
+    heavy = _target("capture-approach", mass=4000.0, velocity=fast, capture=capture)
+    lines = _check_warnings(heavy)
+    assert len(lines) == 1 and lines[0].startswith("impact beyond the torque limits"), lines
+    assert "panda_joint" in lines[0] and "\n" not in lines[0]
+    light = _target("capture-approach", mass=40.0, velocity=fast, capture=capture)
+    assert _check_warnings(light) == []
+    p_heavy, p_light = predict_capture(_setup(heavy)), predict_capture(_setup(light))
+    assert p_heavy is not None and p_light is not None
+    assert p_heavy.capture_time == p_light.capture_time  # (the same motion)
+    assert p_heavy.stopping_torque is not None and p_light.stopping_torque is not None
+    ratio = np.abs(p_heavy.stopping_torque).max() / np.abs(p_light.stopping_torque).max()
+    assert ratio > 10.0
+
+
+def test_no_target_no_prediction():
+    setup = _setup(builtin_scenario("spatial-realistic"))
+    assert predict_capture(setup) is None and capture_warnings(setup) == []
