@@ -40,9 +40,8 @@ def reference_arrays(reference) -> ReferenceArrays:
     C-contiguous float arrays), ``pp`` None when the reference has no piecewise polynomial (a
     reference not from data): the kernels then compile none of its code (numba prunes a
     branch on an argument that is None)."""
-    arrays = reference.kernel_arrays()
-    pp = arrays[5] if arrays[5].shape[1] > 0 else None
-    return ReferenceArrays(*arrays[:5], pp)
+    c, A, amp, freq, phase, pp = reference.kernel_arrays()
+    return ReferenceArrays(c, A, amp, freq, phase, pp if pp.shape[1] > 0 else None)
 
 
 @njit(cache=True)
