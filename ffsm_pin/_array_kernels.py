@@ -6,6 +6,8 @@ references they equal are named in their docstrings."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numba import njit
 
@@ -144,13 +146,90 @@ def smallest_singular_value_above(A, tol):
     return smallest > tol, smallest
 
 
+def _lapack_gesv() -> tuple[Any, Any]:
+    """(numba's external declaration of LAPACK's dgesv, the integer type of its pivots): what
+    :func:`np.linalg.solve` calls inside numba (SciPy's LAPACK through numba's helper library);
+    (None, None) when this numba does not have them under those private names (:func:`solve`
+    then calls ``np.linalg.solve``)."""
+    try:
+        from numba import types
+        from numba.np.linalg import _LAPACK, F_INT_nptype
+
+        return _LAPACK().numba_xgesv(types.float64), F_INT_nptype
+    except (ImportError, AttributeError, TypeError):  # another numba's internals
+        return None, None
+
+
+_GESV, _PIVOT = _lapack_gesv()
+_GESV_KIND = ord("d")  # numba's code for float64 (numba.np.linalg.get_blas_kind)
+_SINGULAR = "Matrix is singular to machine precision."  # numba's message, word for word
+_NOT_FINITE = "Array must not contain infs or NaNs."
+
+
 @njit(cache=True)
-def solve(A, b):
-    """``np.linalg.solve(A, b)`` as a cached kernel of its own: numba compiles its LAPACK
-    wrapper (about 2 s, its shape-message code included) into every function that calls it
-    directly, once per process; through this kernel a first run compiles it once, in its
-    second process, and the periods load it from the cache. The same values."""
-    return np.linalg.solve(A, b)
+def _finite_system(A, b) -> bool:
+    """True when every entry of the matrix ``A`` and the vector ``b`` is finite."""
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            if not np.isfinite(A[i, j]):
+                return False
+    for i in range(b.size):
+        if not np.isfinite(b[i]):
+            return False
+    return True
+
+
+if _GESV is None:
+
+    @njit(cache=True)
+    def solve(A, b):
+        """``np.linalg.solve(A, b)`` (this numba has no dgesv declaration under the private
+        name :func:`_lapack_gesv` looks for)."""
+        return np.linalg.solve(A, b)
+
+else:
+
+    @njit(cache=True)
+    def solve(A, b):
+        """``np.linalg.solve(A, b)`` for a real n x n ``A`` and a real vector ``b``, as a
+        cached kernel of its own: the same LAPACK call (dgesv on a Fortran-ordered copy of A
+        and a copy of b) and the same errors (``LinAlgError`` for entries not finite and for
+        a singular A) as numba's ``np.linalg.solve``, hence the same values, bitwise; but its
+        copies are loops, where numba's wrapper copies b by a slice assignment whose
+        shape-mismatch message costs about 1.6 s of compiling (a first run compiles this
+        kernel once, in its second process, and the periods and the plant load it).
+
+        Parameters
+        ----------
+        A : ndarray, shape (n, n)
+            The matrix (float64).
+        b : ndarray, shape (n,)
+            The right-hand side (float64).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The solution x of A x = b.
+        """
+        n = A.shape[0]
+        if A.shape[1] != n or b.size != n:
+            raise ValueError("solve: A must be n x n and b of size n")
+        if not _finite_system(A, b):
+            raise np.linalg.LinAlgError(_NOT_FINITE)
+        acpy = np.empty((n, n))  # A^T in C order: A in Fortran order, as LAPACK reads it
+        for i in range(n):
+            for j in range(n):
+                acpy[j, i] = A[i, j]
+        x = np.empty(n)
+        for i in range(n):
+            x[i] = b[i]
+        ipiv = np.empty(n, dtype=_PIVOT)
+        if n > 0:
+            info = _GESV(_GESV_KIND, n, 1, acpy.ctypes, n, ipiv.ctypes, x.ctypes, n)
+            if info > 0:  # (info < 0: an argument LAPACK refuses, not possible here)
+                raise np.linalg.LinAlgError(_SINGULAR)
+            acpy[0, 0] = ipiv[0]  # the copies stay alive until dgesv has returned
+        return x
 
 
 __all__ = [

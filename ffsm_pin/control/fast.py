@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import difference, positive_definite, put
+from .._array_kernels import difference, positive_definite, put, solve
 from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..model._planar_kernels import (
@@ -110,7 +110,7 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
         return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
     a_b = theta_b[0] + g.k_b * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
     Hp = Hbm / hh  # pseudo-inverse of the row H_bm
-    U = np.eye(n) - np.outer(Hp, Hbm)
+    U = _eye_minus_outer(Hp, Hbm)
     A = Jm @ U
     pinv, sigma, damping = damped_pinv(A, law.threshold)
     Hp_ab = Hp * a_b
@@ -122,6 +122,20 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
         xi = xi + ns.gain * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
+
+
+@njit(cache=True)
+def _eye_minus_outer(x, y):
+    """``np.eye(n) - np.outer(x, y)`` by loops: the same values (each entry the same one
+    product and one subtraction), without compiling numba's ``np.eye`` and ``np.outer``
+    (about 0.7 s of the complex kinematic law, a first run's critical path)."""
+    n = x.size
+    U = np.empty((n, n), dtype=x.dtype)
+    for i in range(n):
+        for j in range(n):
+            e = 1.0 if i == j else 0.0
+            U[i, j] = e - x[i] * y[j]
+    return U
 
 
 @njit(cache=True)
@@ -235,7 +249,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         return STATUS_M_NOT_PD, 0.0, none, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g.gamma_3 * dt
-    d_theta_d = -cg * (Y_df.T @ np.linalg.solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+    d_theta_d = -cg * (Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
     d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)  # physical.py
     if not physical:
         return STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
@@ -368,3 +382,16 @@ def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
     %(sections_reaction_rows_of)s
     """
     return _rows(q_b[:, 0], q_m, w, dw_b.reshape(-1))
+
+
+def compile_beside_law(meas, state) -> None:
+    """Nothing: the planar kernels the second process compiles take about as long as the
+    kinematic law (:func:`.fast_spatial.compile_beside_law` balances the spatial ones).
+
+    Parameters
+    ----------
+    meas : Measurement
+        The run's measurement.
+    state : PeriodState
+        The period's state.
+    """

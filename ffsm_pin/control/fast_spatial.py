@@ -28,7 +28,7 @@ bundles of the period (the law, the state, the outputs): :mod:`.period`.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof, types
 
 from .._array_kernels import (
     cmm,
@@ -444,3 +444,24 @@ def reaction_rows_of(q_b, q_m, w, dw_b) -> tuple:
     %(sections_reaction_rows_of)s
     """
     return _rows(q_b, q_m, w, dw_b)
+
+
+def compile_beside_law(meas, state) -> None:
+    """On a first run, before the kinematic law: compile the dynamic level's two largest real
+    kernels, the estimated mass matrix and Y_M of Eq. (49) (about 2.7 s), with the argument
+    types :func:`dynamic_level` passes (the values do not matter: zeros), so that the second
+    process, which compiles the period's real kernels meanwhile, loads them from the cache
+    (:func:`.period.compile_in_parallel`): the two processes then finish about together.
+
+    Parameters
+    ----------
+    meas : Measurement
+        The run's measurement (its shapes).
+    state : PeriodState
+        The period's state (its shapes).
+    """
+    n, nd = meas.q_m.size, state.theta_d.size
+    R, z, M = np.zeros((n + 1, 3, 3)), np.zeros((n, 3)), np.zeros((n + 3, n + 3))
+    mass_matrix(R, z, np.zeros(nd), M)
+    a, Y = np.zeros(n + 3), np.zeros((n + 3, nd))  # ym(..., False): a literal in the period
+    ym.compile((typeof(R), typeof(z), typeof(a), typeof(Y), types.literal(False)))

@@ -65,9 +65,9 @@ from .saturation_kernels import auxiliary_advance, auxiliary_maps, relaxed
 #: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
 #: ``dynamic_level``, with the signatures of the stubs below; the last also gives the
 #: diagnostic e of Eq. 54), the true-model reaction torque ``reaction_rows``
-#: (:mod:`.diagnostics`), and three small functions the first compilation and the
-#: diagnostics use: ``base_velocity(w)``,
-#: ``true_model_constants(geo)`` and ``reaction_rows_of(q_b, q_m, w, dw_b)``.
+#: (:mod:`.diagnostics`), and small functions the first compilation and the diagnostics
+#: use: ``base_velocity(w)``, ``true_model_constants(geo)``, ``reaction_rows_of(q_b, q_m, w,
+#: dw_b)`` and ``compile_beside_law(meas, state)`` (a first run's, before the law).
 GEOMETRIES: dict[type, Any] = {
     PlanarKernelConstants: fast,
     SpatialKernelConstants: fast_spatial,
@@ -414,17 +414,17 @@ def compile_in_parallel(geo, law, ref, meas, state) -> None:
         __name__,
         (geo, law, ref, meas, state),
         (kernels.kinematic_law,),
-        lambda: kernels.kinematic_law(*_kinematic_args(kernels, geo, law, ref, meas, state)),
+        lambda: _compile_here(kernels, geo, law, ref, meas, state),
     )
 
 
-def _kinematic_args(kernels, geo, law, ref, meas, state) -> tuple:
-    """Arguments of the geometry's ``kinematic_law`` with the types :func:`period` passes
-    (complex values of the measurement's shapes); the values only need to be finite."""
-    c = 1j * COMPLEX_STEP
-    return (geo, law, ref, law.null_space, meas.t + c, meas.q_b + c, meas.q_m + c,
-            meas.z_e + c, state.theta_b + c, state.theta_z + c,
-            kernels.base_velocity(meas.w) + 0j)  # fmt: skip
+def _compile_here(kernels, geo, law, ref, meas, state) -> None:
+    """A first run's compiling here: ``compile_beside_law``, then ``kinematic_law`` with the
+    types :func:`period` passes (complex values of the measurement's shapes)."""
+    kernels.compile_beside_law(meas, state)
+    c, w_b = 1j * COMPLEX_STEP, kernels.base_velocity(meas.w) + 0j
+    kernels.kinematic_law(geo, law, ref, law.null_space, meas.t + c, meas.q_b + c, meas.q_m + c,
+                          meas.z_e + c, state.theta_b + c, state.theta_z + c, w_b)  # fmt: skip
 
 
 def _compile_real_kernels(geo, law, ref, meas, state) -> None:

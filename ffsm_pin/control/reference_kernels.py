@@ -32,19 +32,22 @@ class ReferenceArrays(NamedTuple):
     amp: np.ndarray  # amplitudes, (n_terms,)
     freq: np.ndarray  # [rad/s]
     phase: np.ndarray  # [rad]
-    pp: np.ndarray  # piecewise polynomial table (no columns: no data)
+    pp: np.ndarray | None  # piecewise polynomial table; None: no data (nothing compiled for it)
 
 
 def reference_arrays(reference) -> ReferenceArrays:
     """The :class:`ReferenceArrays` of a scenario's reference (``reference.kernel_arrays()``,
-    C-contiguous float arrays)."""
-    return ReferenceArrays(*reference.kernel_arrays())
+    C-contiguous float arrays), ``pp`` None when the reference has no piecewise polynomial (a
+    reference not from data): the kernels then compile none of its code (numba prunes a
+    branch on an argument that is None)."""
+    c, A, amp, freq, phase, pp = reference.kernel_arrays()
+    return ReferenceArrays(c, A, amp, freq, phase, pp if pp.shape[1] > 0 else None)
 
 
 @njit(cache=True)
 def reference_at(ref, t, rate):
     """z_e,d(t) (``rate`` False) or dz_e,d/dt of ``ref`` (:class:`ReferenceArrays`): the
-    harmonic terms plus, when ``ref.pp`` has segments, the piecewise polynomial of a reference
+    harmonic terms plus, when ``ref.pp`` is not None, the piecewise polynomial of a reference
     from data (complex-step safe).
 
     Parameters
@@ -61,9 +64,18 @@ def reference_at(ref, t, rate):
         out = mv(ref.A, -ref.amp * ref.freq * np.sin(arg))
     else:
         out = ref.c + mv(ref.A, ref.amp * np.cos(arg))
-    if ref.pp.shape[1] > 0:
-        out = out + piecewise(ref.pp, t, 1 if rate else 0)
-    return out
+    return _plus_piecewise(out, ref.pp, t, 1 if rate else 0)
+
+
+@njit(cache=True)
+def _plus_piecewise(out, pp, t, order):
+    """``out`` plus the piecewise polynomial ``pp``'s derivative of that order at t; ``out``
+    itself when ``pp`` is None (an argument: numba compiles nothing else then)."""
+    if pp is None:
+        return out
+    if pp.shape[1] == 0:  # (a table without segments: the same)
+        return out
+    return out + piecewise(pp, t, order)
 
 
 @njit(cache=True)

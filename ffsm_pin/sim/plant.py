@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 from numba import njit
 
+from .._array_kernels import put, solve
 from .._docstrings import doc_entries, fill_doc
 from ..control import _first_compile
 from ..errors import ParameterError, choices_text
@@ -82,7 +83,7 @@ def _project_base(Ag: np.ndarray, v: np.ndarray, h0: np.ndarray, rows: np.ndarra
         for j in range(nb, v.size):
             rhs[r] -= Ag[row, j] * v[j]
     if nb == 3:
-        v[:nb] = np.linalg.solve(A, rhs)
+        put(v, 0, solve(A, rhs))  # LAPACK's dgesv, as np.linalg.solve (_array_kernels.solve)
     else:
         gauss_solve(A, rhs, v)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
-from ffsm_pin.control.reference_kernels import piecewise
+from ffsm_pin.control.reference_kernels import piecewise, reference_arrays, reference_at
 from ffsm_pin.errors import ParameterError, ScenarioError
 from ffsm_pin.scenario.file import builtin_path, builtin_scenario, load_scenario, scenario_from_toml
 from ffsm_pin.scenario.spec import Reference
@@ -93,6 +93,27 @@ def test_reference_derivatives_are_exact(make):
     pose, rate = ref.sample(np.array([0.3, 1.7]))
     np.testing.assert_allclose(pose[1], ref.ee_pose(1.7), atol=1e-14)
     np.testing.assert_allclose(rate[1], ref.ee_rate(1.7), atol=1e-14)
+
+
+def test_compiled_reference_adds_the_polynomial_only_when_there_is_one():
+    """``reference_arrays`` gives ``pp`` None for a harmonic reference (the kernels compile no
+    piecewise code: numba prunes the branch on a None argument) and the table for one from
+    data; ``reference_at`` is then the harmonic terms alone, bitwise what an empty table
+    gives, or the harmonic terms plus :func:`piecewise`, bitwise, real and complex t."""
+    harmonic = reference_arrays(builtin_scenario("case1").reference)
+    assert harmonic.pp is None
+    empty = harmonic._replace(pp=np.zeros((harmonic.A.shape[0] * 6 + 1, 0)))
+    data = Reference(ee=(), data=_waypoints())
+    with_data = reference_arrays(data)
+    assert with_data.pp is not None and with_data.pp.shape[1] > 0
+    no_data = with_data._replace(pp=None)
+    for t in (0.0, 0.7, 3.1 + 1j * H, 6.0):
+        for rate in (False, True):
+            a, b = reference_at(harmonic, t, rate), reference_at(empty, t, rate)
+            assert np.array_equal(a, b)
+            got = reference_at(with_data, t, rate)
+            want = reference_at(no_data, t, rate) + piecewise(with_data.pp, t, int(rate))
+            assert np.array_equal(got, want)
 
 
 # ----------------------------------------------------------------- runs
