@@ -81,7 +81,7 @@ def predict_capture(setup: Setup) -> CapturePrediction | None:
     Parameters
     ----------
     setup : Setup
-        The prepared run.
+        The prepared run (its target, capture and approach are read).
 
     Returns
     -------
@@ -174,7 +174,7 @@ def capture_warnings(setup: Setup) -> list[str]:
     Parameters
     ----------
     setup : Setup
-        The prepared run.
+        The prepared run, as ``--check`` prepares it.
 
     Returns
     -------

@@ -195,7 +195,7 @@ class CaptureMotion(TargetMotion):
         Parameters
         ----------
         arrays : mapping of str to ndarray
-            The recorder's columns (:data:`CAPTURE_SIGNALS` among them).
+            The recorder's columns: :data:`CAPTURE_SIGNALS` and the target's.
         i : int
             The row.
         """
@@ -254,7 +254,7 @@ def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | N
     Parameters
     ----------
     setup : Setup
-        The prepared run.
+        The prepared run (its ``[target]`` and ``[capture]``).
 
     Returns
     -------
@@ -302,7 +302,7 @@ def capture_signals(setup: Setup) -> dict[str, tuple[int, ...]]:
     Parameters
     ----------
     setup : Setup
-        The prepared run.
+        The prepared run; only its ``[capture]`` is read.
 
     Returns
     -------

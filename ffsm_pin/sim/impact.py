@@ -144,7 +144,8 @@ class CaptureModel:
 
         Parameters
         ----------
-        %(q_v_combined)s
+        q, v : array_like
+            The combined configuration and velocity (only the target's entries are read).
 
         Returns
         -------
