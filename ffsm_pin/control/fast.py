@@ -35,26 +35,8 @@ from ..model._planar_kernels import (
     xm,
     y_m,
 )
+from . import kernels
 from ._docs import CONTROL_DOC
-from .kernels import (
-    JOINT_CENTERING,
-    STATUS_BASE_ROW,
-    STATUS_FUNNEL_B,
-    STATUS_FUNNEL_Z,
-    STATUS_H_COLLAPSE,
-    STATUS_M_NOT_PD,
-    STATUS_NONFINITE,
-    STATUS_NOT_PHYSICAL,
-    STATUS_OK,
-    damped_pinv,
-    filter_regressor_update,
-    funnel_terms,
-    joint_centering_gradient,
-    manipulability_gradient,
-    perturbed_joints,
-    theta_z_step,
-    wrap_angle,
-)
 from .physical import physical_increment
 from .reference_kernels import reference_at
 
@@ -79,40 +61,40 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     for i in range(nt):
         err_z[i] = z_e[i] - z_d[i]  # Eq. (17): the task's components of z_e
     if nt > 2:  # the end-effector angle
-        err_z[2] = wrap_angle(err_z[2])
+        err_z[2] = kernels.wrap_angle(err_z[2])
     err_b = np.empty(1, dtype=err_z.dtype)
-    err_b[0] = wrap_angle(q_b - law.q_bd[0])
-    psi_z, Phi_z, iz = funnel_terms(law.funnel_z, t, err_z, law.identity)
+    err_b[0] = kernels.wrap_angle(q_b - law.q_bd[0])
+    psi_z, Phi_z, iz = kernels.funnel_terms(law.funnel_z, t, err_z, law.identity)
     w_mc = np.zeros(n, dtype=err_z.dtype)
     sens = np.zeros(n)
     if iz >= 0:
-        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, kernels.STATUS_FUNNEL_Z, iz
     J = jacobian(theta_z, c, s, S, ee_row, collinear)[:nt]  # the task's rows
     Jm = np.ascontiguousarray(J[:, 1:])
     target = reference_at(ref, t, True) - g.k_z * Phi_z * psi_z
     target[0] -= theta_z[0]
     target[1] -= theta_z[1]
     if not law.attitude:  # Eq. (81)
-        pinv, sigma, damping = damped_pinv(Jm, law.threshold)
+        pinv, sigma, damping = kernels.damped_pinv(Jm, law.threshold)
         Jb = J[:, 0].copy()
         w_mc = pinv @ (target - Jb * w_b)
         sens = -(pinv @ Jb).real
-        return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
-    psi_b, Phi_b, ib = funnel_terms(law.funnel_b, t, err_b, law.identity)
+        return w_mc, sens, sigma, damping, 0.0, err_b, err_z, kernels.STATUS_OK, -1
+    psi_b, Phi_b, ib = kernels.funnel_terms(law.funnel_b, t, err_b, law.identity)
     if ib >= 0:
-        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, kernels.STATUS_FUNNEL_B, ib
     Mphi = mass_phi(theta_b[1:], pc, ps, K, L, nb, collinear)
     row = xm(column_sums(Mphi).reshape(1, nb), S)[0]  # first row of S^T M_phi S: (H_bb, H_bm)
     Hbm = row[1:].copy()
     hh = (Hbm * Hbm).sum()
     hnorm = np.sqrt(hh.real)
     if not hnorm > 1e-9:
-        return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
+        return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, kernels.STATUS_H_COLLAPSE, -1
     a_b = theta_b[0] + g.k_b * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
     Hp = Hbm / hh  # pseudo-inverse of the row H_bm
     U = _eye_minus_outer(Hp, Hbm)
     A = Jm @ U
-    pinv, sigma, damping = damped_pinv(A, law.threshold)
+    pinv, sigma, damping = kernels.damped_pinv(A, law.threshold)
     Hp_ab = Hp * a_b
     xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
@@ -121,7 +103,7 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
                                     q_b, q_m, theta_b, theta_z)  # fmt: skip
         xi = xi + ns.gain * (grad - pinv @ (A @ grad))
     w_mc = Hp_ab + U @ xi  # Eq. (25)
-    return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
+    return w_mc, sens, sigma, damping, hnorm, err_b, err_z, kernels.STATUS_OK, -1
 
 
 @njit(cache=True)
@@ -154,15 +136,12 @@ def _reduced_jacobian(S, off, K, L, ee_row, collinear, nt, q_b, q_m, theta_b, th
 
 @njit(cache=True)
 def _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns, q_b, q_m, theta_b, theta_z):
-    """grad_{q_m} mu of the null-space objective (ffsm_pin.control.null_space): the shared
-    objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
-    if ns.code == JOINT_CENTERING:
-        return joint_centering_gradient(ns, q_m)
-    Q = perturbed_joints(q_m, ns.step)  # manipulability: central differences
+    """grad_{q_m} mu of the null-space objective, planar (:func:`_reduced_jacobian`)."""
+    Q = kernels.objective_points(ns, q_m)
     A = np.empty((Q.shape[0], nt, q_m.size), dtype=np.complex128)
     for i in range(Q.shape[0]):
         A[i] = _reduced_jacobian(S, off, K, L, ee_row, collinear, nt, q_b, Q[i], theta_b, theta_z)
-    return manipulability_gradient(A, ns.step)
+    return kernels.objective_gradient(ns, q_m, A)
 
 
 @njit(cache=True)
@@ -208,7 +187,7 @@ def geometry_terms(geo, law, dt, meas, state):
     g = law.gains
     tb_new = theta_b_step(theta_b, y_m(pc, ps, K, L, S, w, nd, collinear)[0], g.gamma_1, dt)
     Yz = position_regressor(c, s, S, w, theta_z.size, collinear)
-    tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
+    tz_new = kernels.theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
     return (pc, ps), tb_new, tz_new, w[0], w[0]
 
 
@@ -237,26 +216,26 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         status, value, w_hat_dot, u_m = _manifold(
             np.ascontiguousarray(M_true), -h_true, w, w_mc, w_mc_dot, sens, g.k_d
         )
-        if status != STATUS_OK:
+        if status != kernels.STATUS_OK:
             return status, value, none, none, none, none
         put(w_hat, 0, w + dt * w_hat_dot)
         e = np.zeros(nb if theta_d_true.size else 0)  # w~ = 0, Y_df = 0, theta_d-hat = theta_d
-        return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb), e
+        return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb), e
     w_tilde = w - w_hat
     Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
     M_hat = S.T @ Mphi @ S
     if not positive_definite(M_hat):
-        return STATUS_M_NOT_PD, 0.0, none, none, none, none
+        return kernels.STATUS_M_NOT_PD, 0.0, none, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g.gamma_3 * dt
     d_theta_d = -cg * (Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
     d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)  # physical.py
     if not physical:
-        return STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
+        return kernels.STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
     eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
     rr = difference(Ymd, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
     status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g.k_d)
-    if status != STATUS_OK:
+    if status != kernels.STATUS_OK:
         return status, value, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
     if theta_d_true.size:
@@ -265,10 +244,10 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     YM = y_m(pc, ps, K, L, S, w_hat_dot - g.k_de * w_tilde, nd, collinear)
     decay = np.exp(-g.k_de * dt)
-    filter_regressor_update(Y_df, decay, -np.expm1(-g.k_de * dt) / g.k_de, YM, Ymd, Yh)
+    kernels.filter_regressor_update(Y_df, decay, -np.expm1(-g.k_de * dt) / g.k_de, YM, Ymd, Yh)
     theta_d += d_theta_d
     w_hat += dt * w_hat_dot
-    return STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde, e
+    return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], w_tilde, e
 
 
 @njit(cache=True)
@@ -281,15 +260,15 @@ def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
     tgt = w_mc_dot - k_d * (wh[1:] - w_mc)
     denom = M_hat[0, 0] + (M_hat[0, 1:] * sens).sum()
     if not abs(denom) > 1e-12 * abs(M_hat[0, 0]):
-        return STATUS_BASE_ROW, abs(denom), none, none
+        return kernels.STATUS_BASE_ROW, abs(denom), none, none
     wb_dot = (rr[0] - (M_hat[0, 1:] * tgt).sum()) / denom
     w_hat_dot = np.empty(nb)
     w_hat_dot[0] = wb_dot
     put(w_hat_dot, 1, tgt + sens * wb_dot)
     u_m = M_hat[1:] @ w_hat_dot - rr[1:]
     if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, 0.0, none, none
-    return STATUS_OK, 0.0, w_hat_dot, u_m
+        return kernels.STATUS_NONFINITE, 0.0, none, none
+    return kernels.STATUS_OK, 0.0, w_hat_dot, u_m
 
 
 @njit(cache=True)

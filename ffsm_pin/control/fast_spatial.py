@@ -47,26 +47,8 @@ from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
 from ..model._spatial_mass_kernels import mass_matrix, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
+from . import kernels
 from ._docs import CONTROL_DOC
-from .kernels import (
-    COMPLEX_STEP,
-    JOINT_CENTERING,
-    STATUS_BASE_ROW,
-    STATUS_FUNNEL_B,
-    STATUS_FUNNEL_Z,
-    STATUS_H_COLLAPSE,
-    STATUS_M_NOT_PD,
-    STATUS_NONFINITE,
-    STATUS_NOT_PHYSICAL,
-    STATUS_OK,
-    damped_pinv,
-    filter_regressor_update,
-    funnel_terms,
-    joint_centering_gradient,
-    manipulability_gradient,
-    perturbed_joints,
-    theta_z_step,
-)
 from .physical import physical_increment
 from .reference_kernels import reference_at
 
@@ -167,15 +149,12 @@ def _reduced_jacobian(jr, ax, er, m, nt, q_b, q_m, theta_b, theta_z):
 
 @njit(cache=True)
 def _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z):
-    """grad_{q_m} mu of the null-space objective (control/null_space.py), complex: the shared
-    objective kernels at this geometry's A = J_m-hat U-hat (:func:`_reduced_jacobian`)."""
-    if ns.code == JOINT_CENTERING:
-        return joint_centering_gradient(ns, q_m)
-    Q = perturbed_joints(q_m, ns.step)  # manipulability: central differences
+    """The spatial geometry's part of :func:`.kernels.objective_gradient`, complex."""
+    Q = kernels.objective_points(ns, q_m)
     A = np.empty((Q.shape[0], nt, q_m.size), dtype=np.complex128)
     for i in range(Q.shape[0]):
         A[i] = _reduced_jacobian(jr, ax, er, m, nt, q_b, Q[i], theta_b, theta_z)
-    return manipulability_gradient(A, ns.step)
+    return kernels.objective_gradient(ns, q_m, A)
 
 
 @njit(cache=True)
@@ -200,9 +179,9 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
         err_b[i] = q_b[i] - law.q_bd[i]  # Eq. (16), MRP components
     w_mc = np.zeros(n, dtype=np.complex128)
     sens = np.zeros((n, 3))
-    psi_z, Phi_z, iz = funnel_terms(law.funnel_z, t, err_z, law.identity)
+    psi_z, Phi_z, iz = kernels.funnel_terms(law.funnel_z, t, err_z, law.identity)
     if iz >= 0:
-        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_Z, iz
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, kernels.STATUS_FUNNEL_Z, iz
     J, Hbb, Hbm, R0 = task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_b[3:])
     Jb = np.ascontiguousarray(J[:, :3])
     Jm = np.ascontiguousarray(J[:, 3:])
@@ -210,20 +189,20 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     for i in range(3):
         target[i] -= theta_z[i]  # -v0bar-hat
     if not law.attitude:  # Eq. (81)
-        pinv, sigma, damping = damped_pinv(Jm, law.threshold)
+        pinv, sigma, damping = kernels.damped_pinv(Jm, law.threshold)
         w_mc = cmv(pinv, target - cmv(Jb, w_b))
         sens = np.ascontiguousarray(-cmm(pinv, Jb).real)
-        return w_mc, sens, sigma, damping, 0.0, err_b, err_z, STATUS_OK, -1
-    psi_b, Phi_b, ib = funnel_terms(law.funnel_b, t, err_b, law.identity)
+        return w_mc, sens, sigma, damping, 0.0, err_b, err_z, kernels.STATUS_OK, -1
+    psi_b, Phi_b, ib = kernels.funnel_terms(law.funnel_b, t, err_b, law.identity)
     if ib >= 0:
-        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, STATUS_FUNNEL_B, ib
+        return w_mc, sens, 0.0, 0.0, 0.0, err_b, err_z, kernels.STATUS_FUNNEL_B, ib
     Hp, U, hnorm = _projector(Hbm)
     if not hnorm > 1e-9:
-        return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, STATUS_H_COLLAPSE, -1
+        return w_mc, sens, 0.0, 0.0, hnorm, err_b, err_z, kernels.STATUS_H_COLLAPSE, -1
     L_b = l_matrix(q_b, R0)
     a_b = theta_b[:3] + g.k_b * cmv(Hbb, cmtv(L_b, Phi_b * psi_b))  # Eq. (25)
     A = cmm(Jm, U)
-    pinv, sigma, damping = damped_pinv(A, law.threshold)
+    pinv, sigma, damping = kernels.damped_pinv(A, law.threshold)
     Hp_ab = cmv(Hp, a_b)
     xi = cmv(pinv, target - cmv(Jm, Hp_ab))  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu
@@ -231,7 +210,7 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
         grad = _null_space_gradient(jr, ax, er, m, nt, ns, q_b, q_m, theta_b, theta_z)
         xi = xi + ns.gain * (grad - cmv(pinv, cmv(A, grad)))
     w_mc = Hp_ab + cmv(U, xi)  # Eq. (25)
-    return w_mc, sens, sigma, damping, hnorm, err_b, err_z, STATUS_OK, -1
+    return w_mc, sens, sigma, damping, hnorm, err_b, err_z, kernels.STATUS_OK, -1
 
 
 # ---------------------------------------------------------------------- one period
@@ -292,7 +271,7 @@ def geometry_terms(geo, law, dt, meas, state):
         tb_new = theta_b_step(theta_b, Yb, g.gamma_1, dt)
         Yz = np.empty((3, nz))
         y_z(R, z, w, Yz)
-        tz_new = theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
+        tz_new = kernels.theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
     return (R, z, YM, YMdot, Yh, w_tilde), tb_new, tz_new, q_b_rate, w[:3]
 
 
@@ -320,12 +299,12 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         M_hat = np.empty((N, N))
         mass_matrix(R, z, theta_d, M_hat)
         if not positive_definite(M_hat):
-            return STATUS_M_NOT_PD, 0.0, none, none, none, none
+            return kernels.STATUS_M_NOT_PD, 0.0, none, none, none, none
         cg = g.gamma_3 * dt  # Eq. (51), linearly implicit; projected if physical (physical.py)
         d_theta_d = -cg * (Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
         d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)
         if not physical:
-            return STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
+            return kernels.STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
         rr = difference(YMdot, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
         wh = w_hat
@@ -340,14 +319,14 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     denom = Mbb + Mbm @ sens
     regular, smallest = smallest_singular_value_above(denom, 1e-12 * np.max(np.abs(Mbb)))
     if not regular:
-        return STATUS_BASE_ROW, smallest, none, none, none, none
+        return kernels.STATUS_BASE_ROW, smallest, none, none, none, none
     wb_dot = solve(denom, rr[:3] - Mbm @ tgt)
     w_hat_dot = np.empty(N)
     put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see put)
     put(w_hat_dot, 3, tgt + sens @ wb_dot)
     u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
     if not np.all(np.isfinite(u_m)):
-        return STATUS_NONFINITE, 0.0, none, none, none, none
+        return kernels.STATUS_NONFINITE, 0.0, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
     if theta_d_true.size:
         if adaptive:
@@ -360,12 +339,12 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         ym(R, z, w_hat_dot - g.k_de * w_tilde, YM, False)  # Eq. (49)
         decay = np.exp(-g.k_de * dt)
         gain = -np.expm1(-g.k_de * dt) / g.k_de
-        filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)  # Eq. (50)
+        kernels.filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)  # Eq. (50)
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
     else:
         put(w_hat, 0, w + dt * w_hat_dot)
-    return STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde, e
+    return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde, e
 
 
 @njit(cache=True)
@@ -391,13 +370,13 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
     M = np.empty((3, 3))  # M_bb alone (mass_matrix skips the joint rows)
     mass_matrix(R, z, theta_d, M)
-    hj = 1j * COMPLEX_STEP
+    hj = 1j * kernels.COMPLEX_STEP
     Rc = np.empty((nb, 3, 3), dtype=np.complex128)
     zc = np.empty((n, 3), dtype=np.complex128)
     kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
     Mc = np.empty((3, 3), dtype=np.complex128)
     mass_matrix(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
-    return M, Mc.imag / COMPLEX_STEP
+    return M, Mc.imag / kernels.COMPLEX_STEP
 
 
 @njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside

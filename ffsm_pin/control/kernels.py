@@ -280,6 +280,54 @@ def manipulability_gradient(A, h):
     return grad
 
 
+@njit(cache=True)
+def objective_points(ns, q_m):
+    """The joint angles at which a geometry evaluates A = J_m-hat U-hat for the null-space
+    objective's gradient (:func:`objective_gradient`): the rows of :func:`perturbed_joints`
+    for manipulability, none for joint centering (its gradient needs no A).
+
+    Parameters
+    ----------
+    ns : NullSpaceTerm
+        The objective (its ``code`` and ``step`` [rad] are read).
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+
+    Returns
+    -------
+    ndarray, shape (2n, n) or (0, n)
+        One configuration a row.
+    """
+    if ns.code == JOINT_CENTERING:
+        return np.empty((0, q_m.size), dtype=q_m.dtype)
+    return perturbed_joints(q_m, ns.step)
+
+
+@njit(cache=True)
+def objective_gradient(ns, q_m, A):
+    """grad_{q_m} mu of the null-space objective (as
+    :func:`ffsm_pin.control.null_space.null_space_gradient`), the geometry's part given:
+    ``A[i]`` its J_m-hat U-hat at row i of :func:`objective_points`.
+
+    Parameters
+    ----------
+    ns : NullSpaceTerm
+        The objective.
+    q_m : ndarray, shape (n,)
+        Joint angles [rad].
+    A : ndarray, shape (k, n_task, n)
+        The geometry's A at :func:`objective_points` (k = 0 for joint centering).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The gradient.
+    """
+    if ns.code == JOINT_CENTERING:
+        return joint_centering_gradient(ns, q_m)
+    return manipulability_gradient(A, ns.step)
+
+
 # ---------------------------------------------------------------------- estimators
 @njit(cache=True)
 def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):

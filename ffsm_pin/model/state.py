@@ -206,6 +206,25 @@ class State:
             raise ParameterError("State.joint_angles: call update(q, v) first")
         return self.q[self.robot.root.nq :]
 
+    def generalized_jacobian(self, rows: int | None = None) -> np.ndarray:
+        """J* = J_m - J_b H_bb^-1 H_bm: the end-effector rates per joint rate when the base
+        moves only as the zero-momentum reaction of Eq. (13), ``w_b = -H_bb^-1 H_bm w_m``
+        (the generalized Jacobian), at the last :meth:`update` ([m] per [rad] in the position
+        rows).
+
+        Parameters
+        ----------
+        rows : int, optional
+            Only the first ``rows`` task rows (default: all m2 + m3).
+
+        Returns
+        -------
+        ndarray, shape (rows, n)
+            J*.
+        """
+        J_b, J_m = np.asarray(self.J_b)[:rows], np.asarray(self.J_m)[:rows]
+        return J_m - J_b @ np.linalg.solve(self.H_bb, self.H_bm)
+
     def acceleration_to_w_dot(self, a) -> np.ndarray:
         """dw/dt = (dw_b/dt, ddq_m) [rad/s^2] from Pinocchio's acceleration ``a``."""
         return self._filler.w_dot(self, np.asarray(a, dtype=float))

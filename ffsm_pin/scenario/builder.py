@@ -17,7 +17,7 @@ import numpy as np
 from ..control.funnel import FunnelParams
 from ..control.lu_jia_params import LuJiaParams
 from ..errors import ParameterError, ScenarioError
-from . import schema
+from . import schema, spec
 from .devices import NOISE_KEYS, ActuatorSpec, SensorSpec
 from .reference_csv import read_reference_csv
 from .sections import (
@@ -31,22 +31,11 @@ from .sections import (
     SensorsModel,
     TargetModel,
 )
-from .spec import (
-    ComponentReference,
-    ControllerSpec,
-    Estimates,
-    Harmonic,
-    InitialCondition,
-    Performance,
-    Reference,
-    RobotSpec,
-    Scenario,
-)
 from .target_spec import APPROACH_NOISE_KEYS, ApproachSpec, CaptureSpec, TargetSpec
 from .trajectory import ReferenceData
 
 
-def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
+def build(m: schema.ScenarioModel, src: Path | None) -> spec.Scenario:
     """The dataclasses from a validated document (every check is in :mod:`.schema`).
 
     Parameters
@@ -58,12 +47,12 @@ def build(m: schema.ScenarioModel, src: Path | None) -> Scenario:
 
     Returns
     -------
-    Scenario
+    spec.Scenario
         The scenario.
     """
     _, n_b, n_ee = m.sizes
     performance = _performance(m.controller, n_ee, n_b)
-    return Scenario(
+    return spec.Scenario(
         robot=_robot(m.robot, src),
         initial=_initial(m.initial),
         reference=_reference(m.reference, n_b, n_ee, src),
@@ -116,7 +105,7 @@ def _floats(x: list[float]) -> tuple[float, ...]:
     return tuple(float(v) for v in x)
 
 
-def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
+def _robot(r: RobotModel, src: Path | None) -> spec.RobotSpec:
     satellite, wheels = None, None
     if r.satellite is not None:
         from ..robot import Satellite
@@ -130,7 +119,7 @@ def _robot(r: RobotModel, src: Path | None) -> RobotSpec:
         from ..robot import Payload
 
         payload = Payload(**r.payload.model_dump())
-    return RobotSpec(
+    return spec.RobotSpec(
         urdf=r.urdf,
         base=r.base,
         end_effector=r.end_effector,
@@ -171,7 +160,7 @@ def _target(
     )
 
 
-def _initial(ini: InitialModel) -> InitialCondition:
+def _initial(ini: InitialModel) -> spec.InitialCondition:
     """Spatial attitude given as rpy or a unit quaternion (x, y, z, w): converted to the MRP
     on the |s| <= 1 branch and appended to base_pose = (x, y, z)."""
     base_pose = _floats(ini.base_pose)
@@ -188,7 +177,7 @@ def _initial(ini: InitialModel) -> InitialCondition:
     rates = ini.base_rate, ini.angular_momentum, ini.attitude_error
     rate, mom, error = (_vec(x) if isinstance(x, list) else x for x in rates)
     try:
-        return InitialCondition(
+        return spec.InitialCondition(
             base_pose=base_pose,
             joints=joints,
             joint_rates=_vec(ini.joint_rates) or (0.0,) * len(joints),
@@ -203,7 +192,7 @@ def _initial(ini: InitialModel) -> InitialCondition:
         raise ScenarioError(f"[initial] {exc}") from None
 
 
-def _reference(ref: ReferenceModel, n_b: int, n_ee: int, src: Path | None) -> Reference:
+def _reference(ref: ReferenceModel, n_b: int, n_ee: int, src: Path | None) -> spec.Reference:
     base = _vec(ref.base_attitude) or (0.0,) * n_b
     data = None
     if ref.ee_file is not None:
@@ -219,14 +208,14 @@ def _reference(ref: ReferenceModel, n_b: int, n_ee: int, src: Path | None) -> Re
         rows = tuple(tuple(w.z) for w in ref.ee_waypoints)
         data = _data(times, rows, "waypoints")
     comps = tuple(
-        ComponentReference(
+        spec.ComponentReference(
             c=e.c,
-            cos=tuple(Harmonic(amplitude=a, frequency=w) for a, w in e.cos),
-            sin=tuple(Harmonic(amplitude=a, frequency=w) for a, w in e.sin),
+            cos=tuple(spec.Harmonic(amplitude=a, frequency=w) for a, w in e.cos),
+            sin=tuple(spec.Harmonic(amplitude=a, frequency=w) for a, w in e.sin),
         )
         for e in ref.ee or ()
     )
-    return Reference(ee=comps, base_attitude=base, task=ref.task, origin=ref.origin, data=data)
+    return spec.Reference(ee=comps, base_attitude=base, task=ref.task, origin=ref.origin, data=data)
 
 
 def _data(times: tuple, rows: tuple, interpolation: str) -> ReferenceData:
@@ -236,28 +225,28 @@ def _data(times: tuple, rows: tuple, interpolation: str) -> ReferenceData:
         raise ScenarioError(str(exc)) from None
 
 
-def _performance(c: ControllerModel, n_ee: int, n_b: int) -> Performance:
+def _performance(c: ControllerModel, n_ee: int, n_b: int) -> spec.Performance:
     """The run's performance specification: ``[controller.funnel]`` and
     ``[controller.singularity] threshold``."""
-    dflt = Performance()
+    dflt = spec.Performance()
     planar = n_b == 1  # the defaults are the paper's planar funnels: none for spatial robots
     funnel_b, funnel_z = (
         FunnelParams(**schema.funnel_arrays(c.funnel, tag, n, default if planar else None))
         for tag, n, default in (("b", n_b, dflt.funnel_b), ("z", n_ee, dflt.funnel_z))
     )
-    return Performance(
+    return spec.Performance(
         funnel_b=funnel_b, funnel_z=funnel_z, singularity_threshold=c.singularity.threshold
     )
 
 
 def _controller(
-    c: ControllerModel, performance: Performance, n_b: int, dt: float
-) -> ControllerSpec:
+    c: ControllerModel, performance: spec.Performance, n_b: int, dt: float
+) -> spec.ControllerSpec:
     e = c.estimates
-    return ControllerSpec(
+    return spec.ControllerSpec(
         type=c.type,
         params=dict(c.params),
-        estimates=Estimates(
+        estimates=spec.Estimates(
             initial=e.initial,
             spread=e.spread,
             seed=e.seed,

@@ -46,6 +46,7 @@ _DOC = doc_entries(
         q, v : array_like
             The combined configuration and velocity.""",
     params_capture_q_v_before=("capture", "q_v_before"),
+    params_q_v_combined=("q_v_combined",),
 )
 
 #: the weld must hold to this (relative twist / largest velocity) before a merge
@@ -179,9 +180,7 @@ class CaptureModel:
     def relative_twist(self, q, v) -> np.ndarray:
         """J v (:meth:`weld_jacobian`): hand minus target at the hand's grasp frame [m/s, rad/s].
 
-        Parameters
-        ----------
-        %(q_v_combined)s
+        %(params_q_v_combined)s
 
         Returns
         -------
@@ -194,9 +193,7 @@ class CaptureModel:
         """(distance [m] between the two grasp frames' origins, relative speed [m/s] of the two
         bodies at the hand's grasp point): what :meth:`ready` compares with the tolerances.
 
-        Parameters
-        ----------
-        %(q_v_combined)s
+        %(params_q_v_combined)s
 
         Returns
         -------
@@ -234,9 +231,7 @@ class CaptureModel:
         """(P, L) of robot and target: linear momentum [kg m/s] and angular momentum about the
         system CoM [kg m^2/s], world frame (Pinocchio's centroidal momentum).
 
-        Parameters
-        ----------
-        %(q_v_combined)s
+        %(params_q_v_combined)s
 
         Returns
         -------
@@ -251,9 +246,7 @@ class CaptureModel:
     def kinetic_energy(self, q, v) -> float:
         """v^T M v / 2 [J].
 
-        Parameters
-        ----------
-        %(q_v_combined)s
+        %(params_q_v_combined)s
 
         Returns
         -------

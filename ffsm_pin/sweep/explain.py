@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "MAX_ROWS", "SIGNALS", "SIGNAL_KEYS", "case_extras", "generalized_jacobian_sigma",
+    "MAX_ROWS", "SIGNALS", "SIGNAL_KEYS", "case_extras",
     "kept_rows", "min_sigma_gjm",
 ]  # fmt: skip
 
@@ -59,30 +59,10 @@ def kept_rows(n: int, max_rows: int = MAX_ROWS) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, max_rows)).astype(np.int64))
 
 
-def generalized_jacobian_sigma(state, n_task: int) -> float:
-    """sigma_min of the task rows of ``J* = J_m - J_b H_bb^-1 H_bm`` at an updated
-    :class:`~ffsm_pin.model.state.State` (the model's units: [m] for positions).
-
-    Parameters
-    ----------
-    state : State
-        An updated state of the true model.
-    n_task : int
-        Task rows.
-
-    Returns
-    -------
-    float
-        sigma_min [m].
-    """
-    J_b, J_m = np.asarray(state.J_b)[:n_task], np.asarray(state.J_m)[:n_task]
-    J_star = J_m - J_b @ np.linalg.solve(state.H_bb, state.H_bm)
-    return float(np.linalg.svd(J_star, compute_uv=False)[-1])
-
-
 def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
-    """The smallest :func:`generalized_jacobian_sigma` of the true model (``setup.robot``)
-    over the recorded ``rows`` of ``signals`` (q, v); None without rows.
+    """The smallest singular value of the true model's generalized Jacobian (task rows,
+    :meth:`~ffsm_pin.model.state.State.generalized_jacobian` of ``setup.robot``) over the
+    recorded ``rows`` of ``signals`` (q, v); None without rows.
 
     Parameters
     ----------
@@ -104,8 +84,11 @@ def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
         return None
     state = State(setup.robot)
     q, v = np.asarray(signals["q"][rows]), np.asarray(signals["v"][rows])
-    rows_qv = zip(q, v, strict=True)
-    return min(generalized_jacobian_sigma(state.update(a, b), setup.n_task) for a, b in rows_qv)
+    sigmas = []
+    for a, b in zip(q, v, strict=True):
+        J_star = state.update(a, b).generalized_jacobian(setup.n_task)
+        sigmas.append(float(np.linalg.svd(J_star, compute_uv=False)[-1]))
+    return min(sigmas)
 
 
 def case_extras(setup, result, summary: dict[str, Any]) -> dict[str, Any]:

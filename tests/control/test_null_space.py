@@ -124,7 +124,7 @@ def _w_mc(ctrl, x: KinematicInputs, rates: KinematicInputs | None = None):
     if ctrl.backend == "numpy":
         kc = ctrl.kinematic.command(x, rates)
         return kc.w_mc, kc.w_mc_dot, kc.damping
-    from ffsm_pin.control import fast
+    from ffsm_pin.control import fast, kernels
 
     hj = 1j * 1e-30
     # the period's bundles: the model's constants, the law's, the reference's, the null space
@@ -134,7 +134,7 @@ def _w_mc(ctrl, x: KinematicInputs, rates: KinematicInputs | None = None):
         x.z_e + hj * rates.z_e, x.theta_b + hj * rates.theta_b,
         x.theta_z + hj * rates.theta_z, x.w_b + 0j,
     )  # fmt: skip
-    assert status == fast.STATUS_OK
+    assert status == kernels.STATUS_OK
     return w_c.real.copy(), w_c.imag / 1e-30, damping
 
 
