@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..._docstrings import doc_entries, fill_doc
+from ..campaign import SCENARIO_COLUMN
 from ..cases import keeps_draws
 from ..stats import mcnemar_exact, runs_for_half_width, runs_to_separate, wilson_half_width
 from .sql import CONTROLLER_KEY
@@ -124,9 +125,9 @@ def paired_rows(runs: Sequence[Row], cols: Sequence[str]) -> list[dict[str, Any]
     list of dict
         One row per pair.
     """
-    scen = [c for c in cols if c == "scenario"]
-    treat = [c for c in cols if c != "scenario" and keeps_draws(c)]
-    others = [c for c in cols if c != "scenario" and c not in treat]
+    scen = [c for c in cols if c == SCENARIO_COLUMN]
+    treat = [c for c in cols if c != SCENARIO_COLUMN and keeps_draws(c)]
+    others = [c for c in cols if c != SCENARIO_COLUMN and c not in treat]
     cells: dict[tuple, dict[str, dict[tuple, Row]]] = {}
     for r in runs:
         group = tuple(r[c] for c in scen)
@@ -199,7 +200,8 @@ def paired_section(rows: list[dict[str, Any]], labels: Mapping[str, str]) -> lis
         return [*lines, "No pairs: the controllers share no grid point and repeat index.", ""]
     for r in rows:
         r["a"], r["b"] = labels.get(r["a"], r["a"]), labels.get(r["b"], r["b"])
-    scen = [("scenario", "scenario", "{}")] if rows and "scenario" in rows[0] else []
+    has = rows and SCENARIO_COLUMN in rows[0]
+    scen = [(SCENARIO_COLUMN, SCENARIO_COLUMN, "{}")] if has else []
     lines += table(
         rows,
         [
