@@ -46,7 +46,7 @@ from .compiled import state_field
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .kinematic import along_measured_motion
-from .physical import PhysicalTerm, increment, initial_projection, physical_term
+from .physical import PhysicalTerm, increment, initial_projection, margin_kernel, physical_term
 from .resolved_motion import ResolvedMotionBaseline, rate_gains
 from .stops import physical_stop
 
@@ -129,6 +129,8 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
             "theta_z_hat": (ctx.model.n_z,), "theta_d_hat": (ctx.model.n_d,),
             "theta_b_hat": (ctx.model.n_b,),
         }  # fmt: skip
+        if self.physical is not None:  # the estimate's distance to the boundary
+            self.signal_shapes["lambda_min_P"] = ()
         self.bind_backend(backend, ctx.initial)
 
     def prepare_kernels(self) -> None:
@@ -145,6 +147,19 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
         r = self.rates(theta_z, theta_b, t, q_b, q_m, z_e)
         return np.concatenate((np.atleast_1d(r.w_b), r.w_m)), r.sigma_min, r.damping
 
+    def _signals_at_t(self) -> dict[str, np.ndarray | float]:
+        """The estimates at t, before the period's update, and with ``adaptation =
+        "physical"`` their distance to the boundary, lambda_min(P(theta_d-hat)) [kg m^2]
+        (``ctrl_lambda_min_P``, as lu-jia records it)."""
+        signals: dict[str, np.ndarray | float] = {
+            "theta_z_hat": self.theta_z.copy(),
+            "theta_d_hat": self.theta_d.copy(),
+            "theta_b_hat": self.theta_b.copy(),
+        }
+        if self.physical is not None:
+            signals["lambda_min_P"] = float(margin_kernel(self.physical, self.theta_d))
+        return signals
+
     def step(self, meas: Measurement):
         """u_m for the period starting at ``meas.t``; the estimates advance to t + dt (the
         compiled period, :meth:`step_compiled`, unless ``backend="numpy"``:
@@ -153,11 +168,7 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
 
     def step_compiled(self, meas: Measurement):
         """:meth:`step` by the compiled period (``ffsm_pin/control/adaptive_ct_kernels.py``)."""
-        signals = {  # the estimates at t, before the update
-            "theta_z_hat": self.theta_z.copy(),
-            "theta_d_hat": self.theta_d.copy(),
-            "theta_b_hat": self.theta_b.copy(),
-        }
+        signals = self._signals_at_t()
         u, w_r, sigma, damping, finite, physical = self.run_period(meas)
         if not physical:
             assert self.physical is not None
@@ -174,11 +185,7 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
         """:meth:`step` in numpy: the readable reference of the compiled period."""
         m, g, m3, dt = self.model, self.gains, self.m3, self.dt
         t, q_b, q_m, w = meas.t, meas.q_b, meas.q_m, meas.w
-        signals = {  # the estimates at t, before the update
-            "theta_z_hat": self.theta_z.copy(),
-            "theta_d_hat": self.theta_d.copy(),
-            "theta_b_hat": self.theta_b.copy(),
-        }
+        signals = self._signals_at_t()
         # kinematic estimates, the paper's Eqs. (28) and (42)
         theta_b = theta_b_step(self.theta_b, m.Y_b(q_b, q_m, w), g.gamma_b, dt)
         Y_z = m.Y_z(q_b, q_m, w)[: self.m2]  # the attitude rows are parameter-free

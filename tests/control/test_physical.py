@@ -273,11 +273,12 @@ def test_compiled_projected_run_follows_the_numpy_run(geometry, ctype):
     lam = np.array([lam_min(start.model, x) for x in theta])
     assert lam.min() >= margin * (1 - 1e-3)
     assert lam[0] < 1.001 * margin  # the initial estimate projected to the margin
-    if ctype == "lu-jia":  # its recorded distance to the boundary: lambda_min(P) of the row's
-        for run in runs:  # estimate (both at t, before the period's update), both backends
-            lam_run = [lam_min(start.model, x) for x in np.asarray(run["theta_d_hat"])]
-            recorded = np.ravel(run["ctrl_lambda_min_P"])
-            np.testing.assert_allclose(recorded, lam_run, rtol=1e-10, atol=1e-14)
+    # the recorded distance to the boundary: lambda_min(P) of the row's estimate (both at t,
+    # before the period's update), both backends, both controllers
+    for run in runs:
+        lam_run = [lam_min(start.model, x) for x in np.asarray(run["theta_d_hat"])]
+        recorded = np.ravel(run["ctrl_lambda_min_P"])
+        np.testing.assert_allclose(recorded, lam_run, rtol=1e-10, atol=1e-14)
 
 
 @pytest.mark.parametrize("margin", [None, 0.25])
