@@ -141,6 +141,7 @@ def _target(
         capture = CaptureSpec(
             float(c.tolerance_position), float(c.tolerance_velocity), estimates=c.estimates,
             hand_xyz=_floats(c.hand_xyz), hand_rpy=_floats(c.hand_rpy),
+            detumble_rate=float(c.detumble_rate),
         )  # fmt: skip
     if a is not None:
         noise = tuple(float(getattr(a.noise, key)) for key in APPROACH_NOISE_KEYS)

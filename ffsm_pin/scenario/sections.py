@@ -424,6 +424,7 @@ class CaptureModel(Table):
     estimates: Literal[CAPTURE_ESTIMATES] = default(CaptureSpec, "estimates")
     hand_xyz: vec(3) = default(CaptureSpec, "hand_xyz")  # [m], end-effector frame
     hand_rpy: vec(3) = default(CaptureSpec, "hand_rpy")  # [rad], end-effector frame
+    detumble_rate: Pos = default(CaptureSpec, "detumble_rate")  # [rad/s], relative to the bus
 
 
 class ApproachNoiseModel(Table):

@@ -8,6 +8,7 @@ The run builds it as a :class:`ffsm_pin.sim.target.Target` box and its initial
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 #: The target's shapes (``[target] shape``).
@@ -17,6 +18,9 @@ TARGET_SHAPES = ("box",)
 TARGET_ORIGINS = ("world", "end-effector")
 #: What the controller is told of the target after capture (``[capture] estimates``).
 CAPTURE_ESTIMATES = ("unknown", "perturbed", "true")
+#: [rad/s] ``[capture] detumble_rate``'s default: the held target's rate relative to the bus
+#: below which it counts as detumbled (0.1 degree per second).
+DETUMBLE_RATE = math.radians(0.1)
 #: The ``[approach.noise]`` keys of the target's sensor, in the order the noise is drawn.
 APPROACH_NOISE_KEYS = ("position", "attitude", "velocity", "angular_velocity")
 
@@ -38,6 +42,10 @@ class CaptureSpec:
     hand_xyz, hand_rpy : tuple of float
         The hand's grasp frame in the end-effector frame [m], [rad] (the frame welded to the
         target's grasp frame; default the end-effector frame itself).
+    detumble_rate : float
+        The held target's angular rate relative to the bus [rad/s], > 0, below which (for
+        good) the run counts it as detumbled (summary's ``detumble_time``; default
+        :data:`DETUMBLE_RATE`, 0.1 deg/s).
     """
 
     tolerance_position: float
@@ -45,6 +53,7 @@ class CaptureSpec:
     estimates: str = "unknown"
     hand_xyz: tuple[float, ...] = (0.0, 0.0, 0.0)
     hand_rpy: tuple[float, ...] = (0.0, 0.0, 0.0)
+    detumble_rate: float = DETUMBLE_RATE
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from ..control.null_space import NullSpace
 from ..control.registry import resolved_type
 from .devices import ActuatorSpec, SensorSpec
 from .spec import Reference, Scenario
-from .target_spec import APPROACH_NOISE_KEYS, TargetSpec
+from .target_spec import APPROACH_NOISE_KEYS, DETUMBLE_RATE, TargetSpec
 
 
 def scenario_to_toml(scenario: Scenario) -> str:
@@ -166,6 +166,8 @@ def _target_lines(target: TargetSpec) -> list[str]:
         for key in ("hand_xyz", "hand_rpy"):  # (only when given: older files stay the same)
             if any(getattr(c, key)):
                 lines.append(f"{key} = {_toml(getattr(c, key))}")
+        if c.detumble_rate != DETUMBLE_RATE:  # (only when given: older files stay the same)
+            lines.append(f"detumble_rate = {_toml(c.detumble_rate)}")
         lines.append("")
     a = target.approach
     if a is not None:

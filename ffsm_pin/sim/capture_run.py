@@ -121,6 +121,7 @@ class CaptureMotion(TargetMotion):
         self.capture: CaptureModel = capture_model(robot, target, hand_grasp(spec))
         self.tolerances = CaptureTolerances(spec.tolerance_position, spec.tolerance_velocity)
         self.estimates = spec.estimates
+        self.detumble_rate = spec.detumble_rate  # [rad/s], the summary's detumble_time
         self.substeps = max(1, int(substeps))
         self.outcome = CaptureOutcome(
             tolerance_position=spec.tolerance_position, tolerance_velocity=spec.tolerance_velocity

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-#: [rad/s] the relative rate below which the target counts as detumbled (0.1 degree per second)
-DETUMBLE_RATE = float(np.deg2rad(0.1))
+from ..scenario.target_spec import DETUMBLE_RATE
+
 _KEYS = ["t", "w", "target_pose", "target_twist"]
 
 

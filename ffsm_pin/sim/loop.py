@@ -355,7 +355,8 @@ def simulate(
     signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum)
     outcomes: tuple = () if wheels is None else (wheels.outcome(k + 1),)  # more summary keys
     if capture is not None:  # when the held target stops turning relative to the bus
-        outcomes += (detumble_outcome(signals.blocks, capture.outcome.time),)
+        rate = capture.detumble_rate  # [capture] detumble_rate [rad/s]
+        outcomes += (detumble_outcome(signals.blocks, capture.outcome.time, rate),)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))

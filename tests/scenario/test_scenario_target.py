@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import pytest
 
@@ -155,6 +156,15 @@ def test_capture_keys_are_read_and_written_back():
     default = scenario_from_toml(with_target(MINIMAL + CAPTURE)).target
     assert default is not None and default.capture is not None
     assert default.capture.estimates == "unknown"
+    # the detumble tolerance: its default (0.1 deg/s) is not written; another one is, and read
+    assert default.capture.detumble_rate == pytest.approx(math.radians(0.1), rel=1e-15)
+    assert "detumble_rate" not in scenario_to_toml(
+        scenario_from_toml(with_target(MINIMAL + CAPTURE))
+    )
+    given = scenario_from_toml(with_target(MINIMAL + CAPTURE + "detumble_rate = 0.01\n"))
+    assert given.target is not None and given.target.capture is not None
+    assert given.target.capture.detumble_rate == 0.01
+    assert scenario_from_toml(scenario_to_toml(given)) == given
 
 
 BAD_CAPTURE = {
@@ -170,6 +180,7 @@ BAD_CAPTURE = {
         "capture.estimates = 'exact' unknown; valid choices: 'unknown', 'perturbed', 'true'",
     ),
     "unknown": ("tolerance = 0.01", "capture.tolerance: unknown key in [capture]"),
+    "detumble-zero": ("detumble_rate = 0.0", "capture.detumble_rate = 0.0: must be > 0"),
 }
 
 
