@@ -29,9 +29,9 @@ Rows (``--cases``):
 * ``spatial``: the Panda on a satellite (``--case spatial``);
 * ``spatial-pose``: the 9-joint arm with full pose tracking (``--case spatial-pose``);
 * ``known-model``, ``spatial-known-model``: the true-parameter baselines of case 1 and spatial;
-* ``known-model-numba``: the planar one with ``[controller.params] backend = "numba"`` (its
-  compiled period; the default runs the numpy reference, docs/controllers.md), as a scenario
-  file written next to the run.
+* ``known-model-numpy``: the planar one with ``[controller.params] backend = "numpy"`` (its
+  numpy reference; the default runs the compiled period since 0.2.0, docs/controllers.md),
+  as a scenario file written next to the run.
 
 Samples are taken round-robin: each round runs, for every row in turn, the run and then its
 bare loop, so a change of machine load hits both sides of a row alike and every row alike. The
@@ -71,11 +71,11 @@ ROWS = {
     "spatial": ("spatial", True, []),
     "spatial-pose": ("spatial-pose", True, []),
     "known-model": ("known-model", False, []),
-    "known-model-numba": ("known-model", False, []),
+    "known-model-numpy": ("known-model", False, []),
     "spatial-known-model": ("spatial-known-model", True, []),
 }
 # rows whose run sets [controller.params] (written as a scenario file next to the run)
-PARAMS = {"known-model-numba": {"backend": "numba"}}
+PARAMS = {"known-model-numpy": {"backend": "numpy"}}
 # rows of the centroidal momentum h_g = (P, L) the projection keeps, per root joint
 MOMENTUM_ROWS = {"JointModelPlanar": [0, 1, 5], "JointModelFreeFlyer": [0, 1, 2, 3, 4, 5]}
 # (label, numerator row, denominator: "py" the row's bare Python loop (the performance
@@ -88,7 +88,7 @@ TARGETS = [
     ("spatial-pose run / spatial run", "spatial-pose", "spatial", 1.5),
     ("spatial-known-model run / spatial run", "spatial-known-model", "spatial", 1.5),
     ("known-model run / planar run", "known-model", "planar", 1.5),
-    ("known-model (backend numba) / planar run", "known-model-numba", "planar", 1.5),
+    ("known-model (backend numpy) / planar run", "known-model-numpy", "planar", 1.5),
     ("every step / --record-every 100", "planar", "planar-every100", 1.15),
 ]
 

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 from ..errors import ParameterError, choices_text
 
-#: ``"auto"``: the controller's default, the compiled period (except the paper's planar
-#: known-model baseline, which keeps the numpy reference: ``CoordinatedController``);
-#: ``"numba"``: the compiled period; ``"numpy"``: the readable reference.
+#: ``"auto"``: the controller's default, the compiled period; ``"numba"``: the compiled
+#: period; ``"numpy"``: the readable reference.
 BACKENDS = ("auto", "numba", "numpy")
 
 

@@ -189,13 +189,19 @@ def test_thinned_result_keeps_first_last_and_evenly_spaced_rows(monkeypatch):
 def test_ctrl_c_writes_what_was_recorded(tmp_path):
     """SIGINT mid-run: exit 130, a readable trajectory.npz and a summary that says why.
 
-    The known-model case (numpy controller, about 10 s of wall time for 30 s simulated): the
-    progress bar redraws every 2 s when stderr is not a terminal, and case 1 (about 2 s on an
-    idle machine) could finish before the first redraw."""
+    The known-model case on its numpy reference (about 10 s of wall time for 30 s simulated;
+    a scenario file with ``[controller.params] backend = "numpy"``): the progress bar redraws
+    every 2 s when stderr is not a terminal, and case 1 (about 2 s on an idle machine) could
+    finish before the first redraw."""
+    from ffsm_pin.scenario.writer import scenario_to_toml
+
     out = tmp_path / "run"
+    sc = builtin_scenario("known-model")
+    ctrl = dataclasses.replace(sc.controller, params={"backend": "numpy"})
+    (tmp_path / "slow.toml").write_text(scenario_to_toml(dataclasses.replace(sc, controller=ctrl)))
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--case", "known-model", "--duration", "30",
-           "--no-plots", "--no-html"]  # fmt: skip
+    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--scenario", str(tmp_path / "slow.toml"),
+           "--duration", "30", "--no-plots", "--no-html"]  # fmt: skip
     proc = subprocess.Popen(
         [*cmd, "--out", str(out)],
         stderr=subprocess.PIPE,
