@@ -30,8 +30,9 @@ JOINT = """
   </joint>"""
 
 
-def _urdf(tmp_path, mass: float = 25.0, second: bool = False) -> str:
+def _urdf(tmp_path, mass: float = 25.0, second: bool = False, geometry: str = "") -> str:
     body = LINK.format(name="tank", mass=mass)
+    body = body.replace("</inertial>", "</inertial>" + geometry)
     if second:
         body += LINK.format(name="lid", mass=1.0) + JOINT
     path = tmp_path / "tank.urdf"
@@ -91,6 +92,43 @@ def test_a_run_with_a_urdf_target_keeps_its_momentum(tmp_path):
     summary = result.summary()
     assert result.completed
     assert summary["target_drift_P"] < 1e-14 and summary["target_drift_L"] < 1e-13
+
+
+BOX = '<{kind}>{origin}<geometry><box size="0.4 0.3 0.3"/></geometry></{kind}>'
+MESH = '<visual><geometry><mesh filename="tank.stl"/></geometry></visual>'
+
+
+@pytest.mark.parametrize(
+    "geometry, size",
+    [
+        (BOX.format(kind="collision", origin=""), (0.4, 0.3, 0.3)),
+        (BOX.format(kind="visual", origin='<origin xyz="0 0 0" rpy="0 0 0"/>'), (0.4, 0.3, 0.3)),
+        (MESH + BOX.format(kind="collision", origin=""), (0.4, 0.3, 0.3)),  # the collision box
+        (BOX.format(kind="collision", origin='<origin xyz="0.1 0 0"/>'), None),  # off centre
+        (BOX.format(kind="visual", origin='<origin rpy="0 0 0.3"/>'), None),  # turned
+        (MESH, None),
+    ],
+)
+def test_a_centred_box_geometry_gives_the_target_its_size(tmp_path, geometry, size):
+    """The link's first box (collision before visual), centred on the link frame with its
+    axes, is the target's box: its size is the file's; other geometry gives no size."""
+    sc = _scenario(tmp_path, geometry=geometry)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        target = prepare(dataclasses.replace(sc, duration=0.01)).target
+    assert target is not None and target.size == size
+
+
+def test_a_grasp_frame_outside_the_urdf_box_is_refused(tmp_path):
+    """With a size from the URDF, the box's rule holds: a grasp frame 0.3 m from the centre
+    of a 0.4 m box (face at 0.2 m) is one line naming the grasp frame."""
+    table = TABLE.replace("grasp_xyz = [-0.2, 0.0, 0.0]", "grasp_xyz = [-0.3, 0.0, 0.0]")
+    with pytest.raises(ScenarioError) as info:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            prepare(_scenario(tmp_path, table, geometry=BOX.format(kind="collision", origin="")))
+    msg = str(info.value)
+    assert "\n" not in msg and "grasp" in msg, msg
 
 
 BAD = {
