@@ -29,7 +29,7 @@ from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merg
 from .measurement import Sensor
 from .plant import Plant
 from .setup import Setup
-from .target import Target, TargetState, torque_free_step
+from .target import Target, TargetState
 from .target_run import TargetMotion
 
 #: The summary's keys of a run with ``[capture]`` (and a campaign's results columns).
@@ -135,7 +135,7 @@ class CaptureMotion(TargetMotion):
         if self.plant is None:
             h = dt / self.substeps
             for _ in range(self.substeps):
-                self.state = torque_free_step(self.target, self.state, h, self.momentum)
+                self.state = self.free_step(h)
 
     def at_period(self, t: float, q, v, plant: Plant, sensor: Sensor):
         """The hook of each control period, before the measurement: grasp when the true
