@@ -353,6 +353,9 @@ class Plant:
             _euler_velocity(v, pin.aba(model, data, q, v, tau), dt, out)
             q_new = pin.integrate(model, q, out[1])
             v_new, a = out[0], out[2]
+        if self.project_position:  # (before the momentum's, done here or by the caller)
+            self.elapsed += dt
+            self._project_position(q_new, pin.centerOfMass(model, data, q_new))
         if self.project_momentum:
             _project_base(
                 pin.computeCentroidalMap(model, data, q_new),
@@ -360,10 +363,6 @@ class Plant:
                 self.momentum0,  # type: ignore[arg-type]  # set by reset() above
                 self._rows,
             )
-        if self.project_position:  # (the centroidal map above computed the CoM at q_new)
-            self.elapsed += dt
-            com = data.com[0] if self.project_momentum else pin.centerOfMass(model, data, q_new)
-            self._project_position(q_new, com)
         if base_wrench is not None:
             tau[: self.n_base] = 0.0  # the free base again for the next call
         return StepResult(q_new, v_new, a)
