@@ -62,9 +62,12 @@ class WheelsOutcome:
     saturation_fraction : float
         Fraction of control periods in which some wheel's torque was cut by its torque or
         momentum limit (in the period's last plant step).
+    wheels : Wheels or None
+        The wheels (their axes, for the replay's arrow of the stored momentum).
     """
 
     saturation_fraction: float
+    wheels: Wheels | None = None
 
     def summary(self) -> dict:
         """The summary.json keys.
@@ -306,7 +309,7 @@ class WheelsInLoop:
         WheelsOutcome
             The saturation fraction.
         """
-        return WheelsOutcome(self.saturated / max(1, periods))
+        return WheelsOutcome(self.saturated / max(1, periods), self.wheels)
 
 
 @fill_doc(SIM_DOC)

@@ -316,8 +316,10 @@ def test_position_projection_keeps_the_com_on_its_line(root, integrator, rng):
     a translation of the whole system: the momentum is kept, and the velocities and the rest of
     q are those of the run without it, to rounding."""
     model = _two_body(root)
-    turn = pin.rpy.rpyToMatrix(0.0, 0.0, 0.7) if root == "planar" else pin.rpy.rpyToMatrix(
-        0.3, -0.5, 0.7
+    turn = (
+        pin.rpy.rpyToMatrix(0.0, 0.0, 0.7)
+        if root == "planar"
+        else pin.rpy.rpyToMatrix(0.3, -0.5, 0.7)
     )
     model.jointPlacements[1] = pin.SE3(turn, np.array([0.2, -0.1, 0.4]))
     model.gravity.setZero()  # (free-floating: no external force)
