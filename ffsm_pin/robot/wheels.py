@@ -226,6 +226,23 @@ class Wheels:
         """
         return np.asarray(h, float) / self.inertia - self.axes.T @ np.asarray(w_bus, float)
 
+    def storing(self, momentum) -> np.ndarray:
+        """The wheel momenta h = A^+ L that store the angular momentum L (bus frame): of the
+        h with A h = L the least |h| (with 3 independent axes the only one), the allocation
+        of :meth:`attitude_pd`.
+
+        Parameters
+        ----------
+        momentum : array_like, shape (3,)
+            L, bus frame [N m s].
+
+        Returns
+        -------
+        ndarray, shape (k,)
+            Wheel momenta [N m s].
+        """
+        return np.linalg.pinv(self.axes) @ np.asarray(momentum, float)
+
     def attitude_pd(self, rotation_error, w_bus) -> np.ndarray:
         """The ``"attitude-pd"`` command [N m]: the wheel torques whose reaction on the bus is
         ``-(kp phi + kd w_bus)`` (least squares over the wheels, A^+), phi the rotation vector

@@ -180,8 +180,9 @@ def capture_warnings(setup: Setup) -> list[str]:
     -------
     list of str
         The grasp point beyond the arm's reach over the whole run; the capture tolerances
-        never met on the predicted motion (with ``[capture]``); the joint torques that stop
-        the target within the position funnel after the predicted capture beyond a joint's
+        never met on the predicted motion (with ``[capture]``); the wheels unable to store
+        the detumble's momentum (:func:`wheel_warnings`); the joint torques that stop the
+        target within the position funnel after the predicted capture beyond a joint's
         limit.
     """
     pred = predict_capture(setup)
@@ -197,6 +198,7 @@ def capture_warnings(setup: Setup) -> list[str]:
     assert spec is not None
     if spec.capture is None:
         return out
+    out += wheel_warnings(setup)
     tol = spec.capture
     if pred.capture_time is None:
         near = int(np.argmin(pred.distance))
@@ -228,3 +230,65 @@ def capture_warnings(setup: Setup) -> list[str]:
                 "longer approach.time) or widen controller.funnel.rho_z*"
             )
     return out
+
+
+def detumble_need(setup: Setup) -> np.ndarray | None:
+    """The wheel momenta [N m s] that hold the whole system's angular momentum when it is at
+    rest at the desired bus attitude after the capture (None without wheels or
+    ``[capture]``).
+
+    L, robot and target about their common CoM (world frame), is kept through the run and
+    the impact; the wheels start empty. For the bus, the arm and the held target to stop
+    turning, the wheels must hold all of it: A h = R_d^T L, R_d the ``reference.base_attitude``
+    the bus is brought back to, h = A^+ R_d^T L (:meth:`~ffsm_pin.robot.wheels.Wheels.storing`,
+    the allocation of the wheels' attitude PD).
+
+    Parameters
+    ----------
+    setup : Setup
+        The prepared run.
+
+    Returns
+    -------
+    ndarray, shape (N,) or None
+        h, one per wheel [N m s].
+    """
+    target, state, spec = setup.target, setup.target_state, setup.scenario.target
+    wheels = setup.scenario.robot.wheels
+    if wheels is None or target is None or state is None or spec is None or not spec.capture:
+        return None
+    cap = capture_model(setup.robot, target, hand_grasp(spec.capture))
+    momentum = cap.momentum(*cap.joint_state(setup.q0, setup.v0, state))[3:]
+    R_d = mrp.to_rotation(np.asarray(setup.scenario.reference.base_attitude, dtype=float))
+    return wheels.storing(R_d.T @ momentum)
+
+
+def wheel_warnings(setup: Setup) -> list[str]:
+    """``--check``'s line when the wheels cannot store the detumble's momentum
+    (:func:`detumble_need`): some wheel's share beyond its ``max_momentum``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The prepared run.
+
+    Returns
+    -------
+    list of str
+        One line naming ``robot.satellite.wheels.max_momentum``, or none.
+    """
+    need = detumble_need(setup)
+    wheels = setup.scenario.robot.wheels
+    if need is None or wheels is None:
+        return []
+    ratio = np.abs(need) / wheels.max_momentum
+    if not (ratio > 1.0).any():
+        return []
+    i = int(np.argmax(ratio))
+    return [
+        f"wheels too small for the detumble: holding the whole system's angular momentum "
+        f"(robot and target, {np.linalg.norm(wheels.momentum_bus(need)):.3g} N m s) at rest "
+        f"after the capture takes {abs(need[i]):.3g} N m s on wheel {i}, beyond "
+        f"robot.satellite.wheels.max_momentum = {wheels.max_momentum[i]:.3g} N m s; give "
+        "larger wheels or a slower target"
+    ]

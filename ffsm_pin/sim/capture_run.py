@@ -29,7 +29,7 @@ from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merg
 from .measurement import Sensor
 from .plant import Plant
 from .setup import Setup
-from .target import Target, TargetState, torque_free_step
+from .target import Target, TargetState
 from .target_run import TargetMotion
 
 #: The summary's keys of a run with ``[capture]`` (and a campaign's results columns).
@@ -69,6 +69,9 @@ class CaptureOutcome:
         The kinetic energy the plastic impact took [J].
     tolerance_position, tolerance_velocity : float or None
         The ``[capture]`` tolerances [m], [m/s] (for the figures).
+    hand_grasp : tuple of float
+        The hand's grasp frame in the end-effector frame, ``hand_xyz`` [m] then ``hand_rpy``
+        [rad] (for the replay).
     """
 
     captured: bool = False
@@ -79,6 +82,7 @@ class CaptureOutcome:
     energy_lost: float | None = None
     tolerance_position: float | None = None
     tolerance_velocity: float | None = None
+    hand_grasp: tuple[float, ...] = (0.0,) * 6
 
     def summary(self) -> dict:
         """The summary.json keys (:data:`CAPTURE_KEYS`).
@@ -124,7 +128,9 @@ class CaptureMotion(TargetMotion):
         self.detumble_rate = spec.detumble_rate  # [rad/s], the summary's detumble_time
         self.substeps = max(1, int(substeps))
         self.outcome = CaptureOutcome(
-            tolerance_position=spec.tolerance_position, tolerance_velocity=spec.tolerance_velocity
+            tolerance_position=spec.tolerance_position,
+            tolerance_velocity=spec.tolerance_velocity,
+            hand_grasp=(*spec.hand_xyz, *spec.hand_rpy),
         )
         self.relative: tuple[float, float] = (np.nan, np.nan)  # grasp distance, speed now
         self.plant: Plant | None = None  # the merged robot's, after capture
@@ -136,7 +142,7 @@ class CaptureMotion(TargetMotion):
         if self.plant is None:
             h = dt / self.substeps
             for _ in range(self.substeps):
-                self.state = torque_free_step(self.target, self.state, h, self.momentum)
+                self.state = self.free_step(h)
 
     def at_period(self, t: float, q, v, plant: Plant, sensor: Sensor):
         """The hook of each control period, before the measurement: grasp when the true
@@ -184,7 +190,7 @@ class CaptureMotion(TargetMotion):
         self.state = cap.target_state(qc, hit.v)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
-            float(hit.energy_loss), tol.position, tol.velocity,
+            float(hit.energy_loss), tol.position, tol.velocity, self.outcome.hand_grasp,
         )  # fmt: skip
         if self.estimates == "true":  # a controller measuring M, h sees the merged robot's
             sensor = Sensor(robot, sensor.model, full_model=sensor.full_model)

@@ -18,6 +18,14 @@ momentum at the new configuration, ``A_g,base(q+) v_base = h_0 - A_g,joints(q+) 
 conserved quantities stay exact to rounding for any dt. Plain semi-implicit Euler drifts in
 momentum by O(dt); the projection removes that drift without changing the order of accuracy of
 the trajectory (it moves the state by as much as the integrator's own local error).
+
+Optionally (``project_position=True``; a run with a ``[target]`` turns it on), the position
+projection, its counterpart for the CoM: with no external force the robot's CoM moves on the
+straight line ``c(t) = c(0) + P t / m``, which no finite-order integrator keeps (semi-implicit
+Euler leaves a first-order error, ~5e-8 m after 1 s at dt = 2 ms). After each step the root's
+translation (the first ``n_linear`` entries of q, in the root joint's parent frame) is moved so
+that the CoM is back on its line: a translation of the whole system, which changes no velocity
+and no momentum about the CoM, so it is exact to rounding (docs/capture.md, "Momentum").
 """
 
 from __future__ import annotations
@@ -55,7 +63,8 @@ _DOC = doc_entries(
 )
 
 # root joint -> (base velocity size, rows of the centroidal momentum h_g = (P, L) kept,
-# linear entries of the base velocity (= entries of P))
+# linear entries of the base velocity (= entries of P; = the root's translation entries of q,
+# the position projection's)
 _ROOTS = {
     "JointModelPlanar": (3, np.array([0, 1, 5]), 2),  # P_x, P_y, L_z
     "JointModelFreeFlyer": (6, np.arange(6), 3),  # P (inertial frame), L about the CoM
@@ -154,6 +163,10 @@ class Plant:
     project_momentum : bool
         Apply the momentum projection after each step (default). Switch it off only to
         measure the drift of the bare integrator.
+    project_position : bool
+        Put the CoM back on its straight line after each step (the module docstring; default
+        off: the built-in cases' runs are those of before). It assumes no external force: a
+        ``base_wrench`` may be a torque only (as the wheels' is).
     """
 
     def __init__(
@@ -162,6 +175,7 @@ class Plant:
         *,
         integrator: str = "semi-implicit",
         project_momentum: bool = True,
+        project_position: bool = False,
     ):
         if integrator not in INTEGRATORS:
             raise ParameterError(
@@ -175,9 +189,17 @@ class Plant:
         self.n_base, self._rows, self.n_linear = _ROOTS[self.root]
         self.integrator = integrator
         self.project_momentum = project_momentum
+        self.project_position = project_position
         self._tau = np.zeros(self.model.nv)
         self._chart_block = chart_block(self.model)
         self.momentum0: np.ndarray | None = None  # the conserved rows of h_g
+        self.mass = pin.computeTotalMass(self.model)
+        # world displacement -> the root's translation entries of q (its parent frame's axes)
+        self._to_root = np.array(self.model.jointPlacements[1].rotation).T[: self.n_linear]
+        # the CoM's line, set by reset(): c(0), P / m [m/s] and the time since [s]
+        self.com0 = np.zeros(3)
+        self.com_rate = np.zeros(3)
+        self.elapsed = 0.0
 
     def momentum(self, q, v) -> np.ndarray:
         """The conserved momentum: planar (P_x, P_y, L_z), free-flyer (P, L); P the linear
@@ -236,6 +258,24 @@ class Plant:
             The initial state (Pinocchio convention).
         """
         self.momentum0 = self.momentum(q, v)
+        self.com_rate = self.data.hg.linear / self.mass  # (a copy)
+        self.com0 = pin.centerOfMass(self.model, self.data, q).copy()
+        self.elapsed = 0.0
+
+    def com_line(self) -> np.ndarray:
+        """Where the CoM is on its straight line now: ``c(0) + (P / m) t`` [m], world frame, t
+        the time :meth:`step` has advanced since :meth:`reset`.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            The CoM's position [m].
+        """
+        return self.com0 + self.elapsed * self.com_rate
+
+    def _project_position(self, q: np.ndarray, com: np.ndarray) -> None:
+        """Translate the root, in place in q, so that the CoM ``com`` (at q) is on its line."""
+        q[: self.n_linear] += self._to_root @ (self.com_line() - com)
 
     def acceleration(self, q, v, u_m, base_wrench=None) -> np.ndarray:
         """Forward dynamics (ABA) with joint torques ``u_m`` [N m] and a free base (or a
@@ -275,7 +315,12 @@ class Plant:
         Plant
             The new plant (:meth:`reset` it).
         """
-        return Plant(robot, integrator=self.integrator, project_momentum=self.project_momentum)
+        return Plant(
+            robot,
+            integrator=self.integrator,
+            project_momentum=self.project_momentum,
+            project_position=self.project_position,
+        )
 
     def step(self, q, v, u_m, dt: float, base_wrench=None) -> StepResult:
         """Advance (q, v) by ``dt`` [s] with joint torques ``u_m`` held constant.
@@ -308,6 +353,9 @@ class Plant:
             _euler_velocity(v, pin.aba(model, data, q, v, tau), dt, out)
             q_new = pin.integrate(model, q, out[1])
             v_new, a = out[0], out[2]
+        if self.project_position:  # (before the momentum's, done here or by the caller)
+            self.elapsed += dt
+            self._project_position(q_new, pin.centerOfMass(model, data, q_new))
         if self.project_momentum:
             _project_base(
                 pin.computeCentroidalMap(model, data, q_new),

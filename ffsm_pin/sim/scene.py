@@ -5,7 +5,8 @@ meshes it names, embedded in the page; see :mod:`ffsm_pin.sim.meshes`) moved per
 Pinocchio's placement ``oMg`` for the recorded configuration ``q``, a box for a root body
 without visuals (the satellite), the end-effector reference path (green line) with a moving
 target (green sphere), the end-effector's actual path (red line), and the ``[target]`` body
-of a run that has one (a box at its recorded ``target_pose``). Planar robots
+of a run that has one (a box at its recorded ``target_pose``), with the grasp frames and the
+wheels' stored momentum (:mod:`.scene_marks`). Planar robots
 (``JointModelPlanar`` root) are drawn in the plane z = 0, spatial ones (``JointModelFreeFlyer``
 root, q = x, y, z, qx, qy, qz, qw, joints) in 3-D.
 """
@@ -33,6 +34,7 @@ from .meshes import (
     visual_geometry,
 )
 from .result import RunResult
+from .scene_marks import capture_marks
 
 with warnings.catch_warnings():  # meshcat 0.3 imports pyzmq's deprecated zmq.eventloop.ioloop
     warnings.simplefilter("ignore", DeprecationWarning)
@@ -98,8 +100,10 @@ def build_scene(
     else ``base_size`` [m] under it (its top face through the root frame's origin). ``result``
     needs the signals ``t``, ``q``, ``z_e`` and ``z_e_d`` (end-effector position first); a
     result with ``target_pose`` and its ``target`` (a box's ``size``) gets the target's box at
-    its recorded poses, and one with a ``capture`` that happened an orange sphere at the
-    hand's position at capture, shown from the capture on.
+    its recorded poses and its grasp frame (a triad), one with a ``capture`` the hand's grasp
+    frame (a triad) and, if it happened, an orange sphere at the hand's position at capture,
+    shown from the capture on; one with wheels an arrow of their stored momentum
+    (:mod:`.scene_marks`).
     When the mesh files together exceed ``max_mesh_mb`` [MB], DAE and OBJ meshes are embedded
     as binary STL in one colour each (:func:`ffsm_pin.sim.meshes.compact_mesh`).
 
@@ -209,6 +213,10 @@ def build_scene(
         mg.MeshLambertMaterial(color=_REFERENCE_COLOR, opacity=0.8),
     )
     target_pts = _path_points(z_d, dims, 0.005, decimate=False)
+    # the grasp frames and the wheels' stored momentum (sim/scene_marks.py)
+    marks = capture_marks(robot, result, frames, targets)
+    for mark in marks:
+        mark.draw(group)
 
     for k, i in enumerate(frames):
         target = np.eye(4)
@@ -222,6 +230,8 @@ def build_scene(
             frame["reference"]["target"].set_transform(target)
             if targets is not None:
                 frame[TARGET_BOX].set_transform(targets[k])
+            for mark in marks:
+                mark.key(frame, k)
         if k == 0:  # the still picture before the animation starts
             for name, gid in drawn:
                 group["robot"][name].set_transform(poses[k][gid])

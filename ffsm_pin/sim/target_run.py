@@ -159,6 +159,10 @@ class TargetMotion:
         self.target = target
         self.state = state
         self.momentum = state.angular_momentum(target)  # kept by every step (world, CoM)
+        # the CoM's straight line c(0) + v t, kept as the plant keeps the robot's (adding
+        # v dt to c at every step biases c by rounding, ~1e-14 m/s: docs/capture.md)
+        self.com0 = state.com_position(target)
+        self.elapsed = 0.0  # [s] since t = 0
 
     def write(self, arrays: Mapping[str, np.ndarray], i: int) -> None:
         """Record the current state in row ``i`` of the recorder's ``arrays``.
@@ -177,7 +181,28 @@ class TargetMotion:
 
     def advance(self, dt: float) -> None:
         """Step the target ``dt`` [s] torque-free, keeping its initial angular momentum."""
-        self.state = torque_free_step(self.target, self.state, dt, self.momentum)
+        self.state = self.free_step(dt)
+
+    def free_step(self, dt: float) -> TargetState:
+        """The target's state ``dt`` [s] later (:func:`~.target.torque_free_step` keeping its
+        initial angular momentum), its CoM put on its line c(0) + v t.
+
+        Parameters
+        ----------
+        dt : float
+            Step [s].
+
+        Returns
+        -------
+        TargetState
+            The state after the step.
+        """
+        state = torque_free_step(self.target, self.state, dt, self.momentum)
+        self.elapsed += dt
+        R = state.pose.rotation
+        com = self.com0 + self.elapsed * state.velocity
+        pose = pin.SE3(R, com - R @ np.array(self.target.com))
+        return TargetState(pose, state.velocity, state.angular_velocity)
 
 
 def target_summary(target: Target, blocks: Iterable[Mapping[str, np.ndarray]]) -> dict:

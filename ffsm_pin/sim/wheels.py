@@ -75,6 +75,9 @@ class WheeledPlant:
         The plant's integrator.
     project_momentum : bool
         Restore L_total after each step (default); off only to measure the bare drift.
+    project_position : bool
+        Keep the CoM on its straight line (the plant's position projection; the wheels'
+        torque is a couple, so the line is the same as without them).
     """
 
     def __init__(
@@ -84,8 +87,14 @@ class WheeledPlant:
         *,
         integrator: str = "semi-implicit",
         project_momentum: bool = True,
+        project_position: bool = False,
     ):
-        self.plant = Plant(robot, integrator=integrator, project_momentum=False)
+        self.plant = Plant(
+            robot,
+            integrator=integrator,
+            project_momentum=False,
+            project_position=project_position,
+        )
         self.wheels = wheels
         self.project_momentum = project_momentum
         self._planar = self.plant.root == "JointModelPlanar"

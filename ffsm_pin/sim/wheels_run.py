@@ -62,9 +62,12 @@ class WheelsOutcome:
     saturation_fraction : float
         Fraction of control periods in which some wheel's torque was cut by its torque or
         momentum limit (in the period's last plant step).
+    wheels : Wheels or None
+        The wheels (their axes, for the replay's arrow of the stored momentum).
     """
 
     saturation_fraction: float
+    wheels: Wheels | None = None
 
     def summary(self) -> dict:
         """The summary.json keys.
@@ -93,12 +96,22 @@ class WheelsInLoop:
         The desired bus attitude (MRP) of ``control = "attitude-pd"``.
     dt_step : float
         The plant's step [s] (the last period's torque limits).
+    project_position : bool
+        Keep the CoM on its straight line (:class:`~.plant.Plant`'s position projection).
     """
 
     def __init__(
-        self, robot, wheels: Wheels, integrator: str, base_attitude, dt_step: float
+        self,
+        robot,
+        wheels: Wheels,
+        integrator: str,
+        base_attitude,
+        dt_step: float,
+        project_position: bool = False,
     ) -> None:
-        self.wheeled = WheeledPlant(robot, wheels, integrator=integrator)
+        self.wheeled = WheeledPlant(
+            robot, wheels, integrator=integrator, project_position=project_position
+        )
         self.dt_step = dt_step
         self.wheels = wheels
         self.h = np.zeros(wheels.n)  # wheel momenta now [N m s]
@@ -132,7 +145,13 @@ class WheelsInLoop:
         WheelsInLoop
             ``self``; :meth:`reset` sets the total momentum to keep.
         """
-        self.wheeled = WheeledPlant(robot, self.wheels, integrator=self.wheeled.plant.integrator)
+        inner = self.wheeled.plant
+        self.wheeled = WheeledPlant(
+            robot,
+            self.wheels,
+            integrator=inner.integrator,
+            project_position=inner.project_position,
+        )
         self.holding = True  # (only a capture swaps the robot)
         return self
 
@@ -290,7 +309,7 @@ class WheelsInLoop:
         WheelsOutcome
             The saturation fraction.
         """
-        return WheelsOutcome(self.saturated / max(1, periods))
+        return WheelsOutcome(self.saturated / max(1, periods), self.wheels)
 
 
 @fill_doc(SIM_DOC)
@@ -308,10 +327,13 @@ def loop_plant(setup: Setup) -> tuple[Plant, WheelsInLoop | None]:
         The wheels' hooks, None without wheels.
     """
     sc = setup.scenario
+    # with a [target], the robot's CoM kept on its line: the whole system's angular momentum
+    # depends on where it is (docs/capture.md, "Momentum"); without, the runs of before
+    position = setup.target is not None
     if sc.robot.wheels is None:
-        return Plant(setup.robot, integrator=sc.integrator), None
+        return Plant(setup.robot, integrator=sc.integrator, project_position=position), None
     plant = WheelsInLoop(
         setup.robot, sc.robot.wheels, sc.integrator, sc.reference.base_attitude,
-        sc.dt / sc.substeps,
+        sc.dt / sc.substeps, position,
     )  # fmt: skip
     return cast(Plant, plant), plant  # (duck-typed: the interface the loop uses)

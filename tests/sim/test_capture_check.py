@@ -8,11 +8,19 @@ import dataclasses
 import warnings
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
-from ffsm_pin.scenario.file import builtin_scenario
-from ffsm_pin.sim.capture_check import CaptureWarning, capture_warnings, predict_capture
+from ffsm_pin.attitude.mrp import to_rotation
+from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.sim.capture_check import (
+    CaptureWarning,
+    capture_warnings,
+    detumble_need,
+    predict_capture,
+)
 from ffsm_pin.sim.check import check
+from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.setup import prepare
 
 
@@ -95,3 +103,55 @@ def test_an_impact_beyond_the_torque_limits_is_warned_of():
 def test_no_target_no_prediction():
     setup = _setup(builtin_scenario("spatial-realistic"))
     assert predict_capture(setup) is None and capture_warnings(setup) == []
+
+
+def _with_wheels(table: str):
+    return scenario_from_toml(
+        builtin_path("capture").read_text() + "\n[robot.satellite.wheels]\ninertia = 0.05\n" + table
+    )
+
+
+def _system_momentum(setup) -> np.ndarray:
+    """L of robot and target about their common CoM, world frame, by hand: each body's own
+    L about its CoM (the plant's for the robot, R I w for the box) plus m (c - c_sys) x v."""
+    plant = Plant(setup.robot)
+    P_r, L_r = plant.split_momentum(plant.momentum(setup.q0, setup.v0))
+    m_r, box, state = plant.mass, setup.target, setup.target_state
+    c_r = pin.centerOfMass(setup.robot.model, setup.robot.model.createData(), setup.q0)
+    c_t = state.com_position(box)
+    c = (m_r * c_r + box.mass * c_t) / (m_r + box.mass)
+    R = state.pose.rotation
+    L_t = R @ np.asarray(box.inertia) @ state.angular_velocity
+    return L_r + np.cross(c_r - c, P_r) + L_t + np.cross(c_t - c, box.mass * state.velocity)
+
+
+def test_wheels_too_small_for_the_detumble_are_warned_of():
+    """With axes "xyz" the wheels must hold R_d^T L, L the system's angular momentum (by hand)
+    and R_d the desired bus attitude: a max_momentum 10 % below the largest component warns,
+    naming the key and that wheel; 10 % above does not."""
+    setup = _setup(_with_wheels(""))
+    R_d = to_rotation(np.asarray(setup.scenario.reference.base_attitude, dtype=float))
+    expected = R_d.T @ _system_momentum(setup)
+    need = detumble_need(setup)
+    assert need is not None and np.abs(need - expected).max() < 1e-12 * np.abs(expected).max()
+    i = int(np.argmax(np.abs(expected)))
+    big = float(np.abs(expected[i]))
+    assert big > 0.01  # (the box's spin: |L| about 0.03 N m s)
+    (line,) = _check_warnings(_with_wheels(f"max_momentum = {0.9 * big}\n"))
+    assert "robot.satellite.wheels.max_momentum" in line and f"wheel {i}," in line
+    assert "\n" not in line
+    assert _check_warnings(_with_wheels(f"max_momentum = {1.1 * big}\n")) == []
+
+
+def test_the_detumble_need_of_redundant_wheels_is_the_least_norm_allocation():
+    """Four wheels (a pyramid): A h = R_d^T L and h has no part in A's null space."""
+    table = "axes = [[1.0, -1.0, 0.0, 0.0], [0.0, 0.0, 1.0, -1.0], [1.0, 1.0, 1.0, 1.0]]\n"
+    setup = _setup(_with_wheels(table))
+    wheels = setup.scenario.robot.wheels
+    need = detumble_need(setup)
+    assert need is not None and need.shape == (4,)
+    R_d = to_rotation(np.asarray(setup.scenario.reference.base_attitude, dtype=float))
+    expected = R_d.T @ _system_momentum(setup)
+    assert np.abs(wheels.axes @ need - expected).max() < 1e-12 * np.abs(expected).max()
+    null = np.linalg.svd(wheels.axes)[2][3]  # A's null space (one vector)
+    assert abs(null @ need) < 1e-12 * np.abs(need).max()

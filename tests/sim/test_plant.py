@@ -305,3 +305,50 @@ def test_momentum_rows_are_momentum_row_by_row(root, rng):
         assert np.array_equal(P[i], P_i) and np.array_equal(L[i], L_i)
     P0, L0 = plant.momentum_rows(q_rows[:0], v_rows[:0])  # no rows (a run stopped at once)
     assert P0.shape == (0, plant.n_linear) and L0.shape[0] == 0
+
+
+@pytest.mark.parametrize("integrator", ["semi-implicit", "rk4"])
+@pytest.mark.parametrize("root", ["planar", "free-flyer"])
+def test_position_projection_keeps_the_com_on_its_line(root, integrator, rng):
+    """With project_position the CoM (Pinocchio's, at every step) is on c(0) + P t / m to
+    rounding, the root joint placed off the world's axes (the root's translation entries are
+    in its parent frame); without it the integrator leaves it by more than 1e-11 m. The shift is
+    a translation of the whole system: the momentum is kept, and the velocities and the rest of
+    q are those of the run without it, to rounding."""
+    model = _two_body(root)
+    turn = (
+        pin.rpy.rpyToMatrix(0.0, 0.0, 0.7)
+        if root == "planar"
+        else pin.rpy.rpyToMatrix(0.3, -0.5, 0.7)
+    )
+    model.jointPlacements[1] = pin.SE3(turn, np.array([0.2, -0.1, 0.4]))
+    model.gravity.setZero()  # (free-floating: no external force)
+    data = model.createData()
+    q0 = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+    v0 = rng.normal(size=model.nv)
+    on = Plant(model, integrator=integrator, project_position=True)
+    off = Plant(model, integrator=integrator)
+    on.reset(q0, v0)
+    off.reset(q0, v0)
+    c0 = pin.centerOfMass(model, data, q0).copy()
+    P0 = pin.computeCentroidalMomentum(model, data, q0, v0).linear.copy()
+    m = pin.computeTotalMass(model)
+    assert np.abs(P0).max() > 0.1  # (a line that moves)
+    dt, n = 1e-2, 300
+    q1, v1, q2, v2 = q0, v0, q0, v0
+    departure = 0.0
+    for k in range(1, n + 1):
+        u = np.array([3.0 * np.sin(2.0 * k * dt)])
+        q1, v1, _ = on.step(q1, v1, u, dt)
+        q2, v2, _ = off.step(q2, v2, u, dt)
+        line = c0 + (k * dt) * P0 / m
+        assert np.abs(pin.centerOfMass(model, data, q1) - line).max() < 1e-13 * (1 + k * dt)
+        departure = max(departure, np.abs(pin.centerOfMass(model, data, q2) - line).max())
+    assert departure > 1e-11  # (measured: semi-implicit 1e-2 m, RK4 3e-10 and 1e-8 m)
+    assert np.abs(on.momentum(q1, v1) - on.momentum0).max() < 1e-12
+    n_lin = on.n_linear
+    assert np.abs(v1 - v2).max() < 1e-9 and np.abs(q1[n_lin:] - q2[n_lin:]).max() < 1e-9
+    # the translation of the root is the CoM's departure, in the root's parent frame
+    shift = turn.T @ (pin.centerOfMass(model, data, q1) - pin.centerOfMass(model, data, q2))
+    assert np.abs(q1[:n_lin] - q2[:n_lin] - shift[:n_lin]).max() < 1e-9
+    assert on.with_robot(model).project_position and not off.with_robot(model).project_position
