@@ -83,9 +83,7 @@ def robot_holding(robot: Robot, held: pin.Inertia):
     return robot.root.geometry(model, robot.ee_frame_id, robot.body_names, robot.name)
 
 
-def held_body_increment(
-    robot: Robot, model: ReducedModel, held: pin.Inertia
-) -> ParameterIncrement:
+def held_body_increment(robot: Robot, model: ReducedModel, held: pin.Inertia) -> ParameterIncrement:
     """The barycentric parameters of ``robot`` holding ``held`` less those of ``robot``.
 
     Parameters

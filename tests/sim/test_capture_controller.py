@@ -70,7 +70,8 @@ def grasp():
     )  # fmt: skip
     plant = Plant(robot, integrator="rk4")
     plant.reset(q, v)
-    new_plant, _, v_new = motion.at_period(0.5, q, v, plant, Sensor(robot, setup.model, full_model=False))
+    sensor = Sensor(robot, setup.model, full_model=False)
+    new_plant, _, v_new = motion.at_period(0.5, q, v, plant, sensor)
     return setup, motion, new_plant.robot, q, v_new
 
 
@@ -126,7 +127,7 @@ def test_the_compiled_period_sees_the_update(grasp, kind):
 
 
 def test_unknown_tells_nothing_and_perturbed_is_seeded(grasp):
-    """"unknown": an event without the body, the estimates unchanged. "perturbed": the body
+    """With "unknown" an event without the body, the estimates unchanged. "perturbed": the body
     drawn by the [controller.estimates] rule, the same draw twice, a mass within the spread
     and not the true one; its increment moves the parameters less than the true one's does
     by the mass ratio's order."""
