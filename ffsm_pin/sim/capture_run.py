@@ -313,7 +313,7 @@ def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | N
         )  # fmt: skip
         motion = capture
     if setup.approach is not None:  # the approach's target sensor reads the true state
-        setup.approach.follow(motion)
+        setup.approach.follow(motion, setup.robot)  # (after a capture: the bus-frame hold)
     return motion, capture
 
 

@@ -178,3 +178,46 @@ def test_in_a_run_the_estimates_jump_by_the_held_body_at_the_grasp():
     assert np.abs(jump_z[3:] - inc.V).max() < 1e-12 * np.abs(inc.V).max()
     assert np.array_equal(jump_z[:3], np.zeros(3))  # v_0 is left to the adaptation
     assert any("joined the parameter estimates" in e for e in b.summary()["events"])
+
+
+def test_after_an_approach_the_reference_holds_the_hand_fixed_in_the_bus_frame():
+    """capture-approach with exact sensors and a 4 s approach: from the grasp on the reference
+    the controller had is the bus-fixed point p_b + R_b r(t) and its rate v_b + w_b x R_b r +
+    R_b dr/dt, with p_b, R_b, v_b, w_b the bus's recorded state (not the hand kinematics the
+    reference is built from) and r(t) the closed-form rest-to-rest curve from the hand's
+    bus-frame position and velocity at the grasp (1e-12 m, 1e-12 m/s)."""
+    from ffsm_pin.scenario.spec import SensorSpec
+    from ffsm_pin.scenario.target_spec import ApproachSpec
+    from ffsm_pin.sim.approach import HOLD_TIME
+
+    sc = builtin_scenario("capture-approach")
+    target = dataclasses.replace(sc.target, approach=ApproachSpec(4.0))
+    sc = dataclasses.replace(sc, duration=5.0, target=target, sensors=SensorSpec())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        setup = prepare(sc)
+    res = simulate(setup)
+    assert res.completed and res.capture.captured
+    t, q, v = np.asarray(res["t"]), np.asarray(res["q"]), np.asarray(res["v"])
+    z, dz = np.asarray(res["z_e"])[:, :3], np.asarray(res["z_e_dot"])[:, :3]
+    z_d, dz_d = np.asarray(res["z_e_d"])[:, :3], np.asarray(res["z_e_d_dot"])[:, :3]
+    c = int(np.flatnonzero(t >= res.capture.time)[0])
+    assert t[-1] - t[c] > 3 * HOLD_TIME
+
+    def bus(i):
+        R = pin.Quaternion(q[i, 6], q[i, 3], q[i, 4], q[i, 5]).toRotationMatrix()
+        return q[i, :3], R, R @ v[i, :3], R @ v[i, 3:6]
+
+    p, R, v_b, w_b = bus(c)
+    r_c = R.T @ (z[c] - p)  # the hand in the bus frame, and its velocity relative to the bus
+    u_c = R.T @ (dz[c] - v_b - np.cross(w_b, z[c] - p))
+    worst = np.zeros(2)
+    for i in range(c, len(t)):
+        p, R, v_b, w_b = bus(i)
+        decay = np.exp(-(t[i] - t[c]) / HOLD_TIME)
+        r = r_c + u_c * HOLD_TIME * (1.0 - decay)
+        want = p + R @ r
+        rate = v_b + np.cross(w_b, R @ r) + R @ (u_c * decay)
+        worst = np.maximum(worst, (np.abs(z_d[i] - want).max(), np.abs(dz_d[i] - rate).max()))
+    assert worst[0] < 1e-12 and worst[1] < 1e-12, worst
+    assert res.summary()["funnel_ok_z"]
