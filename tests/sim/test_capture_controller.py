@@ -221,3 +221,41 @@ def test_after_an_approach_the_reference_holds_the_hand_fixed_in_the_bus_frame()
         worst = np.maximum(worst, (np.abs(z_d[i] - want).max(), np.abs(dz_d[i] - rate).max()))
     assert worst[0] < 1e-12 and worst[1] < 1e-12, worst
     assert res.summary()["funnel_ok_z"]
+
+
+@pytest.mark.parametrize("case", ["planar5", "spatial"])
+def test_the_increment_is_the_payloads_on_both_roots(case):
+    """held_body_increment on a planar (general layout) and a spatial robot: theta_d + the
+    increment gives Pinocchio's reduced M and C w of the robot whose end-effector link
+    carries the body (as [robot.payload] attaches it), within 1e-10 relative at a random
+    state. (A planar robot of the collinear layout cannot hold a body off its link's line:
+    parameters_of refuses it, the layout has no Ds_kl.)"""
+    import dataclasses as dc
+
+    from ffsm_pin.control.held_body import robot_holding
+    from ffsm_pin.robot.payload import Payload
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
+    robot, model = setup.robot, setup.model
+    held = pin.Inertia(3.0, np.array([0.06, -0.03, 0.0]), np.diag([0.02, 0.03, 0.04]))
+    I = held.inertia
+    payload = Payload(3.0, (I[0, 0], I[1, 1], I[2, 2], 0.0, 0.0, 0.0), tuple(held.lever))
+    holding = dc.replace(
+        robot, model=payload.attach(robot.model, robot.ee_frame_id),
+        geometry=robot_holding(robot, held),
+    )  # fmt: skip
+    rng = np.random.default_rng(7)
+    q, v = setup.q0.copy(), setup.v0.copy()
+    n = robot.n_joints
+    q[-n:] += rng.uniform(-0.3, 0.3, n)
+    v[-n:] += rng.normal(0.0, 0.3, n)
+    meas = Sensor(holding, model, full_model=True).measure(0.0, q, v)
+    theta_d = model.theta_d + held_body_increment(robot, model, held).theta_d
+    M = model.mass_matrix(theta_d, meas.q_b, meas.q_m)
+    h = model.velocity_product(theta_d, meas.q_b, meas.q_m, meas.w)
+    assert np.abs(M - meas.M).max() < 1e-10 * np.abs(meas.M).max()
+    assert np.abs(h - meas.h).max() < 1e-10 * np.abs(meas.h).max()
+    M0 = model.mass_matrix(model.theta_d, meas.q_b, meas.q_m)
+    assert np.abs(M0 - meas.M).max() > 1e-3 * np.abs(meas.M).max()  # (the body matters)
