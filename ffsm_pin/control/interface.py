@@ -34,6 +34,10 @@ and optionally the attributes
 * ``singular_value(meas)``: the distance to a kinematic singularity [m], for ``--check``;
 * ``signal_shapes`` (dict name -> shape): the shapes of the signals ``step`` returns, used to
   size the recording before the run; signals not listed are found at the first step.
+* ``on_capture(event)``: called once, in a run with ``[capture]``, at the control period of
+  the grasp, before that period's ``step``, with a
+  :class:`~ffsm_pin.control.held_body.CaptureEvent` (time, and the held body's inertia as
+  ``[capture] estimates`` allows); a controller without it runs on unaware of the capture.
 * ``signal_layout`` (:class:`SignalLayout`): the signals ``step`` returns as rows of it
   (:class:`SignalRow`); the recorder holds their columns side by side and copies each such
   row in one piece instead of a signal at a time (the paper's controller does,

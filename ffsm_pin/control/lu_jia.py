@@ -15,6 +15,7 @@ from ..errors import ParameterError, choices_text
 from .backend import BACKENDS
 from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
+from .held_body import CaptureEvent, join_held_body
 from .interface import ControllerContext, Measurement, SignalLayout, SignalRow
 from .kinematic import KinematicInputs
 from .lu_jia_params import LuJiaParams
@@ -201,6 +202,18 @@ class LuJiaController:
         w_b = meas.w[0] if law.m3 == 1 else meas.w[: law.m3]
         x = KinematicInputs(meas.t, meas.q_b, meas.q_m, meas.z_e, law.theta_b, law.theta_z, w_b)
         return float(law.kinematic.evaluate(x)[3])
+
+    def on_capture(self, event: CaptureEvent) -> None:
+        """The hand grasped a body (the optional hook, docs/controllers.md): its parameters,
+        when the event carries them, join theta_z-hat, theta_d-hat and theta_b-hat
+        (:func:`~.held_body.join_held_body`); the adaptation goes on from there.
+
+        Parameters
+        ----------
+        event : CaptureEvent
+            The capture.
+        """
+        join_held_body(self.context, self.law.state, event, self.law.events)
 
     def step(self, meas: Measurement):
         """u_m for the period [t, t + dt) and the signals at t (before the update), a

@@ -22,6 +22,7 @@ from .._docstrings import fill_doc
 from ..errors import ParameterError, expected_count
 from ._docs import CONTROL_DOC
 from .compiled import CompiledController, kernel_measurement
+from .held_body import CaptureEvent, join_held_body
 from .interface import ControllerContext, Measurement
 from .kinematic import momentum_evaluator, wrap_angle
 from .linalg import damped_row_pinv
@@ -204,6 +205,18 @@ class ResolvedMotionBaseline(CompiledController):
         # spatial: H_bb, H_bm of complex-step arguments through the real model
         self._momentum = momentum_evaluator(ctx.model)
         self.events: list[str] = []
+
+    def on_capture(self, event: CaptureEvent) -> None:
+        """The hand grasped a body (the optional hook, docs/controllers.md): its parameters,
+        when the event carries them, join the estimates (:func:`~.held_body.join_held_body`):
+        gjm-ct's fixed model is updated, adaptive-ct adapts on from there.
+
+        Parameters
+        ----------
+        event : CaptureEvent
+            The capture.
+        """
+        join_held_body(self.context, self.state, event, self.events)
 
     def drift(self) -> float:
         """:func:`drift_bound` at the estimate theta_z (the gains' default derivation)."""

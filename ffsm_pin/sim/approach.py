@@ -35,6 +35,7 @@ from ..attitude import mrp
 from ..scenario.spec import Reference, Scenario
 from ..scenario.target_spec import ApproachSpec
 from ..scenario.trajectory import ReferenceData
+from .hold import BusHold
 from .target import Target, TargetState, torque_free_step
 
 #: [s] the time constant with which the reference comes to rest after a capture
@@ -234,19 +235,25 @@ class Approach:
         self.log = np.full((steps, 3, n), np.nan)  # per control period: z_d, dz_d, ddz_d
         self.sensor = TargetSensor(spec)
         self.motion = None  # the loop's target (sim.target_run.TargetMotion), see follow()
+        self.bus: BusHold | None = None  # the post-capture hold in the bus frame, see follow()
         self._hold: tuple[float, np.ndarray, np.ndarray] | None = None  # t, p, v at capture
         self._write(0.0, reference.ee_pose(0.0), reference.ee_rate(0.0), reference.ee_accel(0.0))
 
-    def follow(self, motion) -> None:
+    def follow(self, motion, robot=None) -> None:
         """Take the target's true state from the loop's ``motion`` (its ``state`` at each
-        period; a capture's ``outcome``), see :func:`~.capture_run.target_motions`.
+        period; a capture's ``outcome``), see :func:`~.capture_run.target_motions`; with
+        ``robot``, hold the hand fixed in the bus frame after a capture (:class:`~.hold.BusHold`),
+        else at rest in the inertial frame.
 
         Parameters
         ----------
         motion : TargetMotion
             The loop's target.
+        robot : Robot or None
+            The robot (free-flyer), for the post-capture hold in the bus frame.
         """
         self.motion = motion
+        self.bus = None if robot is None else BusHold(robot, HOLD_TIME)
 
     def _write(self, t: float, z, dz, ddz) -> None:
         """The table's segments: the Taylor expansion z + dz tau + ddz tau^2 / 2 about t."""
@@ -296,6 +303,8 @@ class Approach:
         outcome = getattr(self.motion, "outcome", None)
         if self.motion is None:
             z, dz, ddz = r, dr, ddr
+        elif outcome is not None and outcome.captured and self.bus is not None:
+            z, dz, ddz = self.bus.reference(meas)  # the hand held fixed in the bus frame
         elif outcome is not None and outcome.captured:
             if self._hold is None:  # the hand as measured just after the impact
                 n = len(r)

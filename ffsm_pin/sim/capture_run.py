@@ -10,21 +10,26 @@ the merged robot.
 merged robot. After capture the target's recorded pose and twist are those of the held body.
 :meth:`CaptureMotion.momentum_rows` gives the recorded momentum of the whole system: robot and
 target before capture, the merged robot after. :class:`CaptureOutcome` is what the summary
-says of the capture. The controller keeps its own model and estimates (docs/capture.md, "The
-capture in a run").
+says of the capture. At the grasp it prepares a
+:class:`~ffsm_pin.control.held_body.CaptureEvent` (what ``[capture] estimates`` lets the
+controller know of the held body), which the loop hands the controller's optional
+``on_capture`` before that period's step (:meth:`CaptureMotion.notify`; docs/capture.md,
+"The controller after capture").
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
 from .._docstrings import fill_doc
+from ..control.held_body import CaptureEvent
 from ..scenario.target_spec import CaptureSpec
 from ._docs import SIM_DOC
+from .estimates import body_inertias, perturb_body
 from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merge_after_capture
 from .measurement import Sensor
 from .plant import Plant
@@ -116,12 +121,23 @@ class CaptureMotion(TargetMotion):
         The ``[capture]`` table.
     substeps : int
         Plant steps per control period: the target is stepped as often.
+    perturb : callable or None
+        With ``estimates = "perturbed"``: the held body (``pin.Inertia``, end-effector frame)
+        -> the controller's estimate of it (:func:`held_body_estimate`); None: as given.
     """
 
     def __init__(
-        self, target: Target, state: TargetState, robot, spec: CaptureSpec, substeps: int = 1
+        self,
+        target: Target,
+        state: TargetState,
+        robot,
+        spec: CaptureSpec,
+        substeps: int = 1,
+        perturb: Callable[[pin.Inertia], pin.Inertia] | None = None,
     ) -> None:
         super().__init__(target, state)
+        self.perturb = perturb
+        self.event: CaptureEvent | None = None  # the capture, until the controller is told
         self.capture: CaptureModel = capture_model(robot, target, hand_grasp(spec))
         self.tolerances = CaptureTolerances(spec.tolerance_position, spec.tolerance_velocity)
         self.estimates = spec.estimates
@@ -188,6 +204,12 @@ class CaptureMotion(TargetMotion):
         pin.framesForwardKinematics(cap.model, data, qc)
         self._held = data.oMf[cap.robot.ee_frame_id].actInv(data.oMi[cap.target_joint])
         self.state = cap.target_state(qc, hit.v)
+        held = None  # what the controller may know of the held body ([capture] estimates)
+        if self.estimates != "unknown":
+            held = self._held.act(self.target.spatial_inertia())  # (the merged robot's)
+            if self.estimates == "perturbed" and self.perturb is not None:
+                held = self.perturb(held)
+        self.event = CaptureEvent(float(t), self.estimates, held)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
             float(hit.energy_loss), tol.position, tol.velocity, self.outcome.hand_grasp,
@@ -195,6 +217,21 @@ class CaptureMotion(TargetMotion):
         if self.estimates == "true":  # a controller measuring M, h sees the merged robot's
             sensor = Sensor(robot, sensor.model, full_model=sensor.full_model)
         return self.plant, sensor, v_new
+
+    def notify(self, controller) -> None:
+        """Hand a capture not yet told to the controller's optional ``on_capture`` (once;
+        the loop calls this before each period's step, inside its controller guard).
+
+        Parameters
+        ----------
+        controller : Controller
+            The run's controller.
+        """
+        if self.event is not None:
+            event, self.event = self.event, None
+            hook = getattr(controller, "on_capture", None)
+            if hook is not None:
+                hook(event)
 
     def write(self, arrays: Mapping[str, np.ndarray], i: int) -> None:
         """Record the target's state and the two grasp frames' relative motion in row ``i``.
@@ -278,12 +315,39 @@ def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | N
         capture = None
     else:
         capture = CaptureMotion(
-            setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps
-        )
+            setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps,
+            perturb=lambda held: held_body_estimate(held, setup),
+        )  # fmt: skip
         motion = capture
     if setup.approach is not None:  # the approach's target sensor reads the true state
-        setup.approach.follow(motion)
+        setup.approach.follow(motion, setup.robot)  # (after a capture: the bus-frame hold)
     return motion, capture
+
+
+def held_body_estimate(held: pin.Inertia, setup: Setup) -> pin.Inertia:
+    """The controller's estimate of the held body with ``[capture] estimates = "perturbed"``:
+    the body drawn by the ``[controller.estimates]`` rule (:func:`~.estimates.perturb_body`,
+    docs/model.md section 6) with its ``spread``, as one more body of the robot's draw: from
+    the generator seeded with its ``seed``, after the robot's bodies 0..n (those of
+    ``robot.estimated``) are drawn from it. Seeded, reproducible, whatever ``initial`` is.
+
+    Parameters
+    ----------
+    held : pin.Inertia
+        The held body in the end-effector frame.
+    setup : Setup
+        The prepared run (its ``[controller.estimates]`` and robot).
+
+    Returns
+    -------
+    pin.Inertia
+        The drawn body, end-effector frame.
+    """
+    est = setup.scenario.controller.estimates
+    rng = np.random.default_rng(est.seed)
+    for body in body_inertias(setup.robot.estimated):  # the robot's draw (free-flyer)
+        perturb_body(body, est.spread, rng)
+    return perturb_body(held, est.spread, rng)
 
 
 def hand_grasp(spec: CaptureSpec) -> pin.SE3:

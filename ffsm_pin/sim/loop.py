@@ -228,6 +228,8 @@ def simulate(
                 if target is not None:
                     target.write(A, i)
             try:
+                if capture is not None:  # a grasp this period: the controller's on_capture
+                    capture.notify(controller)
                 u_cmd, signals = split_reply(controller.step(seen))
                 u_cmd = _checked_torque(u_cmd, n)
                 if wheels is not None:  # the controller's wheel torques, or the wheels' own
