@@ -224,3 +224,29 @@ def test_option_variants_are_paired_on_their_draws():
     assert only_aux == 2 and row["only_a"] + row["only_b"] == 2
     assert row["p"] == 0.5  # two discordant pairs, both one way: 2 / 2^2
     assert row["common"]
+
+
+def test_the_shared_duckdb_reads_a_rewritten_file_as_a_fresh_one(tmp_path):
+    """query() keeps one DuckDB per process (opening one per query was a tenth of a small
+    campaign's report): a Parquet file rewritten with other values of the same size and
+    the same modification time is read anew, and every answer is a fresh connection's."""
+    import os
+
+    import duckdb
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ffsm_pin.sweep.report.sql import connection
+
+    path = tmp_path / "t.parquet"
+    text = f"SELECT sum(x) AS s, count(*) AS n FROM read_parquet('{path}')"
+    for values in ([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]):
+        pq.write_table(pa.table({"x": values}), path)
+        os.utime(path, ns=(1_000_000_000, 1_000_000_000))  # the same stamp both times
+        fresh = duckdb.connect()
+        try:
+            expected = fresh.execute(text).fetchall()
+        finally:
+            fresh.close()
+        assert [(r["s"], r["n"]) for r in query(text)] == expected == [(sum(values), 3)]
+    assert connection() is connection()
