@@ -6,6 +6,7 @@ Usage::
     python benchmarks/bench_sweep.py --cases 10 --trials 1 --big 0     # quick look
     python benchmarks/bench_sweep.py --big 1000       # the 1000-case campaign itself
     python benchmarks/bench_sweep.py --engine --trials 3   # batched / unbatched / bare loop
+    python benchmarks/bench_sweep.py --engine --baseline main   # this checkout against main
 
 The cases are those of a campaign on the paper's case 1 (10 s simulated, dt = 1 ms, estimates
 perturbed by up to 20 %, one seed per case). In each trial, side by side:
@@ -45,6 +46,13 @@ the time goes (outside cases, in a case outside its loop, the loop). Rows ``- fi
 same without the campaign's fixed cost (expansion, set-up checks, report with its figures),
 timed by running the campaign again into its folder (a resume with nothing to run).
 
+**Engine against a baseline** (``--engine --baseline REV``): the same campaigns (run in batches,
+default size) from this checkout and from ``REV`` (a git worktree in a temporary folder), each
+trial in a child process per side (``FFSM_BENCH_TREE``: which tree it imports; its own warm
+1-worker cluster, cluster start-up and warm-up untimed), sides in a rotated order, and the bare
+Python plant loop in this process in the same trial; printed: per step and per case, medians
+and the per-trial ratios this checkout / ``REV``.
+
 **Paired per-case CPU** (``--paired N``, robust to machine load): the same case, one after the
 other, (a) in this process's main thread, (b) on the worker of a 1-worker cluster started as
 the campaign starts it (:func:`ffsm_pin.sweep.engine.start_client`) and (c) on the worker of a
@@ -74,7 +82,9 @@ from pathlib import Path
 import pyarrow.parquet as pq
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))  # this checkout's ffsm_pin, also for the workers
+#: the ffsm_pin measured: this checkout's, or (``--baseline``'s child processes) another tree's
+TREE = Path(os.environ.get("FFSM_BENCH_TREE") or HERE.parent).resolve()
+sys.path.insert(0, str(TREE))  # also for the workers (spawned with this sys.path)
 
 CAMPAIGN = """\
 [campaign]
@@ -369,6 +379,133 @@ def engine_comparison(args) -> None:
         print(f"{robot} {m}: {cols[0]:.0f} | {cols[1]:.0f} | {cols[2]:.0f}")
 
 
+def _engine_paths(tmp: Path, args) -> dict[str, tuple[Path, Path]]:
+    """Per robot, the engine campaign file and its 0.05 s warm-up twin, written in ``tmp``."""
+    paths = {}
+    for robot, (scenario, extra) in ENGINE_ROBOTS.items():
+        duration = args.planar_s if robot == "planar" else args.spatial_s
+        text = ENGINE_CAMPAIGN.format(
+            robot=robot, scenario=scenario, seed=1, repeat=args.engine_repeat,
+            duration=duration, extra=extra,
+        )  # fmt: skip
+        path, warm = tmp / f"{robot}.toml", tmp / f"{robot}-warm.toml"
+        path.write_text(text)
+        warm.write_text(text.replace(f"duration = {duration}", "duration = 0.05"))
+        paths[robot] = (path, warm)
+    return paths
+
+
+def engine_child(args) -> None:
+    """``--engine-child`` (run by ``--baseline``): one trial of the engine campaigns of the tree
+    this process imports (:data:`TREE`) on its own warm 1-worker cluster; one JSON line per
+    robot: steps, campaign wall time, its fixed part (a resume), the cases' and loops' sums."""
+    import json
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_engine_child_"))
+    lc, client, _ = start_cluster(1)
+    try:
+        paths = _engine_paths(tmp, args)
+        for robot, (_, warm) in paths.items():
+            campaign(warm, client, tmp / f"{robot}-warm")
+        for robot, (path, _) in paths.items():
+            out = tmp / robot
+            wall, _ = campaign(path, client, out)
+            fixed, _ = campaign(path, client, out, False)
+            rows = pq.read_table(out / "results.parquet").to_pylist()
+            print(json.dumps({
+                "robot": robot, "wall": wall, "fixed": fixed, "n": len(rows),
+                "steps": sum(r["steps"] for r in rows),
+                "cases": sum(r["case_wall_s"] for r in rows),
+                "loop": sum(r["wall_time_s"] for r in rows),
+            }), flush=True)  # fmt: skip
+    finally:
+        client.close()
+        lc.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def engine_against_baseline(args) -> None:
+    """``--engine --baseline REV``: the batched engine campaigns of this checkout and of
+    ``REV``, one child process per side and trial (:func:`engine_child`), against the bare
+    Python plant loop of the same trial in this process."""
+    import json
+    import subprocess
+
+    from _timing import checkout
+    from bench_run import bare_loop
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_engine_base_"))
+    base = tmp / "baseline"
+    subprocess.run(["git", "-C", str(HERE.parent), "worktree", "add", "--detach", "-q",
+                    str(base), args.baseline], check=True)  # fmt: skip
+    sides = {args.baseline: base, "this": HERE.parent}
+    child = [sys.executable, str(Path(__file__).resolve()), "--engine-child",
+             "--engine-repeat", str(args.engine_repeat), "--planar-s", str(args.planar_s),
+             "--spatial-s", str(args.spatial_s)]  # fmt: skip
+    got: dict[tuple[str, str], list[dict]] = {}
+    bare: dict[str, list[float]] = {}
+    load0 = os.getloadavg()
+    try:
+        for scenario, _ in ENGINE_ROBOTS.values():
+            bare_loop(scenario, 0.05)
+        for k in range(args.trials):
+            order = list(sides)[k % 2 :] + list(sides)[: k % 2]
+            for side in order:
+                env = {**os.environ, "FFSM_BENCH_TREE": str(sides[side])}
+                res = subprocess.run(child, env=env, capture_output=True, text=True, check=True)
+                for line in res.stdout.splitlines():
+                    if line.startswith("{"):
+                        r = json.loads(line)
+                        got.setdefault((r["robot"], side), []).append(r)
+            for robot, (scenario, _) in ENGINE_ROBOTS.items():
+                duration = args.planar_s if robot == "planar" else args.spatial_s
+                b = bare_loop(scenario, duration)
+                bare.setdefault(robot, []).append(b["python_wall_time_s"] / b["steps"])
+            last = {key: v[-1]["wall"] / v[-1]["steps"] for key, v in got.items()}
+            print(f"trial {k + 1}: " + ", ".join(
+                f"{robot} {side} {1e6 * x:.1f}" for (robot, side), x in last.items()
+            ) + " us/step", file=sys.stderr)  # fmt: skip
+    finally:
+        subprocess.run(["git", "-C", str(HERE.parent), "worktree", "remove", "--force",
+                        str(base)], check=False)  # fmt: skip
+        shutil.rmtree(tmp, ignore_errors=True)
+    load = os.getloadavg()
+    print(
+        f"\nengine against {args.baseline}: this = {checkout(HERE.parent)}; 1 worker, "
+        f"{args.trials} trials, 3 controllers x (1 + {args.engine_repeat}) cases, planar "
+        f"{args.planar_s} s, spatial {args.spatial_s} s, batches of the default size; "
+        f"os.cpu_count() = {os.cpu_count()}, load average {load0[0]:.2f} (start), "
+        f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (end)"
+    )
+    print("| robot | side | per step [us] | / bare loop | - fixed: per step, / bare | per case "
+          "[ms]: outside cases, case outside its loop, the loop |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
+    med = statistics.median
+    for robot in ENGINE_ROBOTS:
+        for side in sides:
+            v = got[(robot, side)]
+            step = [r["wall"] / r["steps"] for r in v]
+            nofix = [(r["wall"] - r["fixed"]) / r["steps"] for r in v]
+            ratio = [a / b for a, b in zip(step, bare[robot], strict=True)]
+            ratio_nf = [a / b for a, b in zip(nofix, bare[robot], strict=True)]
+            parts = [med((r["wall"] - r["cases"]) / r["n"] for r in v),
+                     med((r["cases"] - r["loop"]) / r["n"] for r in v),
+                     med(r["loop"] / r["n"] for r in v)]  # fmt: skip
+            per_case = ", ".join(f"{1e3 * x:.0f}" for x in parts)
+            print(f"| {robot} | {side} | {1e6 * med(step):.1f} | {med(ratio):.2f}x "
+                  f"({' '.join(f'{x:.2f}' for x in ratio)}) | {1e6 * med(nofix):.1f}, "
+                  f"{med(ratio_nf):.2f}x | {per_case} |")  # fmt: skip
+        a, b = got[(robot, "this")], got[(robot, args.baseline)]
+        r = [(x["wall"] / x["steps"]) / (y["wall"] / y["steps"]) for x, y in zip(a, b, strict=True)]
+        c = [((x["cases"] - x["loop"]) / x["n"]) / ((y["cases"] - y["loop"]) / y["n"])
+             for x, y in zip(a, b, strict=True)]  # fmt: skip
+        rs, cs = " ".join(f"{x:.3f}" for x in r), " ".join(f"{x:.3f}" for x in c)
+        print(f"| {robot} | this / {args.baseline} | {med(r):.3f} ({rs}) | | | case outside "
+              f"its loop: {med(c):.3f} ({cs}) |")  # fmt: skip
+    print("bare Python loop per step [us], medians: " + ", ".join(
+        f"{robot} {1e6 * med(v):.1f}" for robot, v in bare.items()))  # fmt: skip
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--cases", type=int, default=20, help="cases per trial (default 20)")
@@ -385,7 +522,18 @@ def main(argv=None) -> int:
     p.add_argument("--planar-s", type=float, default=5.0, help="--engine: planar duration [s]")
     p.add_argument("--spatial-s", type=float, default=2.0, help="--engine: spatial duration [s]")
     p.add_argument("--batch-size", type=int, default=None, help="--engine: batched size")
+    p.add_argument(
+        "--baseline", default=None,
+        help="--engine: this checkout against a git revision (child processes per side)",
+    )  # fmt: skip
+    p.add_argument("--engine-child", action="store_true", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
+    if args.engine_child:
+        engine_child(args)
+        return 0
+    if args.engine and args.baseline:
+        engine_against_baseline(args)
+        return 0
     if args.engine:
         engine_comparison(args)
         return 0

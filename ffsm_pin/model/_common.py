@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
+import pinocchio as pin
 
 from .._arrays import read_only
 from ..errors import ParameterError
@@ -117,3 +118,28 @@ class BarycentricCommon(ReducedModel):
         if theta.shape != (size,):
             raise ParameterError(f"{name} must have shape ({size},), got {theta.shape}")
         return theta
+
+
+def end_effector_at(model: Any, data: Any, q: np.ndarray, frame_id: int) -> tuple:
+    """Joint Jacobians and frame placements of ``data`` computed at ``q``; the end-effector
+    frame's Jacobian (``LOCAL_WORLD_ALIGNED``, 6 x nv) and its placement (``pin.SE3``): what
+    both roots' state fillers read first.
+
+    Parameters
+    ----------
+    model, data : pin.Model, pin.Data
+        The robot's model and the state's data.
+    q : ndarray
+        The configuration.
+    frame_id : int
+        The end-effector frame.
+
+    Returns
+    -------
+    J_ee, oMe : ndarray, pin.SE3
+        The frame's Jacobian and placement.
+    """
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    J_ee = pin.getFrameJacobian(model, data, frame_id, pin.LOCAL_WORLD_ALIGNED)
+    return J_ee, data.oMf[frame_id]

@@ -24,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._arrays import read_only
+from ._common import end_effector_at
 
 _T = slice(0, 2)  # translational velocity block (base frame)
 _R = slice(2, None)  # (w_b, w_m)
@@ -58,35 +59,39 @@ def fill_dynamics(st, q: np.ndarray, v: np.ndarray) -> None:
     st.h = read_only(h[_R] - M[_R, _T] @ Mtt_inv_Mtr[:, -1])  # C(q, w) w, Eq. (8)
 
 
-def fill(st, q: np.ndarray, v: np.ndarray) -> None:
-    """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
-    plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
+def fill_kinematics(st, q: np.ndarray, v: np.ndarray) -> tuple:
+    """Set only ``st.H_bb``, ``st.H_bm`` (Eq. 13), ``st.J_b`` and ``st.J_m`` (Eq. 3) for the
+    plant state (q, v), the numbers :func:`fill` sets
+    (:meth:`ffsm_pin.model.state.State.update_kinematics`); return what :func:`fill` goes on
+    with: ``(Ag, hg, com, oMe)``."""
     model, data = st.model, st.data
-
-    fill_dynamics(st, q, v)
     pin.ccrba(model, data, q, v)  # Ag, hg, com about the CoM (world-aligned)
     Ag = data.Ag.copy()
     hg = data.hg.copy()
     com = data.com[0].copy()
-    pin.computeJointJacobians(model, data, q)
-    pin.updateFramePlacements(model, data)
-    J_ee = pin.getFrameJacobian(model, data, st.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
+    J_ee, oMe = end_effector_at(model, data, q, st.ee_frame_id)
     J_com = pin.jacobianCenterOfMass(model, data, q, False)
-    oMe = data.oMf[st.ee_frame_id]
 
     st.H_bb = read_only(Ag[5:6, 2:3].copy())  # Eq. (13)
     st.H_bm = read_only(Ag[5:6, 3:].copy())
-    st.centroidal_map = read_only(Ag)
-    st.linear_momentum = read_only(hg.linear[:2].copy())  # P, inertial frame [kg m/s]
-    st.angular_momentum = float(hg.angular[2])  # L about the CoM [kg m^2/s]
-    st.com_position = read_only(com[:2].copy())  # [m]
-    st.com_velocity = read_only(st.linear_momentum / st.total_mass)  # v_0 [m/s]
-
     Jr = np.empty((3, model.nv - 2))
     Jr[:2] = (J_ee[:2] - J_com[:2])[:, _R]  # d(p_e - p_com)
     Jr[2] = J_ee[5, _R]
     st.J_b = read_only(Jr[:, :1].copy())  # Eq. (3)
     st.J_m = read_only(Jr[:, 1:].copy())
+    return Ag, hg, com, oMe
+
+
+def fill(st, q: np.ndarray, v: np.ndarray) -> None:
+    """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
+    plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
+    fill_dynamics(st, q, v)
+    Ag, hg, com, oMe = fill_kinematics(st, q, v)
+    st.centroidal_map = read_only(Ag)
+    st.linear_momentum = read_only(hg.linear[:2].copy())  # P, inertial frame [kg m/s]
+    st.angular_momentum = float(hg.angular[2])  # L about the CoM [kg m^2/s]
+    st.com_position = read_only(com[:2].copy())  # [m]
+    st.com_velocity = read_only(st.linear_momentum / st.total_mass)  # v_0 [m/s]
     rot = oMe.rotation
     st.base_attitude = math.atan2(q[3], q[2])  # q_b in (-pi, pi] [rad]
     st.ee_pose = read_only(

@@ -26,6 +26,7 @@ import pinocchio as pin
 
 from .._arrays import read_only
 from ..attitude import mrp
+from ._common import end_effector_at
 
 _T = slice(0, 3)  # translational block of x
 _R = slice(3, None)  # (w_b, dq_m)
@@ -56,7 +57,7 @@ def fill_dynamics(st, q: np.ndarray, v: np.ndarray) -> np.ndarray:
     (:meth:`ffsm_pin.model.state.State.update_dynamics`)."""
     model, data = st.model, st.data
     nv = model.nv
-    R0 = pin.Quaternion(q[3:7]).normalized().toRotationMatrix()
+    R0 = _rotation(q)
     v_B, w_B = v[:3], v[3:6]
 
     M = pin.crba(model, data, q).copy()  # upper triangle filled
@@ -84,22 +85,24 @@ def fill_dynamics(st, q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return R0
 
 
-def fill(st, q: np.ndarray, v: np.ndarray) -> None:
-    """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
-    plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
+def _rotation(q: np.ndarray) -> np.ndarray:
+    """R_0, base to inertial, from the base quaternion of q."""
+    return pin.Quaternion(q[3:7]).normalized().toRotationMatrix()
+
+
+def fill_kinematics(st, q: np.ndarray, v: np.ndarray, R0: np.ndarray | None = None) -> tuple:
+    """Set only ``st.H_bb``, ``st.H_bm`` (Eq. 13), ``st.J_b`` and ``st.J_m`` (Eq. 3) for the
+    plant state (q, v), the numbers :func:`fill` sets
+    (:meth:`ffsm_pin.model.state.State.update_kinematics`); return what :func:`fill` goes on
+    with: ``(R0, H, Ag, dAg, com, oMe, q_e, Jw)``, ``H = (H_bb, H_bm)``."""
     model, data = st.model, st.data
     nv = model.nv
-    R0 = fill_dynamics(st, q, v)
-    v_B, w_B = v[:3], v[3:6]
+    R0 = _rotation(q) if R0 is None else R0
     pin.dccrba(model, data, q, v)  # Ag and its time derivative dAg, about the CoM
     dAg = data.dAg.copy()
     Ag = data.Ag.copy()
-    hg = Ag @ v  # centroidal momentum (P, L about the CoM)
     com = data.com[0].copy()
-    pin.computeJointJacobians(model, data, q)
-    pin.updateFramePlacements(model, data)
-    J_ee = pin.getFrameJacobian(model, data, st.ee_frame_id, pin.LOCAL_WORLD_ALIGNED)
-    oMe = data.oMf[st.ee_frame_id]
+    J_ee, oMe = end_effector_at(model, data, q, st.ee_frame_id)
 
     # angular momentum rows about the CoM, in w = (w_b inertial, dq_m): Eq. (13)
     H = np.empty((3, nv - 3))
@@ -107,14 +110,6 @@ def fill(st, q: np.ndarray, v: np.ndarray) -> None:
     H[:, 3:] = Ag[3:6, 6:]
     st.H_bb = read_only(H[:, :3].copy())
     st.H_bm = read_only(H[:, 3:].copy())
-    # dM_bb/dt from the time variation of the centroidal map:
-    # d/dt (M_bb R_0) = dAg_bb  ->  dM_bb/dt = (dAg_bb - M_bb R_0 [w_B]x) R_0^T
-    st.M_bb_dot = read_only((dAg[3:6, 3:6] - H[:, :3] @ R0 @ mrp.skew(w_B)) @ R0.T)
-    st.centroidal_map = read_only(Ag)
-    st.linear_momentum = read_only(hg[:3].copy())  # P, inertial [kg m/s]
-    st.angular_momentum = read_only(hg[3:].copy())  # A_0 about the CoM [kg m^2/s]
-    st.com_position = read_only(com)  # [m]
-    st.com_velocity = read_only(st.linear_momentum / st.total_mass)  # v_0 [m/s]
 
     # Jacobians of (p_e - p_com, q_e) w.r.t. w; J_com = linear rows of Ag / m
     Jx = np.empty((6, nv - 3))
@@ -129,12 +124,30 @@ def fill(st, q: np.ndarray, v: np.ndarray) -> None:
     Jx[3:] = mrp.L_matrix(q_e, R_e) @ Jw  # Eq. (3), attitude rows
     st.J_b = read_only(Jx[:, :3].copy())
     st.J_m = read_only(Jx[:, 3:].copy())
+    return R0, H, Ag, dAg, com, oMe, q_e, Jw
+
+
+def fill(st, q: np.ndarray, v: np.ndarray) -> None:
+    """Set every reduced quantity of ``st`` (a :class:`ffsm_pin.model.state.State`) for the
+    plant state (q, v), already checked and stored as ``st.q``, ``st.v``."""
+    nv = st.model.nv
+    R0, H, Ag, dAg, com, oMe, q_e, Jw = fill_kinematics(st, q, v, fill_dynamics(st, q, v))
+    v_B, w_B = v[:3], v[3:6]
+    hg = Ag @ v  # centroidal momentum (P, L about the CoM)
+    # dM_bb/dt from the time variation of the centroidal map:
+    # d/dt (M_bb R_0) = dAg_bb  ->  dM_bb/dt = (dAg_bb - M_bb R_0 [w_B]x) R_0^T
+    st.M_bb_dot = read_only((dAg[3:6, 3:6] - H[:, :3] @ R0 @ mrp.skew(w_B)) @ R0.T)
+    st.centroidal_map = read_only(Ag)
+    st.linear_momentum = read_only(hg[:3].copy())  # P, inertial [kg m/s]
+    st.angular_momentum = read_only(hg[3:].copy())  # A_0 about the CoM [kg m^2/s]
+    st.com_position = read_only(com)  # [m]
+    st.com_velocity = read_only(st.linear_momentum / st.total_mass)  # v_0 [m/s]
     st.ee_angular_jacobian = read_only(Jw)  # w_e = Jw w, inertial [rad/s]
 
     st.base_rotation = read_only(R0)
     st.base_attitude = read_only(mrp.from_quaternion(q[3:7]))  # q_b, |q_b| <= 1
     st.L_b = read_only(mrp.L_matrix(st.base_attitude, R0))  # Eq. (1)
-    st.ee_rotation = read_only(np.array(R_e))
+    st.ee_rotation = read_only(np.array(oMe.rotation))
     st.ee_pose = read_only(np.concatenate((oMe.translation, q_e)))  # z_e = (p_e, q_e)
     w = np.empty(nv - 3)
     w[:3] = R0 @ w_B

@@ -58,7 +58,8 @@ class State:
     w); nv = Pinocchio's velocity size (planar 3 + n, free-flyer 6 + n). The inertial frame
     is the world frame of the URDF; "about the CoM" is the whole system's centre of mass.
     Every array is read-only and is set by :meth:`update` (:meth:`update_dynamics`: ``M``,
-    ``h``, ``mass_matrix``, ``nonlinear_effects`` only).
+    ``h``, ``mass_matrix``, ``nonlinear_effects`` only; :meth:`update_kinematics`: ``H_bb``,
+    ``H_bm``, ``J_b``, ``J_m`` only).
 
     Parameters
     ----------
@@ -183,6 +184,19 @@ class State:
         %(returns_state)s
         """
         self._filler.fill_dynamics(self, *self._store(q, v))
+        return self
+
+    def update_kinematics(self, q, v) -> State:
+        """Compute only ``H_bb``, ``H_bm`` (Eq. 13), ``J_b`` and ``J_m`` (Eq. 3) for the plant
+        state (q, v), the same numbers :meth:`update` gives; every other quantity keeps the
+        value of an earlier :meth:`update`. What the generalized Jacobian of a recorded state
+        needs (:func:`ffsm_pin.sweep.explain.min_sigma_gjm`), without the dynamics.
+
+        %(params_q_v)s
+
+        %(returns_state)s
+        """
+        self._filler.fill_kinematics(self, *self._store(q, v))
         return self
 
     def _store(self, q, v) -> tuple[np.ndarray, np.ndarray]:

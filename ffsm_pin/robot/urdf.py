@@ -112,16 +112,29 @@ def resolve_urdf(urdf: str | Path, relative_to: str | Path | None = None) -> Pat
     )
 
 
+#: (site folder, version) of an installed example-robot-data -> its share folder: finding it
+#: reads the distribution's file list (some 1000 entries, 40-70 ms), once per process and
+#: installation instead of once per robot load (every batch of a campaign loads its robot)
+_ERD_SHARE: dict[tuple[str, str], Path] = {}
+_ERD_PANDA = Path("panda_description/urdf/panda.urdf")
+
+
 def example_robot_data_dir() -> Path:
-    """The installed ``example-robot-data`` share folder (holding ``robots/``)."""
-    sub = Path("panda_description/urdf/panda.urdf")
+    """The installed ``example-robot-data`` share folder (holding ``robots/``).
+
+    Returns
+    -------
+    Path
+        The folder; found once per installation (site folder and version) and process, and
+        looked for again when it no longer holds the robots.
+    """
     try:  # the Python module of older releases knows its model folder
         from example_robot_data.robots_loader import (  # type: ignore[import-not-found]
             EXAMPLE_ROBOT_DATA_MODEL_DIR,
         )
 
         robots = Path(EXAMPLE_ROBOT_DATA_MODEL_DIR)
-        if (robots / sub).is_file():
+        if (robots / _ERD_PANDA).is_file():
             return robots.parent
     except (ImportError, AttributeError, TypeError):
         pass
@@ -131,12 +144,18 @@ def example_robot_data_dir() -> Path:
         raise RobotFileError(
             "the example-robot-data package is not installed (pip install example-robot-data)"
         ) from None
+    key = (str(dist.locate_file("")), str(dist.version))
+    share = _ERD_SHARE.get(key)
+    if share is not None and (share / "robots" / _ERD_PANDA).is_file():
+        return share
     for f in dist.files or ():
         parts = Path(str(f)).parts
         if "example-robot-data" in parts and "robots" in parts:
             i = parts.index("robots")
             if i > 0 and parts[i - 1] == "example-robot-data":
-                return Path(str(dist.locate_file(Path(*parts[:i]))))
+                share = Path(str(dist.locate_file(Path(*parts[:i]))))
+                _ERD_SHARE[key] = share
+                return share
     raise RobotFileError("example-robot-data is installed but ships no robots/ folder")
 
 

@@ -24,7 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import fill_doc
 from ..attitude import mrp
+from ._docs import SIM_DOC
 from .approach import blend, grasp_motion
 from .capture_run import hand_grasp
 from .impact import capture_model, impact
@@ -232,6 +234,7 @@ def capture_warnings(setup: Setup) -> list[str]:
     return out
 
 
+@fill_doc(SIM_DOC)
 def detumble_need(setup: Setup) -> np.ndarray | None:
     """The wheel momenta [N m s] that hold the whole system's angular momentum when it is at
     rest at the desired bus attitude after the capture (None without wheels or
@@ -243,10 +246,7 @@ def detumble_need(setup: Setup) -> np.ndarray | None:
     the bus is brought back to, h = A^+ R_d^T L (:meth:`~ffsm_pin.robot.wheels.Wheels.storing`,
     the allocation of the wheels' attitude PD).
 
-    Parameters
-    ----------
-    setup : Setup
-        The prepared run.
+    %(params_setup)s
 
     Returns
     -------
@@ -263,14 +263,12 @@ def detumble_need(setup: Setup) -> np.ndarray | None:
     return wheels.storing(R_d.T @ momentum)
 
 
+@fill_doc(SIM_DOC)
 def wheel_warnings(setup: Setup) -> list[str]:
     """``--check``'s line when the wheels cannot store the detumble's momentum
     (:func:`detumble_need`): some wheel's share beyond its ``max_momentum``.
 
-    Parameters
-    ----------
-    setup : Setup
-        The prepared run.
+    %(params_setup)s
 
     Returns
     -------

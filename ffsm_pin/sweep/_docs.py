@@ -11,4 +11,12 @@ SWEEP_DOC = doc_entries(
             The campaign.
         cases : list of Case
             Its cases.""",
+    case_rows="""
+        setup : Setup
+            The case's setup.
+        signals : mapping of str to ndarray
+            The run's signals (``q``, ``v``).
+        rows : ndarray of int
+            The rows evaluated.""",
+    params_case_rows=("case_rows",),
 )

@@ -13,7 +13,9 @@ def check_cases(cases: list[Case], source: str) -> None:
     """Run :func:`ffsm_pin.sim.setup.prepare` (robot, feasibility, initial errors inside the
     funnels, estimates) on the nominal case and on the first case of every grid point, so a
     value that only the run set-up refuses is bad input before anything runs. Each
-    ``[robot]`` section is loaded once (:class:`~ffsm_pin.sim.robots.SharedRobots`).
+    ``[robot]`` section is loaded once (:class:`~ffsm_pin.sim.robots.SharedRobots`), and no
+    controller's compiled step is warmed up (:func:`~ffsm_pin.control.compiled.no_warm_up`:
+    this process never steps them; the workers load or compile their kernels).
 
     Parameters
     ----------
@@ -22,6 +24,7 @@ def check_cases(cases: list[Case], source: str) -> None:
     source : str
         The campaign file, for the messages.
     """
+    from ..control.compiled import no_warm_up
     from ..sim.robots import SharedRobots
     from ..sim.run import prepare
 
@@ -32,7 +35,7 @@ def check_cases(cases: list[Case], source: str) -> None:
             continue
         checked.add(case.point_index)
         try:
-            with warnings.catch_warnings():
+            with warnings.catch_warnings(), no_warm_up():
                 warnings.simplefilter("ignore")
                 prepare(case.scenario, robots=robots)
         except FfsmError as exc:

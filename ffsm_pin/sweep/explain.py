@@ -21,9 +21,12 @@ from typing import Any
 
 import numpy as np
 
+from .._docstrings import fill_doc
+from ._docs import SWEEP_DOC
+
 __all__ = [
-    "MAX_ROWS", "SIGNALS", "SIGNAL_KEYS", "case_extras",
-    "kept_rows", "min_sigma_gjm",
+    "MAX_ROWS", "SIGNALS", "SIGNAL_KEYS", "case_extras", "generalized_jacobian_sigmas",
+    "kept_rows", "min_sigma_gjm", "sigmas_gjm",
 ]  # fmt: skip
 
 #: Rows of a case kept in ``signals.parquet`` (at most).
@@ -59,36 +62,74 @@ def kept_rows(n: int, max_rows: int = MAX_ROWS) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n - 1, max_rows)).astype(np.int64))
 
 
-def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
-    """The smallest singular value of the true model's generalized Jacobian (task rows,
-    :meth:`~ffsm_pin.model.state.State.generalized_jacobian` of ``setup.robot``) over the
-    recorded ``rows`` of ``signals`` (q, v); None without rows.
+def generalized_jacobian_sigmas(J_b, J_m, H_bb, H_bm) -> np.ndarray:
+    """sigma_min of ``J* = J_m - J_b H_bb^-1 H_bm`` for a stack of states at once: the numbers
+    :meth:`~ffsm_pin.model.state.State.generalized_jacobian` and an SVD give state by state,
+    bit for bit (numpy's stacked ``solve``, ``matmul`` and ``svd`` run the same LAPACK/BLAS
+    call per matrix).
 
     Parameters
     ----------
-    setup : Setup
-        The case's setup.
-    signals : mapping of str to ndarray
-        The run's signals (``q``, ``v``).
-    rows : ndarray of int
-        The rows evaluated.
+    J_b : ndarray, shape (r, n_task, m3)
+        The task rows of ``State.J_b``, per state.
+    J_m : ndarray, shape (r, n_task, n)
+        The task rows of ``State.J_m``.
+    H_bb : ndarray, shape (r, m3, m3)
+        ``State.H_bb``.
+    H_bm : ndarray, shape (r, m3, n)
+        ``State.H_bm``.
+
+    Returns
+    -------
+    ndarray, shape (r,)
+        sigma_min per state [m].
+    """
+    J_star = J_m - J_b @ np.linalg.solve(H_bb, H_bm)
+    return np.linalg.svd(J_star, compute_uv=False)[:, -1]
+
+
+@fill_doc(SWEEP_DOC)
+def sigmas_gjm(setup, signals, rows: np.ndarray) -> np.ndarray:
+    """sigma_min of the true model's generalized Jacobian (task rows, ``setup.robot``) at each
+    of the recorded ``rows`` (at least one) of ``signals`` (q, v), bit for bit: the states'
+    kinematics only (:meth:`~ffsm_pin.model.state.State.update_kinematics`), their sigmas at
+    once (:func:`generalized_jacobian_sigmas`).
+
+    %(params_case_rows)s
+
+    Returns
+    -------
+    ndarray, shape (len(rows),)
+        sigma_min per row [m].
+    """
+    from ..model.state import State
+
+    state, n = State(setup.robot), setup.n_task
+    q, v = np.asarray(signals["q"][rows]), np.asarray(signals["v"][rows])
+    blocks: tuple[list[np.ndarray], ...] = ([], [], [], [])
+    for a, b in zip(q, v, strict=True):
+        st = state.update_kinematics(a, b)
+        for block, x in zip(blocks, (st.J_b[:n], st.J_m[:n], st.H_bb, st.H_bm), strict=True):
+            block.append(x)
+    return generalized_jacobian_sigmas(*(np.stack(b) for b in blocks))
+
+
+@fill_doc(SWEEP_DOC)
+def min_sigma_gjm(setup, signals, rows: np.ndarray) -> float | None:
+    """The smallest singular value of the true model's generalized Jacobian (task rows,
+    ``setup.robot``) over the recorded ``rows`` of ``signals`` (q, v) (:func:`sigmas_gjm`);
+    None without rows.
+
+    %(params_case_rows)s
 
     Returns
     -------
     float or None
         The smallest sigma_min [m].
     """
-    from ..model.state import State
-
     if len(rows) == 0:
         return None
-    state = State(setup.robot)
-    q, v = np.asarray(signals["q"][rows]), np.asarray(signals["v"][rows])
-    sigmas = []
-    for a, b in zip(q, v, strict=True):
-        J_star = state.update(a, b).generalized_jacobian(setup.n_task)
-        sigmas.append(float(np.linalg.svd(J_star, compute_uv=False)[-1]))
-    return min(sigmas)
+    return min(sigmas_gjm(setup, signals, rows).tolist())  # min() row by row: NaN as before
 
 
 def case_extras(setup, result, summary: dict[str, Any]) -> dict[str, Any]:

@@ -91,6 +91,23 @@ def test_update_dynamics_gives_the_numbers_of_update(robot, rng):
         State(robot).update_dynamics(q[:-1], v)
 
 
+def test_update_kinematics_gives_the_numbers_of_update(robot, rng):
+    """The campaign's generalized-Jacobian path (H_bb, H_bm, J_b, J_m only, no CRBA/RNEA) is
+    the full update's arithmetic: the same bytes, on a fresh State and on one whose Data holds
+    another state's results."""
+    reused = State(robot)
+    for _ in range(3):
+        q, v, _ = _state(robot, rng)
+        full = State(robot).update(q, v)
+        q2, v2, _ = _state(robot, rng)
+        reused.update(q2, v2)
+        for lean in (State(robot).update_kinematics(q, v), reused.update_kinematics(q, v)):
+            for key in ("H_bb", "H_bm", "J_b", "J_m"):
+                assert getattr(lean, key).tobytes() == getattr(full, key).tobytes(), key
+    with pytest.raises(ValueError, match="state shapes"):
+        State(robot).update_kinematics(q, v[:-1])
+
+
 def test_planar_mass_matrix_keeps_the_bits_of_the_triu_sum():
     """The planar M mirrors CRBA's upper triangle by an index assignment plus 0.0 instead of
     ``np.triu(M) + np.triu(M, 1).T`` (7 us of a known-model period): the same bytes, the

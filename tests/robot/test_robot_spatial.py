@@ -260,3 +260,32 @@ def test_massless_root_suggests_a_satellite(tmp_path, urdf_text):
         load_spatial_robot(path, "ee")
     robot = load_spatial_robot(path, "ee", satellite=Satellite(mass=100.0))
     assert robot.n_joints == 4 and robot.body_names[0] == "satellite"
+
+
+def test_example_robot_data_folder_is_found_once_per_installation(tmp_path, monkeypatch):
+    """The share folder is looked up in the distribution's file list once per process and
+    installation (site folder, version): the cached folder equals a fresh look-up, is used
+    under its own key only, and is looked for again when it no longer holds the robots."""
+    import importlib.metadata
+
+    from ffsm_pin.robot import urdf
+
+    monkeypatch.setattr(urdf, "_ERD_SHARE", {})
+    fresh = urdf.example_robot_data_dir()
+    dist = importlib.metadata.distribution("example-robot-data")
+    key = (str(dist.locate_file("")), str(dist.version))
+    if not urdf._ERD_SHARE:  # an older release: its module names the folder, nothing cached
+        pytest.skip("example-robot-data's module gives its folder")
+    assert urdf._ERD_SHARE == {key: fresh} and (fresh / "robots" / urdf._ERD_PANDA).is_file()
+    assert urdf.example_robot_data_dir() == fresh
+    decoy = tmp_path / "share"
+    (decoy / "robots" / urdf._ERD_PANDA).parent.mkdir(parents=True)
+    (decoy / "robots" / urdf._ERD_PANDA).write_text("<robot/>")
+    urdf._ERD_SHARE.clear()
+    urdf._ERD_SHARE[(key[0], "0.0.0")] = decoy  # another version's: not this installation's
+    assert urdf.example_robot_data_dir() == fresh
+    urdf._ERD_SHARE[key] = decoy  # the key's entry is what a second look-up returns
+    assert urdf.example_robot_data_dir() == decoy
+    (decoy / "robots" / urdf._ERD_PANDA).unlink()  # no longer holds the robots: looked for
+    assert urdf.example_robot_data_dir() == fresh
+    assert urdf._ERD_SHARE[key] == fresh

@@ -221,6 +221,29 @@ def test_builtin_nullspace_campaign_is_valid():
     check_cases(cases, campaign.source)
 
 
+def test_the_set_up_checks_warm_no_compiled_controller_up(monkeypatch):
+    """check_cases builds a controller of each of compare-controllers' types (the campaign's
+    process never steps them: the workers load or compile their kernels) without warming its
+    compiled step up; prepare() alone does."""
+    from ffsm_pin.control.compiled import CompiledController
+    from ffsm_pin.sim.run import prepare
+
+    warmed: list[str] = []
+    real = CompiledController.warm_up
+
+    def counted(self, *args):
+        warmed.append(type(self).__name__)
+        return real(self, *args)
+
+    monkeypatch.setattr(CompiledController, "warm_up", counted)
+    campaign = load_campaign("compare-controllers")
+    cases = expand(campaign)
+    check_cases(cases, campaign.source)
+    assert warmed == []
+    prepare(cases[0].scenario)
+    assert len(warmed) == 1
+
+
 def test_every_builtin_campaign_is_listed():
     assert {"robustness-case1", "nullspace-planar5"} <= set(BUILTIN_CAMPAIGNS)
     with pytest.raises(CampaignError, match="invalid TOML"):

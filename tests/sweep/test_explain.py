@@ -19,7 +19,13 @@ from ffsm_pin.sim.run import prepare, simulate
 from ffsm_pin.sweep.campaign import load_campaign
 from ffsm_pin.sweep.cases import expand
 from ffsm_pin.sweep.engine import run_case
-from ffsm_pin.sweep.explain import MAX_ROWS, SIGNAL_KEYS, case_extras, kept_rows
+from ffsm_pin.sweep.explain import (
+    MAX_ROWS,
+    SIGNAL_KEYS,
+    case_extras,
+    kept_rows,
+    sigmas_gjm,
+)
 from ffsm_pin.sweep.table import ResultsTable
 
 
@@ -53,6 +59,25 @@ def test_min_sigma_gjm_is_that_of_the_true_generalized_jacobian(case, duration):
     assert 0 < extras["min_sigma_gjm"]
     # not the controller's own measure (the paper's controller: J_m-hat U-hat, estimates)
     assert res.summary()["min_sigma_of"] == "J_m-hat U-hat"
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_min_sigma_gjm_is_the_state_by_state_minimum_bit_for_bit(case):
+    """The stacked computation (kinematics-only updates, one solve and one SVD over the kept
+    rows) gives the bytes of the readable one: a full State.update, its generalized Jacobian
+    and an SVD per kept row, min() over them; and every row's sigma, not only the minimum."""
+    sc = dataclasses.replace(builtin_scenario(case), duration=0.6, dt=0.002)
+    setup = prepare(sc)
+    res = simulate(setup)
+    extras = case_extras(setup, res, res.summary())
+    state = State(setup.robot)
+    rows = kept_rows(len(res["t"]))
+    sigmas = []
+    for i in rows:
+        J_star = state.update(res["q"][i], res["v"][i]).generalized_jacobian(setup.n_task)
+        sigmas.append(float(np.linalg.svd(J_star, compute_uv=False)[-1]))
+    assert np.float64(extras["min_sigma_gjm"]).tobytes() == np.float64(min(sigmas)).tobytes()
+    assert sigmas_gjm(setup, res.signals, rows).tobytes() == np.array(sigmas).tobytes()
 
 
 def test_signals_parquet_rows_are_the_runs(tmp_path):

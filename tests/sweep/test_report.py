@@ -224,3 +224,62 @@ def test_option_variants_are_paired_on_their_draws():
     assert only_aux == 2 and row["only_a"] + row["only_b"] == 2
     assert row["p"] == 0.5  # two discordant pairs, both one way: 2 / 2^2
     assert row["common"]
+
+
+def test_the_shared_duckdb_reads_a_rewritten_file_as_a_fresh_one(tmp_path):
+    """query() keeps one DuckDB per process (opening one per query was a tenth of a small
+    campaign's report): a Parquet file rewritten with other values of the same size and
+    the same modification time is read anew, and every answer is a fresh connection's."""
+    import os
+
+    import duckdb
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ffsm_pin.sweep.report.sql import connection
+
+    path = tmp_path / "t.parquet"
+    text = f"SELECT sum(x) AS s, count(*) AS n FROM read_parquet('{path}')"
+    for values in ([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]):
+        pq.write_table(pa.table({"x": values}), path)
+        os.utime(path, ns=(1_000_000_000, 1_000_000_000))  # the same stamp both times
+        fresh = duckdb.connect()
+        try:
+            expected = fresh.execute(text).fetchall()
+        finally:
+            fresh.close()
+        assert [(r["s"], r["n"]) for r in query(text)] == expected == [(sum(values), 3)]
+    assert connection() is connection()
+
+
+def test_a_figure_saved_without_the_layout_placeholder_has_the_same_pixels(tmp_path):
+    """The report saves its figures after tight_layout() with no layout engine left (one
+    draw, not a dry one first): the same PNG as matplotlib's own tight_layout() + savefig(),
+    on a figure like the overlays (shared axes, legends outside the axes, a suptitle)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ffsm_pin.sweep.report.figures import _save
+
+    def figure():
+        fig, axes = plt.subplots(3, 2, figsize=(11, 7.5), sharex="col", squeeze=False)
+        t = np.linspace(0.0, 4.0, 500)
+        for k, ax in enumerate(axes.flat):
+            for i in range(3):
+                ax.plot(t, np.sin((i + 1) * t + k), lw=1, label=f"z[{i}]")
+                ax.plot(t, 0.5 + 0.1 * i + 0 * t, lw=0.8, ls="--")
+            ax.set_ylabel(f"err_{k} / rho_{k}")
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+        fig.suptitle("lu-jia: errors against their funnels (dashed), torques against limits")
+        return fig
+
+    ours = tmp_path / _save(figure(), tmp_path / "ours.png")
+    fig = figure()
+    fig.tight_layout()
+    fig.savefig(tmp_path / "matplotlib.png", dpi=110)
+    plt.close(fig)
+    a, b = plt.imread(ours), plt.imread(tmp_path / "matplotlib.png")
+    assert a.shape == b.shape and a.shape[0] > 800
+    assert a.tobytes() == b.tobytes()
