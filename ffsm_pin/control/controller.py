@@ -379,6 +379,9 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         mi = manifold_input(M_hat, r, w_hat, w_dyn, w_dyn_dot, kc.dwmc_dwb, g.k_d, t)
         if not np.all(np.isfinite(mi.u_m)):
             raise nonfinite_stop(t)
+        u_m = mi.u_m  # with the option: the feedforward the actuators deliver (saturation.py)
+        if aux is not None:
+            u_m = aux.command(mi.u_m, w_dyn_dot, maps[0], kc.dwmc_dwb)
         e = None  # Eq. (54) with the true M and theta_d, before the estimates advance
         if self.theta_d_true is not None:
             if self.adaptive:
@@ -401,11 +404,11 @@ class CoordinatedController(CompiledPeriod, CompiledController):
         else:
             self.w_hat = w + dt * mi.w_hat_dot
         if aux is not None:  # the excess drives chi; the filter integrates the torque applied
-            dw = aux.advance(mi.u_m, *maps)
+            dw = aux.advance(mi.u_m, u_m, *maps)
             if np.any(dw != 0.0):
                 self.w_hat = self.w_hat + dt * dw
         return ControlOutput(
-            u_m=mi.u_m,
+            u_m=u_m,
             w_mc=kc.w_mc,
             w_mc_dot=mi.w_mc_dot,
             err_b=self.kinematic.errors(t, q_b, meas.z_e)[0],

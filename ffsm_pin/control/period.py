@@ -59,7 +59,7 @@ from .kernels import (
 )
 from .physical import PhysicalTerm
 from .reference_kernels import ReferenceArrays
-from .saturation_kernels import auxiliary_advance, auxiliary_maps, relaxed
+from .saturation_kernels import auxiliary_advance, auxiliary_maps, feasible_command, relaxed
 
 #: The compiled kernels of each geometry, by the type of the model's kernel constants. Each
 #: module provides the period's three steps (``geometry_terms``, ``kinematic_law``,
@@ -381,8 +381,10 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
     )
     if status != STATUS_OK:
         return status, -1, value  # (a singular filter: the smallest singular value)
-    if aux is not None:  # the excess drives chi; the filter integrates the torque applied
-        dw = auxiliary_advance(aux[0], aux[1], u_m, M_a, J_a, L_a)
+    if aux is not None:  # the feasible feedforward; the excess drives chi; the filter
+        u_f = feasible_command(aux[0], u_m, w_dyn_dot, M_a, sens)  # integrates what acts
+        dw = auxiliary_advance(aux[0], aux[1], u_m, u_f, M_a, J_a, L_a)
+        u_m = u_f
         if np.any(dw != 0.0):
             put(state.w_hat, 0, state.w_hat + dt * dw)
     if law.adaptive:

@@ -202,14 +202,32 @@ class AuxiliarySystem:
             -k_chi * chi_z + J @ chi_v,
         )
 
-    def advance(self, u_c: np.ndarray, M: np.ndarray, J: np.ndarray, L_b: np.ndarray):
-        """The excess of the command ``u_c`` [N m] and the state at t + dt, in place; returns
+    def command(self, u_c: np.ndarray, a: np.ndarray, M: np.ndarray, S) -> np.ndarray:
+        """:func:`feasible_command` with this system's limits.
+
+        Parameters
+        ----------
+        u_c, a, M, S
+            As :func:`feasible_command`.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The command [N m].
+        """
+        return feasible_command(self.term.limit, u_c, a, M, S)
+
+    def advance(self, u_c: np.ndarray, u_f: np.ndarray, M: np.ndarray, J: np.ndarray,
+                L_b: np.ndarray):  # fmt: skip
+        """The excess du = clip(u_f) - u_c [N m] and the state at t + dt, in place; returns
         dw = M^-1 (0, du) [rad/s^2] (zeros when nothing saturates).
 
         Parameters
         ----------
         u_c : ndarray, shape (n,)
-            The law's command.
+            The law's command (before :meth:`command`).
+        u_f : ndarray, shape (n,)
+            The command of :meth:`command`.
         M : ndarray
             M-hat at t (the true M for the known-model scheme).
         J, L_b : ndarray
@@ -221,7 +239,7 @@ class AuxiliarySystem:
             dw.
         """
         t = self.term
-        du = np.clip(u_c, -t.limit, t.limit) - u_c
+        du = np.clip(u_f, -t.limit, t.limit) - u_c
         chi_v, chi_b, chi_z = self.parts()
         new_dw = np.zeros(self.nb)
         if np.any(du != 0.0):
@@ -234,6 +252,90 @@ class AuxiliarySystem:
         chi_z[:] = t.decay_chi * chi_z + t.gain_chi * drive_z
         chi_v[:] = t.decay_v * chi_v + t.gain_v * new_dw
         return new_dw
+
+
+def feedforward_gain(M: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """G = du_m / da, the joint torque per unit of the dynamic level's feedforward a (the rate
+    of its target w_mc + chi_v, Eqs. 60a, 64-65 with the base rows eliminated).
+
+    ``G = M_mm - (M_mb + M_mm S) (M_bb + M_bm S)^-1 M_bm``; with S = d w_mc / d w_b = 0
+    (every scheme but Eq. 81) the Schur complement M* of the base block, for which
+    ``M^-1 (0, G a) = (-M_bb^-1 M_bm a, a)``.
+
+    Parameters
+    ----------
+    M : ndarray, shape (m3 + n, m3 + n)
+        M-hat.
+    S : ndarray, shape (n, m3)
+        d w_mc / d w_b.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        G.
+    """
+    m3 = M.shape[0] - S.shape[0]
+    Mbb, Mbm, Mmb, Mmm = M[:m3, :m3], M[:m3, m3:], M[m3:, :m3], M[m3:, m3:]
+    return Mmm - (Mmb + Mmm @ S) @ np.linalg.solve(Mbb + Mbm @ S, Mbm)
+
+
+def feasible_scale(u0: np.ndarray, g: np.ndarray, limit: np.ndarray) -> float:
+    """The largest s in [0, 1] with |u0_j + s g_j| <= max(L_j, |u0_j|) for every joint j.
+
+    ``u0`` is the command without the feedforward, ``g = G a`` the feedforward's torque:
+    scaling a by s keeps its direction, never pushes a joint beyond its limit (nor beyond
+    |u0_j| where u0 alone exceeds it). s = 0 is always feasible.
+
+    Parameters
+    ----------
+    u0, g : ndarray, shape (n,)
+        [N m].
+    limit : ndarray, shape (n,)
+        L [N m], inf where none.
+
+    Returns
+    -------
+    float
+        s.
+    """
+    s = 1.0
+    for j in range(u0.size):
+        if g[j] != 0.0:
+            bound = max(limit[j], abs(u0[j]))
+            s = min(s, max(0.0, (np.copysign(bound, g[j]) - u0[j]) / g[j]))
+    return s
+
+
+def feasible_command(limit, u_c, a, M, S) -> np.ndarray:
+    """The law's command with its feedforward scaled to what the actuators deliver: ``u_c``
+    itself when every joint is within its limit (bit for bit), else ``u0 + s G a`` with
+    ``u0 = u_c - G a`` and s of :func:`feasible_scale` (docs/saturation.md, "The feasible
+    rate"). The torque removed, ``-(1 - s) G a``, is an excess like the clip's: the
+    auxiliary system books it as velocity not delivered (:meth:`AuxiliarySystem.advance`).
+
+    Parameters
+    ----------
+    limit : ndarray, shape (n,)
+        L [N m], inf where none.
+    u_c : ndarray, shape (n,)
+        The law's command [N m].
+    a : ndarray, shape (n,)
+        Its feedforward, the rate of the tracked w_mc + chi_v [rad/s^2].
+    M : ndarray
+        M-hat.
+    S : ndarray, shape (n, m3)
+        d w_mc / d w_b.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The command [N m].
+    """
+    if np.all(np.abs(u_c) <= limit):
+        return u_c
+    g = feedforward_gain(M, np.reshape(S, (u_c.size, -1))) @ a
+    u0 = u_c - g
+    return u0 + feasible_scale(u0, g, limit) * g
 
 
 class SaturationWarning(UserWarning):
@@ -283,5 +385,6 @@ def demand_problem(u_c, limit, mode: str) -> str | None:
 
 __all__ = [
     "SATURATION_MODES", "AuxiliarySystem", "AuxiliaryTerm", "Saturation", "SaturationWarning",
-    "auxiliary_term", "demand_problem", "state_size",
+    "auxiliary_term", "demand_problem", "feasible_command", "feasible_scale", "feedforward_gain",
+    "state_size",
 ]  # fmt: skip

@@ -122,8 +122,45 @@ def auxiliary_rates(term, x, J, L_b):
 
 
 @njit(cache=True)
-def auxiliary_advance(term, x, u_c, M, J, L_b):
-    """The excess of ``u_c`` and the state at t + dt, in place; returns dw
+def feasible_command(term, u_c, a, M, S):
+    """The command with its feedforward scaled to what the actuators deliver
+    (:func:`.saturation.feasible_command`, the same steps; ``u_c`` itself within the limits).
+
+    Parameters
+    ----------
+    term : AuxiliaryTerm
+        The constants (the limits).
+    u_c : ndarray, shape (n,)
+        The law's command [N m].
+    a : ndarray, shape (n,)
+        Its feedforward [rad/s^2].
+    M : ndarray
+        M-hat (:func:`auxiliary_maps`).
+    S : ndarray, shape (n,) or (n, m3)
+        d w_mc / d w_b.
+    """
+    n = u_c.size
+    if np.all(np.abs(u_c) <= term.limit):
+        return u_c
+    m3 = M.shape[0] - n
+    Sm = np.ascontiguousarray(S.real).reshape((n, m3))
+    Mbm = np.ascontiguousarray(M[:m3, m3:])
+    Mmb, Mmm = np.ascontiguousarray(M[m3:, :m3]), np.ascontiguousarray(M[m3:, m3:])
+    G = Mmm - (Mmb + Mmm @ Sm) @ np.linalg.solve(np.ascontiguousarray(M[:m3, :m3]) + Mbm @ Sm,
+                                                  Mbm)  # fmt: skip
+    g = G @ a
+    u0 = u_c - g
+    s = 1.0
+    for j in range(n):
+        if g[j] != 0.0:
+            bound = max(term.limit[j], abs(u0[j]))
+            s = min(s, max(0.0, (np.copysign(bound, g[j]) - u0[j]) / g[j]))
+    return u0 + s * g
+
+
+@njit(cache=True)
+def auxiliary_advance(term, x, u_c, u_f, M, J, L_b):
+    """The excess clip(u_f) - u_c and the state at t + dt, in place; returns dw
     (:meth:`.saturation.AuxiliarySystem.advance`, the same steps).
 
     Parameters
@@ -134,12 +171,14 @@ def auxiliary_advance(term, x, u_c, M, J, L_b):
         The auxiliary state, advanced in place.
     u_c : ndarray, shape (n,)
         The law's command [N m].
+    u_f : ndarray, shape (n,)
+        The command of :func:`feasible_command`.
     M, J, L_b : ndarray
         :func:`auxiliary_maps` at t.
     """
     nb, m3 = M.shape[0], L_b.shape[0]
     chi_v, chi_b, chi_z = _parts(x, nb, m3)
-    du = np.minimum(np.maximum(u_c, -term.limit), term.limit) - u_c
+    du = np.minimum(np.maximum(u_f, -term.limit), term.limit) - u_c
     new_dw = np.zeros(nb)
     if np.any(du != 0.0):
         rhs = np.zeros(nb)
@@ -184,6 +223,7 @@ def relaxed(term, x, J, L_b, q_bd, z_e, z_e_dot, hj):
 
 
 __all__ = [
-    "auxiliary_advance", "auxiliary_maps", "auxiliary_rates", "planar_maps", "relaxed",
+    "auxiliary_advance", "auxiliary_maps", "auxiliary_rates", "feasible_command", "planar_maps",
+    "relaxed",
     "spatial_maps",
 ]  # fmt: skip
