@@ -228,8 +228,8 @@ class Wheels:
 
     def storing(self, momentum) -> np.ndarray:
         """The wheel momenta h = A^+ L that store the angular momentum L (bus frame): of the
-        h with A h = L the least |h| (with 3 independent axes the only one), the allocation
-        of :meth:`attitude_pd`.
+        h with A h = L the one of least norm (with 3 independent axes the only one), the
+        allocation of :meth:`attitude_pd`.
 
         Parameters
         ----------
