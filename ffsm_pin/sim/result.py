@@ -384,7 +384,9 @@ class RunResult:
             **relaxation_summary(self.signals, self.signals_blocks, (self.rhoinf_b, self.rhoinf_z)),
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
-            out.update(target_summary(self.target, self.signals_blocks(list(TARGET_SIGNALS))))
+            held = None if self.capture is None else self.capture.time  # (None: not captured)
+            blocks = self.signals_blocks(["t", *TARGET_SIGNALS])
+            out.update(target_summary(self.target, blocks, until=held))
         extras = (x.summary() for x in (self.capture, *self.outcomes) if x is not None)
         return out | {k: v for extra in extras for k, v in extra.items()}
 

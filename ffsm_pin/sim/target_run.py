@@ -205,19 +205,24 @@ class TargetMotion:
         return TargetState(pose, state.velocity, state.angular_velocity)
 
 
-def target_summary(target: Target, blocks: Iterable[Mapping[str, np.ndarray]]) -> dict:
+def target_summary(
+    target: Target, blocks: Iterable[Mapping[str, np.ndarray]], until: float | None = None
+) -> dict:
     """The summary's target keys from the recorded ``target_pose`` and ``target_twist``.
 
     ``target_drift_P``: max |P - P0| of P = m v_com [kg m/s]; ``target_drift_L``: max |L - L0|
     of the angular momentum about the world origin, world frame, L = R I w + c x m v_com
-    [kg m^2/s]; both over every recorded row.
+    [kg m^2/s]; both over the recorded rows of the free target (every row, or those before
+    ``until``: once held, the hand changes its momentum).
 
     Parameters
     ----------
     target : Target
         The body.
     blocks : iterable of mapping
-        Row blocks with ``target_pose`` and ``target_twist``.
+        Row blocks with ``t``, ``target_pose`` and ``target_twist``.
+    until : float or None
+        The capture time [s]: rows at or after it are not the free target's.
 
     Returns
     -------
@@ -229,6 +234,9 @@ def target_summary(target: Target, blocks: Iterable[Mapping[str, np.ndarray]]) -
     drift_P = drift_L = 0.0
     for b in blocks:
         pose, twist = np.asarray(b["target_pose"]), np.asarray(b["target_twist"])
+        if until is not None:  # the free phase only
+            free = np.asarray(b["t"]) < until
+            pose, twist = pose[free], twist[free]
         if not len(pose):
             continue
         P, L = target_momenta(target.mass, inertia, com, pose, twist)

@@ -118,6 +118,25 @@ def test_the_whole_systems_momentum_over_the_run(run):
     assert np.abs(c_t - c_t[0] - np.outer(t[rows] - t[0], v_t)).max() < 1e-14 * scale
 
 
+def test_the_targets_drift_is_that_of_the_free_target(run):
+    """``target_drift_*`` cover the free target's rows only (before the capture): its own P
+    and L are kept to rounding there, while over the held rows the hand changes them (the
+    same rows with the held ones: many orders larger)."""
+    from ffsm_pin.sim.target_run import TARGET_SIGNALS, target_momenta, target_summary
+
+    setup, result = run
+    summary = result.summary()
+    tg = setup.target
+    P, L = target_momenta(
+        tg.mass, np.array(tg.inertia), np.array(tg.com),
+        result["target_pose"][:1], result["target_twist"][:1],
+    )  # fmt: skip
+    assert summary["target_drift_P"] < 1e-12 * np.linalg.norm(P[0])
+    assert summary["target_drift_L"] < 1e-12 * np.linalg.norm(L[0])
+    every = target_summary(setup.target, result.signals_blocks(["t", *TARGET_SIGNALS]))
+    assert every["target_drift_P"] > 1e6 * max(summary["target_drift_P"], 1e-16)
+
+
 @pytest.mark.parametrize("estimates", ["unknown", "true"])
 def test_the_hook_at_capture(run, estimates):
     """CaptureMotion.at_period on a state within the tolerances: the robot's velocity after
