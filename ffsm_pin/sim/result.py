@@ -14,7 +14,7 @@ from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
 from .recorder import Signals, Thinned, write_npz
 from .relaxation import relaxation_summary
-from .target_run import TARGET_SIGNALS, target_summary
+from .target_run import target_summary
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (
@@ -384,9 +384,7 @@ class RunResult:
             **relaxation_summary(self.signals, self.signals_blocks, (self.rhoinf_b, self.rhoinf_z)),
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)
-            held = None if self.capture is None else self.capture.time  # (None: not captured)
-            blocks = self.signals_blocks(["t", *TARGET_SIGNALS])
-            out.update(target_summary(self.target, blocks, until=held))
+            out.update(target_summary(self.target, self.signals_blocks, self.capture))
         extras = (x.summary() for x in (self.capture, *self.outcomes) if x is not None)
         return out | {k: v for extra in extras for k, v in extra.items()}
 

@@ -11,7 +11,8 @@ initial angular momentum; :func:`target_summary` gives the summary's momentum dr
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -206,7 +207,9 @@ class TargetMotion:
 
 
 def target_summary(
-    target: Target, blocks: Iterable[Mapping[str, np.ndarray]], until: float | None = None
+    target: Target,
+    blocks_of: Callable[[list[str]], Iterable[Mapping[str, np.ndarray]]],
+    capture: Any = None,
 ) -> dict:
     """The summary's target keys from the recorded ``target_pose`` and ``target_twist``.
 
@@ -219,10 +222,12 @@ def target_summary(
     ----------
     target : Target
         The body.
-    blocks : iterable of mapping
-        Row blocks with ``t``, ``target_pose`` and ``target_twist``.
-    until : float or None
-        The capture time [s]: rows at or after it are not the free target's.
+    blocks_of : callable
+        keys -> consecutive row blocks of the recorded signals
+        (:meth:`~.result.RunResult.signals_blocks`).
+    capture : CaptureOutcome or None
+        The run's capture (:mod:`.capture_run`): rows at or after its ``time`` are not the
+        free target's.
 
     Returns
     -------
@@ -232,7 +237,8 @@ def target_summary(
     inertia, com = np.array(target.inertia), np.array(target.com)
     P0 = L0 = None
     drift_P = drift_L = 0.0
-    for b in blocks:
+    until = None if capture is None else capture.time  # None: not captured
+    for b in blocks_of(["t", *TARGET_SIGNALS]):
         pose, twist = np.asarray(b["target_pose"]), np.asarray(b["target_twist"])
         if until is not None:  # the free phase only
             free = np.asarray(b["t"]) < until
