@@ -304,18 +304,10 @@ def engine_comparison(args) -> None:
     parts: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
     try:
         paths = {}
-        for robot, (scenario, extra) in ENGINE_ROBOTS.items():
-            duration = args.planar_s if robot == "planar" else args.spatial_s
-            text = ENGINE_CAMPAIGN.format(
-                robot=robot, scenario=scenario, seed=1, repeat=args.engine_repeat,
-                duration=duration, extra=extra,
-            )  # fmt: skip
-            paths[robot] = tmp / f"{robot}.toml"
-            paths[robot].write_text(text)
-            warm = tmp / f"{robot}-warm.toml"  # every controller's kernels loaded on the worker
-            warm.write_text(text.replace(f"duration = {duration}", "duration = 0.05"))
-            campaign(warm, client, tmp / f"{robot}-warm")
-            bare_loop(scenario, 0.05)
+        for robot, (path, warm) in _engine_paths(tmp, args).items():
+            paths[robot] = path
+            campaign(warm, client, tmp / f"{robot}-warm")  # every controller's kernels loaded
+            bare_loop(ENGINE_ROBOTS[robot][0], 0.05)
         for k in range(args.trials):
             for robot, (scenario, _) in ENGINE_ROBOTS.items():
                 order = ["bare", *modes]
