@@ -200,7 +200,7 @@ def capture_warnings(setup: Setup) -> list[str]:
     assert spec is not None
     if spec.capture is None:
         return out
-    out += wheel_warnings(setup)
+    out += wheel_warnings(setup, pred.capture_time)
     tol = spec.capture
     if pred.capture_time is None:
         near = int(np.argmin(pred.distance))
@@ -264,29 +264,53 @@ def detumble_need(setup: Setup) -> np.ndarray | None:
 
 
 @fill_doc(SIM_DOC)
-def wheel_warnings(setup: Setup) -> list[str]:
-    """``--check``'s line when the wheels cannot store the detumble's momentum
-    (:func:`detumble_need`): some wheel's share beyond its ``max_momentum``.
+def wheel_warnings(setup: Setup, capture_time: float | None = None) -> list[str]:
+    """``--check``'s lines when the wheels cannot detumble the system (:func:`detumble_need`):
+    some wheel's share beyond its ``max_momentum``, or beyond what its ``max_torque`` can
+    store in the time the run has left after the predicted capture.
+
+    A wheel whose torque is limited to tau_max needs at least |h_i| / tau_max seconds to
+    store h_i (it starts empty); with the capture predicted at t_c and the run ending at T
+    that is possible only when |h_i| <= tau_max (T - t_c): a necessary condition, not a plan
+    (the bus, arm and target stop turning only when every wheel holds its share).
 
     %(params_setup)s
+    capture_time : float or None
+        t_c [s], the predicted capture (:func:`predict_capture`); None: the torque is not
+        checked.
 
     Returns
     -------
     list of str
-        One line naming ``robot.satellite.wheels.max_momentum``, or none.
+        Lines naming ``robot.satellite.wheels.max_momentum`` or
+        ``robot.satellite.wheels.max_torque``, or none.
     """
     need = detumble_need(setup)
     wheels = setup.scenario.robot.wheels
     if need is None or wheels is None:
         return []
+    out = []
     ratio = np.abs(need) / wheels.max_momentum
-    if not (ratio > 1.0).any():
-        return []
-    i = int(np.argmax(ratio))
-    return [
-        f"wheels too small for the detumble: holding the whole system's angular momentum "
-        f"(robot and target, {np.linalg.norm(wheels.momentum_bus(need)):.3g} N m s) at rest "
-        f"after the capture takes {abs(need[i]):.3g} N m s on wheel {i}, beyond "
-        f"robot.satellite.wheels.max_momentum = {wheels.max_momentum[i]:.3g} N m s; give "
-        "larger wheels or a slower target"
-    ]
+    if (ratio > 1.0).any():
+        i = int(np.argmax(ratio))
+        out.append(
+            f"wheels too small for the detumble: holding the whole system's angular momentum "
+            f"(robot and target, {np.linalg.norm(wheels.momentum_bus(need)):.3g} N m s) at rest "
+            f"after the capture takes {abs(need[i]):.3g} N m s on wheel {i}, beyond "
+            f"robot.satellite.wheels.max_momentum = {wheels.max_momentum[i]:.3g} N m s; give "
+            "larger wheels or a slower target"
+        )
+    left = setup.scenario.duration - capture_time if capture_time is not None else 0.0
+    if left > 0.0:
+        rate = np.abs(need) / left  # [N m], the least torque that stores h_i in time
+        ratio = rate / wheels.max_torque
+        if (ratio > 1.0).any():
+            i = int(np.argmax(ratio))
+            out.append(
+                f"wheels too weak for the detumble: storing {abs(need[i]):.3g} N m s on wheel "
+                f"{i} in the {left:.3g} s left after the predicted capture (t = "
+                f"{capture_time:.2f} s) takes at least {rate[i]:.3g} N m, beyond "
+                f"robot.satellite.wheels.max_torque = {wheels.max_torque[i]:.3g} N m; give "
+                "stronger wheels, a longer run or an earlier capture"
+            )
+    return out

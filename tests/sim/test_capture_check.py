@@ -155,3 +155,23 @@ def test_the_detumble_need_of_redundant_wheels_is_the_least_norm_allocation():
     assert np.abs(wheels.axes @ need - expected).max() < 1e-12 * np.abs(expected).max()
     null = np.linalg.svd(wheels.axes)[2][3]  # A's null space (one vector)
     assert abs(null @ need) < 1e-12 * np.abs(need).max()
+
+
+def test_wheels_too_weak_for_the_detumble_are_warned_of():
+    """A wheel of torque limit tau needs |h_i| / tau seconds to store its share h_i (by hand:
+    R_d^T L with axes "xyz"): with the capture predicted at t_c and the run ending at T, a
+    max_torque 10 % below |h_i| / (T - t_c) warns, naming the key and that wheel; 10 % above
+    does not."""
+    setup = _setup(_with_wheels(""))
+    pred = predict_capture(setup)
+    assert pred is not None and pred.capture_time is not None
+    left = setup.scenario.duration - pred.capture_time
+    assert left > 0.0
+    R_d = to_rotation(np.asarray(setup.scenario.reference.base_attitude, dtype=float))
+    expected = np.abs(R_d.T @ _system_momentum(setup))
+    i = int(np.argmax(expected))
+    rate = float(expected[i]) / left
+    (line,) = _check_warnings(_with_wheels(f"max_torque = {0.9 * rate}\n"))
+    assert "robot.satellite.wheels.max_torque" in line and f"wheel {i} " in line
+    assert "\n" not in line
+    assert _check_warnings(_with_wheels(f"max_torque = {1.1 * rate}\n")) == []
