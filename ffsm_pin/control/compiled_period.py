@@ -123,6 +123,23 @@ class CompiledPeriod:
         aux = None if self._aux is None else (self._aux[0], self._aux[1].copy())  # (a copy)
         period(geo, law, ref, dt, km, tuple(self.state), self._out_fields, aux)
 
+    def set_theta_d_true(self, theta_d_true) -> None:
+        """Replace the true theta_d of the diagnostic e of Eq. (54) in place, for both
+        backends (after a capture: the merged robot's, docs/capture.md); nothing when the
+        law has none.
+
+        Parameters
+        ----------
+        theta_d_true : array_like, shape (n_2,)
+            The new true theta_d.
+        """
+        if self.theta_d_true is None:
+            return
+        self.theta_d_true[:] = theta_d_true
+        law = getattr(self, "_law", None)  # (the compiled bundle's copy, once prepared)
+        if law is not None:
+            law.theta_d_true[:] = theta_d_true
+
     def _require_truth(self) -> None:
         """Refuse a row without the true theta_d (its e of Eq. 54 needs it)."""
         if self.theta_d_true is None:

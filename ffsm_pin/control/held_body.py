@@ -47,11 +47,16 @@ class CaptureEvent:
         The held body's mass, CoM and inertia in the end-effector frame (``"true"``: the
         merged robot's addition to the end-effector link; ``"perturbed"``: drawn around it);
         None with ``"unknown"``.
+    theta_d_true : ndarray or None
+        The merged robot's true theta_d (Eq. 12), for the diagnostic e of Eq. (54) alone, as
+        the context's ``truth`` before the capture (whatever ``estimates`` says); None: not
+        given.
     """
 
     time: float
     estimates: str
     held: pin.Inertia | None = None
+    theta_d_true: np.ndarray | None = None
 
 
 class ParameterIncrement(NamedTuple):

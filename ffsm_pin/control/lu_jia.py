@@ -206,7 +206,8 @@ class LuJiaController:
     def on_capture(self, event: CaptureEvent) -> None:
         """The hand grasped a body (the optional hook, docs/controllers.md): its parameters,
         when the event carries them, join theta_z-hat, theta_d-hat and theta_b-hat
-        (:func:`~.held_body.join_held_body`); the adaptation goes on from there.
+        (:func:`~.held_body.join_held_body`); the adaptation goes on from there. The
+        diagnostic e of Eq. (54) takes the merged robot's true theta_d the event carries.
 
         Parameters
         ----------
@@ -214,6 +215,8 @@ class LuJiaController:
             The capture.
         """
         join_held_body(self.context, self.law.state, event, self.law.events)
+        if event.theta_d_true is not None:  # Eq. (54)'s e from now on: the merged robot's M
+            self.law.set_theta_d_true(event.theta_d_true)
 
     def step(self, meas: Measurement):
         """u_m for the period [t, t + dt) and the signals at t (before the update), a

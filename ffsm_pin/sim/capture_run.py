@@ -30,6 +30,7 @@ from ..control.held_body import CaptureEvent
 from ..scenario.target_spec import CaptureSpec
 from ._docs import SIM_DOC
 from .estimates import body_inertias, perturb_body
+from .held_truth import HeldTruth, held_truth
 from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merge_after_capture
 from .measurement import Sensor
 from .plant import Plant
@@ -124,6 +125,9 @@ class CaptureMotion(TargetMotion):
     perturb : callable or None
         With ``estimates = "perturbed"``: the held body (``pin.Inertia``, end-effector frame)
         -> the controller's estimate of it (:func:`held_body_estimate`); None: as given.
+    setup : Setup or None
+        The run: with it, the true parameters after the capture (:meth:`held_truth`) and the
+        event's ``theta_d_true``; None: neither.
     """
 
     def __init__(
@@ -134,6 +138,7 @@ class CaptureMotion(TargetMotion):
         spec: CaptureSpec,
         substeps: int = 1,
         perturb: Callable[[pin.Inertia], pin.Inertia] | None = None,
+        setup: Setup | None = None,
     ) -> None:
         super().__init__(target, state)
         self.perturb = perturb
@@ -151,6 +156,9 @@ class CaptureMotion(TargetMotion):
         self.relative: tuple[float, float] = (np.nan, np.nan)  # grasp distance, speed now
         self.plant: Plant | None = None  # the merged robot's, after capture
         self._held: pin.SE3 | None = None  # the target frame in the end-effector frame
+        self.held: pin.Inertia | None = None  # the held body, end-effector frame (true)
+        self.setup = setup
+        self.truth: HeldTruth | None = None  # the merged robot's true parameters, once held
 
     def advance(self, dt: float) -> None:
         """Step the free target ``dt`` [s] in the plant's substeps (held: nothing to do, its
@@ -204,12 +212,16 @@ class CaptureMotion(TargetMotion):
         pin.framesForwardKinematics(cap.model, data, qc)
         self._held = data.oMf[cap.robot.ee_frame_id].actInv(data.oMi[cap.target_joint])
         self.state = cap.target_state(qc, hit.v)
+        self.held = self._held.act(self.target.spatial_inertia())  # (the merged robot's)
         held = None  # what the controller may know of the held body ([capture] estimates)
         if self.estimates != "unknown":
-            held = self._held.act(self.target.spatial_inertia())  # (the merged robot's)
+            held = self.held
             if self.estimates == "perturbed" and self.perturb is not None:
                 held = self.perturb(held)
-        self.event = CaptureEvent(float(t), self.estimates, held)
+        if self.setup is not None:  # (the true parameters from now on)
+            self.truth = held_truth(self.setup, self.held, robot, q_new, v_new)
+        theta_d_true = None if self.truth is None else self.truth.theta_d.copy()
+        self.event = CaptureEvent(float(t), self.estimates, held, theta_d_true)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
             float(hit.energy_loss), tol.position, tol.velocity, self.outcome.hand_grasp,
@@ -316,7 +328,7 @@ def target_motions(setup: Setup) -> tuple[TargetMotion | None, CaptureMotion | N
     else:
         capture = CaptureMotion(
             setup.target, setup.target_state, setup.robot, spec.capture, sc.substeps,
-            perturb=lambda held: held_body_estimate(held, setup),
+            perturb=lambda held: held_body_estimate(held, setup), setup=setup,
         )  # fmt: skip
         motion = capture
     if setup.approach is not None:  # the approach's target sensor reads the true state

@@ -354,8 +354,12 @@ def simulate(
     momentum: MomentumRows | None = None if capture is None else capture.momentum_rows
     if wheels is not None:
         momentum = wheels.total_momentum_rows(momentum)
-    signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum)
+    held = None if capture is None else capture.truth  # the merged robot's thetas, if held
+    extra = None if held is None else held.constants()
+    signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum, extra)
     outcomes: tuple = () if wheels is None else (wheels.outcome(k + 1),)  # more summary keys
+    if held is not None:  # the final estimate errors against the merged robot's
+        outcomes += (held.outcome(signals),)
     if capture is not None:  # when the held target stops turning relative to the bus
         rate = capture.detumble_rate  # [capture] detumble_rate [rad/s]
         outcomes += (detumble_outcome(signals.blocks, capture.outcome.time, rate),)

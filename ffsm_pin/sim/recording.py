@@ -152,6 +152,7 @@ def recorded_signals(
     reaction: Callable[..., np.ndarray] | None = None,
     plant=None,
     momentum: Callable[[Mapping[str, np.ndarray]], tuple] | None = None,
+    constants: Mapping[str, np.ndarray] | None = None,
 ) -> Signals:
     """The recorded per-step rows ``raw`` with the signals computed after the run (funnels,
     reference, errors, momentum, F_r: :func:`_after_run_signals`) and the true parameters.
@@ -172,6 +173,9 @@ def recorded_signals(
     momentum : callable or None
         (P, L) of a block of recorded rows; None: the plant's
         (:meth:`~ffsm_pin.sim.plant.Plant.momentum_rows` of ``q``, ``v``).
+    constants : mapping of str to ndarray or None
+        More signals without a time axis (a capture's true parameters after it,
+        :mod:`~ffsm_pin.sim.held_truth`).
 
     Returns
     -------
@@ -189,7 +193,7 @@ def recorded_signals(
     else:  # (a run with [capture] or wheels: the target's and wheels' rows too)
         inputs = (*inputs, *(k for k in (*TARGET_SIGNALS, *WHEEL_COLUMNS) if k in raw))
     per_row, truth = _after_run_signals(setup, reaction, momentum)
-    return extend(raw, per_row, truth, inputs)
+    return extend(raw, per_row, {**truth, **(constants or {})}, inputs)
 
 
 def stop_outcome(stop: SimulationError | None) -> dict:

@@ -1,0 +1,137 @@
+"""The true parameters after a capture (issue 40, ``ffsm_pin/sim/held_truth.py``): the merged
+robot's theta_z, theta_d, theta_b, the summary's final estimate errors against them, and the
+diagnostic e of Eq. (54) with the merged robot's M.
+
+Capture exists for free-flyer robots only (docs/capture.md), so the checks are spatial."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from ffsm_pin.control.lu_jia import LuJiaController
+from ffsm_pin.model import make_model
+from ffsm_pin.scenario.file import builtin_scenario
+from ffsm_pin.scenario.spec import Estimates
+from ffsm_pin.scenario.target_spec import CaptureSpec
+from ffsm_pin.sim.capture_run import CaptureMotion, held_body_estimate
+from ffsm_pin.sim.held_truth import HELD_TRUTH_KEYS
+from ffsm_pin.sim.loop import simulate
+from ffsm_pin.sim.measurement import Sensor
+from ffsm_pin.sim.plant import Plant
+from ffsm_pin.sim.setup import prepare
+from ffsm_pin.sim.target import TargetState
+
+
+def _scenario(estimates: str = "true", initial: str = "true", duration: float = 0.1):
+    sc = builtin_scenario("capture")
+    capture = dataclasses.replace(sc.target.capture, estimates=estimates)
+    controller = dataclasses.replace(sc.controller, estimates=Estimates(initial=initial))
+    return dataclasses.replace(
+        sc, duration=duration, controller=controller,
+        target=dataclasses.replace(sc.target, capture=capture),
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def grasp():
+    """The capture case's robot grasping its box at t = 0.5 s (arm and box moving, the frames
+    a few mm apart): the setup, the capture hook after the grasp, the merged robot, the
+    state after the impact and the whole system's (P, L) before it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        setup = prepare(_scenario())
+    robot, target = setup.robot, setup.target
+    rng = np.random.default_rng(7)
+    q, v = setup.q0.copy(), setup.v0.copy()
+    v[6:] = 0.05 * rng.standard_normal(robot.model.nv - 6)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    offset = pin.SE3(pin.exp3(np.array([0.01, -0.02, 0.015])), np.array([0.002, -0.001, 0.003]))
+    pose = data.oMf[robot.ee_frame_id] * offset * target.grasp.inverse()
+    state = TargetState(pose, np.array([0.004, -0.003, 0.002]), np.array([0.03, 0.01, -0.02]))
+    motion = CaptureMotion(
+        target, state, robot, CaptureSpec(0.01, 0.1, estimates="true"),
+        perturb=lambda held: held_body_estimate(held, setup), setup=setup,
+    )  # fmt: skip
+    cap = motion.capture
+    before = cap.momentum(*cap.joint_state(q, v, state))  # (P, L) of robot and target
+    plant = Plant(robot, integrator="rk4")
+    plant.reset(q, v)
+    sensor = Sensor(robot, setup.model, full_model=False)
+    new_plant, _, v_new = motion.at_period(0.5, q, v, plant, sensor)
+    return setup, motion, new_plant.robot, q, v_new, before
+
+
+def test_the_truth_after_a_capture_is_the_merged_robots(grasp):
+    """theta_d and the V_k of the truth after the grasp equal those of a reduced model built
+    from the merged robot itself (the box a payload of the hand; 1e-12 relative); v_0 and
+    A_0 are the whole system's CoM velocity and angular momentum about its CoM, equal to
+    robot and free target's before the impact (Pinocchio's centroidal momentum of the two
+    bodies, kept by the impact) to 1e-12 relative; both differ from the robot's own."""
+    setup, motion, merged, _, _, before = grasp
+    truth = motion.truth
+    assert truth is not None
+    direct = make_model(merged)
+    m2, m3 = direct.m2, direct.m3
+    scale = np.abs(direct.theta_d).max()
+    assert np.abs(truth.theta_d - direct.theta_d).max() < 1e-12 * scale
+    V = np.asarray(direct.true_theta_z(np.zeros(m2)))[m2:]
+    assert np.abs(truth.theta_z[m2:] - V).max() < 1e-12 * np.abs(V).max()
+    assert np.array_equal(truth.theta_b[m3:], truth.theta_d)
+    mass = sum(inertia.mass for inertia in merged.model.inertias)  # (the universe's: 0)
+    P, L = before[:3], before[3:]
+    assert np.abs(truth.theta_z[:m2] - P / mass).max() < 1e-12 * np.abs(P / mass).max()
+    assert np.abs(truth.theta_b[:m3] - L).max() < 1e-12 * np.abs(L).max()
+    # the box moves theta_d by far more than rounding: the robot's truth is not the merged one
+    assert np.abs(truth.theta_d - setup.theta_d).max() > 1e-3 * scale
+    event = motion.event
+    assert event is not None and np.array_equal(event.theta_d_true, truth.theta_d)
+
+
+def test_eq54_e_after_the_hook_uses_the_merged_robot_on_both_backends(grasp):
+    """After the hook lu-jia's e of Eq. (54) is taken with the merged robot's theta_d on the
+    numpy reference and the compiled period alike (the kernel's copy updated): both agree,
+    and differ from a controller told the body but not the new truth."""
+    setup, motion, merged, q, v, _ = grasp
+    ctx = setup.controller.context
+    event = motion.event
+    meas = Sensor(merged, ctx.model, full_model=True).measure(0.5, q, v)
+    e = {}
+    for backend in ("numba", "numpy"):
+        ctrl = LuJiaController(ctx, backend=backend)
+        ctrl.on_capture(event)
+        e[backend] = np.asarray(ctrl.step(meas)[1]["e"])
+    stale = LuJiaController(ctx, backend="numba")
+    stale.on_capture(dataclasses.replace(event, theta_d_true=None))
+    e_stale = np.asarray(stale.step(meas)[1]["e"])
+    scale = np.abs(e["numpy"]).max()
+    np.testing.assert_allclose(e["numba"], e["numpy"], rtol=0, atol=1e-9 * scale)
+    assert np.abs(e_stale - e["numpy"]).max() > 1e-3 * scale
+
+
+def test_a_run_records_the_truth_after_the_capture_and_judges_its_estimates_by_it():
+    """The capture case with "true" and exact initial estimates, cut after its grasp: the run's
+    signals carry theta_*_captured (the capture hook's), the summary's final errors are the
+    last estimates against them, and at the grasp the estimates jump by what the truth jumps
+    (the body's increment, within the adaptation's one-period step)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = simulate(prepare(_scenario(duration=3.3)))
+    summary, s = result.summary(), result.signals
+    assert summary["captured"]
+    for key in HELD_TRUTH_KEYS:
+        assert key in s
+    for name in ("theta_z", "theta_d"):
+        err = np.linalg.norm(s[f"{name}_hat"][-1] - s[f"{name}_captured"])
+        assert summary[f"final_{name}_error"] == pytest.approx(err, rel=1e-12)
+        assert err != pytest.approx(np.linalg.norm(s[f"{name}_hat"][-1] - s[name]), rel=1e-3)
+    i = int(np.searchsorted(s["t"], summary["capture_time"]))
+    jump = s["theta_d_hat"][i] - s["theta_d_hat"][i - 1]
+    truth_jump = s["theta_d_captured"] - s["theta_d"]
+    drift = np.abs(s["theta_d_hat"][i - 1] - s["theta_d_hat"][i - 2]).max()
+    assert np.abs(jump - truth_jump).max() < 10 * drift + 1e-9 * np.abs(truth_jump).max()
