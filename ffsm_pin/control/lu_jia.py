@@ -21,6 +21,7 @@ from .kinematic import KinematicInputs
 from .lu_jia_params import LuJiaParams
 from .physical import margin_kernel
 from .saturation import auxiliary_term, demand_problem
+from .wheel_law import BaseWheelLaw, wheel_mode
 
 
 def backend_from(ctx: ControllerContext, backend: str = "auto") -> str:
@@ -168,6 +169,21 @@ class LuJiaController:
         if extra:
             self.signal_layout = SignalLayout({**law.signal_layout.shapes, **extra})
         self.signal_shapes = dict(law.signal_layout.shapes)  # (as before the layout)
+        # [controller.params] wheels = "after-capture": the wheels turn the bus back after a
+        # grasp (our extension, wheel_law.py); otherwise the wheels' own control
+        wheels = sc.robot.wheels
+        self._wheels: BaseWheelLaw | None = None
+        if wheel_mode(ctx.params, wheels) == "after-capture":
+            assert wheels is not None
+            rate = float(np.max(perf.funnel_b.beta))  # the base funnel's decay rate [1/s]
+            self._wheels = BaseWheelLaw(wheels, ctx.base_attitude_reference, rate, law, ctx.dt)
+
+    @property
+    def wheel_torque(self):
+        """The optional wheel output (docs/controllers.md): with ``[controller.params] wheels =
+        "after-capture"`` the method :meth:`.wheel_law.BaseWheelLaw.torque`, else None (the
+        wheels' own ``control`` then acts)."""
+        return None if self._wheels is None else self._wheels.torque
 
     @property
     def backend(self) -> str:
@@ -217,6 +233,8 @@ class LuJiaController:
         join_held_body(self.context, self.law.state, event, self.law.events)
         if event.theta_d_true is not None:  # Eq. (54)'s e from now on: the merged robot's M
             self.law.set_theta_d_true(event.theta_d_true)
+        if self._wheels is not None:  # the wheels turn the bus back from the grasp on
+            self._wheels.start()
 
     def step(self, meas: Measurement):
         """u_m for the period [t, t + dt) and the signals at t (before the update), a
