@@ -290,9 +290,8 @@ def wheel_warnings(setup: Setup, capture_time: float | None = None) -> list[str]
     if need is None or wheels is None:
         return []
     out = []
-    ratio = np.abs(need) / wheels.max_momentum
-    if (ratio > 1.0).any():
-        i = int(np.argmax(ratio))
+    i = _worst_wheel(np.abs(need) / wheels.max_momentum)
+    if i is not None:
         out.append(
             f"wheels too small for the detumble: holding the whole system's angular momentum "
             f"(robot and target, {np.linalg.norm(wheels.momentum_bus(need)):.3g} N m s) at rest "
@@ -301,16 +300,19 @@ def wheel_warnings(setup: Setup, capture_time: float | None = None) -> list[str]
             "larger wheels or a slower target"
         )
     left = setup.scenario.duration - capture_time if capture_time is not None else 0.0
-    if left > 0.0:
-        rate = np.abs(need) / left  # [N m], the least torque that stores h_i in time
-        ratio = rate / wheels.max_torque
-        if (ratio > 1.0).any():
-            i = int(np.argmax(ratio))
-            out.append(
-                f"wheels too weak for the detumble: storing {abs(need[i]):.3g} N m s on wheel "
-                f"{i} in the {left:.3g} s left after the predicted capture (t = "
-                f"{capture_time:.2f} s) takes at least {rate[i]:.3g} N m, beyond "
-                f"robot.satellite.wheels.max_torque = {wheels.max_torque[i]:.3g} N m; give "
-                "stronger wheels, a longer run or an earlier capture"
-            )
+    rate = np.abs(need) / left if left > 0.0 else None  # [N m], the least that stores h in time
+    i = None if rate is None else _worst_wheel(rate / wheels.max_torque)
+    if rate is not None and i is not None:
+        out.append(
+            f"wheels too weak for the detumble: storing {abs(need[i]):.3g} N m s on wheel {i} "
+            f"in the {left:.3g} s left after the predicted capture (t = {capture_time:.2f} s) "
+            f"takes at least {rate[i]:.3g} N m, beyond robot.satellite.wheels.max_torque = "
+            f"{wheels.max_torque[i]:.3g} N m; give stronger wheels, a longer run or an earlier "
+            "capture"
+        )
     return out
+
+
+def _worst_wheel(ratio: np.ndarray) -> int | None:
+    """The wheel furthest beyond its limit (``ratio`` need / limit > 1), None when none is."""
+    return int(np.argmax(ratio)) if (ratio > 1.0).any() else None

@@ -159,6 +159,7 @@ class CaptureMotion(TargetMotion):
         self.held: pin.Inertia | None = None  # the held body, end-effector frame (true)
         self.setup = setup
         self.truth: HeldTruth | None = None  # the merged robot's true parameters, once held
+        self._grasp: tuple[np.ndarray, np.ndarray] | None = None  # combined q, v after impact
 
     def advance(self, dt: float) -> None:
         """Step the free target ``dt`` [s] in the plant's substeps (held: nothing to do, its
@@ -203,32 +204,86 @@ class CaptureMotion(TargetMotion):
         if not (distance <= tol.position and speed <= tol.velocity):  # (CaptureModel.ready)
             return plant, sensor, v
         hit = impact(cap, qc, vc)
-        self.relative = cap.relative_motion(qc, hit.v)  # the row's state: after the impact
-        known = self.estimates != "unknown"
-        robot, q_new, v_new = merge_after_capture(cap, qc, hit.v, known=known)
-        self.plant = plant.with_robot(robot)  # (with wheels, they stay on the bus)
-        self.plant.reset(q_new, v_new)  # the merged system's momentum, kept from now on
-        data = cap.model.createData()
-        pin.framesForwardKinematics(cap.model, data, qc)
-        self._held = data.oMf[cap.robot.ee_frame_id].actInv(data.oMi[cap.target_joint])
-        self.state = cap.target_state(qc, hit.v)
-        self.held = self._held.act(self.target.spatial_inertia())  # (the merged robot's)
+        robot, q_new, v_new = self._merge(qc, hit.v, plant)
         held = None  # what the controller may know of the held body ([capture] estimates)
         if self.estimates != "unknown":
             held = self.held
             if self.estimates == "perturbed" and self.perturb is not None:
                 held = self.perturb(held)
-        if self.setup is not None:  # (the true parameters from now on)
-            self.truth = held_truth(self.setup, self.held, robot, q_new, v_new)
         theta_d_true = None if self.truth is None else self.truth.theta_d.copy()
         self.event = CaptureEvent(float(t), self.estimates, held, theta_d_true)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
             float(hit.energy_loss), tol.position, tol.velocity, self.outcome.hand_grasp,
         )  # fmt: skip
+        self._grasp = (qc, hit.v)
         if self.estimates == "true":  # a controller measuring M, h sees the merged robot's
             sensor = Sensor(robot, sensor.model, full_model=sensor.full_model)
         return self.plant, sensor, v_new
+
+    def _merge(self, qc, v_after, plant: Plant) -> tuple:
+        """Hold the target from the combined state ``qc``, ``v_after`` (after the impact):
+        the merged robot's plant, the held body, its state and the true parameters.
+
+        Returns
+        -------
+        tuple
+            The merged robot and its (q, v).
+        """
+        cap = self.capture
+        self.relative = cap.relative_motion(qc, v_after)  # the row's state: after the impact
+        known = self.estimates != "unknown"
+        robot, q_new, v_new = merge_after_capture(cap, qc, v_after, known=known)
+        self.plant = plant.with_robot(robot)  # (with wheels, they stay on the bus)
+        self.plant.reset(q_new, v_new)  # the merged system's momentum, kept from now on
+        data = cap.model.createData()
+        pin.framesForwardKinematics(cap.model, data, qc)
+        self._held = data.oMf[cap.robot.ee_frame_id].actInv(data.oMi[cap.target_joint])
+        self.state = cap.target_state(qc, v_after)
+        self.held = self._held.act(self.target.spatial_inertia())  # (the merged robot's)
+        if self.setup is not None:  # (the true parameters from now on)
+            self.truth = held_truth(self.setup, self.held, robot, q_new, v_new)
+        return robot, q_new, v_new
+
+    def record(self) -> dict:
+        """What a spool keeps of the grasp (JSON-able; :meth:`restore` reads it back): the
+        outcome and the combined state just after the impact.
+
+        Returns
+        -------
+        dict
+            ``time``, ``impulse``, ``relative_speed``, ``distance``, ``energy_lost``, ``q``,
+            ``v``.
+        """
+        o = self.outcome
+        assert self._grasp is not None and o.impulse is not None
+        qc, v_after = self._grasp
+        return {
+            "time": o.time, "impulse": list(o.impulse), "relative_speed": o.relative_speed,
+            "distance": o.distance, "energy_lost": o.energy_lost,
+            "q": [float(x) for x in qc], "v": [float(x) for x in v_after],
+        }  # fmt: skip
+
+    def restore(self, record: Mapping, plant: Plant) -> None:
+        """Put the hook in its state after the grasp :meth:`record` described (a run
+        recovered from its spool): the same merged robot, plant, held body and outcome.
+
+        Parameters
+        ----------
+        record : mapping
+            :meth:`record`'s dict.
+        plant : Plant
+            The run's plant before the capture (the loop's: with wheels, theirs).
+        """
+        qc, v_after = np.asarray(record["q"], float), np.asarray(record["v"], float)
+        self._merge(qc, v_after, plant)
+        self._grasp = (qc, v_after)
+        self.outcome = CaptureOutcome(
+            True, float(record["time"]), tuple(float(x) for x in record["impulse"]),
+            float(record["relative_speed"]), float(record["distance"]),
+            float(record["energy_lost"]), self.tolerances.position, self.tolerances.velocity,
+            self.outcome.hand_grasp,
+        )  # fmt: skip
 
     def notify(self, controller) -> None:
         """Hand a capture not yet told to the controller's optional ``on_capture`` (once;

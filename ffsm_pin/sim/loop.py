@@ -31,12 +31,10 @@ from ..control.interface import (
 )
 from ..errors import SimulationError
 from .capture_run import target_motions
-from .detumble import detumble_outcome
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE
 from .recorder import Recorder
 from .recording import (
-    recorded_signals,
     recorder_shapes,
     recording_size,
     run_result,
@@ -46,7 +44,8 @@ from .recording import (
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
-from .wheels_run import MomentumRows, loop_plant
+from .system_signals import system_outcomes, system_signals
+from .wheels_run import loop_plant
 
 #: The columns the loop writes at every recorded step (as recorder_shapes), and those of what
 #: the controller saw when there are sensors.
@@ -284,6 +283,8 @@ def simulate(
                 )  # fmt: skip
                 stop = SimulationError(f"t = {t:.4f} s: {what}", time=t, cause="controller")
                 break
+            if capture is not None and capture.outcome.time == t:  # the grasp, for --recover
+                rec.note("capture", capture.record())
             final = k == n_steps
             u_m = u_cmd
             if actuators is not None:
@@ -350,19 +351,9 @@ def simulate(
         stop = SimulationError(
             f"t = {k * dt:.4f} s: interrupted (Ctrl-C)", time=k * dt, cause="interrupted"
         )
-    # the whole system's momentum: with the target, with the wheels
-    momentum: MomentumRows | None = None if capture is None else capture.momentum_rows
-    if wheels is not None:
-        momentum = wheels.total_momentum_rows(momentum)
-    held = None if capture is None else capture.truth  # the merged robot's thetas, if held
-    extra = None if held is None else held.constants()
-    signals = recorded_signals(setup, rec.finish(), reaction, plant, momentum, extra)
-    outcomes: tuple = () if wheels is None else (wheels.outcome(k + 1),)  # more summary keys
-    if held is not None:  # the final estimate errors against the merged robot's
-        outcomes += (held.outcome(signals),)
-    if capture is not None:  # when the held target stops turning relative to the bus
-        rate = capture.detumble_rate  # [capture] detumble_rate [rad/s]
-        outcomes += (detumble_outcome(signals.blocks, capture.outcome.time, rate),)
+    # the whole system's signals and summary keys: with the target, with the wheels
+    signals = system_signals(setup, rec.finish(), capture, wheels, reaction, plant)
+    outcomes = system_outcomes(signals, capture, wheels, k + 1)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))

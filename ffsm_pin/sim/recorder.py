@@ -283,6 +283,23 @@ class Recorder:
         self.on_disk = 0  # rows already spilled
         self._spool_dir = spool_dir
         self._spool: Path | None = None
+        self.notes: dict[str, dict] = {}  # kept beside the rows in a spool (note)
+
+    def note(self, name: str, data: Mapping[str, Any]) -> None:
+        """Keep ``data`` (JSON-able) with the rows: in a spool as ``<name>.json``, written now
+        if the spool exists, else when it is made, so that a run killed after it can be
+        recovered with it (a capture's grasp, :mod:`ffsm_pin.sim.recover`).
+
+        Parameters
+        ----------
+        name : str
+            The note's name (a file name).
+        data : mapping
+            What it says.
+        """
+        self.notes[name] = dict(data)
+        if self._spool is not None:
+            write_note(self._spool, name, self.notes[name])
 
     @property
     def rows(self) -> int:
@@ -300,6 +317,8 @@ class Recorder:
             return
         if self._spool is None:
             self._spool = make_spool(self.shapes, self._spool_dir, self._header)
+            for name, data in self.notes.items():
+                write_note(self._spool, name, data)
         for key, chunk in self.arrays.items():
             width = chunk[0].size
             with open(self._spool / f"{key}.bin", "r+b" if self.on_disk else "wb") as f:
@@ -361,6 +380,23 @@ def make_spool(
     tmp.write_text(json.dumps(about, indent=1) + "\n", encoding="utf-8")
     os.replace(tmp, spool / SPOOL_HEADER)
     return spool
+
+
+def write_note(spool: Path, name: str, data: Mapping[str, Any]) -> None:
+    """Write ``<name>.json`` into ``spool`` whole or not at all (:meth:`Recorder.note`).
+
+    Parameters
+    ----------
+    spool : Path
+        The spool folder.
+    name : str
+        The note's name.
+    data : mapping
+        What it says (JSON-able).
+    """
+    tmp = spool / f"{name}.json.tmp"
+    tmp.write_text(json.dumps(dict(data), indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, spool / f"{name}.json")
 
 
 def extend(

@@ -6,8 +6,10 @@ written before any row: the scenario as run and the shape of every signal. A run
 normally removes its spool. One killed outright (``kill -9``, a power cut, a job scheduler's
 time limit) leaves it; :func:`recover` rebuilds the run from the scenario (the robot, model and
 funnels are deterministic), reads every row that reached every signal's file, computes the
-signals the loop computes after a run (funnels, reference, errors, momentum, F_r) and returns a
-result with ``completed = False`` and ``stop_cause = "recovered"``. The rows still in memory
+signals the loop computes after a run (funnels, reference, errors, momentum, F_r; with a target
+or wheels the whole system's, :mod:`.system_signals`, and a capture from the grasp the spool
+noted, ``capture.json``) and returns a result with ``completed = False`` and
+``stop_cause = "recovered"``. The rows still in memory
 when the process died (at most one chunk, :data:`~ffsm_pin.sim.recorder.CHUNK_BYTES`) are
 lost.
 """
@@ -82,8 +84,11 @@ def recover(folder: str | Path) -> list[Recovered]:
 
 def _recover(spool: Path) -> Recovered:
     from ..scenario.file import scenario_from_toml
-    from .recording import recorded_signals, run_result, stop_outcome
+    from .capture_run import target_motions
+    from .recording import run_result, stop_outcome
     from .setup import prepare
+    from .system_signals import system_outcomes, system_signals
+    from .wheels_run import loop_plant
 
     try:
         header = json.loads((spool / SPOOL_HEADER).read_text(encoding="utf-8"))
@@ -106,7 +111,12 @@ def _recover(spool: Path) -> Recovered:
     except FfsmError as exc:
         raise ScenarioError(f"{spool}: the run's scenario no longer prepares: {exc}") from None
     raw = Signals({}, spool, shapes, rows)  # owns the spool: removed when no longer used
-    signals = recorded_signals(setup, raw)
+    # a target's and the wheels' momentum, and the grasp the spool noted (capture.json)
+    _, capture = target_motions(setup)
+    plant, wheels = loop_plant(setup)
+    if capture is not None and (spool / "capture.json").is_file():
+        capture.restore(json.loads((spool / "capture.json").read_text(encoding="utf-8")), plant)
+    signals = system_signals(setup, raw, capture, wheels)
     t_last = float(signals["t"][-1]) if rows else 0.0
     reason = (
         f"recovered from the spool of a run that ended without writing its files (process "
@@ -120,6 +130,8 @@ def _recover(spool: Path) -> Recovered:
         **stop_outcome(SimulationError(reason, time=t_last, cause="recovered")),
         events=list(setup.events),
         saturation_fraction=math.nan,  # counted by the loop, not recorded
+        capture=None if capture is None else capture.outcome,
+        outcomes=system_outcomes(signals, capture, wheels, None),
     )
     return Recovered(spool.parent, spool, setup, result)
 
