@@ -28,3 +28,11 @@ def contiguous_rows(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
     """C-contiguous float copies (where needed) of a block of recorded rows (the arrays a
     compiled kernel takes)."""
     return tuple(np.ascontiguousarray(a, dtype=float) for a in arrays)
+
+
+def cross3(a, b) -> np.ndarray:
+    """The cross product of two 3-vectors: ``np.cross(a, b)``'s value, bit for bit (the same
+    products and differences in the same order), without its cost for one pair (~10 us)."""
+    a1, a2, a3 = a
+    b1, b2, b3 = b
+    return np.array((a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1))

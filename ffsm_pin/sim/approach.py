@@ -31,6 +31,7 @@ from collections import deque
 import numpy as np
 import pinocchio as pin
 
+from .._arrays import cross3
 from ..attitude import mrp
 from ..scenario.spec import Reference, Scenario
 from ..scenario.target_spec import ApproachSpec
@@ -134,10 +135,10 @@ def grasp_motion(target: Target, state: TargetState) -> tuple[np.ndarray, np.nda
     inertia = np.asarray(target.inertia)
     r = R @ (target.grasp.translation - np.asarray(target.com))
     W = R @ w
-    A = R @ np.linalg.solve(inertia, np.cross(inertia @ w, w))
+    A = R @ np.linalg.solve(inertia, cross3(inertia @ w, w))
     p = state.com_position(target) + r
-    v = np.asarray(state.velocity, dtype=float) + np.cross(W, r)
-    a = np.cross(A, r) + np.cross(W, np.cross(W, r))
+    v = np.asarray(state.velocity, dtype=float) + cross3(W, r)
+    a = cross3(A, r) + cross3(W, cross3(W, r))
     return p, v, a
 
 
@@ -188,7 +189,7 @@ def hand_offset(r_e, z_e, z_e_dot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     w_body = 4.0 * mrp.B_matrix(s).T @ ds / (1.0 + s @ s) ** 2  # ds/dt = B(s) w / 4
     W = R @ w_body
     r = R @ np.asarray(r_e, dtype=float)
-    return r, np.cross(W, r), np.cross(W, np.cross(W, r))
+    return r, cross3(W, r), cross3(W, cross3(W, r))
 
 
 class Approach:

@@ -30,6 +30,8 @@ from functools import cached_property
 import numpy as np
 import pinocchio as pin
 
+from .._arrays import cross3
+from ..control.backend import numba_available
 from ..errors import InertiaError, ParameterError
 from ..robot.geometry import check_inertia
 
@@ -291,7 +293,7 @@ class TargetState:
         if about is None:
             return L
         lever = self.com_position(target) - np.asarray(about, dtype=float)
-        return L + np.cross(lever, self.linear_momentum(target))
+        return L + cross3(lever, self.linear_momentum(target))
 
     def kinetic_energy(self, target: Target) -> float:
         """``m v.v / 2 + w^T I w / 2`` [J]."""
@@ -305,7 +307,7 @@ class TargetState:
         x y z w), v = the joint frame's twist in its own frame (Pinocchio's convention)."""
         R = self.pose.rotation
         w = self.angular_velocity
-        v_origin = R.T @ self.velocity - np.cross(w, np.array(target.com))
+        v_origin = R.T @ self.velocity - cross3(w, np.array(target.com))
         return pin.SE3ToXYZQUAT(self.pose), np.concatenate((v_origin, w))
 
     @classmethod
@@ -330,7 +332,7 @@ class TargetState:
         v = _vector(v, 6, "target v")
         pose = pin.XYZQUATToSE3(q)
         w = v[3:]
-        v_com = pose.rotation @ (v[:3] + np.cross(w, np.array(target.com)))
+        v_com = pose.rotation @ (v[:3] + cross3(w, np.array(target.com)))
         return cls(pose, v_com, w)
 
 
@@ -363,7 +365,9 @@ def _strang(Rp: np.ndarray, pi: np.ndarray, moments: np.ndarray, h: float) -> No
         pi[:] = rot.T @ pi
 
 
-def torque_free_step(target: Target, state: TargetState, dt: float, momentum=None) -> TargetState:
+def torque_free_step(
+    target: Target, state: TargetState, dt: float, momentum=None, *, compiled: bool | None = None
+) -> TargetState:
     """The target's state ``dt`` [s] later, moving without force or torque.
 
     The CoM moves at its constant velocity; the rotation follows Euler's equations through
@@ -385,6 +389,9 @@ def torque_free_step(target: Target, state: TargetState, dt: float, momentum=Non
         Step [s].
     momentum : array_like or None
         World angular momentum about the CoM to keep [kg m^2/s].
+    compiled : bool or None
+        The rotation by the compiled kernel (:mod:`._target_kernels`, the same arithmetic)
+        or by this numpy reference; None: compiled where numba is installed.
 
     Returns
     -------
@@ -399,12 +406,18 @@ def torque_free_step(target: Target, state: TargetState, dt: float, momentum=Non
     L0 = R0 @ (target.inertia @ state.angular_velocity)  # world angular momentum
     if momentum is not None:
         L0 = _vector(momentum, 3, "torque_free_step: momentum")
-    Rp = R0 @ Q
-    pi = Q.T @ (target.inertia @ state.angular_velocity)
-    for c in (_C1, _C0, _C1):
-        _strang(Rp, pi, moments, c * dt)
-    R = _on_so3(Rp @ Q.T)
-    w = np.linalg.solve(target.inertia, R.T @ L0)  # I^-1 R^T L0, I as stored
+    if numba_available() if compiled is None else compiled:
+        from ._target_kernels import torque_free_rotation
+
+        w0, inertia = state.angular_velocity, target.inertia
+        R, w = torque_free_rotation(R0, w0, L0, inertia, moments, Q, dt, _C0, _C1)
+    else:
+        Rp = R0 @ Q
+        pi = Q.T @ (target.inertia @ state.angular_velocity)
+        for c in (_C1, _C0, _C1):
+            _strang(Rp, pi, moments, c * dt)
+        R = _on_so3(Rp @ Q.T)
+        w = np.linalg.solve(target.inertia, R.T @ L0)  # I^-1 R^T L0, I as stored
     com = state.com_position(target) + dt * state.velocity
     position = com - R @ np.array(target.com)
     return TargetState(pin.SE3(R, position), state.velocity, w)
