@@ -51,12 +51,17 @@ class CaptureEvent:
         The merged robot's true theta_d (Eq. 12), for the diagnostic e of Eq. (54) alone, as
         the context's ``truth`` before the capture (whatever ``estimates`` says); None: not
         given.
+    momenta : tuple of ndarray or None
+        ``"true"``: (v_0 [m/s], A_0 [kg m^2/s]), the whole system's CoM velocity and angular
+        momentum about its CoM just after the impact (the heads of theta_z and theta_b,
+        Eqs. 4, 14); None otherwise (a drawn body's momenta are left to the adaptation).
     """
 
     time: float
     estimates: str
     held: pin.Inertia | None = None
     theta_d_true: np.ndarray | None = None
+    momenta: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class ParameterIncrement(NamedTuple):
@@ -112,8 +117,8 @@ def held_body_increment(robot: Robot, model: ReducedModel, held: pin.Inertia) ->
 
 def join_held_body(ctx: ControllerContext, state, event: CaptureEvent, events: list) -> bool:
     """Add the held body of ``event`` to the estimates in ``state`` in place: V_k in
-    theta_z-hat's tail, theta_d in theta_d-hat and in theta_b-hat's tail (v_0 and A_0, the
-    momenta, are left to the adaptation: the event does not carry the body's motion).
+    theta_z-hat's tail, theta_d in theta_d-hat and in theta_b-hat's tail; with the event's
+    ``momenta`` (``"true"``), v_0 and A_0 in their heads (otherwise left to the adaptation).
     Nothing with ``"unknown"``.
 
     Parameters
@@ -138,6 +143,9 @@ def join_held_body(ctx: ControllerContext, state, event: CaptureEvent, events: l
     state.theta_z[ctx.m2 :] += inc.V
     state.theta_d[:] += inc.theta_d
     state.theta_b[ctx.m3 :] += inc.theta_d
+    if event.momenta is not None:  # the whole system's momenta after the impact
+        state.theta_z[: ctx.m2] = event.momenta[0]
+        state.theta_b[: ctx.m3] = event.momenta[1]
     events.append(
         f"t = {event.time:.4f} s: the held body ({event.estimates}, {event.held.mass:.4g} kg) "
         "joined the parameter estimates"

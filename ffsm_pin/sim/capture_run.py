@@ -210,8 +210,11 @@ class CaptureMotion(TargetMotion):
             held = self.held
             if self.estimates == "perturbed" and self.perturb is not None:
                 held = self.perturb(held)
-        theta_d_true = None if self.truth is None else self.truth.theta_d.copy()
-        self.event = CaptureEvent(float(t), self.estimates, held, theta_d_true)
+        truth = self.truth
+        theta_d_true = None if truth is None else truth.theta_d.copy()
+        known = truth is not None and self.estimates == "true"  # (the system's v_0, A_0)
+        momenta = truth.momenta if known and truth is not None else None
+        self.event = CaptureEvent(float(t), self.estimates, held, theta_d_true, momenta)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
             float(hit.energy_loss), tol.position, tol.velocity, self.outcome.hand_grasp,

@@ -73,11 +73,20 @@ class HeldTruth:
     theta_b : ndarray, shape (n_3,)
         col(A_0, theta_d) of Eq. (14): the whole system's angular momentum about its CoM
         [kg m^2/s] after the impact, and theta_d.
+    m2 : int
+        Position coordinates (the length of v_0).
     """
 
     theta_z: np.ndarray
     theta_d: np.ndarray
     theta_b: np.ndarray
+    m2: int
+
+    @property
+    def momenta(self) -> tuple[np.ndarray, np.ndarray]:
+        """(v_0 [m/s], A_0 [kg m^2/s]): the heads of theta_z and theta_b (copies)."""
+        m3 = len(self.theta_b) - len(self.theta_d)
+        return self.theta_z[: self.m2].copy(), self.theta_b[:m3].copy()
 
     def constants(self) -> dict[str, np.ndarray]:
         """The run's signals of the true parameters after the capture.
@@ -153,4 +162,4 @@ def held_truth(setup: Setup, held: pin.Inertia, merged: Robot, q, v) -> HeldTrut
     st = State(merged).update(np.asarray(q, float), np.asarray(v, float))
     v0 = np.asarray(st.com_velocity, dtype=float).reshape(model.m2)
     A0 = np.asarray(st.angular_momentum, dtype=float).reshape(model.m3)
-    return HeldTruth(np.concatenate((v0, V)), theta_d, np.concatenate((A0, theta_d)))
+    return HeldTruth(np.concatenate((v0, V)), theta_d, np.concatenate((A0, theta_d)), model.m2)

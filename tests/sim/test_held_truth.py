@@ -135,3 +135,26 @@ def test_a_run_records_the_truth_after_the_capture_and_judges_its_estimates_by_i
     truth_jump = s["theta_d_captured"] - s["theta_d"]
     drift = np.abs(s["theta_d_hat"][i - 1] - s["theta_d_hat"][i - 2]).max()
     assert np.abs(jump - truth_jump).max() < 10 * drift + 1e-9 * np.abs(truth_jump).max()
+
+
+def test_true_estimates_get_the_systems_momenta_after_the_impact(grasp):
+    """With "true" the event carries v_0 and A_0 of the whole system just after the impact
+    (robot and box's before it, by Pinocchio), and the hook puts them in the heads of
+    theta_z-hat and theta_b-hat (1e-12 relative); the tails are the body's increment."""
+    setup, motion, merged, _, _, before = grasp
+    ctx = setup.controller.context
+    ctrl = LuJiaController(ctx, backend="numpy")
+    event = motion.event
+    assert event.momenta is not None
+    ctrl.on_capture(event)
+    m2, m3 = ctx.m2, ctx.m3
+    mass = sum(inertia.mass for inertia in merged.model.inertias)
+    P, L = before[:3], before[3:]
+    assert np.abs(ctrl.law.theta_z[:m2] - P / mass).max() < 1e-12 * np.abs(P / mass).max()
+    assert np.abs(ctrl.law.theta_b[:m3] - L).max() < 1e-12 * np.abs(L).max()
+    unknown = dataclasses.replace(event, estimates="unknown", held=None, momenta=None)
+    ctrl2 = LuJiaController(ctx, backend="numpy")
+    heads = ctrl2.law.theta_z[:m2].copy(), ctrl2.law.theta_b[:m3].copy()
+    ctrl2.on_capture(unknown)
+    assert np.array_equal(ctrl2.law.theta_z[:m2], heads[0])
+    assert np.array_equal(ctrl2.law.theta_b[:m3], heads[1])
