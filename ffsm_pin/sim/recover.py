@@ -28,7 +28,7 @@ from .recorder import SPOOL_FORMAT, SPOOL_HEADER, SPOOL_PREFIX, Signals
 from .result import RunResult
 from .setup import Setup
 
-__all__ = ["Recovered", "find_spools", "recover"]
+__all__ = ["Recovered", "find_spools", "recover", "replay_approach"]
 
 
 @dataclass
@@ -116,6 +116,9 @@ def _recover(spool: Path) -> Recovered:
     plant, wheels = loop_plant(setup)
     if capture is not None and (spool / "capture.json").is_file():
         capture.restore(json.loads((spool / "capture.json").read_text(encoding="utf-8")), plant)
+    approach_note = None
+    if setup.approach is not None:  # the reference the controller was given, from the rows
+        approach_note = replay_approach(setup, raw, capture, int(header.get("record_every", 1)))
     signals = system_signals(setup, raw, capture, wheels)
     t_last = float(signals["t"][-1]) if rows else 0.0
     reason = (
@@ -133,7 +136,76 @@ def _recover(spool: Path) -> Recovered:
         capture=None if capture is None else capture.outcome,
         outcomes=system_outcomes(signals, capture, wheels, None),
     )
+    if approach_note is not None:
+        result.events.append(approach_note)
     return Recovered(spool.parent, spool, setup, result)
+
+
+def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> str | None:
+    """Fill the approach's log (the reference the controller was given, :mod:`.approach`)
+    from the recorded rows: its update run again, period after period, on what the
+    controller saw (``meas_*``, the true columns without sensors) and the target's recorded
+    true state (``target_pose``, ``target_twist``), the capture from ``capture``'s restored
+    outcome. The target sensor's noise is drawn from the same seeded stream in the same
+    order, so the log equals the run's up to the rounding of the recorded attitude (a
+    quaternion). A run that recorded every ``record_every`` > 1 periods lacks the states the
+    sensor's delay buffer and the bus-frame hold read: its log stays NaN (no reference).
+
+    Parameters
+    ----------
+    setup : Setup
+        The recovered run (its approach as prepared: log empty, sensor stream unread).
+    raw : Signals
+        The recorded rows.
+    capture : CaptureMotion or None
+        The run's capture hook, restored from the spool's note.
+    record_every : int
+        The run's recording interval (the spool header's).
+
+    Returns
+    -------
+    str or None
+        Why the reference could not be recovered (an event of the result), or None.
+    """
+    from types import SimpleNamespace
+
+    import numpy as np
+    import pinocchio as pin
+
+    from ..control.interface import Measurement
+    from .target import TargetState
+
+    approach = setup.approach
+    assert approach is not None
+    if record_every != 1:
+        return (
+            f"the approach's reference is not recovered: the run recorded every {record_every} "
+            "periods, the target sensor's delay needs every one (z_e_d stays NaN)"
+        )
+    outcome = None if capture is None or not capture.outcome.captured else capture.outcome
+    seen = "meas_" if setup.sensors is not None else ""
+    nq_root = setup.robot.root.nq
+    keys = ["t", "target_pose", "target_twist"] + (
+        [f"{seen}{k}" for k in ("q_b", "q_m", "w", "z_e", "z_e_dot")]
+        if seen
+        else ["q_b", "q", "w", "z_e", "z_e_dot"]
+    )
+    for block in raw.blocks(keys):
+        q_m = block["meas_q_m"] if seen else block["q"][:, nq_root:]
+        for i, t in enumerate(block["t"]):
+            twist = block["target_twist"][i]
+            state = TargetState(pin.XYZQUATToSE3(block["target_pose"][i]), twist[:3], twist[3:])
+            held = outcome is not None and t >= outcome.time
+            row = SimpleNamespace(state=state, outcome=outcome if held else None)
+            approach.motion = row  # type: ignore[assignment]  # (a TargetMotion's two fields)
+            q_b = block[f"{seen}q_b"][i]
+            meas = Measurement(
+                float(t), q_b if q_b.size > 1 else float(q_b[0]), np.array(q_m[i]),
+                np.array(block[f"{seen}w"][i]), np.array(block[f"{seen}z_e"][i]),
+                np.array(block[f"{seen}z_e_dot"][i]),
+            )  # fmt: skip
+            approach.update(meas)
+    return None
 
 
 def _complete_rows(spool: Path, shapes: dict[str, tuple[int, ...]]) -> int:

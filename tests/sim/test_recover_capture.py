@@ -95,3 +95,52 @@ def test_a_killed_capture_run_recovers_its_capture(tmp_path, monkeypatch, wheels
         assert mine["wheel_saturation_fraction"] is None or np.isnan(
             mine["wheel_saturation_fraction"]
         )
+
+
+def test_a_killed_approach_run_recovers_its_reference(tmp_path, monkeypatch):
+    """``capture-approach`` with wheels, killed after its grasp: the reference the controller
+    was given (the approach's, from the target sensor's seeded noise and the prediction) is
+    rebuilt from the rows and equals the finished run's to the rounding of the recorded
+    attitude quaternion; the task errors against it too; the capture keys and the whole
+    system's momentum bit for bit. Without the replay the recovered reference was the
+    ``[reference]``'s (the hand holding its place), centimetres off."""
+    monkeypatch.setattr(recorder, "CHUNK_BYTES", 2**16)
+    text = builtin_path("capture-approach").read_text() + WHEELS
+    cut = 5.0  # [s], after the grasp (4.86 s)
+    setup = _setup(text, cut + 0.2)
+    dest = tmp_path / "killed" / ".ffsm-spool-copy"
+    setup.controller = CopySpool(setup.controller, tmp_path, dest, cut)
+    simulate(setup, spool_dir=tmp_path)
+    (got,) = recover(dest.parent)
+    result = got.result
+    t_last = float(result["t"][-1])
+    full = simulate(_setup(text, t_last))
+    assert len(full["t"]) == len(result["t"])
+    mine, theirs = result.summary(), full.summary()
+    assert mine["captured"] and theirs["captured"]
+    for key in (*CAPTURE_KEYS, "drift_P", "drift_L"):
+        assert mine[key] == theirs[key], key
+    for key in ("q", "v", "P", "L", "target_pose", "target_twist", "wheel_momentum"):
+        np.testing.assert_array_equal(result[key], full[key], err_msg=key)
+    # (the error z_e - z_e_d rounds at the scale of z_e_d)
+    for key, scale in (("z_e_d", "z_e_d"), ("z_e_d_dot", "z_e_d_dot"), ("err_z", "z_e_d")):
+        assert np.isfinite(result[key]).all(), key
+        atol = 1e-13 * np.abs(full[scale]).max()
+        np.testing.assert_allclose(result[key], full[key], rtol=0, atol=atol, err_msg=key)
+    # the [reference]'s own (what the recovery gave before) is far from it
+    base = setup.scenario.reference
+    assert np.abs(np.asarray(base.ee_pose(t_last)) - full["z_e_d"][-1]).max() > 1e-2
+
+
+def test_an_approach_run_recorded_sparsely_has_no_reference(tmp_path, monkeypatch):
+    """Recorded every 2 periods, the sensor's delay buffer lacks its states: the recovered
+    reference is NaN, and an event of the result says why."""
+    monkeypatch.setattr(recorder, "CHUNK_BYTES", 2**14)
+    text = builtin_path("capture-approach").read_text()
+    setup = _setup(text, 0.6)
+    dest = tmp_path / "killed" / ".ffsm-spool-copy"
+    setup.controller = CopySpool(setup.controller, tmp_path, dest, 0.5)
+    simulate(setup, spool_dir=tmp_path, record_every=2)
+    (got,) = recover(dest.parent)
+    assert np.isnan(got.result["z_e_d"]).all()
+    assert any("every 2 periods" in e for e in got.result.events)
