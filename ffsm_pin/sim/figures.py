@@ -216,13 +216,40 @@ def _velocities(runs, labels, thresholds) -> Figure:
     return fig
 
 
+def truth_rows(run, name: str) -> np.ndarray:
+    """The true parameter ``name`` (``"theta_z"``, ``"theta_d"``, ``"theta_b"``) at each
+    recorded row: the robot's, and after a capture the merged robot's (``<name>_captured``,
+    docs/capture.md, "The true parameters after a capture").
+
+    Parameters
+    ----------
+    run : RunResult
+        The run.
+    name : str
+        The parameter vector.
+
+    Returns
+    -------
+    ndarray, shape (rows, n)
+        The truth per row.
+    """
+    t = np.asarray(run["t"])
+    truth = np.broadcast_to(np.asarray(run[name])[None, :], (len(t), len(run[name])))
+    capture = getattr(run, "capture", None)
+    time = None if capture is None else capture.time
+    if time is not None and f"{name}_captured" in run:
+        after = np.asarray(run[f"{name}_captured"])[None, :]
+        truth = np.where((t >= time)[:, None], after, truth)
+    return truth
+
+
 def _estimation(runs, labels, thresholds) -> Figure:
     fig, axes = _grid(5, "Estimation errors, filter error and control effort", runs)
     for k, (run, label) in enumerate(zip(runs, labels, strict=True)):
         t, color = run["t"], f"C{k}"
         for ax, name in zip(axes[:3], ("theta_b", "theta_z", "theta_d"), strict=True):
             if f"{name}_hat" in run:  # only controllers with estimates report them
-                err = np.linalg.norm(run[f"{name}_hat"] - run[name][None, :], axis=1)
+                err = np.linalg.norm(run[f"{name}_hat"] - truth_rows(run, name), axis=1)
                 _plot(ax, t, err, color=color, label=label)
         if "w_tilde" in run:
             _plot(axes[3], t, np.linalg.norm(run["w_tilde"], axis=1), color=color, label=label)

@@ -158,3 +158,23 @@ def test_true_estimates_get_the_systems_momenta_after_the_impact(grasp):
     ctrl2.on_capture(unknown)
     assert np.array_equal(ctrl2.law.theta_z[:m2], heads[0])
     assert np.array_equal(ctrl2.law.theta_b[:m3], heads[1])
+
+
+def test_the_estimation_figure_measures_against_the_truth_of_each_row():
+    """The figure's truth per row: the robot's before the grasp, the merged robot's from it on;
+    a run without a capture the robot's on every row."""
+    from ffsm_pin.sim.figures import truth_rows
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = simulate(prepare(_scenario(duration=3.2)))
+    t, t_c = np.asarray(result["t"]), result.capture.time
+    rows = truth_rows(result, "theta_d")
+    assert np.array_equal(rows[t < t_c], np.broadcast_to(result["theta_d"], rows[t < t_c].shape))
+    after = rows[t >= t_c]
+    assert len(after) and np.array_equal(
+        after, np.broadcast_to(result["theta_d_captured"], after.shape)
+    )
+    plain = simulate(prepare(dataclasses.replace(builtin_scenario("spatial"), duration=0.05)))
+    rows = truth_rows(plain, "theta_z")
+    assert np.array_equal(rows, np.broadcast_to(plain["theta_z"], rows.shape))
