@@ -95,8 +95,6 @@ class BaseWheelLaw:
 
     def __init__(self, wheels: Wheels, base_attitude, rate: float, law, dt: float) -> None:
         self.wheels = wheels
-        self.A = np.asarray(wheels.axes, dtype=float)
-        self.A_pinv = np.linalg.pinv(self.A)
         self.R_d = to_rotation(np.asarray(base_attitude, dtype=float))
         self.omega = float(rate)
         self.law = law
@@ -132,9 +130,10 @@ class BaseWheelLaw:
         H_bb = law.model.momentum_matrices(law.theta_b, q_b, np.asarray(meas.q_m, float))[0]
         I_bus = R.T @ np.asarray(H_bb, dtype=float) @ R  # Eq. (14)'s H_bb in the bus frame
         w = self.omega
-        tau = self.A_pinv @ (I_bus @ (w * w * phi + 2.0 * w * w_bus))
+        tau = self.wheels.allocation @ (I_bus @ (w * w * phi + 2.0 * w * w_bus))
         applied = self.wheels.limit(self.h, tau, self.dt)
         dh = applied * self.dt
-        law.theta_b[: law.m3] -= R @ (self.A @ dh)  # the robot's own momentum, Eq. (14)'s A_0
+        # the robot's own momentum, Eq. (14)'s A_0: less what the wheels store, R_b A dh
+        law.theta_b[: law.m3] -= R @ self.wheels.momentum_bus(dh)
         self.h = self.h + dh
         return tau

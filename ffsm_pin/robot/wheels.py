@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -226,6 +227,13 @@ class Wheels:
         """
         return np.asarray(h, float) / self.inertia - self.axes.T @ np.asarray(w_bus, float)
 
+    @cached_property
+    def allocation(self) -> np.ndarray:
+        """A^+ (k, 3): the least-norm wheel vector x with A x = v is ``allocation @ v`` (with
+        three independent axes the only one); :meth:`storing`'s and :meth:`attitude_pd`'s
+        allocation, computed once."""
+        return np.linalg.pinv(self.axes)
+
     def storing(self, momentum) -> np.ndarray:
         """The wheel momenta h = A^+ L that store the angular momentum L (bus frame): of the
         h with A h = L the one of least norm (with 3 independent axes the only one), the
@@ -241,7 +249,7 @@ class Wheels:
         ndarray, shape (k,)
             Wheel momenta [N m s].
         """
-        return np.linalg.pinv(self.axes) @ np.asarray(momentum, float)
+        return self.allocation @ np.asarray(momentum, float)
 
     def attitude_pd(self, rotation_error, w_bus) -> np.ndarray:
         """The ``"attitude-pd"`` command [N m]: the wheel torques whose reaction on the bus is
@@ -261,4 +269,4 @@ class Wheels:
             Commanded wheel torques [N m].
         """
         wanted = self.kp * np.asarray(rotation_error, float) + self.kd * np.asarray(w_bus, float)
-        return np.linalg.pinv(self.axes) @ wanted
+        return self.allocation @ wanted
