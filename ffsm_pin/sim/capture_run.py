@@ -212,8 +212,8 @@ class CaptureMotion(TargetMotion):
                 held = self.perturb(held)
         truth = self.truth
         theta_d_true = None if truth is None else truth.theta_d.copy()
-        known = truth is not None and self.estimates == "true"  # (the system's v_0, A_0)
-        momenta = truth.momenta if known and truth is not None else None
+        # "true": the controller is also told the system's v_0, A_0 after the impact
+        momenta = truth.momenta if truth is not None and self.estimates == "true" else None
         self.event = CaptureEvent(float(t), self.estimates, held, theta_d_true, momenta)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,
@@ -354,8 +354,7 @@ class CaptureMotion(TargetMotion):
                 P[held], L[held] = self.plant.momentum_rows(q[held], v[held])
         cap = self.capture
         for i in np.flatnonzero(~held):
-            pose, twist = block["target_pose"][i], block["target_twist"][i]
-            state = TargetState(pin.XYZQUATToSE3(pose), twist[:3], twist[3:])
+            state = TargetState.from_recorded(block["target_pose"][i], block["target_twist"][i])
             h = cap.momentum(*cap.joint_state(q[i], v[i], state))
             P[i], L[i] = h[:3], h[3:]
         return P, L

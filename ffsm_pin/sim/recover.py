@@ -21,12 +21,17 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
+
+from ..control.interface import Measurement
 from ..errors import FfsmError, ScenarioError, SimulationError
 from .files import pid_alive
 from .recorder import SPOOL_FORMAT, SPOOL_HEADER, SPOOL_PREFIX, Signals
 from .result import RunResult
 from .setup import Setup
+from .target import TargetState
 
 __all__ = ["Recovered", "find_spools", "recover", "replay_approach"]
 
@@ -167,14 +172,6 @@ def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> s
     str or None
         Why the reference could not be recovered (an event of the result), or None.
     """
-    from types import SimpleNamespace
-
-    import numpy as np
-    import pinocchio as pin
-
-    from ..control.interface import Measurement
-    from .target import TargetState
-
     approach = setup.approach
     assert approach is not None
     if record_every != 1:
@@ -193,8 +190,7 @@ def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> s
     for block in raw.blocks(keys):
         q_m = block["meas_q_m"] if seen else block["q"][:, nq_root:]
         for i, t in enumerate(block["t"]):
-            twist = block["target_twist"][i]
-            state = TargetState(pin.XYZQUATToSE3(block["target_pose"][i]), twist[:3], twist[3:])
+            state = TargetState.from_recorded(block["target_pose"][i], block["target_twist"][i])
             held = outcome is not None and t >= outcome.time
             row = SimpleNamespace(state=state, outcome=outcome if held else None)
             approach.motion = row  # type: ignore[assignment]  # (a TargetMotion's two fields)

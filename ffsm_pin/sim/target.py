@@ -311,6 +311,26 @@ class TargetState:
         return pin.SE3ToXYZQUAT(self.pose), np.concatenate((v_origin, w))
 
     @classmethod
+    def from_recorded(cls, pose, twist) -> TargetState:
+        """The state a run's row records (``target_pose``: position and quaternion x, y, z, w;
+        ``target_twist``: CoM velocity, then body rates; :class:`~.target_run.TargetMotion`).
+
+        Parameters
+        ----------
+        pose : array_like, shape (7,)
+            The row's ``target_pose``.
+        twist : array_like, shape (6,)
+            The row's ``target_twist``.
+
+        Returns
+        -------
+        TargetState
+            The state.
+        """
+        twist = np.asarray(twist, dtype=float)
+        return cls(pin.XYZQUATToSE3(np.asarray(pose, dtype=float)), twist[:3], twist[3:])
+
+    @classmethod
     def from_pinocchio(cls, target: Target, q, v) -> TargetState:
         """The inverse of :meth:`to_pinocchio`.
 

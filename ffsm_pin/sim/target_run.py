@@ -216,7 +216,7 @@ def target_summary(
     ``target_drift_P``: max |P - P0| of P = m v_com [kg m/s]; ``target_drift_L``: max |L - L0|
     of the angular momentum about the world origin, world frame, L = R I w + c x m v_com
     [kg m^2/s]; both over the recorded rows of the free target (every row, or those before
-    ``until``: once held, the hand changes its momentum).
+    the capture: once held, the hand changes its momentum).
 
     Parameters
     ----------
