@@ -15,20 +15,17 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
+from capture_grasp import capture_scenario, grasp_at_half_a_second
 
 from ffsm_pin.control.adaptive_ct import AdaptiveComputedTorque
 from ffsm_pin.control.gjm_ct import GjmComputedTorque
 from ffsm_pin.control.held_body import CaptureEvent, held_body_increment
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.scenario.file import builtin_scenario
-from ffsm_pin.scenario.spec import Estimates
-from ffsm_pin.scenario.target_spec import CaptureSpec
-from ffsm_pin.sim.capture_run import CaptureMotion, held_body_estimate
+from ffsm_pin.sim.capture_run import held_body_estimate
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.measurement import Sensor
-from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.setup import prepare
-from ffsm_pin.sim.target import TargetState
 
 CONTROLLERS = {
     "lu-jia": LuJiaController,
@@ -37,42 +34,11 @@ CONTROLLERS = {
 }
 
 
-def _scenario(estimates: str = "true", initial: str = "true", duration: float = 0.1):
-    sc = builtin_scenario("capture")
-    capture = dataclasses.replace(sc.target.capture, estimates=estimates)
-    controller = dataclasses.replace(sc.controller, estimates=Estimates(initial=initial))
-    return dataclasses.replace(
-        sc, duration=duration, controller=controller,
-        target=dataclasses.replace(sc.target, capture=capture),
-    )  # fmt: skip
-
-
 @pytest.fixture(scope="module")
 def grasp():
-    """The capture case's robot (exact estimates) grasping its box at t = 0.5 s, arm moving,
-    the frames 4 mm and 1.5 degrees apart: the setup, the capture hook after the grasp, the
-    merged robot and its state after the impact."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        setup = prepare(_scenario())
-    robot, target = setup.robot, setup.target
-    rng = np.random.default_rng(4)
-    q, v = setup.q0.copy(), setup.v0.copy()
-    v[6:] = 0.05 * rng.standard_normal(robot.model.nv - 6)
-    data = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, data, q)
-    offset = pin.SE3(pin.exp3(np.array([0.01, -0.02, 0.015])), np.array([0.002, -0.001, 0.003]))
-    pose = data.oMf[robot.ee_frame_id] * offset * target.grasp.inverse()
-    state = TargetState(pose, np.array([0.004, -0.003, 0.002]), np.array([0.03, 0.01, -0.02]))
-    motion = CaptureMotion(
-        target, state, robot, CaptureSpec(0.01, 0.1, estimates="true"),
-        perturb=lambda held: held_body_estimate(held, setup),
-    )  # fmt: skip
-    plant = Plant(robot, integrator="rk4")
-    plant.reset(q, v)
-    sensor = Sensor(robot, setup.model, full_model=False)
-    new_plant, _, v_new = motion.at_period(0.5, q, v, plant, sensor)
-    return setup, motion, new_plant.robot, q, v_new
+    """The capture case's robot (exact estimates) grasping its box at t = 0.5 s
+    (capture_grasp.py), its hook not given the run's truths."""
+    return grasp_at_half_a_second(4, truths=False)
 
 
 def _model_errors(ctx, state, merged, q, v):
@@ -92,7 +58,7 @@ def test_true_estimates_give_the_merged_robots_model(grasp, kind):
     """Exact estimates, the hook with the held body's true inertia: the controller's M, C w,
     H_bb, H_bm equal the merged robot's within 1e-10 relative (measured ~1e-15); before the
     hook they miss the box by more than 1 %."""
-    setup, motion, merged, q, v = grasp
+    setup, motion, merged, q, v, _ = grasp
     ctx = setup.controller.context
     ctrl = CONTROLLERS[kind](ctx, backend="numpy")
     state = ctrl.law.state if kind == "lu-jia" else ctrl.state
@@ -111,7 +77,7 @@ def test_the_compiled_period_sees_the_update(grasp, kind):
     """After the hook the compiled period and the numpy reference give the same torque (the
     estimates live in the state arrays the kernels read), and a different one from a
     controller not told of the box."""
-    setup, motion, merged, q, v = grasp
+    setup, motion, merged, q, v, _ = grasp
     ctx = setup.controller.context
     event = motion.event
     meas = Sensor(merged, ctx.model, full_model=True).measure(0.5, q, v)
@@ -131,7 +97,7 @@ def test_unknown_tells_nothing_and_perturbed_is_seeded(grasp):
     drawn by the [controller.estimates] rule, the same draw twice, a mass within the spread
     and not the true one; its increment moves the parameters less than the true one's does
     by the mass ratio's order."""
-    setup, motion, _, _, _ = grasp
+    setup, motion, *_ = grasp
     ctx = setup.controller.context
     ctrl = GjmComputedTorque(ctx, backend="numpy")
     before = [x.copy() for x in ctrl.state]
@@ -157,7 +123,7 @@ def test_in_a_run_the_estimates_jump_by_the_held_body_at_the_grasp():
     for est in ("unknown", "true"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            setup = prepare(_scenario(est, initial="perturbed", duration=3.2))
+            setup = prepare(capture_scenario(est, initial="perturbed", duration=3.2))
         runs[est] = (setup, simulate(setup))
     (setup, a), (_, b) = runs["unknown"], runs["true"]
     t_c = b.capture.time

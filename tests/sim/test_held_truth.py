@@ -10,61 +10,23 @@ import dataclasses
 import warnings
 
 import numpy as np
-import pinocchio as pin
 import pytest
+from capture_grasp import capture_scenario, grasp_at_half_a_second
 
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.model import make_model
 from ffsm_pin.scenario.file import builtin_scenario
-from ffsm_pin.scenario.spec import Estimates
-from ffsm_pin.scenario.target_spec import CaptureSpec
-from ffsm_pin.sim.capture_run import CaptureMotion, held_body_estimate
 from ffsm_pin.sim.held_truth import HELD_TRUTH_KEYS
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.measurement import Sensor
-from ffsm_pin.sim.plant import Plant
 from ffsm_pin.sim.setup import prepare
-from ffsm_pin.sim.target import TargetState
-
-
-def _scenario(estimates: str = "true", initial: str = "true", duration: float = 0.1):
-    sc = builtin_scenario("capture")
-    capture = dataclasses.replace(sc.target.capture, estimates=estimates)
-    controller = dataclasses.replace(sc.controller, estimates=Estimates(initial=initial))
-    return dataclasses.replace(
-        sc, duration=duration, controller=controller,
-        target=dataclasses.replace(sc.target, capture=capture),
-    )  # fmt: skip
 
 
 @pytest.fixture(scope="module")
 def grasp():
-    """The capture case's robot grasping its box at t = 0.5 s (arm and box moving, the frames
-    a few mm apart): the setup, the capture hook after the grasp, the merged robot, the
-    state after the impact and the whole system's (P, L) before it."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        setup = prepare(_scenario())
-    robot, target = setup.robot, setup.target
-    rng = np.random.default_rng(7)
-    q, v = setup.q0.copy(), setup.v0.copy()
-    v[6:] = 0.05 * rng.standard_normal(robot.model.nv - 6)
-    data = robot.model.createData()
-    pin.framesForwardKinematics(robot.model, data, q)
-    offset = pin.SE3(pin.exp3(np.array([0.01, -0.02, 0.015])), np.array([0.002, -0.001, 0.003]))
-    pose = data.oMf[robot.ee_frame_id] * offset * target.grasp.inverse()
-    state = TargetState(pose, np.array([0.004, -0.003, 0.002]), np.array([0.03, 0.01, -0.02]))
-    motion = CaptureMotion(
-        target, state, robot, CaptureSpec(0.01, 0.1, estimates="true"),
-        perturb=lambda held: held_body_estimate(held, setup), setup=setup,
-    )  # fmt: skip
-    cap = motion.capture
-    before = cap.momentum(*cap.joint_state(q, v, state))  # (P, L) of robot and target
-    plant = Plant(robot, integrator="rk4")
-    plant.reset(q, v)
-    sensor = Sensor(robot, setup.model, full_model=False)
-    new_plant, _, v_new = motion.at_period(0.5, q, v, plant, sensor)
-    return setup, motion, new_plant.robot, q, v_new, before
+    """The capture case's robot grasping its box at t = 0.5 s (capture_grasp.py), its hook
+    given the run (the truths after the grasp)."""
+    return grasp_at_half_a_second(7, truths=True)
 
 
 def test_the_truth_after_a_capture_is_the_merged_robots(grasp):
@@ -121,7 +83,7 @@ def test_a_run_records_the_truth_after_the_capture_and_judges_its_estimates_by_i
     (the body's increment, within the adaptation's one-period step)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = simulate(prepare(_scenario(duration=3.3)))
+        result = simulate(prepare(capture_scenario(duration=3.3)))
     summary, s = result.summary(), result.signals
     assert summary["captured"]
     for key in HELD_TRUTH_KEYS:
@@ -167,7 +129,7 @@ def test_the_estimation_figure_measures_against_the_truth_of_each_row():
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = simulate(prepare(_scenario(duration=3.2)))
+        result = simulate(prepare(capture_scenario(duration=3.2)))
     t, t_c = np.asarray(result["t"]), result.capture.time
     rows = truth_rows(result, "theta_d")
     assert np.array_equal(rows[t < t_c], np.broadcast_to(result["theta_d"], rows[t < t_c].shape))
