@@ -140,6 +140,22 @@ class CompiledPeriod:
         if law is not None:
             law.theta_d_true[:] = theta_d_true
 
+    def release_attitude(self) -> None:
+        """From now on the arm no longer regulates the base attitude: the kinematic law is
+        Eq. (81) (the scheme ``"no-attitude"``'s, w_mc = J_m-hat^+ (target - J_b-hat w_b),
+        the base's rate a measured input), for both backends. For a bus whose attitude
+        another actuator takes over: lu-jia's wheels after a capture (docs/capture.md, "The
+        paper's controller with the wheels"). The base funnel is no longer evaluated by the
+        law (its error is still returned and recorded); a null-space term, defined for
+        Eq. (36) only, no longer acts.
+        """
+        self.kinematic.attitude = False
+        law = getattr(self, "_law", None)  # (the compiled bundle, once prepared)
+        if law is not None:
+            self._law = law._replace(attitude=False)
+            geo, _, ref = self._fields
+            self._fields = (geo, law_fields(self._law), ref)
+
     def _require_truth(self) -> None:
         """Refuse a row without the true theta_d (its e of Eq. 54 needs it)."""
         if self.theta_d_true is None:

@@ -351,7 +351,7 @@ class CoordinatedController(CompiledPeriod, CompiledController):
             self.kinematic.q_bd = q_bd
         # (the warning points at the caller of step / step_row)
         self._watch.update(t, kc.sigma_min, kc.damping, stacklevel=3)
-        if self.scheme != "no-attitude" and not kc.H_bm_norm > 1e-9:
+        if self.kinematic.attitude and not kc.H_bm_norm > 1e-9:  # (Eq. 81: no H_bm-hat)
             raise collapse_stop(t, kc.H_bm_norm)
 
         # 3. dynamic level, Eqs. (46), (50)-(52), (60)-(64)

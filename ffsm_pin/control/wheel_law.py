@@ -2,8 +2,11 @@
 the paper's: docs/capture.md, "The paper's controller with the wheels").
 
 ``[controller.params] wheels = "after-capture"`` gives ``lu-jia`` the optional
-``wheel_torque(meas)`` output (docs/controllers.md): zero until the grasp, then the wheel
-torques whose reaction turns the bus back to ``reference.base_attitude``:
+``wheel_torque(meas)`` output (docs/controllers.md): zero until the grasp, then the wheels take
+the bus attitude from the arm. At the grasp the law lets the base attitude go (Eq. 81, the
+scheme "no-attitude"'s kinematic law: ``CompiledPeriod.release_attitude``), so that the arm
+serves the hand's task alone and comes to rest relative to the bus once the wheels hold the
+bus (the detumble); the wheel torques turn the bus back to ``reference.base_attitude``:
 
     tau_w = A^+ I_b (omega^2 phi + 2 omega w_b),
 
@@ -103,8 +106,11 @@ class BaseWheelLaw:
         self.active = False  # from the grasp on
 
     def start(self) -> None:
-        """Act from now on (the loop's capture hook, at the grasp)."""
+        """Act from now on (the loop's capture hook, at the grasp): the wheels take the bus
+        attitude and the arm lets it go (:meth:`~.compiled_period.CompiledPeriod.release_attitude`,
+        Eq. 81)."""
         self.active = True
+        self.law.release_attitude()
 
     def torque(self, meas: Measurement) -> np.ndarray:
         """The period's wheel torques [N m] (zero before the grasp); moves A_0-hat by the

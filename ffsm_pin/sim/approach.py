@@ -198,8 +198,9 @@ class Approach:
 
     Parameters
     ----------
-    spec : ApproachSpec
-        The ``[approach]`` table.
+    spec : ApproachSpec or None
+        The ``[approach]`` table; None for a ``[capture]`` without one: the scenario's
+        reference until the grasp, then the post-capture hold (:func:`approach_of`).
     reference : Reference
         The scenario's reference, resolved (absolute): where the blend starts from; its base
         attitude is kept.
@@ -215,7 +216,7 @@ class Approach:
 
     def __init__(
         self,
-        spec: ApproachSpec,
+        spec: ApproachSpec | None,
         reference: Reference,
         target: Target,
         dt: float,
@@ -234,7 +235,7 @@ class Approach:
         assert self._table.shape == (1 + 6 * n, 3)
         steps = int(round(duration / dt)) + 1
         self.log = np.full((steps, 3, n), np.nan)  # per control period: z_d, dz_d, ddz_d
-        self.sensor = TargetSensor(spec)
+        self.sensor = None if spec is None else TargetSensor(spec)
         self.motion = None  # the loop's target (sim.target_run.TargetMotion), see follow()
         self.bus: BusHold | None = None  # the post-capture hold in the bus frame, see follow()
         self._hold: tuple[float, np.ndarray, np.ndarray] | None = None  # t, p, v at capture
@@ -280,7 +281,7 @@ class Approach:
         z, dz, ddz : ndarray, shape (3,)
             [m], [m/s], [m/s^2].
         """
-        assert self.motion is not None
+        assert self.motion is not None and self.sensor is not None
         seen = self.sensor.observe(self.motion.state)
         state = predict(self.target, seen, len(self.sensor.buffer) - 1, self.dt)
         p, v, a = grasp_motion(self.target, state)
@@ -304,6 +305,8 @@ class Approach:
         outcome = getattr(self.motion, "outcome", None)
         if self.motion is None:
             z, dz, ddz = r, dr, ddr
+        elif self.spec is None and (outcome is None or not outcome.captured):
+            z, dz, ddz = r, dr, ddr  # no [approach]: the scenario's reference until the grasp
         elif outcome is not None and outcome.captured and self.bus is not None:
             z, dz, ddz = self.bus.reference(meas)  # the hand held fixed in the bus frame
         elif outcome is not None and outcome.captured:
@@ -316,6 +319,7 @@ class Approach:
             dz, ddz = v0 * decay, -v0 * decay / HOLD_TIME
         else:
             g, dg, ddg = self.target_reference(meas)
+            assert self.spec is not None
             s, ds, dds = blend(t, self.spec.time)
             z = r + s * (g - r)
             dz = dr + ds * (g - r) + s * (dg - dr)
@@ -371,12 +375,18 @@ def approach_of(scenario: Scenario, reference: Reference, target: Target | None)
     Returns
     -------
     approach : Approach or None
-        None without ``[approach]``.
+        None without ``[approach]``, unless a ``[capture]`` of a ``"position"`` task: then
+        the approach without one (the reference, then the hold in the bus frame).
     scenario : Scenario
         ``scenario`` with the approach's reference (itself without ``[approach]``).
     """
     spec = scenario.target
-    if spec is None or spec.approach is None or target is None:
+    if spec is None or target is None:
+        return None, scenario
+    # without [approach], a [capture] of a position task still gets the post-capture hold in
+    # the bus frame: the scenario's reference until the grasp (docs/capture.md)
+    hold_only = spec.capture is not None and reference.task == "position"
+    if spec.approach is None and not hold_only:
         return None, scenario
     hand = (0.0, 0.0, 0.0) if spec.capture is None else spec.capture.hand_xyz
     approach = Approach(spec.approach, reference, target, scenario.dt, scenario.duration, hand)

@@ -22,9 +22,15 @@ LU_JIA_GAINS = ("k_b", "k_z", "k_de", "k_d", "gamma_1", "gamma_2", "gamma_3")
 # stops (adaptation = "physical" keeps it physical but the hand then leaves its funnel at about
 # 6.9 s). The case ships gains of 0.1, as `capture` does (docs/capture.md). Strict: a change
 # that makes the defaults hold here shows as a pass to turn into a plain case.
+# `capture` with the defaults and its unknown box: the hand, held in the bus frame after the
+# grasp, touches its position funnel for one recorded row at 5.39 s (by 0.1 mm of 18 mm; the
+# inertial hold of before kept it). Every row is recorded here: a sampled recording (every
+# 50th row, as this test had) missed that row.
 _DEFAULTS_FAIL = {
     "capture-approach": "default adaptation gains drive theta_d-hat out of the physical set "
-    "after the capture (docs/capture.md)"
+    "after the capture (docs/capture.md)",
+    "capture": "default adaptation gains with an unknown box: the position funnel touched for "
+    "one row after the grasp (docs/capture.md)",
 }
 _CASES = [
     pytest.param(n, marks=pytest.mark.xfail(reason=_DEFAULTS_FAIL[n], strict=True))
@@ -48,7 +54,7 @@ def test_omitted_gains_keep_the_shipped_funnels(name):
     c, perf = sc.controller, sc.performance
     m3 = len(perf.funnel_b.rho0)
     assert step_problems(c.lu_jia.gains, perf.funnel_b, perf.funnel_z, sc.dt, m3) == []
-    run = simulate(prepare(sc), record_every=50)
+    run = simulate(prepare(sc))  # every row: a funnel touched for one row counts
     assert run.stop_cause is None
     summary = run.summary()
     if c.scheme in ("ppc", "known-model"):
