@@ -52,9 +52,10 @@ class CaptureEvent:
         the context's ``truth`` before the capture (whatever ``estimates`` says); None: not
         given.
     momenta : tuple of ndarray or None
-        ``"true"``: (v_0 [m/s], A_0 [kg m^2/s]), the whole system's CoM velocity and angular
-        momentum about its CoM just after the impact (the heads of theta_z and theta_b,
-        Eqs. 4, 14); None otherwise (a drawn body's momenta are left to the adaptation).
+        (v_0 [m/s], A_0 [kg m^2/s]), the whole system's CoM velocity and angular momentum
+        about its CoM just after the impact (the heads of theta_z and theta_b, Eqs. 4, 14):
+        with ``"true"`` the true ones, with ``"perturbed"`` those with the drawn body in the
+        hand; None with ``"unknown"`` (left to the adaptation).
     """
 
     time: float
@@ -118,7 +119,8 @@ def held_body_increment(robot: Robot, model: ReducedModel, held: pin.Inertia) ->
 def join_held_body(ctx: ControllerContext, state, event: CaptureEvent, events: list) -> bool:
     """Add the held body of ``event`` to the estimates in ``state`` in place: V_k in
     theta_z-hat's tail, theta_d in theta_d-hat and in theta_b-hat's tail; with the event's
-    ``momenta`` (``"true"``), v_0 and A_0 in their heads (otherwise left to the adaptation).
+    ``momenta`` (``"true"``, ``"perturbed"``), v_0 and A_0 in their heads (otherwise left to
+    the adaptation).
     Nothing with ``"unknown"``.
 
     Parameters

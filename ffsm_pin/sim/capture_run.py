@@ -30,7 +30,7 @@ from ..control.held_body import CaptureEvent
 from ..scenario.target_spec import CaptureSpec
 from ._docs import SIM_DOC
 from .estimates import body_inertias, perturb_body
-from .held_truth import HeldTruth, held_truth
+from .held_truth import HeldTruth, held_truth, momenta_holding
 from .impact import CaptureModel, CaptureTolerances, capture_model, impact, merge_after_capture
 from .measurement import Sensor
 from .plant import Plant
@@ -212,8 +212,13 @@ class CaptureMotion(TargetMotion):
                 held = self.perturb(held)
         truth = self.truth
         theta_d_true = None if truth is None else truth.theta_d.copy()
-        # "true": the controller is also told the system's v_0, A_0 after the impact
-        momenta = truth.momenta if truth is not None and self.estimates == "true" else None
+        # the controller is also told the system's v_0, A_0 after the impact: with "true" the
+        # truth's, with "perturbed" those of the robot holding the drawn body
+        momenta = None
+        if truth is not None and self.estimates == "true":
+            momenta = truth.momenta
+        elif held is not None and self.estimates == "perturbed":
+            momenta = momenta_holding(cap.robot, held, q_new, v_new)
         self.event = CaptureEvent(float(t), self.estimates, held, theta_d_true, momenta)
         self.outcome = CaptureOutcome(
             True, float(t), tuple(float(x) for x in hit.impulse), speed, distance,

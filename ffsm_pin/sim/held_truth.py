@@ -163,3 +163,34 @@ def held_truth(setup: Setup, held: pin.Inertia, merged: Robot, q, v) -> HeldTrut
     v0 = np.asarray(st.com_velocity, dtype=float).reshape(model.m2)
     A0 = np.asarray(st.angular_momentum, dtype=float).reshape(model.m3)
     return HeldTruth(np.concatenate((v0, V)), theta_d, np.concatenate((A0, theta_d)), model.m2)
+
+
+def momenta_holding(robot: Robot, held: pin.Inertia, q, v) -> tuple[np.ndarray, np.ndarray]:
+    """The whole system's (v_0, A_0) of ``robot`` holding ``held`` at (q, v): what the
+    estimates' heads are set to at a grasp with ``[capture] estimates = "perturbed"`` (the
+    drawn body in the hand, the true state; docs/capture.md). With the true held body it is
+    the :class:`HeldTruth`'s :attr:`~HeldTruth.momenta`.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot before the capture (free-flyer root).
+    held : pin.Inertia
+        The held body in the end-effector frame.
+    q, v : array_like
+        The robot's configuration and velocity after the impact (Pinocchio convention).
+
+    Returns
+    -------
+    v_0 : ndarray, shape (3,)
+        The CoM velocity [m/s].
+    A_0 : ndarray, shape (3,)
+        The angular momentum about the CoM, world frame [kg m^2/s] (Eq. 14's head).
+    """
+    model = pin.Model(robot.model)
+    frame = model.frames[robot.ee_frame_id]
+    model.appendBodyToJoint(int(frame.parentJoint), held, frame.placement)
+    data = model.createData()
+    hg = pin.computeCentroidalMomentum(model, data, np.asarray(q, float), np.asarray(v, float))
+    mass = float(data.mass[0])
+    return np.array(hg.linear) / mass, np.array(hg.angular)

@@ -44,10 +44,11 @@ class Grasp(NamedTuple):
     before: np.ndarray
 
 
-def grasp_at_half_a_second(seed: int, *, truths: bool) -> Grasp:
+def grasp_at_half_a_second(seed: int, *, truths: bool, estimates: str = "true") -> Grasp:
     """The capture case's robot (exact estimates) grasping its box at t = 0.5 s, the arm's
     joints turning at random rates (``seed``), the grasp frames 4 mm and 1.5 degrees apart,
-    the box moving; ``truths``: the hook is given the run (the truths after the grasp)."""
+    the box moving; ``truths``: the hook is given the run (the truths after the grasp);
+    ``estimates``: the hook's ``[capture] estimates``."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         setup = prepare(capture_scenario())
@@ -61,7 +62,7 @@ def grasp_at_half_a_second(seed: int, *, truths: bool) -> Grasp:
     pose = data.oMf[robot.ee_frame_id] * offset * target.grasp.inverse()
     state = TargetState(pose, np.array([0.004, -0.003, 0.002]), np.array([0.03, 0.01, -0.02]))
     motion = CaptureMotion(
-        target, state, robot, CaptureSpec(0.01, 0.1, estimates="true"),
+        target, state, robot, CaptureSpec(0.01, 0.1, estimates=estimates),
         perturb=lambda held: held_body_estimate(held, setup), setup=setup if truths else None,
     )  # fmt: skip
     cap = motion.capture

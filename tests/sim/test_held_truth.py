@@ -10,13 +10,14 @@ import dataclasses
 import warnings
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from capture_grasp import capture_scenario, grasp_at_half_a_second
 
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.model import make_model
 from ffsm_pin.scenario.file import builtin_scenario
-from ffsm_pin.sim.held_truth import HELD_TRUTH_KEYS
+from ffsm_pin.sim.held_truth import HELD_TRUTH_KEYS, momenta_holding
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.measurement import Sensor
 from ffsm_pin.sim.setup import prepare
@@ -120,6 +121,44 @@ def test_true_estimates_get_the_systems_momenta_after_the_impact(grasp):
     ctrl2.on_capture(unknown)
     assert np.array_equal(ctrl2.law.theta_z[:m2], heads[0])
     assert np.array_equal(ctrl2.law.theta_b[:m3], heads[1])
+
+
+def test_perturbed_estimates_get_the_momenta_of_the_drawn_body_in_the_hand(grasp):
+    """With "perturbed" the event's v_0 and A_0 are the whole system's with the drawn body in
+    the hand instead of the true one: from the truth's (P, L about the CoM) by taking the true
+    body's momentum out and the drawn body's in (each I_b times the hand's twist, moved to the
+    world origin; the CoM moved by the masses), 1e-12 relative; with the true body the same
+    function gives the truth's momenta."""
+    setup, motion, merged, q, v, _ = grasp
+    truth = motion.truth
+    robot = setup.robot
+    v0, A0 = momenta_holding(robot, motion.held, q, v)
+    assert np.abs(v0 - truth.momenta[0]).max() < 1e-12 * np.abs(v0).max()
+    assert np.abs(A0 - truth.momenta[1]).max() < 1e-12 * np.abs(A0).max()
+
+    drawn = grasp_at_half_a_second(7, truths=True, estimates="perturbed")
+    event = drawn.motion.event
+    assert event is not None and event.momenta is not None and event.held is not None
+    assert abs(event.held.mass - motion.held.mass) > 1e-3 * motion.held.mass  # (drawn)
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, drawn.q, drawn.v)
+    fid = robot.ee_frame_id
+    pin.updateFramePlacements(robot.model, data)
+    oMf = data.oMf[fid]
+    twist = pin.getFrameVelocity(robot.model, data, fid, pin.LOCAL)
+    mass = sum(inertia.mass for inertia in drawn.merged.model.inertias)
+    P_true = mass * drawn.motion.truth.momenta[0]
+    c_true = pin.centerOfMass(drawn.merged.model, drawn.merged.model.createData(), drawn.q)
+    L_origin = drawn.motion.truth.momenta[1] + np.cross(c_true, P_true)
+    P, L, m, mc = P_true.copy(), L_origin.copy(), mass, mass * c_true
+    for body, sign in ((drawn.motion.held, -1.0), (event.held, 1.0)):
+        h = oMf.act(body * twist)  # the body's momentum at the world origin, world axes
+        P, L = P + sign * h.linear, L + sign * h.angular
+        m, mc = m + sign * body.mass, mc + sign * body.mass * (oMf * body.lever)
+    v0_want, A0_want = P / m, L - np.cross(mc / m, P)
+    assert np.abs(event.momenta[0] - v0_want).max() < 1e-12 * np.abs(v0_want).max()
+    assert np.abs(event.momenta[1] - A0_want).max() < 1e-12 * np.abs(A0_want).max()
+    assert np.abs(A0_want - drawn.motion.truth.momenta[1]).max() > 1e-6 * np.abs(A0_want).max()
 
 
 def test_the_estimation_figure_measures_against_the_truth_of_each_row():
