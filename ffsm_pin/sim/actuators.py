@@ -15,6 +15,8 @@ See docs/controllers.md, "Actuators".
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..errors import ParameterError, ScenarioError, expected_count
@@ -205,6 +207,34 @@ class Actuators:
         """Per joint, the share of ``periods`` control periods it spent at its torque limit
         (counted by :meth:`apply`)."""
         return (self.saturated_periods / max(periods, 1)).tolist()
+
+    def saturation_of_rows(self, blocks: Callable) -> tuple[float, list[float]]:
+        """The saturation fraction and its share per joint from recorded applied torques (a
+        recovered run): a row counts when a joint is at its limit, the test of :meth:`apply`,
+        so the fractions are the loop's when every period was recorded (a sample of the
+        periods otherwise).
+
+        Parameters
+        ----------
+        blocks : callable
+            keys -> iterator of row blocks (``Signals.blocks``) with ``u_m``.
+
+        Returns
+        -------
+        fraction : float
+            Rows with some joint at its limit, over the rows (NaN without rows).
+        per_joint : list of float
+            Per joint, rows at its limit over the rows.
+        """
+        rows, any_at, per_joint = 0, 0, np.zeros(self.n, dtype=np.int64)
+        for b in blocks(["u_m"]):
+            at = np.abs(b["u_m"]) >= self.limit
+            any_at += int(np.count_nonzero(at.any(axis=1)))
+            per_joint += np.count_nonzero(at, axis=0)
+            rows += len(at)
+        if not rows:
+            return float("nan"), [float("nan")] * self.n
+        return any_at / rows, (per_joint / rows).tolist()
 
     def saturated(self, u_m: np.ndarray) -> bool:
         """Some joint's applied torque is at its limit."""

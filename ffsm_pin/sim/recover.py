@@ -126,6 +126,11 @@ def _recover(spool: Path) -> Recovered:
         approach_note = replay_approach(setup, raw, capture, int(header.get("record_every", 1)))
     signals = system_signals(setup, raw, capture, wheels)
     t_last = float(signals["t"][-1]) if rows else 0.0
+    actuators = setup.actuators  # the joints' saturation from the recorded applied torques
+    n = setup.model.n_joints
+    saturation, per_joint = (
+        (0.0, [0.0] * n) if actuators is None else actuators.saturation_of_rows(raw.blocks)
+    )
     reason = (
         f"recovered from the spool of a run that ended without writing its files (process "
         f"{pid}, started {header.get('started', '?')}); its last row on disk: t = {t_last:.4f} s"
@@ -137,7 +142,8 @@ def _recover(spool: Path) -> Recovered:
         wall_time_s=0.0,
         **stop_outcome(SimulationError(reason, time=t_last, cause="recovered")),
         events=list(setup.events),
-        saturation_fraction=math.nan,  # counted by the loop, not recorded
+        saturation_fraction=saturation,
+        saturation_per_joint=per_joint,
         capture=None if capture is None else capture.outcome,
         outcomes=system_outcomes(signals, capture, wheels, None),
     )

@@ -74,8 +74,9 @@ def system_outcomes(
     wheels : WheelsInLoop or None
         The run's wheels.
     periods : int or None
-        Control periods run, for the wheels' saturation fraction; None: not known (a
-        recovered run: the commands are not recorded), NaN.
+        Control periods run, for the wheels' saturation fraction; None: a recovered run,
+        whose fraction is read from the recorded torques and commands (NaN for a recording
+        without the commands).
 
     Returns
     -------
@@ -84,11 +85,12 @@ def system_outcomes(
     """
     out: tuple = ()
     if wheels is not None:
-        out += (
-            wheels.outcome(periods)
-            if periods is not None
-            else WheelsOutcome(float("nan"), wheels.wheels),
-        )
+        if periods is not None:
+            out += (wheels.outcome(periods),)
+        elif "wheel_torque_cmd" in signals:
+            out += (wheels.recorded_outcome(signals.blocks),)
+        else:
+            out += (WheelsOutcome(float("nan"), wheels.wheels),)
     held = None if capture is None else capture.truth
     if held is not None:  # the final estimate errors against the merged robot's
         out += (held.outcome(signals),)

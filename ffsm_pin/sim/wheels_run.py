@@ -32,8 +32,8 @@ from .setup import Setup
 from .wheels import WheeledPlant
 
 #: The per-step columns of a run with wheels (each (N,), one per wheel): h [N m s], the
-#: spin relative to the bus [rad/s] and the motor torque applied [N m].
-WHEEL_COLUMNS = ("wheel_momentum", "wheel_speed", "wheel_torque")
+#: spin relative to the bus [rad/s], the motor torque applied and the torque commanded [N m].
+WHEEL_COLUMNS = ("wheel_momentum", "wheel_speed", "wheel_torque", "wheel_torque_cmd")
 
 MomentumRows = Callable[[Mapping[str, np.ndarray]], tuple[np.ndarray, np.ndarray]]
 
@@ -253,7 +253,8 @@ class WheelsInLoop:
         return wheeled.plant.acceleration(q, v, u_m, base_wrench=np.r_[np.zeros(3), torque])
 
     def write(self, columns: Mapping[str, np.ndarray], i: int, v) -> None:
-        """Record the period's row ``i``: h and the spin rates at its start, the torque applied.
+        """Record the period's row ``i``: h and the spin rates at its start, the torque applied
+        and the torque commanded.
 
         Parameters
         ----------
@@ -268,6 +269,7 @@ class WheelsInLoop:
         columns["wheel_momentum"][i] = h
         columns["wheel_speed"][i] = self.wheels.spin_rates(h, self.wheeled.bus_rate(v))
         columns["wheel_torque"][i] = tau
+        columns["wheel_torque_cmd"][i] = self.tau_cmd
 
     def total_momentum_rows(self, robot_rows: MomentumRows | None) -> MomentumRows:
         """The recorded (P, L) of robot (and target) plus wheels: L + R_b A h per row.
@@ -310,6 +312,28 @@ class WheelsInLoop:
             The saturation fraction.
         """
         return WheelsOutcome(self.saturated / max(1, periods), self.wheels)
+
+    def recorded_outcome(self, blocks: Callable) -> WheelsOutcome:
+        """The summary's wheel keys from recorded rows (a recovered run): the fraction of rows
+        whose applied torque differs from the command, :meth:`outcome`'s count when every
+        period was recorded (a sample of the periods otherwise).
+
+        Parameters
+        ----------
+        blocks : callable
+            keys -> iterator of row blocks (``Signals.blocks``) with ``wheel_torque`` and
+            ``wheel_torque_cmd``.
+
+        Returns
+        -------
+        WheelsOutcome
+            The saturation fraction (NaN without rows).
+        """
+        cut = rows = 0
+        for b in blocks(["wheel_torque", "wheel_torque_cmd"]):
+            cut += int(np.count_nonzero((b["wheel_torque"] != b["wheel_torque_cmd"]).any(axis=1)))
+            rows += len(b["wheel_torque"])
+        return WheelsOutcome(cut / rows if rows else float("nan"), self.wheels)
 
 
 @fill_doc(SIM_DOC)

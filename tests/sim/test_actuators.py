@@ -44,6 +44,23 @@ def test_limits_hold_and_the_saturation_fraction_is_what_the_rows_show():
     assert np.array_equal(u_m, np.clip(u_cmd, -limit, limit))
 
 
+def test_a_recovery_reads_the_saturation_from_the_rows_as_the_loop_counts_it():
+    """``Actuators.saturation_of_rows`` (what ``--recover`` reports) on a run's recorded
+    ``u_m``: the loop's ``saturation_fraction`` and ``saturation_per_joint``, exactly, with
+    the limit cutting in some periods and not in all; NaN without rows."""
+    sc = builtin_scenario("case1")
+    spec = ActuatorSpec(torque_limit=(10.0, 8.0, 5.0, 3.0))
+    setup = prepare(dataclasses.replace(sc, duration=0.5, actuators=spec))
+    res = simulate(setup)
+    s = res.summary()
+    assert 0.0 < s["saturation_fraction"] < 1.0
+    fraction, per_joint = setup.actuators.saturation_of_rows(res.signals.blocks)
+    assert fraction == s["saturation_fraction"]
+    assert per_joint == s["saturation_per_joint"]
+    empty = setup.actuators.saturation_of_rows(lambda keys: iter(()))
+    assert np.isnan(empty[0]) and np.isnan(empty[1]).all()
+
+
 def test_urdf_limits_equal_the_same_numbers_given_explicitly():
     """planar5's URDF gives every joint <limit effort="1000">: "urdf" = 1000 N m each."""
     a = _run("planar5", 0.3, torque_limit="urdf")

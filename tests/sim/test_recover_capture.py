@@ -26,7 +26,7 @@ from ffsm_pin.sim.setup import prepare
 
 WHEELS = (
     '\n[robot.satellite.wheels]\ninertia = 0.05\ncontrol = "attitude-pd-after-capture"\n'
-    "kp = 20.0\nkd = 100.0\n"
+    "kp = 20.0\nkd = 100.0\nmax_torque = 0.004\n"
 )
 CUT = 3.4  # [s], after the capture case's grasp (3.062 s)
 
@@ -63,9 +63,10 @@ def _setup(text: str, duration: float):
 def test_a_killed_capture_run_recovers_its_capture(tmp_path, monkeypatch, wheels):
     """The recovered run's rows and its capture keys (captured, capture time, impulse, relative
     speed, energy), detumble time, final estimate errors against the merged robot, truths after
-    the grasp and the whole system's P and L equal those of a run of the same scenario ending
-    at the recovered run's last row, bit for bit; without the fix the recovery had no capture
-    and the robot's momentum alone."""
+    the grasp, the whole system's P and L and the saturation fractions (joints and wheels, the
+    wheels' torque limit cutting) equal those of a run of the same scenario ending at the
+    recovered run's last row, bit for bit; without the fix the recovery had no capture and the
+    robot's momentum alone, and NaN fractions."""
     monkeypatch.setattr(recorder, "CHUNK_BYTES", 2**16)  # spill early
     text = builtin_path("capture").read_text() + wheels
     setup = _setup(text, 3.6)
@@ -91,10 +92,12 @@ def test_a_killed_capture_run_recovers_its_capture(tmp_path, monkeypatch, wheels
                 "drift_P", "drift_L"):  # fmt: skip
         assert mine[key] == theirs[key], key
     assert mine["drift_L"] < 1e-12 * np.abs(full["L"]).max()
-    if wheels:  # (the wheels' commands are not recorded: the fraction is not known)
-        assert mine["wheel_saturation_fraction"] is None or np.isnan(
-            mine["wheel_saturation_fraction"]
-        )
+    # the saturation fractions, read from the recorded torques and commands, are the loop's
+    assert mine["saturation_per_joint"] == theirs["saturation_per_joint"]
+    assert mine["saturation_fraction"] == theirs["saturation_fraction"]
+    if wheels:  # the limit cuts in some periods after the grasp, not in all
+        assert 0.0 < mine["wheel_saturation_fraction"] < 1.0
+        assert mine["wheel_saturation_fraction"] == theirs["wheel_saturation_fraction"]
 
 
 def test_a_killed_approach_run_recovers_its_reference(tmp_path, monkeypatch):
