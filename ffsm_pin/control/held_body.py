@@ -72,6 +72,29 @@ class ParameterIncrement(NamedTuple):
     theta_d: np.ndarray  # theta_d (Eq. 12), the tail of theta_b (Eq. 14)
 
 
+def model_holding(robot: Robot, held: pin.Inertia) -> pin.Model:
+    """The Pinocchio model of ``robot`` with ``held`` fixed to its end-effector frame (the
+    body appended to the frame's joint, as :meth:`~ffsm_pin.robot.payload.Payload.attach`
+    does).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot.
+    held : pin.Inertia
+        The held body in the end-effector frame.
+
+    Returns
+    -------
+    pin.Model
+        A new model (the robot's joints; the body in its end-effector joint's inertia).
+    """
+    model = pin.Model(robot.model)
+    frame = model.frames[robot.ee_frame_id]
+    model.appendBodyToJoint(int(frame.parentJoint), held, frame.placement)
+    return model
+
+
 def robot_holding(robot: Robot, held: pin.Inertia):
     """The geometry of ``robot`` with ``held`` fixed to its end-effector frame (the body
     appended to the frame's joint, as :meth:`~ffsm_pin.robot.payload.Payload.attach` does).
@@ -88,9 +111,7 @@ def robot_holding(robot: Robot, held: pin.Inertia):
     PlanarGeometry or SpatialGeometry
         The geometry of the robot holding it (read by the root's own reader).
     """
-    model = pin.Model(robot.model)
-    frame = model.frames[robot.ee_frame_id]
-    model.appendBodyToJoint(int(frame.parentJoint), held, frame.placement)
+    model = model_holding(robot, held)
     return robot.root.geometry(model, robot.ee_frame_id, robot.body_names, robot.name)
 
 
@@ -156,6 +177,6 @@ def join_held_body(ctx: ControllerContext, state, event: CaptureEvent, events: l
 
 
 __all__ = [
-    "CaptureEvent", "ParameterIncrement", "held_body_increment", "join_held_body",
+    "CaptureEvent", "ParameterIncrement", "held_body_increment", "join_held_body", "model_holding",
     "robot_holding",
 ]  # fmt: skip

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..control.held_body import held_body_increment
+from ..control.held_body import held_body_increment, model_holding
 from ..model import State
 from ..robot import Robot
 from .setup import Setup
@@ -187,9 +187,7 @@ def momenta_holding(robot: Robot, held: pin.Inertia, q, v) -> tuple[np.ndarray, 
     A_0 : ndarray, shape (3,)
         The angular momentum about the CoM, world frame [kg m^2/s] (Eq. 14's head).
     """
-    model = pin.Model(robot.model)
-    frame = model.frames[robot.ee_frame_id]
-    model.appendBodyToJoint(int(frame.parentJoint), held, frame.placement)
+    model = model_holding(robot, held)
     data = model.createData()
     hg = pin.computeCentroidalMomentum(model, data, np.asarray(q, float), np.asarray(v, float))
     mass = float(data.mass[0])
