@@ -93,6 +93,7 @@ BUILTIN: dict[str, str] = {
     "target-tumbling": "target_tumbling.toml",
     "capture": "capture.toml",
     "capture-approach": "capture_approach.toml",
+    "capture-detumble": "capture_detumble.toml",
 }
 
 

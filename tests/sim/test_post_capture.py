@@ -1,28 +1,22 @@
-"""The post-capture task (issue 40; docs/capture.md, "After the grasp: the hold and the
-detumble"): without ``[approach]``, a ``[capture]`` of a position task reads the scenario's
-reference until the grasp, then the hand is held fixed in the bus frame; with lu-jia's wheels
-(``wheels = "after-capture"``) the wheels take the bus attitude from the arm, and the held box
-stops turning relative to the bus."""
+"""The post-capture task (issue 40; docs/capture.md, "The post-capture task" and "The paper's
+controller with the wheels"): without ``[approach]``, a ``[capture]`` of a position task reads
+the scenario's reference until the grasp, then the hand is held fixed in the bus frame; with
+lu-jia's wheels (``wheels = "after-capture"``) the wheels take the bus attitude from the arm,
+and the held box stops turning relative to the bus (the built-in ``capture-detumble``)."""
 
 from __future__ import annotations
 
 import dataclasses
-import re
 import warnings
 
 import numpy as np
 import pytest
 
 from ffsm_pin.attitude.mrp import to_rotation
-from ffsm_pin.scenario.file import builtin_path, builtin_scenario, scenario_from_toml
+from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.detumble import relative_rate
 from ffsm_pin.sim.loop import simulate
 from ffsm_pin.sim.setup import prepare
-
-WHEELS = (
-    "\n[robot.satellite.wheels]\ninertia = 0.05\nmax_torque = 0.2\nmax_momentum = 4.0\n"
-    '\n[controller.params]\nwheels = "after-capture"\n'
-)
 
 
 def _run(scenario):
@@ -45,14 +39,11 @@ def test_the_reference_is_the_scenarios_until_the_grasp():
 
 @pytest.fixture(scope="module")
 def detumbled():
-    """The capture case, told the box (``estimates = "true"``), with wheels and lu-jia's wheel
-    law: 10 s, the grasp at about 3.06 s."""
-    text = re.sub(
-        r'(?m)^estimates = "unknown"', 'estimates = "true"', builtin_path("capture").read_text()
-    )
-    scenario = scenario_from_toml(text + WHEELS)
+    """The built-in ``capture-detumble``: ``capture`` with wheels, lu-jia's wheel law and the
+    box known to 10 % (``estimates = "perturbed"``); 10 s, the grasp at about 3.06 s."""
+    scenario = builtin_scenario("capture-detumble")
     assert scenario.target is not None and scenario.target.capture is not None
-    assert scenario.target.capture.estimates == "true"
+    assert scenario.target.capture.estimates == "perturbed" and scenario.robot.wheels is not None
     return scenario, _run(scenario)
 
 
