@@ -84,6 +84,8 @@ class CompiledPeriod:
             funnel_z=self.funnel_z, null_space=self.null_space, center=self.kinematic.center,
             n_joints=m.n_joints, theta_d_true=self.theta_d_true, physical=self.physical,
         )  # fmt: skip
+        if not self.kinematic.attitude:  # (released before the kernels were made)
+            self._law = self._law._replace(attitude=False)
         self._ref = reference_arrays(self.reference)
         self._out, self._row = period_outputs(self.signal_layout, m.n_joints, self.m3, self.n_task)
         N = m.n_joints + self.m3

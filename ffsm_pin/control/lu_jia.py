@@ -152,8 +152,6 @@ class LuJiaController:
         )
         law = self.law
         self.scheme = p.scheme  # reported as summary.json's scheme
-        # what sigma_min is the smallest singular value of (summary.json's min_sigma_of)
-        self.sigma_measure = "J_m-hat" if p.scheme == "no-attitude" else "J_m-hat U-hat"
         self.needs_dynamics = not law.adaptive  # known-model: the true M and C w
         self.events = law.events
         self._dt = ctx.dt
@@ -184,6 +182,17 @@ class LuJiaController:
         "after-capture"`` the method :meth:`.wheel_law.BaseWheelLaw.torque`, else None (the
         wheels' own ``control`` then acts)."""
         return None if self._wheels is None else self._wheels.torque
+
+    @property
+    def sigma_measure(self) -> str:
+        """What sigma_min is the smallest singular value of (summary.json's ``min_sigma_of``):
+        J_m-hat U-hat of Eq. (36), J_m-hat of Eq. (81) (scheme ``"no-attitude"``), or both
+        when the law let the base attitude go during the run (the wheels after a capture)."""
+        if self.scheme == "no-attitude":
+            return "J_m-hat"
+        if not self.law.kinematic.attitude:
+            return "J_m-hat U-hat, then J_m-hat (after the grasp: Eq. 81)"
+        return "J_m-hat U-hat"
 
     @property
     def backend(self) -> str:

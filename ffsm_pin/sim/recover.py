@@ -160,7 +160,10 @@ def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> s
     outcome. The target sensor's noise is drawn from the same seeded stream in the same
     order, so the log equals the run's up to the rounding of the recorded attitude (a
     quaternion). A run that recorded every ``record_every`` > 1 periods lacks the states the
-    sensor's delay buffer and the bus-frame hold read: its log stays NaN (no reference).
+    sensor's delay buffer reads: with ``[approach]`` its log stays NaN (no reference); without
+    one (a ``[capture]``'s hold alone) the reference before the grasp is the scenario's, and
+    the bus-frame hold after it is rebuilt when the grasp's period was recorded (the hold's
+    start), else NaN from the grasp on.
 
     Parameters
     ----------
@@ -180,12 +183,20 @@ def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> s
     """
     approach = setup.approach
     assert approach is not None
-    if record_every != 1:
+    if record_every != 1 and approach.spec is not None:
         return (
             f"the approach's reference is not recovered: the run recorded every {record_every} "
             "periods, the target sensor's delay needs every one (z_e_d stays NaN)"
         )
     outcome = None if capture is None or not capture.outcome.captured else capture.outcome
+    note, t_stop = None, math.inf  # (the hold alone, the grasp's period not recorded)
+    if outcome is not None and round(outcome.time / approach.dt) % record_every != 0:
+        note = (
+            f"the bus-frame hold's reference after the grasp is not recovered: the run recorded "
+            f"every {record_every} periods, not the grasp's (z_e_d is NaN from t = "
+            f"{outcome.time:.4f} s on)"
+        )
+        t_stop = outcome.time
     seen = "meas_" if setup.sensors is not None else ""
     nq_root = setup.robot.root.nq
     keys = ["t", "target_pose", "target_twist"] + (
@@ -196,6 +207,8 @@ def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> s
     for block in raw.blocks(keys):
         q_m = block["meas_q_m"] if seen else block["q"][:, nq_root:]
         for i, t in enumerate(block["t"]):
+            if t >= t_stop:
+                return note
             state = TargetState.from_recorded(block["target_pose"][i], block["target_twist"][i])
             held = outcome is not None and t >= outcome.time
             row = SimpleNamespace(state=state, outcome=outcome if held else None)
@@ -207,7 +220,7 @@ def replay_approach(setup: Setup, raw: Signals, capture, record_every: int) -> s
                 np.array(block[f"{seen}z_e_dot"][i]),
             )  # fmt: skip
             approach.update(meas)
-    return None
+    return note
 
 
 def _complete_rows(spool: Path, shapes: dict[str, tuple[int, ...]]) -> int:

@@ -88,7 +88,8 @@ class Setup:
     target_state : TargetState or None
         Its state at t = 0 (``origin = "end-effector"`` resolved).
     approach : Approach or None
-        ``[approach]``: the reference the controller reads (:mod:`.approach`), None without.
+        ``[approach]``, or a ``[capture]`` of a position task without one (its post-capture
+        hold): the reference the controller reads (:mod:`.approach`); None otherwise.
     """
 
     scenario: Scenario

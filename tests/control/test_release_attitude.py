@@ -55,3 +55,20 @@ def test_a_released_law_is_the_no_attitude_scheme(case, backend):
             a, b = np.asarray(sig_r[key]), np.asarray(sig_e[key])
             assert np.abs(a - b).max() <= 1e-12 * max(np.abs(b).max(), 1.0), key
         assert np.abs(u_k - u_e).max() > 1e-6 * scale
+
+
+def test_a_release_survives_a_later_switch_to_the_compiled_period():
+    """Released on the numpy reference, then switched to the compiled period (whose kernels
+    are made then): the compiled period runs Eq. (81) too, as the "no-attitude" controller;
+    the controller says what its sigma_min measured (J_m-hat U-hat, then J_m-hat)."""
+    released = _controller("spatial", "ppc", "numpy")
+    eq81 = _controller("spatial", "no-attitude", "numba")
+    assert released.sigma_measure == "J_m-hat U-hat"
+    released.law.release_attitude()
+    released.law.backend = "numba"
+    meas = next(_measurements(eq81, np.random.default_rng(5), 1))
+    u_r, _ = released.step(meas)
+    u_e, _ = eq81.step(meas)
+    assert np.abs(u_r - u_e).max() <= 1e-12 * np.abs(u_e).max()
+    assert released.sigma_measure.startswith("J_m-hat U-hat, then J_m-hat")
+    assert eq81.sigma_measure == "J_m-hat"

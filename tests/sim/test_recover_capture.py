@@ -68,7 +68,16 @@ def test_a_killed_capture_run_recovers_its_capture(tmp_path, monkeypatch, wheels
     recovered run's last row, bit for bit; without the fix the recovery had no capture and the
     robot's momentum alone, and NaN fractions."""
     monkeypatch.setattr(recorder, "CHUNK_BYTES", 2**16)  # spill early
-    text = builtin_path("capture").read_text() + wheels
+    # joint 1 limited to 0.5 N m (its start reaches 0.84 N m): the first periods cut
+    text = (
+        builtin_path("capture")
+        .read_text()
+        .replace(
+            'torque_limit = "urdf"', "torque_limit = [0.5, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0]", 1
+        )
+    )
+    assert "torque_limit = [0.5" in text
+    text += wheels
     setup = _setup(text, 3.6)
     dest = tmp_path / "killed" / ".ffsm-spool-copy"
     setup.controller = CopySpool(setup.controller, tmp_path, dest, CUT)
@@ -93,6 +102,7 @@ def test_a_killed_capture_run_recovers_its_capture(tmp_path, monkeypatch, wheels
         assert mine[key] == theirs[key], key
     assert mine["drift_L"] < 1e-12 * np.abs(full["L"]).max()
     # the saturation fractions, read from the recorded torques and commands, are the loop's
+    assert 0.0 < mine["saturation_fraction"] < 1.0
     assert mine["saturation_per_joint"] == theirs["saturation_per_joint"]
     assert mine["saturation_fraction"] == theirs["saturation_fraction"]
     if wheels:  # the limit cuts in some periods after the grasp, not in all
@@ -147,3 +157,28 @@ def test_an_approach_run_recorded_sparsely_has_no_reference(tmp_path, monkeypatc
     (got,) = recover(dest.parent)
     assert np.isnan(got.result["z_e_d"]).all()
     assert any("every 2 periods" in e for e in got.result.events)
+
+
+@pytest.mark.parametrize("every", [2, 3])
+def test_a_capture_run_recorded_sparsely_recovers_its_reference_until_the_grasp(
+    tmp_path, monkeypatch, every
+):
+    """``capture`` (its hold without ``[approach]``) recorded every 2 or 3 periods, killed
+    after the grasp (at period 1531, recorded by neither): the recovered reference equals the
+    finished run's on every row before the grasp, bit for bit (the scenario's reference), is
+    NaN from the grasp on (the hold's start was not recorded), and an event says why."""
+    monkeypatch.setattr(recorder, "CHUNK_BYTES", 2**14)
+    text = builtin_path("capture").read_text()
+    setup = _setup(text, CUT + 0.2)
+    dest = tmp_path / "killed" / ".ffsm-spool-copy"
+    setup.controller = CopySpool(setup.controller, tmp_path, dest, CUT)
+    full = simulate(setup, spool_dir=tmp_path, record_every=every)
+    (got,) = recover(dest.parent)
+    result = got.result
+    t, t_c = result["t"], result.summary()["capture_time"]
+    assert round(t_c / setup.scenario.dt) % every != 0
+    before, after = t < t_c, t >= t_c
+    assert before.sum() > 100 and after.any()
+    np.testing.assert_array_equal(result["z_e_d"][before], full["z_e_d"][: len(t)][before])
+    assert np.isnan(result["z_e_d"][after]).all()
+    assert any(f"every {every} periods, not the grasp's" in e for e in result.events)
