@@ -144,4 +144,12 @@ CONTROL_DOC = doc_entries(
         funnel : FunnelParams
             The scenario's end-effector funnel.
         %(funnel_task_drift)s""",
+    # a robot holding a body in its hand (control/held_body.py)
+    params_robot_held="""
+        Parameters
+        ----------
+        robot : Robot
+            The robot.
+        held : pin.Inertia
+            The held body in the end-effector frame.""",
 )

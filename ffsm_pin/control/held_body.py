@@ -26,6 +26,9 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from .._docstrings import fill_doc
+from ._docs import CONTROL_DOC
+
 if TYPE_CHECKING:  # annotations only
     from ..model import ReducedModel
     from ..robot import Robot
@@ -72,17 +75,13 @@ class ParameterIncrement(NamedTuple):
     theta_d: np.ndarray  # theta_d (Eq. 12), the tail of theta_b (Eq. 14)
 
 
+@fill_doc(CONTROL_DOC)
 def model_holding(robot: Robot, held: pin.Inertia) -> pin.Model:
     """The Pinocchio model of ``robot`` with ``held`` fixed to its end-effector frame (the
     body appended to the frame's joint, as :meth:`~ffsm_pin.robot.payload.Payload.attach`
     does).
 
-    Parameters
-    ----------
-    robot : Robot
-        The robot.
-    held : pin.Inertia
-        The held body in the end-effector frame.
+    %(params_robot_held)s
 
     Returns
     -------
@@ -95,16 +94,12 @@ def model_holding(robot: Robot, held: pin.Inertia) -> pin.Model:
     return model
 
 
+@fill_doc(CONTROL_DOC)
 def robot_holding(robot: Robot, held: pin.Inertia):
-    """The geometry of ``robot`` with ``held`` fixed to its end-effector frame (the body
-    appended to the frame's joint, as :meth:`~ffsm_pin.robot.payload.Payload.attach` does).
+    """The geometry of ``robot`` with ``held`` fixed to its end-effector frame
+    (:func:`model_holding`).
 
-    Parameters
-    ----------
-    robot : Robot
-        The robot.
-    held : pin.Inertia
-        The held body in the end-effector frame.
+    %(params_robot_held)s
 
     Returns
     -------
