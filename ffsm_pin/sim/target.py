@@ -31,9 +31,9 @@ import numpy as np
 import pinocchio as pin
 
 from .._arrays import cross3
-from ..control.backend import numba_available
 from ..errors import InertiaError, ParameterError
 from ..robot.geometry import check_inertia
+from ._target_kernels import torque_free_rotation
 
 # Yoshida's fourth-order triple jump: S(c1 dt) S(c0 dt) S(c1 dt), S a symmetric 2nd-order step
 _CBRT2 = 2.0 ** (1.0 / 3.0)
@@ -386,7 +386,7 @@ def _strang(Rp: np.ndarray, pi: np.ndarray, moments: np.ndarray, h: float) -> No
 
 
 def torque_free_step(
-    target: Target, state: TargetState, dt: float, momentum=None, *, compiled: bool | None = None
+    target: Target, state: TargetState, dt: float, momentum=None, *, compiled: bool = True
 ) -> TargetState:
     """The target's state ``dt`` [s] later, moving without force or torque.
 
@@ -409,9 +409,9 @@ def torque_free_step(
         Step [s].
     momentum : array_like or None
         World angular momentum about the CoM to keep [kg m^2/s].
-    compiled : bool or None
-        The rotation by the compiled kernel (:mod:`._target_kernels`, the same arithmetic)
-        or by this numpy reference; None: compiled where numba is installed.
+    compiled : bool
+        The rotation by the compiled kernel (:mod:`._target_kernels`, the same arithmetic;
+        the default) or by this numpy reference.
 
     Returns
     -------
@@ -426,9 +426,7 @@ def torque_free_step(
     L0 = R0 @ (target.inertia @ state.angular_velocity)  # world angular momentum
     if momentum is not None:
         L0 = _vector(momentum, 3, "torque_free_step: momentum")
-    if numba_available() if compiled is None else compiled:
-        from ._target_kernels import torque_free_rotation
-
+    if compiled:
         w0, inertia = state.angular_velocity, target.inertia
         R, w = torque_free_rotation(R0, w0, L0, inertia, moments, Q, dt, _C0, _C1)
     else:
