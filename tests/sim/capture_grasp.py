@@ -72,3 +72,23 @@ def grasp_at_half_a_second(seed: int, *, truths: bool, estimates: str = "true") 
     sensor = Sensor(robot, setup.model, full_model=False)
     new_plant, _, v_new = motion.at_period(0.5, q, v, plant, sensor)
     return Grasp(setup, motion, new_plant.robot, q, v_new, before)
+
+
+def merged_measurement(grasp: Grasp):
+    """What a sensor on the merged robot measures just after the grasp (t = 0.5 s): the state
+    after the impact, with the merged robot's true M and C w."""
+    ctx = grasp.setup.controller.context
+    return Sensor(grasp.merged, ctx.model, full_model=True).measure(0.5, grasp.q, grasp.v)
+
+
+def replies_after_capture(grasp: Grasp, make, event) -> dict:
+    """backend -> the reply of ``step`` (torques, signals) of a controller made by
+    ``make(ctx, backend=...)`` and told ``event``, at :func:`merged_measurement`; on the
+    compiled period and on the numpy reference."""
+    ctx, meas = grasp.setup.controller.context, merged_measurement(grasp)
+    replies = {}
+    for backend in ("numba", "numpy"):
+        ctrl = make(ctx, backend=backend)
+        ctrl.on_capture(event)
+        replies[backend] = ctrl.step(meas)
+    return replies

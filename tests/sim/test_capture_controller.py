@@ -15,7 +15,12 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from capture_grasp import capture_scenario, grasp_at_half_a_second
+from capture_grasp import (
+    capture_scenario,
+    grasp_at_half_a_second,
+    merged_measurement,
+    replies_after_capture,
+)
 
 from ffsm_pin.control.adaptive_ct import AdaptiveComputedTorque
 from ffsm_pin.control.gjm_ct import GjmComputedTorque
@@ -77,16 +82,10 @@ def test_the_compiled_period_sees_the_update(grasp, kind):
     """After the hook the compiled period and the numpy reference give the same torque (the
     estimates live in the state arrays the kernels read), and a different one from a
     controller not told of the box."""
-    setup, motion, merged, q, v, _ = grasp
-    ctx = setup.controller.context
-    event = motion.event
-    meas = Sensor(merged, ctx.model, full_model=True).measure(0.5, q, v)
-    u = {}
-    for backend in ("numba", "numpy"):
-        ctrl = CONTROLLERS[kind](ctx, backend=backend)
-        ctrl.on_capture(event)
-        u[backend] = np.asarray(ctrl.step(meas)[0])
-    unaware = np.asarray(CONTROLLERS[kind](ctx, backend="numba").step(meas)[0])
+    replies = replies_after_capture(grasp, CONTROLLERS[kind], grasp.motion.event)
+    u = {backend: np.asarray(reply[0]) for backend, reply in replies.items()}
+    ctx = grasp.setup.controller.context
+    unaware = np.asarray(CONTROLLERS[kind](ctx, backend="numba").step(merged_measurement(grasp))[0])
     scale = np.abs(u["numpy"]).max()
     np.testing.assert_allclose(u["numba"], u["numpy"], rtol=0, atol=1e-9 * scale)
     assert np.abs(unaware - u["numpy"]).max() > 1e-4 * scale

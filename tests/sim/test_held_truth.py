@@ -12,14 +12,18 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from capture_grasp import capture_scenario, grasp_at_half_a_second
+from capture_grasp import (
+    capture_scenario,
+    grasp_at_half_a_second,
+    merged_measurement,
+    replies_after_capture,
+)
 
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.model import make_model
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim.held_truth import HELD_TRUTH_KEYS, momenta_holding
 from ffsm_pin.sim.loop import simulate
-from ffsm_pin.sim.measurement import Sensor
 from ffsm_pin.sim.setup import prepare
 
 
@@ -60,18 +64,12 @@ def test_eq54_e_after_the_hook_uses_the_merged_robot_on_both_backends(grasp):
     """After the hook lu-jia's e of Eq. (54) is taken with the merged robot's theta_d on the
     numpy reference and the compiled period alike (the kernel's copy updated): both agree,
     and differ from a controller told the body but not the new truth."""
-    setup, motion, merged, q, v, _ = grasp
-    ctx = setup.controller.context
-    event = motion.event
-    meas = Sensor(merged, ctx.model, full_model=True).measure(0.5, q, v)
-    e = {}
-    for backend in ("numba", "numpy"):
-        ctrl = LuJiaController(ctx, backend=backend)
-        ctrl.on_capture(event)
-        e[backend] = np.asarray(ctrl.step(meas)[1]["e"])
-    stale = LuJiaController(ctx, backend="numba")
+    event = grasp.motion.event
+    replies = replies_after_capture(grasp, LuJiaController, event)
+    e = {backend: np.asarray(reply[1]["e"]) for backend, reply in replies.items()}
+    stale = LuJiaController(grasp.setup.controller.context, backend="numba")
     stale.on_capture(dataclasses.replace(event, theta_d_true=None))
-    e_stale = np.asarray(stale.step(meas)[1]["e"])
+    e_stale = np.asarray(stale.step(merged_measurement(grasp))[1]["e"])
     scale = np.abs(e["numpy"]).max()
     np.testing.assert_allclose(e["numba"], e["numpy"], rtol=0, atol=1e-9 * scale)
     assert np.abs(e_stale - e["numpy"]).max() > 1e-3 * scale
