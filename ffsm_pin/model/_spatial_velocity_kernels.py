@@ -329,6 +329,11 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
         for l in range(k + 1, nb):
             Rk, Rl, dRk, dRl = R[k], R[l], dR[k], dR[l]
             for v in range(3):
+                # (only the vectors computed above: the scratch of the others is uninitialised
+                # memory, whose leftover subnormal numbers made each product take a microcode
+                # assist; benchmarks/README.md, "Uninitialised scratch")
+                if (v == 0 and YM is None) or (v == 1 and YMdot is None):
+                    continue
                 bk, bl, dbk, dbl = b[v, k], b[v, l], db[v, k], db[v, l]
                 for i in range(3):
                     ui = _tdot(Rk, i, bl)  # R_k^T b_l
