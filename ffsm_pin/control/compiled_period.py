@@ -13,7 +13,7 @@ kit's (:class:`~.compiled.CompiledController`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -43,6 +43,19 @@ from .stops import (
     nonfinite_stop,
     physical_stop,
 )
+
+
+class PeriodArguments(NamedTuple):
+    """The arguments of one call of the compiled period (:func:`.period.period`), in order."""
+
+    geo: Any  #: the model's kernel constants
+    law: tuple  #: the fields of the law (:func:`.period.law_fields`)
+    ref: tuple  #: the fields of the reference arrays
+    dt: float  #: the period [s]
+    meas: tuple  #: the fields of the measurement (the true M and C w, or stand-ins)
+    state: tuple  #: the fields of the period's state (advanced in place)
+    out: tuple  #: the fields of the outputs (written)
+    aux: Any  #: the auxiliary system and its state, or None
 
 
 @fill_doc(CONTROL_DOC)
@@ -105,6 +118,29 @@ class CompiledPeriod:
             assert meas.M is not None and meas.h is not None  # the sensor's full model
             M, h = read_only_view(meas.M), read_only_view(meas.h)
         return (meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
+
+    def period_arguments(self, meas: Measurement, dt: float) -> PeriodArguments:
+        """The arguments the compiled period (:func:`.period.period`) takes at ``meas``: the
+        live bundles, its state advanced in place by a call (for benchmarks and tests that
+        call the compiled steps themselves; :meth:`prepare_kernels` first).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The measurement.
+        dt : float
+            The period [s].
+
+        Returns
+        -------
+        PeriodArguments
+            ``period(*arguments)`` is one period.
+        """
+        geo, law, ref = self._fields
+        return PeriodArguments(
+            geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields,
+            self._aux,
+        )  # fmt: skip
 
     def warm_up_call(self, meas: Measurement, dt: float) -> None:
         """The compiled period alone at ``meas`` (no bookkeeping), after a first run's second
@@ -213,4 +249,4 @@ class CompiledPeriod:
             raise physical_stop(t, self.physical.max_iter)
 
 
-__all__ = ["CompiledPeriod"]
+__all__ = ["CompiledPeriod", "PeriodArguments"]

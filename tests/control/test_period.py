@@ -104,3 +104,34 @@ def test_a_step_the_period_compiled_is_callable_from_python(tmp_path):
         assert proc.returncode == 0, (proc.returncode, proc.stderr[-3000:])
     hits = [int(x) for x in proc.stdout.split()]
     assert hits == [1, 1, 1], hits  # each loaded the entry the period wrote
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_the_period_arguments_are_those_the_controller_steps_with(case):
+    """``period(*law.period_arguments(meas, dt))`` is the controller's next period: from a
+    copy of the state the torque and the advanced estimates are those the controller's own
+    step gives at the same measurement, bit for bit (what benchmarks/bench_period_parts.py
+    relies on); and the state in the arguments is the controller's live one."""
+    import dataclasses
+
+    from ffsm_pin.control.interface import split_reply
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.measurement import Sensor
+    from ffsm_pin.sim.setup import prepare
+
+    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
+    controller, dt = setup.controller, setup.scenario.dt
+    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
+    meas0 = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
+    controller.step(meas0)  # the kernels and bundles made
+    meas1 = meas0._replace(t=dt)
+    args = controller.law.period_arguments(meas1, dt)
+    assert all(a is b for a, b in zip(args.state, controller.law.state, strict=True))
+    state = tuple(x.copy() for x in args.state)
+    status = period.period(*args._replace(state=state))[0]
+    assert status == period.STATUS_OK
+    u_m = args.out[0].copy()  # PeriodOutputs.u_m
+    u_step, _ = split_reply(controller.step(meas1))
+    np.testing.assert_array_equal(u_m, u_step)
+    for copied, live in zip(state, controller.law.state, strict=True):
+        np.testing.assert_array_equal(copied, live)
