@@ -15,10 +15,12 @@ hands out with either zeros or the smallest subnormal number (``5e-324``), and r
 child processes with the shim preloaded (``LD_PRELOAD``, Linux): each child replays the exact
 measurements of a built-in case's run through a controller prepared afresh (as
 ``bench_period_call.py``) and prints the us per period. Children of the two fills alternate,
-round after round, so a change of machine load hits both. Printed per case and controller: the
-median us per period of each fill and their ratio with the per-round quartiles. A ratio near 1
-says no period computes with scratch it did not write; well above 1 names a case and
-controller to look at (the fill itself costs both rows the same).
+round after round, so a change of machine load hits both; they compile into a numba cache of
+their own (the first child, without the shim, fills it; the folder is removed at the end).
+Printed per case and controller: the median us per period of each fill and their ratio with
+the per-round quartiles. A ratio near 1 says no period computes with scratch it did not write;
+well above 1 names a case and controller to look at (the fill itself costs both rows the
+same).
 
 Usage::
 
@@ -145,9 +147,14 @@ def main() -> int:
               "per round; ratio = subnormal / zeros (per-round q1 .. q3)")  # fmt: skip
         times: dict[str, dict[str, list[float]]] = {p: {row: [] for row in FILLS} for p in pairs}
         cmd = [sys.executable, __file__, "--duration", str(args.duration), "--child", *pairs]
+        # the children compile into a cache of their own, first without the shim: a compiler
+        # run under the shim could write its filled memory into cache files, and the user's
+        # cache must not hold anything this benchmark made
+        cache = {**os.environ, "NUMBA_CACHE_DIR": str(Path(folder) / "numba")}
+        subprocess.run(cmd, env=cache, check=True, capture_output=True, text=True)
         for _ in range(args.repeat):
             for row, mode in FILLS.items():
-                env = {**os.environ, "LD_PRELOAD": str(shim), "FILL_MODE": mode}
+                env = {**cache, "LD_PRELOAD": str(shim), "FILL_MODE": mode}
                 out = subprocess.run(cmd, env=env, check=True, capture_output=True, text=True)
                 for line in out.stdout.splitlines():
                     pair, seconds = line.split()

@@ -29,16 +29,6 @@ def numba_solve(A, b):
     return np.linalg.solve(A, b)
 
 
-@njit(cache=False)
-def kernel_solve(A, b):
-    """The kernel as the package calls it: from compiled code. (Called from Python directly,
-    the cached kernel returned its array through numba's boxing, which in a long test worker
-    failed with "In 'NRT_adapt_ndarray_to_python', 'descr' is NULL" after other tests had
-    loaded and compiled kernels in the same process, 2026-11-28; a fresh process does not,
-    and no run calls ``solve`` from Python. The numbers compared are the kernel's own.)"""
-    return solve(A, b)
-
-
 def test_the_lapack_declaration_is_found():
     """This numba has the private names: ``solve`` is the direct call, not the fallback."""
     gesv, pivot = _array_kernels._lapack_gesv()
@@ -58,7 +48,7 @@ def test_bitwise_numbas_solve(n, rng):
             A[-1] = A[0] + 1e-9 * rng.standard_normal(n)
         b = rng.standard_normal(n)
         for A_in in (A, np.asfortranarray(A), np.repeat(A, 2, axis=1)[:, ::2]):
-            x = kernel_solve(A_in, b)
+            x = solve(A_in, b)
             ref = numba_solve(np.ascontiguousarray(A_in), b)
             assert x.dtype == ref.dtype and x.shape == (n,)
             assert np.array_equal(x.view(np.int64), ref.view(np.int64))
@@ -78,14 +68,14 @@ def test_the_same_errors_as_numbas_solve():
         with pytest.raises(np.linalg.LinAlgError) as ref:
             numba_solve(A, b)
         with pytest.raises(np.linalg.LinAlgError) as got:
-            kernel_solve(A, b)
+            solve(A, b)
         assert str(got.value) == str(ref.value)
 
 
 def test_inputs_are_not_modified(rng):
     A, b = rng.standard_normal((4, 4)), rng.standard_normal(4)
     A0, b0 = A.copy(), b.copy()
-    kernel_solve(A, b)
+    solve(A, b)
     assert np.array_equal(A, A0) and np.array_equal(b, b0)
 
 
