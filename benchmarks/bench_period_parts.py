@@ -72,9 +72,9 @@ def _bundles(law_f, ref_f, meas_f, state_f):
 
 
 @njit(cache=True)
-def _complex_law(geo, law, ref, dt, meas, state):
-    """The kinematic law at the period's complex arguments (as :func:`period` calls it)."""
-    terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(geo, law, dt, meas, state)
+def _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new, q_b_rate, w_b):
+    """The kinematic law at the period's complex arguments, built from the geometry step's
+    outputs (as :func:`period` builds and calls them)."""
     n = meas.q_m.size
     w = meas.w
     hj = 1j * COMPLEX_STEP
@@ -98,26 +98,17 @@ def time_geometry(geo, law_f, ref_f, dt, meas_f, state_f, number):
 def time_kinematic(geo, law_f, ref_f, dt, meas_f, state_f, number):
     law, ref, meas, state = _bundles(law_f, ref_f, meas_f, state_f)
     terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(geo, law, dt, meas, state)
-    n = meas.q_m.size
-    w = meas.w
-    hj = 1j * COMPLEX_STEP
-    theta_b, theta_z = state.theta_b, state.theta_z
     acc = 0.0
     for _ in range(number):
-        q_c, q_m_c = meas.q_b + hj * q_b_rate, meas.q_m + hj * w[w.size - n :]
-        tb_c = theta_b + hj * (tb_new - theta_b) / dt
-        tz_c = theta_z + hj * (tz_new - theta_z) / dt
-        out = kinematic_law(geo, law, ref, law.null_space, meas.t + hj, q_c, q_m_c,
-                            meas.z_e + hj * meas.z_e_dot, tb_c, tz_c, w_b + 0j)  # fmt: skip
-        acc += out[2]
+        acc += _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new, q_b_rate, w_b)[2]
     return acc
 
 
 @njit(cache=True)
 def time_dynamic(geo, law_f, ref_f, dt, meas_f, state_f, number):
     law, ref, meas, state = _bundles(law_f, ref_f, meas_f, state_f)
-    terms = geometry_terms(geo, law, dt, meas, state)[0]
-    w_mc_c, sens = _complex_law(geo, law, ref, dt, meas, state)[:2]
+    terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(geo, law, dt, meas, state)
+    w_mc_c, sens = _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new, q_b_rate, w_b)[:2]
     w_mc = w_mc_c.real.copy()
     w_mc_dot = w_mc_c.imag / COMPLEX_STEP
     sens = np.ascontiguousarray(sens)

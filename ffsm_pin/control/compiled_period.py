@@ -155,11 +155,10 @@ class CompiledPeriod:
         """
         if meas.M is None and not self.adaptive:  # known model: any M, C w do for compiling
             meas = meas._replace(M=np.eye(len(meas.w)), h=np.zeros(len(meas.w)))
-        km = self._kernel_meas(meas)
-        compile_in_parallel(self._geo, self._law, self._ref, Measurement(*km), self.state)
-        geo, law, ref = self._fields
-        aux = None if self._aux is None else (self._aux[0], self._aux[1].copy())  # (a copy)
-        period(geo, law, ref, dt, km, tuple(self.state), self._out_fields, aux)
+        args = self.period_arguments(meas, dt)
+        compile_in_parallel(self._geo, self._law, self._ref, Measurement(*args.meas), self.state)
+        aux = None if args.aux is None else (args.aux[0], args.aux[1].copy())  # (a copy)
+        period(*args._replace(aux=aux))
 
     def set_theta_d_true(self, theta_d_true) -> None:
         """Replace the true theta_d of the diagnostic e of Eq. (54) in place, for both
@@ -221,7 +220,7 @@ class CompiledPeriod:
     def _run_compiled(self, meas: Measurement, dt: float) -> None:
         """Run the compiled period into the outputs, keep the singularity bookkeeping, and
         raise the stop its status says."""
-        geo, law, ref = self._fields
+        geo, law, ref = self._fields  # (period_arguments' tuple, built inline: every period)
         status, idx, value = period(
             geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields,
             self._aux,
