@@ -13,8 +13,12 @@ dispatch paid once per loop, not per call):
 * ``dynamic``: the dynamic level, at the kinematic law's w_mc and its derivative;
 * ``period, compiled loop``: the whole period;
 * ``period, from Python``: the whole period called from Python once per period, as the
-  controller does (the difference to the row above is numba's dispatch: typing and unboxing
-  the period's arguments, and boxing its result).
+  controller does (:func:`~ffsm_pin.control.period.period_of` with the controller's box of
+  the fixed arguments; the difference to the row above is numba's dispatch: typing and
+  unboxing the box, the measurement and ``dt``, and boxing the result);
+* ``period, bundles unboxed``: the same period called with the fixed arguments as separate
+  bundles, as the controller called it before the box (numba unboxes each of their arrays per
+  call; the box is then made in compiled code): the box's saving, side by side.
 
 The state the period advances in place is the prepared controller's, copied afresh for every
 sample. Samples are taken round-robin over the rows (``--repeat`` rounds), so a change of
@@ -42,6 +46,7 @@ from _timing import checkout  # noqa: E402
 from numba import njit  # noqa: E402
 
 import ffsm_pin  # noqa: E402  (first: the package's numba settings)
+from ffsm_pin.control._period_box import PeriodBox, period_box  # noqa: E402
 from ffsm_pin.control.interface import Measurement  # noqa: E402
 from ffsm_pin.control.kernels import COMPLEX_STEP  # noqa: E402
 from ffsm_pin.control.period import (  # noqa: E402
@@ -51,7 +56,7 @@ from ffsm_pin.control.period import (  # noqa: E402
     dynamic_level,
     geometry_terms,
     kinematic_law,
-    period,
+    period_of,
 )
 from ffsm_pin.control.reference_kernels import ReferenceArrays  # noqa: E402
 from ffsm_pin.scenario.file import builtin_scenario  # noqa: E402
@@ -59,7 +64,10 @@ from ffsm_pin.sim.measurement import Sensor  # noqa: E402
 from ffsm_pin.sim.setup import prepare  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-ROWS = ("geometry", "kinematic", "dynamic", "period, compiled loop", "period, from Python")
+ROWS = (
+    "geometry", "kinematic", "dynamic", "period, compiled loop", "period, from Python",
+    "period, bundles unboxed",
+)  # fmt: skip
 
 
 @njit(cache=True)
@@ -119,17 +127,25 @@ def time_dynamic(geo, law_f, ref_f, dt, meas_f, state_f, number):
 
 
 @njit(cache=True)
-def time_period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, number):
+def time_period(box, dt, meas_f, number):
     acc = 0.0
     for _ in range(number):
-        acc += period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, None)[2]
+        acc += period_of(box, dt, meas_f, None)[2]
     return acc
+
+
+@njit(cache=True)
+def period_unboxed(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
+    """The period called with its bundles as separate arguments (as before the box): numba
+    unboxes every array of them per call; the box is made in compiled code."""
+    return period_of(PeriodBox(geo, law_f, ref_f, state_f, out_f), dt, meas_f, aux)
 
 
 def sample(row: str, args, number: int) -> float:
     """Seconds per call of ``row`` over ``number`` calls, on a fresh copy of the state."""
     geo, law, ref, dt, meas, state, out, aux = args
     state = tuple(x.copy() for x in state)
+    box = period_box(geo, law, ref, state, out)
     t0 = time.perf_counter()
     if row == "geometry":
         time_geometry(geo, law, ref, dt, meas, state, number)
@@ -138,10 +154,13 @@ def sample(row: str, args, number: int) -> float:
     elif row == "dynamic":
         time_dynamic(geo, law, ref, dt, meas, state, number)
     elif row == "period, compiled loop":
-        time_period(geo, law, ref, dt, meas, state, out, number)
+        time_period(box, dt, meas, number)
+    elif row == "period, from Python":
+        for _ in range(number):
+            period_of(box, dt, meas, aux)
     else:
         for _ in range(number):
-            period(geo, law, ref, dt, meas, state, out, aux)
+            period_unboxed(geo, law, ref, dt, meas, state, out, aux)
     return (time.perf_counter() - t0) / number
 
 

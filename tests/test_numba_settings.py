@@ -114,7 +114,7 @@ PLACES = (
     "sys.path.insert(0, sys.argv[1])\n"
     "import outside\n"
     "impl = getattr(caching, 'CacheImpl', None) or caching._CacheImpl\n"
-    "k = period.period\n"
+    "k = period.period_of\n"
     "print(json.dumps({'package': m.PACKAGE.as_posix(), 'cache': m.CACHE_DIR,\n"
     "  'first': m.LOCATOR is not None and impl._locator_classes[0] is m.LOCATOR,\n"
     "  'period': k._cache.cache_path, 'put': a.put._cache.cache_path,\n"

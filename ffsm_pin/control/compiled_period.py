@@ -22,6 +22,7 @@ from .._docstrings import fill_doc
 from ..errors import ParameterError
 from . import kernels  # the status codes (STATUS_*)
 from ._docs import CONTROL_DOC
+from ._period_box import PeriodBox, period_box
 from .funnel import Funnel, FunnelExit
 from .gains import Gains, SingularityPolicy
 from .interface import Measurement, SignalLayout
@@ -31,6 +32,7 @@ from .period import (
     law_fields,
     period,
     period_law,
+    period_of,
     period_outputs,
 )
 from .reference_kernels import reference_arrays
@@ -108,6 +110,8 @@ class CompiledPeriod:
         self._out_fields = tuple(self._out)
         aux = self.auxiliary  # its state is the numpy reference's array, advanced in place
         self._aux = None if aux is None else (aux.term, aux.state)
+        self._box: PeriodBox | None = None  # made by the first period (_period_box)
+        self._box_of: tuple = ()
 
     def _kernel_meas(self, meas: Measurement) -> tuple:
         """The fields of ``meas`` as the period takes them: the true M and C w read-only (known
@@ -217,14 +221,21 @@ class CompiledPeriod:
             e=o.e.copy() if truth else None, signals=self._row.copy() if truth else None,
         )  # fmt: skip
 
+    def _period_box(self) -> PeriodBox:
+        """The box of the period's fixed arguments (:mod:`._period_box`), made again when the
+        law's fields or the state were replaced (``release_attitude``, a capture joining a
+        held body, a warm-up on copies): the same objects as :meth:`period_arguments`'."""
+        box, (fields, state) = self._box, self._box_of or (None, None)
+        if box is None or fields is not self._fields or state is not self.state:
+            geo, law, ref = self._fields
+            box = period_box(geo, law, ref, tuple(self.state), self._out_fields)
+            self._box, self._box_of = box, (self._fields, self.state)
+        return box
+
     def _run_compiled(self, meas: Measurement, dt: float) -> None:
         """Run the compiled period into the outputs, keep the singularity bookkeeping, and
         raise the stop its status says."""
-        geo, law, ref = self._fields  # (period_arguments' tuple, built inline: every period)
-        status, idx, value = period(
-            geo, law, ref, dt, self._kernel_meas(meas), tuple(self.state), self._out_fields,
-            self._aux,
-        )  # fmt: skip
+        status, idx, value = period_of(self._period_box(), dt, self._kernel_meas(meas), self._aux)
         damping = self._out.damping[0]
         if status == kernels.STATUS_OK and damping == 0.0 and self._watch.since is None:
             return  # the common period: nothing to book, no stop

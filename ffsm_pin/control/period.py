@@ -47,6 +47,7 @@ from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
 from ._dispatch import JIT_OPTIONS, overload_for_geometry
 from ._docs import CONTROL_DOC
+from ._period_box import period_box
 from .interface import Measurement, SignalLayout
 from .kernels import (
     COMPLEX_STEP,
@@ -286,10 +287,12 @@ for _cls, _kernels in GEOMETRIES.items():
 
 
 # ---------------------------------------------------------------------- one period
-@njit(cache=True)
 def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
     """One control period at the measurement (time t [s]) over [t, t + dt): advances the
     state in place, writes the outputs and returns (status, exit index, value).
+
+    :func:`period_of` with the fixed arguments put in a box first (for tests and benchmarks
+    that call one period; a controller keeps its box and calls :func:`period_of`).
 
     ``geo`` the model's kernel constants (a named tuple: its type selects the geometry's
     kernels); the other bundles arrive as the plain tuples of their fields, in order
@@ -323,7 +326,40 @@ def period(geo, law_f, ref_f, dt, meas_f, state_f, out_f, aux):
         ``(AuxiliaryTerm, state)``, the auxiliary system of ``controller.saturation =
         "auxiliary"`` (:mod:`.saturation_kernels`; its state advanced in place), or None: the
         paper's law (numba compiles none of it).
+
+    Returns
+    -------
+    tuple
+        (status, exit index, value).
     """
+    return period_of(period_box(geo, law_f, ref_f, state_f, out_f), dt, meas_f, aux)
+
+
+@njit(cache=True)
+def period_of(box, dt, meas_f, aux):
+    """:func:`period` with its fixed arguments in one :class:`~._period_box.PeriodBox`: numba
+    unboxes one reference per call instead of the bundles' 50-odd arrays. ``aux`` stays an
+    argument of its own: numba prunes the auxiliary system's code when an argument is None,
+    not when a field is.
+
+    Parameters
+    ----------
+    box : PeriodBox
+        ``geo``, ``law_f``, ``ref_f``, ``state_f`` and ``out_f`` of :func:`period`
+        (:func:`~._period_box.period_box`).
+    dt : float
+        The period [s].
+    meas_f : tuple
+        The fields of a :class:`~.interface.Measurement`.
+    aux : tuple or None
+        As in :func:`period`.
+
+    Returns
+    -------
+    tuple
+        (status, exit index, value), as :func:`period`.
+    """
+    geo, law_f, ref_f, state_f, out_f = box.geo, box.law, box.ref, box.state, box.out
     g = law_f[4]
     law = PeriodLaw(law_f[0], law_f[1], law_f[2], law_f[3], KernelGains(*g), law_f[5], law_f[6],
                     law_f[7], law_f[8], law_f[9], law_f[10], law_f[11])  # fmt: skip
@@ -454,5 +490,5 @@ def _compile_run_kernels(geo, law, ref, meas, state) -> None:
 
 __all__ = [
     "GEOMETRIES", "SIGNALS", "KernelGains", "PeriodLaw", "PeriodOutputs", "PeriodState",
-    "compile_in_parallel", "law_fields", "period", "period_law", "period_outputs",
+    "compile_in_parallel", "law_fields", "period", "period_law", "period_of", "period_outputs",
 ]  # fmt: skip

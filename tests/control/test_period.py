@@ -135,3 +135,31 @@ def test_the_period_arguments_are_those_the_controller_steps_with(case):
     np.testing.assert_array_equal(u_m, u_step)
     for copied, live in zip(state, controller.law.state, strict=True):
         np.testing.assert_array_equal(copied, live)
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_the_period_box_follows_a_replaced_state(case):
+    """The controller keeps the period's fixed arguments in one box (control/_period_box.py)
+    and makes it again when its state is replaced (a capture joining a held body, a warm-up on
+    copies, a setter such as ``theta_d = ...``): the next period advances the new arrays and
+    leaves those of the state it no longer holds as they were."""
+    import dataclasses
+
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.measurement import Sensor
+    from ffsm_pin.sim.setup import prepare
+
+    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
+    controller, dt = setup.controller, setup.scenario.dt
+    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
+    meas0 = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
+    controller.step(meas0)  # the box made, holding the live state
+    law = controller.law
+    old = law.state
+    before = tuple(x.copy() for x in old)
+    law.state = type(old)(*(x.copy() for x in old))  # a new state of equal values
+    controller.step(meas0._replace(t=dt))
+    for kept, now in zip(before, old, strict=True):  # the replaced state: untouched
+        np.testing.assert_array_equal(kept, now)
+    moved = [not np.array_equal(a, b) for a, b in zip(before, law.state, strict=True)]
+    assert moved[3], moved  # the new state's w-hat advanced (Eq. 46)
