@@ -83,3 +83,31 @@ def test_sensor_keys_round_trip_through_toml():
                                                    ("ee_velocity", 0.01))),
     )  # fmt: skip
     assert scenario_from_toml(scenario_to_toml(sc)).sensors == sc.sensors
+
+
+@pytest.mark.parametrize("delay", [0, 2])
+@pytest.mark.parametrize("m3", [1, 3])
+def test_a_controller_writing_into_what_it_is_given_changes_nothing_later(delay, m3):
+    """What :meth:`Sensors.observe` hands out may be written into by a controller: the exact
+    measurement and every later hand-out stay as a sensor nobody wrote into gives them (with
+    no delay the noisy arrays are new each period and handed out without copies)."""
+    from ffsm_pin.control.interface import Measurement
+    from ffsm_pin.sim.sensors import Sensors
+
+    n = 4
+    spec = SensorSpec(seed=3, delay=delay, noise=tuple((k, 1e-3) for k in NOISE_KEYS))
+    clean, written = Sensors(spec, n, m3, 3), Sensors(spec, n, m3, 3)
+    rng = np.random.default_rng(0)
+    for k in range(6):
+        q_b = float(rng.normal()) if m3 == 1 else rng.normal(size=3)
+        meas = Measurement(0.01 * k, q_b, rng.normal(size=n), rng.normal(size=n + m3),
+                           rng.normal(size=3), rng.normal(size=3), None, None)  # fmt: skip
+        kept = [np.copy(x) for x in meas[1:6]]
+        a, b = clean.observe(meas), written.observe(meas)
+        for x, y in zip(a[1:6], b[1:6], strict=True):
+            np.testing.assert_array_equal(x, y)
+        for y in b[1:6]:  # the controller writes into every array it was given
+            if isinstance(y, np.ndarray):
+                y[:] = np.nan
+        for x, y in zip(kept, meas[1:6], strict=True):
+            np.testing.assert_array_equal(x, y)  # the exact measurement untouched
