@@ -2,15 +2,16 @@
 
 Every period the controller hands the compiled period (:func:`.period.period_of`) the same
 bundles: the model's constants, the law's and the reference's fields, the state and the
-outputs (advanced and written in place). As separate arguments numba
-types and unboxes each of their 50-odd arrays and numbers on every call (about 3.6 us a
-period, more than the planar geometry step; benchmarks/README.md, "The period's fixed
-arguments in one box"); held in a :class:`PeriodBox`, the call unboxes one reference. The box
-holds the same Python objects (arrays by reference, not copies): what the period writes into
-the state and the outputs is what the controller reads.
+outputs (advanced and written in place). As separate arguments numba types and unboxes each
+of their 50-odd arrays and numbers on every call (about 4.6 us a period, more than the planar
+geometry step; benchmarks/README.md, "The period's fixed arguments in one box"); held in a
+:class:`PeriodBox`, the call unboxes one reference. The box holds the same Python objects
+(arrays by reference, not copies): what the period writes into the state and the outputs is
+what the controller reads.
 
 The type is defined here, apart from the compiled functions that take it: numba's cache
-misses a function whose structref type is defined in its own module (numba issue 9030).
+misses a function defined in the same module as the structref type it takes (numba issue
+9030).
 """
 
 from __future__ import annotations
