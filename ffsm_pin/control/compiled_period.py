@@ -221,6 +221,15 @@ class CompiledPeriod:
             e=o.e.copy() if truth else None, signals=self._row.copy() if truth else None,
         )  # fmt: skip
 
+    def __getstate__(self) -> dict:
+        """The attributes a copy takes (``copy.deepcopy``), without the period's box: numba's
+        structref does not copy, and a copy's box must hold the copy's own arrays (its first
+        period makes it again)."""
+        state = self.__dict__.copy()
+        if "_box" in state:
+            state["_box"], state["_box_of"] = None, ()
+        return state
+
     def _period_box(self) -> PeriodBox:
         """The box of the period's fixed arguments (:mod:`._period_box`), made again when the
         law's fields or the state were replaced (``release_attitude``, a capture joining a

@@ -163,3 +163,34 @@ def test_the_period_box_follows_a_replaced_state(case):
         np.testing.assert_array_equal(kept, now)
     moved = [not np.array_equal(a, b) for a, b in zip(before, law.state, strict=True)]
     assert moved[3], moved  # the new state's w-hat advanced (Eq. 46)
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_a_copy_of_a_stepped_controller_goes_on_as_the_original(case):
+    """``copy.deepcopy`` of a controller that has run periods (and so holds the period's box,
+    which numba cannot copy) gives a controller that continues bit for bit as the original,
+    on its own arrays: the original is not advanced by the copy's periods."""
+    import copy
+    import dataclasses
+
+    from ffsm_pin.control.interface import split_reply
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.measurement import Sensor
+    from ffsm_pin.sim.setup import prepare
+
+    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
+    controller, dt = setup.controller, setup.scenario.dt
+    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
+    meas = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
+    controller.step(meas)
+    twin = copy.deepcopy(controller)
+    before = tuple(x.copy() for x in controller.law.state)
+    for k in (1, 2):
+        u_twin, _ = split_reply(twin.step(meas._replace(t=k * dt)))
+    for kept, now in zip(before, controller.law.state, strict=True):
+        np.testing.assert_array_equal(kept, now)  # the copy's periods left the original alone
+    for k in (1, 2):
+        u_orig, _ = split_reply(controller.step(meas._replace(t=k * dt)))
+    np.testing.assert_array_equal(u_orig, u_twin)
+    for a, b in zip(controller.law.state, twin.law.state, strict=True):
+        np.testing.assert_array_equal(a, b)
