@@ -58,17 +58,18 @@ from numba import njit  # noqa: E402
 from numba.typed import List  # noqa: E402
 
 import ffsm_pin  # noqa: E402  (first: the package's numba settings)
-from ffsm_pin.control._period_box import PeriodBox, period_box  # noqa: E402
 from ffsm_pin.control.compiled_period import CompiledPeriod  # noqa: E402
 from ffsm_pin.control.interface import Measurement  # noqa: E402
 from ffsm_pin.control.kernels import COMPLEX_STEP, STATUS_OK  # noqa: E402
 from ffsm_pin.control.period import (  # noqa: E402
     KernelGains,
+    PeriodBox,
     PeriodLaw,
     PeriodState,
     dynamic_level,
     geometry_terms,
     kinematic_law,
+    period_box,
     period_of,
 )
 from ffsm_pin.control.reference_kernels import ReferenceArrays  # noqa: E402

@@ -47,7 +47,7 @@ from ..model.spatial import SpatialKernelConstants
 from . import _first_compile, fast, fast_spatial
 from ._dispatch import JIT_OPTIONS, overload_for_geometry
 from ._docs import CONTROL_DOC
-from ._period_box import period_box
+from ._period_box import PeriodBox, period_box
 from .interface import Measurement, SignalLayout
 from .kernels import (
     COMPLEX_STEP,
@@ -490,5 +490,6 @@ def _compile_run_kernels(geo, law, ref, meas, state) -> None:
 
 __all__ = [
     "GEOMETRIES", "SIGNALS", "KernelGains", "PeriodLaw", "PeriodOutputs", "PeriodState",
-    "compile_in_parallel", "law_fields", "period", "period_law", "period_of", "period_outputs",
+    "PeriodBox", "compile_in_parallel", "law_fields", "period", "period_box", "period_law",
+    "period_of", "period_outputs",
 ]  # fmt: skip
