@@ -77,6 +77,7 @@ from ffsm_pin.scenario.file import builtin_scenario  # noqa: E402
 from ffsm_pin.sim.setup import prepare  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+STEPS = ("geometry", "kinematic", "dynamic")  # rows timed by time_steps, cumulatively
 ROWS = (
     "geometry", "kinematic", "dynamic", "period, compiled loop", "period, from Python",
     "period, bundles unboxed",
@@ -107,32 +108,21 @@ def _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new, q_b_rate, w_b):
 
 
 @njit(cache=True)
-def time_geometry(geo, law_f, ref_f, dt, metas, states):
-    acc = 0.0
-    for k in range(len(metas)):
-        law, ref, meas, state = _bundles(law_f, ref_f, metas[k], states[k])
-        acc += geometry_terms(geo, law, dt, meas, state)[1][0]
-    return acc
-
-
-@njit(cache=True)
-def time_kinematic(geo, law_f, ref_f, dt, metas, states):
+def time_steps(geo, law_f, ref_f, dt, metas, states, last):
+    """The period's first ``last`` steps (1: geometry, 2: and the kinematic law, 3: and the
+    dynamic level) at each (measurement, state) of the sequence."""
     acc = 0.0
     for k in range(len(metas)):
         law, ref, meas, state = _bundles(law_f, ref_f, metas[k], states[k])
         terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(geo, law, dt, meas, state)
-        acc += _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new, q_b_rate, w_b)[2]
-    return acc
-
-
-@njit(cache=True)
-def time_dynamic(geo, law_f, ref_f, dt, metas, states):
-    acc = 0.0
-    for k in range(len(metas)):
-        law, ref, meas, state = _bundles(law_f, ref_f, metas[k], states[k])
-        terms, tb_new, tz_new, q_b_rate, w_b = geometry_terms(geo, law, dt, meas, state)
-        w_mc_c, sens = _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new, q_b_rate,
-                                    w_b)[:2]  # fmt: skip
+        acc += tb_new[0]
+        if last == 1:
+            continue
+        w_mc_c, sens, sigma = _complex_law(geo, law, ref, dt, meas, state, tb_new, tz_new,
+                                           q_b_rate, w_b)[:3]  # fmt: skip
+        acc += sigma
+        if last == 2:
+            continue
         w_mc = w_mc_c.real.copy()
         w_mc_dot = w_mc_c.imag / COMPLEX_STEP
         sens = np.ascontiguousarray(sens)
@@ -198,20 +188,21 @@ def replay_of(case: str, duration: float) -> Replay:
 def sample(row: str, rep: Replay) -> float:
     """Seconds per period of ``row`` over the sequence, from fresh copies of its states."""
     geo, law, ref, dt, out, metas, states = rep
-    compiled = List(metas)  # (the Python rows iterate the list: a typed one boxes each item)
-    if row in ("geometry", "kinematic", "dynamic"):
+    if row in STEPS:
+        compiled = List(metas)  # (a typed list for the compiled loops; Python iterates metas)
         copies = List([tuple(x.copy() for x in st) for st in states])
-        timed = {"geometry": time_geometry, "kinematic": time_kinematic,
-                 "dynamic": time_dynamic}[row]  # fmt: skip
         t0 = time.perf_counter()
-        timed(geo, law, ref, dt, compiled, copies)
+        time_steps(geo, law, ref, dt, compiled, copies, STEPS.index(row) + 1)
         return (time.perf_counter() - t0) / len(metas)
     state = tuple(x.copy() for x in states[0])
     box = period_box(geo, law, ref, state, out)
-    t0 = time.perf_counter()
     if row == "period, compiled loop":
+        compiled = List(metas)
+        t0 = time.perf_counter()
         time_period(box, dt, compiled)
-    elif row == "period, from Python":
+        return (time.perf_counter() - t0) / len(metas)
+    t0 = time.perf_counter()
+    if row == "period, from Python":
         for meas in metas:
             period_of(box, dt, meas, None)
     else:
@@ -244,8 +235,7 @@ def main() -> int:
             for row in ROWS:
                 times[row].append(sample(row, rep))
         # the kinematic and dynamic rows time the steps before them too: their differences
-        steps = ("geometry", "kinematic", "dynamic")
-        for later, earlier in ((steps[2], steps[1]), (steps[1], steps[0])):
+        for later, earlier in ((STEPS[2], STEPS[1]), (STEPS[1], STEPS[0])):
             times[later] = [a - b for a, b in zip(times[later], times[earlier], strict=True)]
         whole = statistics.median(times["period, compiled loop"])
         print(f"{case} ({len(rep.metas)} periods, {law.model.n_joints} joints):")

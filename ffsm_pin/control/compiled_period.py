@@ -48,7 +48,7 @@ from .stops import (
 
 
 class PeriodArguments(NamedTuple):
-    """The arguments of one call of the compiled period (:func:`.period.period`), in order."""
+    """The arguments of one call of :func:`.period.period`, in order."""
 
     geo: Any  #: the model's kernel constants
     law: tuple  #: the fields of the law (:func:`.period.law_fields`)
@@ -124,9 +124,9 @@ class CompiledPeriod:
         return (meas.t, meas.q_b, meas.q_m, meas.w, meas.z_e, meas.z_e_dot, M, h)
 
     def period_arguments(self, meas: Measurement, dt: float) -> PeriodArguments:
-        """The arguments the compiled period (:func:`.period.period`) takes at ``meas``: the
-        live bundles, its state advanced in place by a call (for benchmarks and tests that
-        call the compiled steps themselves; :meth:`prepare_kernels` first).
+        """The arguments :func:`.period.period` takes at ``meas``: the live bundles, its state
+        advanced in place by a call (for benchmarks and tests that call the compiled steps
+        themselves; :meth:`prepare_kernels` first).
 
         Parameters
         ----------
@@ -234,8 +234,8 @@ class CompiledPeriod:
         """The box of the period's fixed arguments (:mod:`._period_box`), made again when the
         law's fields or the state were replaced (``release_attitude``, a capture joining a
         held body, a warm-up on copies): the same objects as :meth:`period_arguments`'."""
-        box, (fields, state) = self._box, self._box_of or (None, None)
-        if box is None or fields is not self._fields or state is not self.state:
+        box, made_of = self._box, self._box_of  # (made_of: the fields and state it holds)
+        if box is None or made_of[0] is not self._fields or made_of[1] is not self.state:
             geo, law, ref = self._fields
             box = period_box(geo, law, ref, tuple(self.state), self._out_fields)
             self._box, self._box_of = box, (self._fields, self.state)

@@ -106,24 +106,32 @@ def test_a_step_the_period_compiled_is_callable_from_python(tmp_path):
     assert hits == [1, 1, 1], hits  # each loaded the entry the period wrote
 
 
+def _stepped(case: str):
+    """(controller, its first measurement, dt) of the built-in ``case`` after one period at
+    that measurement (its kernels loaded, its bundles and box made)."""
+    import dataclasses
+
+    from ffsm_pin.scenario.file import builtin_scenario
+    from ffsm_pin.sim.measurement import Sensor
+    from ffsm_pin.sim.setup import prepare
+
+    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
+    controller = setup.controller
+    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
+    meas = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
+    controller.step(meas)
+    return controller, meas, setup.scenario.dt
+
+
 @pytest.mark.parametrize("case", ["case1", "spatial"])
 def test_the_period_arguments_are_those_the_controller_steps_with(case):
     """``period(*law.period_arguments(meas, dt))`` is the controller's next period: from a
     copy of the state the torque and the advanced estimates are those the controller's own
     step gives at the same measurement, bit for bit (what benchmarks/bench_period_parts.py
     relies on); and the state in the arguments is the controller's live one."""
-    import dataclasses
-
     from ffsm_pin.control.interface import split_reply
-    from ffsm_pin.scenario.file import builtin_scenario
-    from ffsm_pin.sim.measurement import Sensor
-    from ffsm_pin.sim.setup import prepare
 
-    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
-    controller, dt = setup.controller, setup.scenario.dt
-    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
-    meas0 = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
-    controller.step(meas0)  # the kernels and bundles made
+    controller, meas0, dt = _stepped(case)
     meas1 = meas0._replace(t=dt)
     args = controller.law.period_arguments(meas1, dt)
     assert all(a is b for a, b in zip(args.state, controller.law.state, strict=True))
@@ -143,17 +151,7 @@ def test_the_period_box_follows_a_replaced_state(case):
     and makes it again when its state is replaced (a capture joining a held body, a warm-up on
     copies, a setter such as ``theta_d = ...``): the next period advances the new arrays and
     leaves those of the state it no longer holds as they were."""
-    import dataclasses
-
-    from ffsm_pin.scenario.file import builtin_scenario
-    from ffsm_pin.sim.measurement import Sensor
-    from ffsm_pin.sim.setup import prepare
-
-    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
-    controller, dt = setup.controller, setup.scenario.dt
-    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
-    meas0 = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
-    controller.step(meas0)  # the box made, holding the live state
+    controller, meas0, dt = _stepped(case)  # the box made, holding the live state
     law = controller.law
     old = law.state
     before = tuple(x.copy() for x in old)
@@ -171,18 +169,10 @@ def test_a_copy_of_a_stepped_controller_goes_on_as_the_original(case):
     which numba cannot copy) gives a controller that continues bit for bit as the original,
     on its own arrays: the original is not advanced by the copy's periods."""
     import copy
-    import dataclasses
 
     from ffsm_pin.control.interface import split_reply
-    from ffsm_pin.scenario.file import builtin_scenario
-    from ffsm_pin.sim.measurement import Sensor
-    from ffsm_pin.sim.setup import prepare
 
-    setup = prepare(dataclasses.replace(builtin_scenario(case), duration=0.01))
-    controller, dt = setup.controller, setup.scenario.dt
-    sensor = Sensor(setup.robot, setup.model, full_model=controller.needs_dynamics)
-    meas = sensor.measure(0.0, setup.q0.copy(), setup.v0.copy())
-    controller.step(meas)
+    controller, meas, dt = _stepped(case)
     twin = copy.deepcopy(controller)
     before = tuple(x.copy() for x in controller.law.state)
     for k in (1, 2):
