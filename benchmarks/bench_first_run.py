@@ -9,18 +9,26 @@ warm, and once more from a copy of the package in another folder (``ffsm_pin/``,
 which should compile nothing (column ``copy``). With ``--baseline REV`` the same is done,
 interleaved, for a git revision checked out beside this one (default: none).
 
+With ``--campaign NAME`` the built-in campaign is timed the same way, cold and then warm
+(``python -m ffsm_pin.sweep NAME --out DIR --workers W --quiet``), its wall time and the CPU
+time of all its processes (the campaign's, the cluster's workers and their children, from
+``getrusage(RUSAGE_CHILDREN)``): what a first campaign after an install or an update costs.
+
 Usage::
 
     python benchmarks/bench_first_run.py                       # case 1 and spatial, 2 samples
     python benchmarks/bench_first_run.py --cases case1 --repeat 3 --baseline 411cfc5
+    python benchmarks/bench_first_run.py --cases --campaign compare-controllers --repeat 1
 
-Printed per case and side: the median cold, warm and copy wall times [s] and the cold samples.
+Printed per case and side: the median cold, warm and copy wall times [s] and the cold samples;
+per campaign and side: the median cold and warm wall and CPU times [s].
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -34,18 +42,28 @@ from _timing import checkout
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def timed_run(case: str, source: Path, xdg: Path, out: Path) -> float:
-    """Wall time [s] of one whole CLI run of ``case`` from ``source`` with cache home ``xdg``."""
+def timed(args: list[str], source: Path, xdg: Path, out: Path) -> tuple[float, float]:
+    """(wall, CPU) [s] of ``python -m ARGS --out OUT`` from ``source`` with cache home ``xdg``;
+    the CPU time of the process and of every process it waited for."""
     env = {**os.environ, "PYTHONPATH": str(source), "XDG_CACHE_HOME": str(xdg)}
     env.pop("NUMBA_CACHE_DIR", None)  # the package then picks $XDG_CACHE_HOME/ffsm-pin/numba
-    cmd = [sys.executable, "-m", "ffsm_pin.sim", "--case", case, "--no-plots", "--no-html",
-           "--quiet", "--out", str(out)]  # fmt: skip
+    shutil.rmtree(out, ignore_errors=True)  # (a campaign resumes from a folder it finds)
+    cmd = [sys.executable, "-m", *args, "--out", str(out)]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=out.parent)
     wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode not in (0, 3):
         raise SystemExit(f"{' '.join(cmd)}: exit {proc.returncode}\n{proc.stderr}")
-    return wall
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    return wall, cpu
+
+
+def timed_run(case: str, source: Path, xdg: Path, out: Path) -> float:
+    """Wall time [s] of one whole CLI run of ``case`` from ``source`` with cache home ``xdg``."""
+    args = ["ffsm_pin.sim", "--case", case, "--no-plots", "--no-html", "--quiet"]
+    return timed(args, source, xdg, out)[0]
 
 
 def installed_copy(source: Path, dest: Path) -> Path:
@@ -59,7 +77,9 @@ def installed_copy(source: Path, dest: Path) -> Path:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cases", nargs="+", default=["case1", "spatial"])
+    parser.add_argument("--cases", nargs="*", default=["case1", "spatial"])
+    parser.add_argument("--campaign", nargs="*", default=[], help="built-in campaigns to time")
+    parser.add_argument("--workers", type=int, default=2, help="a campaign's workers")
     parser.add_argument("--repeat", type=int, default=2, help="cold samples per case and side")
     parser.add_argument("--baseline", default=None, help="a git revision to compare with")
     args = parser.parse_args()
@@ -93,6 +113,23 @@ def main() -> int:
                           f"  warm {statistics.median(warm[label]):6.1f} s"
                           f"  copy {statistics.median(copy[label]):6.1f} s   cold samples "
                           + " ".join(f"{x:.1f}" for x in cold[label]), flush=True)  # fmt: skip
+            for name in args.campaign:
+                times: dict[tuple[str, str], list[tuple[float, float]]] = {}
+                sweep = ["ffsm_pin.sweep", name, "--workers", str(args.workers), "--quiet"]
+                for k in range(args.repeat):
+                    for label, source in sides.items():
+                        xdg = tmp / f"xdg-{name}-{label}-{k}"
+                        xdg.mkdir()
+                        for state in ("cold", "warm"):
+                            sample = timed(sweep, source, xdg, tmp / "campaign")
+                            times.setdefault((label, state), []).append(sample)
+                for label in sides:
+                    line = [f"{name:10s} {label:>10s}"]
+                    for state in ("cold", "warm"):
+                        walls, cpus = zip(*times[label, state], strict=True)
+                        line.append(f"{state} {statistics.median(walls):6.1f} s wall "
+                                    f"{statistics.median(cpus):6.1f} s CPU")  # fmt: skip
+                    print("  ".join(line), flush=True)
         finally:
             if args.baseline:
                 subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",

@@ -23,12 +23,14 @@ state the period has already evaluated its terms at.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
 import numpy as np
 
+from .._cpu_time import ledger
 from ..model.interface import ReducedModel
 
 #: rows per piece of work :func:`rows_beside` hands out (a piece costs 0.2-2 ms of a kernel)
@@ -140,8 +142,17 @@ def rows_beside(
         with lock:
             nxt[0] = n
 
+    book = ledger()  # the helper's CPU time is this thread's work (a campaign case's CPU)
+
+    def helped() -> None:
+        cpu0 = time.thread_time()
+        try:
+            work()
+        finally:
+            book.add(time.thread_time() - cpu0)
+
     with ThreadPoolExecutor(1) as pool:
-        helper = pool.submit(work)
+        helper = pool.submit(helped)
         try:
             started.wait()  # (else the second thread waits for the GIL that beside holds)
             other = beside()

@@ -22,7 +22,10 @@ from collections.abc import Hashable, Sequence
 
 from .cases import Case
 
-__all__ = ["BATCHES_PER_WORKER", "MAX_BATCH", "default_batch_size", "make_batches", "robot_key"]
+__all__ = [
+    "BATCHES_PER_WORKER", "MAX_BATCH", "default_batch_size", "kernel_key", "make_batches",
+    "robot_key",
+]  # fmt: skip
 
 #: Batches per worker the default size aims at.
 BATCHES_PER_WORKER = 4
@@ -64,6 +67,25 @@ def robot_key(case: Case) -> Hashable:
         Its :class:`~ffsm_pin.scenario.spec.RobotSpec`.
     """
     return case.scenario.robot
+
+
+def kernel_key(case: Case) -> Hashable:
+    """What decides the compiled kernels a case runs: its robot (:func:`robot_key`, whose root
+    joint picks the geometry's kernels) and its controller type. A campaign's engine compiles
+    (or loads) each key's kernels once before its cases run
+    (:func:`ffsm_pin.sweep.engine.run_cases`).
+
+    Parameters
+    ----------
+    case : Case
+        A case.
+
+    Returns
+    -------
+    Hashable
+        ``(robot_key(case), controller type)``.
+    """
+    return robot_key(case), case.scenario.controller.type
 
 
 def make_batches(cases: Sequence[Case], size: int) -> list[list[Case]]:

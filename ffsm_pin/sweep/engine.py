@@ -7,9 +7,11 @@
   process of the campaign, interrupts the campaign process alone, which then stops the cluster.
 * :func:`shutdown`: close the client and the cluster without a word (no Dask traceback or log
   of the cancelled tasks and closed connections, also after a Ctrl-C).
-* :class:`WarmUp`: a worker plugin that runs a few steps of the campaign's scenario when a
-  worker starts (also a worker that replaces a dead one), so the numba kernels are compiled or
-  loaded from their on-disk cache once per worker, not once per case.
+* :func:`warm_up`: a task that runs a few steps of a case, so that the numba kernels of its
+  robot and controller are compiled (and saved to numba's on-disk cache) or loaded before its
+  cases run; :func:`run_cases` submits one per robot and controller type of the campaign, and
+  their batches wait for it: on an empty cache each pair's kernels are compiled once for the
+  cluster, by one worker, not by every worker that reaches them.
 * :func:`run_case`: one case. It never raises for a bad run: a run that raises becomes an
   ``error`` outcome with the error text, a run that stops early a ``stopped`` one.
 * :func:`run_batch`: the task, a batch of cases that share a robot
@@ -41,10 +43,10 @@ from typing import TYPE_CHECKING, Any
 
 import dask
 from distributed import Client, LocalCluster, as_completed
-from distributed.diagnostics.plugin import WorkerPlugin
 from distributed.scheduler import KilledWorker
 
-from .batches import default_batch_size, make_batches
+from .._cpu_time import work_time
+from .batches import default_batch_size, kernel_key, make_batches
 from .cases import Case
 
 if TYPE_CHECKING:
@@ -53,7 +55,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "QUIET_WORKERS",
-    "WarmUp",
     "n_workers",
     "run_batch",
     "run_case",
@@ -61,6 +62,7 @@ __all__ = [
     "shutdown",
     "start_client",
     "summary_scalars",
+    "warm_up",
 ]
 
 WARMUP_STEPS = 20
@@ -184,30 +186,27 @@ def _silence_logs() -> None:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
-class WarmUp(WorkerPlugin):
-    """Compile (or load from cache) the kernels once per worker: a few steps of a scenario."""
+def warm_up(scenario_toml: str) -> None:
+    """Run :data:`WARMUP_STEPS` steps of a scenario, so that the kernels its cases run are
+    compiled (and saved to numba's on-disk cache) or loaded; never raises (a case that fails
+    the same way reports it).
 
-    name = "ffsm-pin-warmup"
+    Parameters
+    ----------
+    scenario_toml : str
+        The scenario (a case's resolved scenario).
+    """
+    try:
+        from ..scenario.file import scenario_from_toml
+        from ..sim.run import prepare, simulate
 
-    def __init__(self, scenario_toml: str):
-        self.scenario_toml = scenario_toml
-
-    def setup(self, worker=None) -> None:  # noqa: D102 - WorkerPlugin API
-        try:
-            from ..scenario.file import scenario_from_toml
-            from ..sim.run import prepare, simulate
-
-            sc = scenario_from_toml(self.scenario_toml)
-            sc = dataclasses.replace(sc, duration=WARMUP_STEPS * sc.dt)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                simulate(prepare(sc))
-        except Exception:  # noqa: BLE001 - a case that fails the same way reports it
-            pass
-
-
-def _has_warmup(dask_worker=None) -> bool:
-    return dask_worker is not None and WarmUp.name in dask_worker.plugins
+        sc = scenario_from_toml(scenario_toml)
+        sc = dataclasses.replace(sc, duration=WARMUP_STEPS * sc.dt)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            simulate(prepare(sc))
+    except Exception:  # noqa: BLE001 - a case that fails the same way reports it
+        pass
 
 
 def summary_scalars(summary: dict[str, Any]) -> dict[str, Any]:
@@ -224,7 +223,9 @@ def run_case(
 
     ``status`` is ``"completed"``, ``"stopped"`` (the run stopped early: a result) or
     ``"error"`` (the run raised; ``error`` holds the exception and where it happened);
-    ``case_wall_s`` and ``case_cpu_s`` are the case's wall and CPU time on the worker [s].
+    ``case_wall_s`` and ``case_cpu_s`` are the case's wall and CPU time on the worker [s], the
+    CPU time of its thread and of the helper thread its after-run signals use
+    (:mod:`ffsm_pin._cpu_time`).
     ``keep_dir``: write the run folder there as ``python -m ffsm_pin.sim`` does.
 
     Parameters
@@ -246,7 +247,7 @@ def run_case(
     from ..sim.run import prepare, simulate
     from .explain import case_extras
 
-    wall0, cpu0 = time.perf_counter(), time.thread_time()
+    wall0, cpu0 = time.perf_counter(), work_time()
     try:
         scenario = scenario_from_toml(scenario_toml)
         with warnings.catch_warnings():
@@ -269,7 +270,9 @@ def run_case(
 
 
 def run_batch(
-    scenario_tomls: Sequence[str], keep_dirs: Sequence[str | None] | None = None
+    scenario_tomls: Sequence[str],
+    keep_dirs: Sequence[str | None] | None = None,
+    after: object = None,
 ) -> list[dict[str, Any]]:
     """Simulate the cases of a batch one after the other (the task a worker runs).
 
@@ -283,6 +286,9 @@ def run_batch(
         The cases' resolved scenarios.
     keep_dirs : sequence of (str or None), or None
         Per case, where to write its run folder; None: nowhere.
+    after : object
+        Not read: what the batch's task waits for (:func:`run_cases` passes the futures of
+        the warm-ups of the batch's kernels; Dask runs a task once its arguments are done).
 
     Returns
     -------
@@ -299,7 +305,7 @@ def run_batch(
 def _cost(wall0: float, cpu0: float) -> dict[str, float]:
     """Wall and CPU time of the whole case on its worker (parse, set-up, simulation, summary,
     run folder) [s]; the summary's wall_time_s covers the simulation loop only."""
-    return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": time.thread_time() - cpu0}
+    return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": work_time() - cpu0}
 
 
 def n_workers(client: Client) -> int:
@@ -351,21 +357,33 @@ def run_cases(
     cases = list(cases)
     if not cases:
         return
-    have = client.run(_has_warmup)  # a running cluster's workers are warm already
-    if not have or not all(have.values()):
-        client.register_plugin(WarmUp(cases[0].scenario_toml), name=WarmUp.name)
     size = batch_size or default_batch_size(len(cases), n_workers(client))
     token = uuid.uuid4().hex[:8]
-    futures: dict[Any, tuple[Any, list[Case]]] = {}
+    futures: dict[Any, tuple[Any, list[Case], bool]] = {}  # key -> (future, batch, waits)
     pending = set()
+    # each robot and controller: its kernels compiled once, by one warm-up task that its
+    # batches wait for (else every worker that reaches them first compiles them too)
+    warm: dict[Any, Any] = {}
+    for case in cases:
+        key = kernel_key(case)
+        if key not in warm:
+            warm[key] = client.submit(
+                warm_up, case.scenario_toml, key=f"ffsm-warm-{case.index}-{token}",
+                pure=False, retries=1, priority=1,
+            )  # fmt: skip
 
-    def submit(batch: list[Case], key: str):
+    def submit(batch: list[Case], key: str, wait: bool = True):
         tomls = [c.scenario_toml for c in batch]
         keeps = None
         if keep_runs is not None:
             keeps = [str(keep_runs / f"case-{c.index:05d}") for c in batch]
-        fut = client.submit(run_batch, tomls, keeps, key=key, pure=False, retries=1)
-        futures[fut.key] = (fut, batch)
+        # the warm-ups of the batch's kernels (none for a batch submitted again: a warm-up
+        # lost with its worker does not fail it twice)
+        after = {kernel_key(c): warm[kernel_key(c)] for c in batch} if wait else {}
+        fut = client.submit(
+            run_batch, tomls, keeps, list(after.values()), key=key, pure=False, retries=1
+        )
+        futures[fut.key] = (fut, batch, bool(after))
         pending.add(fut.key)
         return fut
 
@@ -374,19 +392,21 @@ def run_cases(
         submit(batch, f"ffsm-batch-{first.index}-{len(batch)}-{first.case_hash}-{token}")
     resubmitted: set[str] = set()
     try:
-        completed = as_completed([f for f, _ in futures.values()])
+        completed = as_completed([f for f, _, _ in futures.values()])
         for fut in completed:
-            batch = futures[fut.key][1]
+            _, batch, waited = futures[fut.key]
             pending.discard(fut.key)
             try:
                 outcomes = fut.result()
             except Exception as exc:  # noqa: BLE001 - the cluster's, not a case's (run_case)
-                if not isinstance(exc, KilledWorker) and batch[0].case_hash not in resubmitted:
+                again = waited or not isinstance(exc, KilledWorker)  # (a warm-up's, maybe)
+                if again and batch[0].case_hash not in resubmitted:
                     # a failure of the cluster's machinery around a worker that died (seen:
-                    # an asyncio object bound to the dead worker's loop): the batch once more
+                    # an asyncio object bound to the dead worker's loop), or of a warm-up the
+                    # batch waited for: the batch once more, waiting for nothing
                     resubmitted.add(batch[0].case_hash)
                     fut.release()
-                    completed.add(submit(batch, f"{fut.key}-again"))
+                    completed.add(submit(batch, f"{fut.key}-again", wait=False))
                     continue
                 text = f"{type(exc).__name__}: {exc}"
                 outcomes = [{"status": "error", "error": text} for _ in batch]
@@ -394,6 +414,7 @@ def run_cases(
             yield from zip(batch, outcomes, strict=True)
     finally:
         left = [futures[k][0] for k in pending]
+        left += [w for w in warm.values() if not w.done()]
         if left:  # the client may be closing already (Ctrl-C): nothing to cancel then
             with contextlib.suppress(Exception, asyncio.CancelledError):
                 client.cancel(left, force=True)

@@ -20,12 +20,13 @@ from ffsm_pin.sweep.batches import (
     BATCHES_PER_WORKER,
     MAX_BATCH,
     default_batch_size,
+    kernel_key,
     make_batches,
     robot_key,
 )
 from ffsm_pin.sweep.campaign import load_campaign
 from ffsm_pin.sweep.cases import expand
-from ffsm_pin.sweep.engine import run_batch, run_case
+from ffsm_pin.sweep.engine import run_batch, run_case, run_cases
 
 # columns and outcome entries that measure the machine, not the run
 TIMING = {"wall_time_s", "steps_per_s", "case_wall_s", "case_cpu_s"}
@@ -137,6 +138,50 @@ def cluster():
         )
     with lc, Client(lc):
         yield lc.scheduler_address
+
+
+class _Recording:
+    """A Dask client that records what is submitted to it (function, arguments, options)."""
+
+    def __init__(self, client):
+        self.client, self.submitted = client, []
+
+    def submit(self, fn, *args, **kwargs):
+        future = self.client.submit(fn, *args, **kwargs)
+        self.submitted.append((fn, args, kwargs, future))
+        return future
+
+    def __getattr__(self, name):
+        return getattr(self.client, name)
+
+
+def test_each_controller_and_robot_is_warmed_once_before_its_batches(cluster, campaign_file):
+    from distributed import Client
+
+    from ffsm_pin.sweep.engine import warm_up
+
+    cases = expand(load_campaign(campaign_file(TWO_ROBOTS.format(duration=0.05))))
+    keys = [kernel_key(c) for c in cases]
+    assert len(set(keys)) == 6  # 2 robots x 3 controllers
+    with Client(cluster) as real:
+        client = _Recording(real)
+        outcomes = [o for _, o in run_cases(client, cases, batch_size=3)]  # type: ignore[arg-type]
+        warm = [(args, kw, f) for fn, args, kw, f in client.submitted if fn is warm_up]
+        batches = [(args, f) for fn, args, _, f in client.submitted if fn is run_batch]
+        assert all(f.status == "finished" for _, _, f in warm)  # (a warm-up never raises)
+    assert len(outcomes) == len(cases) and all(o["status"] != "error" for o in outcomes)
+    # one warm-up per robot and controller, of its first case, submitted before every batch
+    # and ahead of them (priority)
+    first = {k: cases[keys.index(k)] for k in dict.fromkeys(keys)}
+    assert [args[0] for args, _, _ in warm] == [c.scenario_toml for c in first.values()]
+    assert all(kw["priority"] > 0 for _, kw, _ in warm)
+    assert [fn for fn, *_ in client.submitted[: len(warm)]] == [warm_up] * len(warm)
+    by_toml = {c.scenario_toml: k for c, k in zip(cases, keys, strict=True)}
+    warm_of = {by_toml[args[0]]: f.key for args, _, f in warm}
+    # each batch waits for exactly the warm-ups of its cases' robots and controllers
+    assert sum(len(args[0]) for args, _ in batches) == len(cases)
+    for (tomls, _, after), _ in batches:
+        assert sorted(f.key for f in after) == sorted({warm_of[by_toml[t]] for t in tomls})
 
 
 @pytest.mark.slow
