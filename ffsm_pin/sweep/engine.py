@@ -333,6 +333,10 @@ def run_cases(
     """Submit the cases in batches (:func:`run_batch`); yield ``(case, outcome)`` per case as
     batches finish.
 
+    First one :func:`warm_up` task per robot and controller type
+    (:func:`~ffsm_pin.sweep.batches.kernel_key`), of its first case, ahead of the batches
+    (a priority); each batch waits for the warm-ups of its cases' pairs.
+
     Closing the generator (or an exception in the caller, e.g. Ctrl-C) cancels what is left.
 
     Parameters
