@@ -383,10 +383,8 @@ def run_cases(
             keeps = [str(keep_runs / f"case-{c.index:05d}") for c in batch]
         # the warm-ups of the batch's kernels (none for a batch submitted again: a warm-up
         # lost with its worker does not fail it twice)
-        after = {kernel_key(c): warm[kernel_key(c)] for c in batch} if wait else {}
-        fut = client.submit(
-            run_batch, tomls, keeps, list(after.values()), key=key, pure=False, retries=1
-        )
+        after = [warm[k] for k in dict.fromkeys(map(kernel_key, batch))] if wait else []
+        fut = client.submit(run_batch, tomls, keeps, after, key=key, pure=False, retries=1)
         futures[fut.key] = (fut, batch, bool(after))
         pending.add(fut.key)
         return fut
