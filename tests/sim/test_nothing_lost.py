@@ -190,22 +190,42 @@ def _staging(folder: Path) -> bool:
     return any(p.is_dir() for p in folder.glob(".ffsm-staging-*"))
 
 
+# The write made to last: the presses must land inside it however fast the machine writes
+# (on a fast one the whole write took under the 50 ms between two presses, and the second press
+# then killed an interpreter that had already returned 130).
+SLOW_WRITE = """
+import sys, time
+from ffsm_pin.sim import files
+commit = files.RunFolder.commit
+def slow_commit(self):
+    time.sleep(3.0)
+    commit(self)
+files.RunFolder.commit = slow_commit
+from ffsm_pin.sim.cli import main
+raise SystemExit(main(sys.argv[1:]))
+"""
+
+
 @pytest.mark.parametrize("presses", [1, 2])
 def test_ctrl_c_while_the_files_are_written(tmp_path, presses):
     """SIGINT timed into the final write. Once: the write completes (every contract key,
     a summary), exit 130. Twice: the write is abandoned and the earlier run is intact."""
     folder = tmp_path / "run"
     before = _earlier_run(folder)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "ffsm_pin.sim", "--case", "1", "--duration", "3", "--dt", "1e-4",
-         "--no-html", "--out", str(folder)],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    _wait_for(lambda: _staging(folder) or proc.poll() is not None)
-    for _ in range(presses):
+    err_file = tmp_path / "stderr.txt"
+    with err_file.open("w") as err_out:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", SLOW_WRITE, "--case", "1", "--duration", "3", "--dt", "1e-4",
+             "--no-html", "--out", str(folder)],
+            cwd=ROOT, stdout=subprocess.PIPE, stderr=err_out, text=True,
+        )  # fmt: skip
+        _wait_for(lambda: _staging(folder) or proc.poll() is not None)
         proc.send_signal(signal.SIGINT)
-        time.sleep(0.05)
-    out, err = proc.communicate(timeout=300)
+        if presses == 2:  # the second once the first was seen (two could merge into one)
+            _wait_for(lambda: "Ctrl-C again" in err_file.read_text() or proc.poll() is not None)
+            proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=300)
+    err = err_file.read_text()
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     if presses == 2:
