@@ -182,6 +182,8 @@ class BarycentricModel(PlanarDynamics):
         self._phi_offset = cum_yaw + alpha
         self._ee_angle_offset = cum_yaw[m] + g.ee_yaw
         self._ee_row = S[m].copy()
+        self._ee_row_base = float(S[m][0])  # its parts, for ee_angle each step
+        self._ee_row_joints = S[m][1:].copy()
 
         self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
         self._P = len(self._K)
@@ -317,7 +319,8 @@ class BarycentricModel(PlanarDynamics):
         float
             q_e [rad].
         """
-        return self._ee_row[0] * q_b + self._ee_row[1:] @ np.asarray(q_m) + self._ee_angle_offset
+        joints = self._ee_row_joints @ np.asarray(q_m)
+        return self._ee_row_base * q_b + joints + self._ee_angle_offset
 
     def _expand_rates(self, dphi):
         return dphi if self.layout.collinear else np.repeat(dphi, 2)

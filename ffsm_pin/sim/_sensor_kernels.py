@@ -14,15 +14,18 @@ from ..attitude._mrp_kernels import from_quaternion, from_rotation, kinematics_r
 
 
 @njit(cache=True)
-def spatial_measurement(q, v, p_e, R_e, v_e, w_e):
+def spatial_measurement(q, v, placement, twist):
     """(q_b, R_0, z_e, dz_e/dt, w) of a free-flyer state (docs/spatial.md section 1).
 
     ``q`` (7 + n,) and ``v`` (6 + n,) Pinocchio's configuration and velocity (base twist in the
-    base frame); ``p_e`` [m], ``R_e`` the end-effector frame's placement, ``v_e`` [m/s] and
-    ``w_e`` [rad/s] its velocity, world-aligned. q_b the base MRP, R_0 its rotation, z_e =
-    (p_e, q_e) with q_e the end-effector MRP, dz_e/dt = (v_e, 1/4 B(q_e) R_e^T w_e), w =
-    (R_0 w_B, dq_m) with the base's angular velocity in the inertial frame.
+    base frame); ``placement`` (4, 4) the end-effector frame's homogeneous placement (R_e,
+    p_e [m]), ``twist`` (6,) its velocity (v_e [m/s], w_e [rad/s]), world-aligned: one array
+    each, as Pinocchio gives them (each array it makes costs a call). q_b the base MRP, R_0 its
+    rotation, z_e = (p_e, q_e) with q_e the end-effector MRP, dz_e/dt = (v_e, 1/4 B(q_e)
+    R_e^T w_e), w = (R_0 w_B, dq_m) with the base's angular velocity in the inertial frame.
     """
+    R_e = placement[:3, :3]
+    p_e, v_e, w_e = placement[:3, 3], twist[:3], twist[3:]
     q_b = from_quaternion(q[3], q[4], q[5], q[6])
     R0 = to_rotation(q_b)
     q_e = from_rotation(R_e)

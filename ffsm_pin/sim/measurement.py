@@ -84,14 +84,13 @@ class Sensor:
         if self._q_b_prev is not None:  # continuous attitude
             q_b += 2 * math.pi * round((self._q_b_prev - q_b) / (2 * math.pi))
         self._q_b_prev = q_b
-        pin.forwardKinematics(self.pmodel, self.data, q, v)
-        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
-        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        pmodel, data, fid = self.pmodel, self.data, self.fid
+        pin.forwardKinematics(pmodel, data, q, v)
+        z_e = pin.updateFramePlacement(pmodel, data, fid).translation.copy()  # (x, y, .)
+        vel = pin.getFrameVelocity(pmodel, data, fid, pin.LOCAL_WORLD_ALIGNED)
         q_m = q[4:].copy()
-        ee_angle = self.model.ee_angle  # type: ignore[attr-defined]  # the planar model's
-        p_e, v_e = oMf.translation, vel.linear  # (each access makes a new array)
-        z_e = np.array([p_e[0], p_e[1], ee_angle(q_b, q_m)])
-        z_e_dot = np.array([v_e[0], v_e[1], vel.angular[2]])
+        z_e[2] = self.model.ee_angle(q_b, q_m)  # type: ignore[attr-defined]  # planar model's
+        z_e_dot = vel.vector[_PLANAR_RATES]  # (dx/dt, dy/dt, attitude rate) of the 6-vector
         M = h = None
         if self.state is not None:  # full_model
             self.state.update_dynamics(q, v)  # M, h only
@@ -99,11 +98,12 @@ class Sensor:
         return Measurement(t, q_b, q_m, v[2:].copy(), z_e, z_e_dot, M, h)
 
     def _measure_spatial(self, t: float, q: np.ndarray, v: np.ndarray) -> Measurement:
-        pin.forwardKinematics(self.pmodel, self.data, q, v)
-        oMf = pin.updateFramePlacement(self.pmodel, self.data, self.fid)
-        vel = pin.getFrameVelocity(self.pmodel, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        pmodel, data, fid = self.pmodel, self.data, self.fid
+        pin.forwardKinematics(pmodel, data, q, v)
+        oMf = pin.updateFramePlacement(pmodel, data, fid)
+        vel = pin.getFrameVelocity(pmodel, data, fid, pin.LOCAL_WORLD_ALIGNED)
         q_b, R0, z_e, z_e_dot, w = spatial_measurement(  # the MRP arithmetic, compiled
-            q, v, oMf.translation, oMf.rotation, vel.linear, vel.angular
+            q, v, oMf.homogeneous, vel.vector
         )
         self.R0 = R0  # kept for the recorder (one evaluation a step)
         M = h = None
@@ -111,6 +111,10 @@ class Sensor:
             self.state.update_dynamics(q, v)  # M, h only
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)
+
+
+#: The planar measured rates' entries in the frame's world-aligned (linear, angular) 6-vector.
+_PLANAR_RATES = np.array([0, 1, 5])
 
 
 # root joint (``robot.base``) -> (its measurement, its base angular acceleration): what the
