@@ -65,9 +65,7 @@ def test_spatial_measurement_equals_the_reference_formulas(rng):
         pin.forwardKinematics(ff, data, q, v)
         oMf = pin.updateFramePlacement(ff, data, fid)
         vel = pin.getFrameVelocity(ff, data, fid, pin.LOCAL_WORLD_ALIGNED)
-        q_b, R0, z_e, z_e_dot, w = spatial_measurement(
-            q, v, oMf.translation, oMf.rotation, vel.linear, vel.angular
-        )
+        q_b, R0, z_e, z_e_dot, w = spatial_measurement(q, v, oMf.homogeneous, vel.vector)
         np.testing.assert_allclose(q_b, mrp.from_quaternion(q[3:7]), **TOL)
         np.testing.assert_allclose(R0, pin.Quaternion(q[3:7]).toRotationMatrix(), atol=1e-13)
         q_e = mrp.from_rotation(oMf.rotation)
