@@ -67,6 +67,9 @@ DEFAULT_CASES = {
     "spatial-realistic": 1.0,
 }
 WALL_CLOCK = {"wall_time_s", "steps_per_s"}
+# what computed a run, not its result: compared apart (a note when they differ, e.g. two
+# machines whose OpenBLAS kernels differ, docs/REPRODUCTION.md)
+PROVENANCE = {"blas", "versions"}
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -264,7 +267,9 @@ def compare(
                 zeros.append(key)
         sa = json.loads((a / case / "summary.json").read_text())
         sb = json.loads((b / case / "summary.json").read_text())
-        for key in sorted((set(sa) | set(sb)) - WALL_CLOCK):
+        notes = [f"{key}: {sa.get(key)!r} vs {sb.get(key)!r}" for key in sorted(PROVENANCE)
+                 if sa.get(key) != sb.get(key)]  # fmt: skip
+        for key in sorted((set(sa) | set(sb)) - WALL_CLOCK - PROVENANCE):
             if allow_added and key not in sa:
                 added.append(f"summary.{key}")
             elif key not in sa or key not in sb:
@@ -278,6 +283,8 @@ def compare(
             verdict = f"equal values; bits differ only in signed zeros / NaN payloads of {zeros}"
         verdict += f" (added: {', '.join(added)})" if added else ""
         print(f"{case:22s} {'DIFFERS: ' + '; '.join(problems) if problems else verdict}")
+        for note in notes:  # (not a difference of results)
+            print(f"{'':22s} computed with other {note}")
         bad |= bool(problems)
     return int(bad)
 

@@ -67,6 +67,31 @@ def to_quaternion(s) -> np.ndarray:
     return np.concatenate((2 * s, [1 - ss])) / (1 + ss)
 
 
+def angles_from(s_rows: np.ndarray, s0: np.ndarray) -> np.ndarray:
+    """Per row of ``s_rows`` (N, 3), the angle of the rotation from the attitude ``s0`` to the
+    row's [rad], 2 acos |<quat_0, quat>| (in [0, pi]).
+
+    Parameters
+    ----------
+    s_rows : ndarray, shape (N, 3)
+        Attitudes (MRP).
+    s0 : ndarray, shape (3,)
+        The attitude the angles are measured from (MRP).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        The angles [rad].
+    """
+
+    def quat(s):  # MRP -> unit quaternion (w, x, y, z), rows
+        n2 = np.sum(s * s, axis=-1, keepdims=True)
+        return np.concatenate(((1 - n2) / (1 + n2), 2 * s / (1 + n2)), axis=-1)
+
+    dot = np.abs(quat(s_rows) @ quat(s0[None, :])[0])
+    return 2 * np.arccos(np.minimum(dot, 1.0))
+
+
 def from_rotation(R) -> np.ndarray:
     """MRP (on the ``|s| <= 1`` branch) of a rotation matrix (body to inertial).
 

@@ -12,6 +12,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from .._numerics import blas, versions
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques, rows_beside
 from ..control.interface import recorded_name
@@ -89,6 +90,8 @@ def spool_header(setup: Setup, record_every: int) -> dict:
         "scenario_name": setup.scenario.name,
         "record_every": int(record_every),
         "dt": setup.scenario.dt,
+        "blas": blas(),  # what the run computes with, for its recovered summary
+        "versions": versions(),
     }
 
 
@@ -244,5 +247,5 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         sigma_measure=measure if isinstance(measure, str) else None,
         estimates=dict(setup.drawn_estimates) or None,
         target=setup.target,
-        **outcome,
+        **{"blas": blas(), "versions": versions(), **outcome},  # (this process's, by default)
     )

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..attitude import mrp
 from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
 from .recorder import Signals, Thinned, write_npz
@@ -62,16 +63,8 @@ class _Scan:
 
 def _rotation_angle(q_b: np.ndarray, q_b0: np.ndarray) -> np.ndarray:
     """Per row, the angle of the rotation from attitude ``q_b0`` to ``q_b`` [rad]: planar the
-    angle difference, spatial (MRPs) 2 acos |<quat_0, quat>|."""
-    if q_b.shape[1] == 1:
-        return np.abs(q_b[:, 0] - q_b0[0])
-
-    def quat(s):  # MRP -> unit quaternion (w, x, y, z), rows
-        n2 = np.sum(s * s, axis=-1, keepdims=True)
-        return np.concatenate(((1 - n2) / (1 + n2), 2 * s / (1 + n2)), axis=-1)
-
-    dot = np.abs(quat(q_b) @ quat(q_b0[None, :])[0])
-    return 2 * np.arccos(np.minimum(dot, 1.0))
+    angle difference, spatial (MRPs) :func:`~ffsm_pin.attitude.mrp.angles_from`."""
+    return np.abs(q_b[:, 0] - q_b0[0]) if q_b.shape[1] == 1 else mrp.angles_from(q_b, q_b0)
 
 
 def _inside(s: Mapping[str, np.ndarray], which: str) -> np.ndarray:
@@ -139,6 +132,9 @@ class RunResult:
         The ``[target]`` body (:mod:`.target_run`): the summary's ``target_drift_*``.
     capture, outcomes : CaptureOutcome or None, tuple
         With ``[capture]`` (:mod:`.capture_run`); more (wheels, detumble): their summary keys.
+    blas, versions : str or None
+        What the run computed with (:mod:`ffsm_pin._numerics`): the BLAS libraries and their
+        kernels, the libraries' versions; None when not known.
     """
 
     scheme: str | None  # the controller's variant (its ``scheme``; the paper's: ppc, ...) or None
@@ -169,6 +165,8 @@ class RunResult:
     target: Any = None  # the [target] body (sim.target.Target), None without one
     capture: Any = None  # the capture's outcome (sim.capture_run.CaptureOutcome) or None
     outcomes: tuple = ()  # objects with summary() (sim.wheels_run, sim.detumble)
+    blas: str | None = None  # the BLAS libraries and kernels of the run (ffsm_pin._numerics)
+    versions: str | None = None  # ffsm-pin's and its numerical libraries' versions
     _scanned: _Scan | None = field(default=None, init=False, repr=False, compare=False)
 
     def __getitem__(self, key: str) -> np.ndarray:
@@ -381,6 +379,8 @@ class RunResult:
             "final_theta_z_error": _final_norm(s, "theta_z"),
             "final_theta_d_error": _final_norm(s, "theta_d"),
             "events": list(self.events),
+            "blas": self.blas,
+            "versions": self.versions,
             **relaxation_summary(self.signals, self.signals_blocks, (self.rhoinf_b, self.rhoinf_z)),
         }
         if self.target is not None and "target_pose" in s:  # (only runs with a target)

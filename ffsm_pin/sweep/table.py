@@ -91,6 +91,8 @@ SUMMARY_TYPES = {
     "final_theta_d_error": pa.float64(),
     "case_wall_s": pa.float64(),  # the whole case on its worker (ffsm_pin.sweep.engine.run_case)
     "case_cpu_s": pa.float64(),
+    "blas": pa.string(),  # the worker's BLAS libraries and kernels (ffsm_pin/_numerics.py)
+    "versions": pa.string(),
 }
 TAIL = {"scenario_toml": pa.string()}
 # Columns of some runs only (a scenario with [capture] or wheels, docs/capture.md), typed

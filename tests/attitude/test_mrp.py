@@ -76,3 +76,15 @@ def test_analytic_branch_agrees_with_pinocchio(rotations):
         s_complex = mrp.from_rotation(R.astype(complex))
         assert np.abs(s_complex.imag).max() == 0.0
         assert np.abs(s_complex.real - mrp.from_rotation(R)).max() < 1e-13
+
+
+def test_angles_from_is_the_angle_of_the_relative_rotation(rotations, rng):
+    """The rotation from R0 to R0 exp([e]x phi) (in either branch of each MRP) is by phi."""
+    for R0 in rotations:
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        phis = rng.uniform(0.0, np.pi, 8)
+        s_rows = np.array([mrp.from_rotation(R0 @ pin.exp3(phi * axis)) for phi in phis])
+        s_rows[::2] = [mrp.shadow(s) for s in s_rows[::2]]  # the same attitudes, other branch
+        angles = mrp.angles_from(s_rows, mrp.from_rotation(R0))
+        np.testing.assert_allclose(angles, phis, atol=1e-7)  # (acos near 0 and pi: ~sqrt(eps))

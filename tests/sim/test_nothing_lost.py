@@ -277,6 +277,7 @@ def test_kill_9_then_recover(tmp_path):
     assert done.returncode == 3, done.stderr
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["completed"] is False and summary["stop_cause"] == "recovered"
+    assert summary["blas"] == header["blas"] and summary["versions"] == header["versions"]
     assert "recovered" in summary["stop_reason"]
     assert not list(folder.glob(".ffsm-spool-*"))  # the spool is gone once written
     with np.load(folder / "trajectory.npz") as npz:
