@@ -283,3 +283,26 @@ def test_a_figure_saved_without_the_layout_placeholder_has_the_same_pixels(tmp_p
     a, b = plt.imread(ours), plt.imread(tmp_path / "matplotlib.png")
     assert a.shape == b.shape and a.shape[0] > 800
     assert a.tobytes() == b.tobytes()
+
+
+def test_the_report_says_what_its_rows_were_computed_with(campaign_file, tmp_path):
+    """Rows from workers with other BLAS kernels: the report counts each and says what a mix
+    means; rows without the columns' values (campaigns run before they existed) add nothing."""
+    campaign = load_campaign(campaign_file(SMALL))
+    cases = expand(campaign)
+    out = tmp_path / "out"
+    out.mkdir()
+    t = ResultsTable(out / "results.parquet", campaign.columns)
+    versions = "ffsm-pin 0.2.0, numpy 2.4.6"
+    for k, case in enumerate(cases):
+        kernels = (
+            None if k == 0 else ("openblas 0.3.31 Haswell" if k < 3 else "openblas 0.3.31 SkylakeX")
+        )
+        t.add(case, {**outcome(True, False, 10.0), "blas": kernels, "versions": versions},
+              write=False)  # fmt: skip
+    t.write()
+    text = write_report(out, campaign).read_text()
+    line = next(x for x in text.splitlines() if x.startswith("Computed with "))
+    assert f"openblas 0.3.31 Haswell ({versions}): 2 rows" in line
+    assert f"openblas 0.3.31 SkylakeX ({versions}): {len(cases) - 3} rows" in line
+    assert "OPENBLAS_CORETYPE" in line  # the mix is explained

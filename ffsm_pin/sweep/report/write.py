@@ -90,6 +90,8 @@ def write_report(out: Path, campaign: Campaign) -> Path:
     )) if campaign.auto is not None else ""  # fmt: skip
 
     lines = _head(out, campaign, total, auto)
+    if "blas" in have:  # what the rows were computed with (rows of before 0.2.0: null)
+        lines += _computed_with(path)
     lines += _nominal(nominal, by)
     controllers: list[dict[str, Any]] = []
     if CONTROLLER_KEY in cols:
@@ -127,6 +129,26 @@ def _labels(path: Path, have: set[str]) -> dict[str, str]:
             )
             kinds.update({str(r["kind"]): r["toml"] for r in rows})
     return controller_labels(kinds)
+
+
+def _computed_with(path: Path) -> list[str]:
+    """The BLAS kernels and library versions the rows were computed with, and what a mix of
+    kernels means (docs/REPRODUCTION.md, "Reproducing the shipped numbers on another CPU")."""
+    groups = query(
+        f"SELECT blas, versions, count(*) AS n FROM read_parquet('{quoted(path)}') "
+        "WHERE blas IS NOT NULL GROUP BY ALL ORDER BY n DESC, blas, versions"
+    )
+    if not groups:
+        return []
+    lines = ["Computed with " + "; ".join(
+        f"{g['blas']} ({g['versions']}): {g['n']} rows" for g in groups
+    ) + "."]  # fmt: skip
+    if len({g["blas"] for g in groups}) > 1:
+        lines[0] += (
+            " Rows computed with other BLAS kernels part from each other by rounding grown along "
+            "each run; `OPENBLAS_CORETYPE` in the environment gives every worker the same ones."
+        )
+    return lines + [""]
 
 
 def _head(out: Path, campaign: Campaign, total, auto: str) -> list[str]:
