@@ -146,7 +146,7 @@ def _recover(spool: Path) -> Recovered:
         saturation_per_joint=per_joint,
         capture=None if capture is None else capture.outcome,
         outcomes=system_outcomes(signals, capture, wheels, None),
-        blas=header.get("blas"),  # the killed run's (None from a spool written before 0.2.0)
+        blas=header.get("blas"),  # the killed run's (None from a spool older than the key)
         versions=header.get("versions"),
     )
     if approach_note is not None:
