@@ -90,7 +90,7 @@ def write_report(out: Path, campaign: Campaign) -> Path:
     )) if campaign.auto is not None else ""  # fmt: skip
 
     lines = _head(out, campaign, total, auto)
-    if "blas" in have:  # what the rows were computed with (rows of before 0.2.0: null)
+    if "blas" in have:  # what the rows were computed with (null in rows run before the column)
         lines += _computed_with(path)
     lines += _nominal(nominal, by)
     controllers: list[dict[str, Any]] = []
