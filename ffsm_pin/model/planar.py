@@ -319,7 +319,9 @@ class BarycentricModel(PlanarDynamics):
         float
             q_e [rad].
         """
-        joints = self._ee_row_joints @ np.asarray(q_m)
+        # (ndarray.dot: the same BLAS ddot as ``@`` on two vectors, without the matmul
+        # ufunc's overhead: a third of a planar measurement's cost)
+        joints = self._ee_row_joints.dot(np.asarray(q_m))
         return self._ee_row_base * q_b + joints + self._ee_angle_offset
 
     def _expand_rates(self, dphi):

@@ -87,7 +87,7 @@ class Sensor:
         pmodel, data, fid = self.pmodel, self.data, self.fid
         pin.forwardKinematics(pmodel, data, q, v)
         z_e = pin.updateFramePlacement(pmodel, data, fid).translation.copy()  # (x, y, .)
-        vel = pin.getFrameVelocity(pmodel, data, fid, pin.LOCAL_WORLD_ALIGNED)
+        vel = pin.getFrameVelocity(pmodel, data, fid, _WORLD_ALIGNED)
         q_m = q[4:].copy()
         z_e[2] = self.model.ee_angle(q_b, q_m)  # type: ignore[attr-defined]  # planar model's
         z_e_dot = vel.vector[_PLANAR_RATES]  # (dx/dt, dy/dt, attitude rate) of the 6-vector
@@ -101,7 +101,7 @@ class Sensor:
         pmodel, data, fid = self.pmodel, self.data, self.fid
         pin.forwardKinematics(pmodel, data, q, v)
         oMf = pin.updateFramePlacement(pmodel, data, fid)
-        vel = pin.getFrameVelocity(pmodel, data, fid, pin.LOCAL_WORLD_ALIGNED)
+        vel = pin.getFrameVelocity(pmodel, data, fid, _WORLD_ALIGNED)
         q_b, R0, z_e, z_e_dot, w = spatial_measurement(  # the MRP arithmetic, compiled
             q, v, oMf.homogeneous, vel.vector
         )
@@ -112,6 +112,9 @@ class Sensor:
             M, h = self.state.M, self.state.h
         return Measurement(t, q_b, q[7:].copy(), w, z_e, z_e_dot, M, h)
 
+
+#: The frame of the measured end-effector twist (looked up once, not per measurement).
+_WORLD_ALIGNED = pin.LOCAL_WORLD_ALIGNED
 
 #: The planar measured rates' entries in the frame's world-aligned (linear, angular) 6-vector.
 _PLANAR_RATES = np.array([0, 1, 5])

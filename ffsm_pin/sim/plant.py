@@ -384,7 +384,9 @@ class Plant:
         """
         if substeps < 1:
             raise ParameterError(f"plant: substeps must be >= 1, got {substeps}")
-        res = self.step(q, v, u_m, dt if substeps == 1 else dt / substeps, base_wrench)
+        if substeps == 1:  # (the step's own result: a is its start's)
+            return self.step(q, v, u_m, dt, base_wrench)
+        res = self.step(q, v, u_m, dt / substeps, base_wrench)
         a = res.a
         for _ in range(substeps - 1):
             res = self.step(res.q, res.v, u_m, dt / substeps, base_wrench)
