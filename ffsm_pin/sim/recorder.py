@@ -323,7 +323,7 @@ class Recorder:
             width = chunk[0].size
             with open(self._spool / f"{key}.bin", "r+b" if self.on_disk else "wb") as f:
                 f.seek(8 * self.on_disk * width)  # a spill cut short is simply redone
-                f.write(np.ascontiguousarray(chunk[: self.i]).tobytes())
+                f.write(np.ascontiguousarray(chunk[: self.i]).data)  # (its buffer: no bytes copy)
         self.on_disk += self.i
         self.i = 0
 
@@ -449,7 +449,7 @@ def extend(
                 if key not in files:
                     shapes[key] = value.shape[1:]
                     files[key] = open(spool / f"{key}.bin", "wb")  # noqa: SIM115
-                files[key].write(np.ascontiguousarray(value, np.float64).tobytes())  # type: ignore[attr-defined]
+                files[key].write(np.ascontiguousarray(value, np.float64).data)  # type: ignore[attr-defined]
     finally:
         for f in files.values():
             f.close()  # type: ignore[attr-defined]
@@ -490,4 +490,4 @@ def write_npz(path: str | Path, signals: Mapping[str, np.ndarray], compress: boo
                 header = {"descr": "<f8", "fortran_order": False, "shape": arr.shape}
                 np.lib.format.write_array_header_2_0(f, header)  # type: ignore[attr-defined]
                 for block in signals.blocks([key]):
-                    f.write(np.ascontiguousarray(block[key]).tobytes())
+                    f.write(np.ascontiguousarray(block[key]).data)
