@@ -119,6 +119,7 @@ def simulate(
     progress=None,
     record_every: int = 1,
     spool_dir: str | Path | None = None,
+    memory_bytes: int | None = None,
 ) -> RunResult:
     """Run the closed loop for the scenario's duration; see the module docstring.
 
@@ -137,6 +138,11 @@ def simulate(
     spool_dir : str, Path or None
         Where a recording longer than the recorder's memory chunk is spilled
         (``ffsm_pin.sim.recorder``); the system's temporary folder when None.
+    memory_bytes : int or None
+        The recorder's memory chunk [bytes]: the rows held in memory before they are spilled
+        to ``spool_dir``; None: :data:`~ffsm_pin.sim.recorder.CHUNK_BYTES`. A larger chunk
+        spares a long run the spill's copies (a campaign's cases: ``ffsm_pin.sweep.engine``)
+        at that memory, and a run killed before its first spill leaves nothing to recover.
 
     Returns
     -------
@@ -165,7 +171,9 @@ def simulate(
     def header() -> dict:  # (made only when a spool is: a run that fits in memory has none)
         return spool_header(setup, record_every)
 
-    rec = Recorder(shapes, n_rows, spool_dir, packed=packed, header=header)
+    rec = Recorder(
+        shapes, n_rows, spool_dir, chunk_bytes=memory_bytes, packed=packed, header=header
+    )
     A, A_signals = rec.arrays, rec.block
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
@@ -252,7 +260,14 @@ def simulate(
                         )
                     if set(new) - set(shapes):
                         shapes = {**shapes, **new}
-                        rec = Recorder(shapes, n_rows, spool_dir, packed=packed, header=header)
+                        rec = Recorder(
+                            shapes,
+                            n_rows,
+                            spool_dir,
+                            chunk_bytes=memory_bytes,
+                            packed=packed,
+                            header=header,
+                        )
                         A, A_signals = rec.arrays, rec.block
                         A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
                             A[key] for key in _LOOP_COLUMNS

@@ -67,6 +67,14 @@ __all__ = [
 
 WARMUP_STEPS = 20
 
+#: [bytes] A case's rows held in memory before its recorder spills them (``simulate``'s
+#: ``memory_bytes``; a single run's chunk is 32 MiB). A case's rows are read once, for its row
+#: of the table, and never recovered (a worker that dies has its case run again), so spilling
+#: them is only a cost: 13 us a step of a 40 s ``spatial-realistic`` case, 14 % of its loop
+#: (benchmarks/README.md, "A campaign case's rows in memory"). This bounds a worker's memory
+#: for its rows; a longer case spills the rest as a single run does.
+CASE_MEMORY_BYTES = 256 * 2**20
+
 #: Dask settings for the LocalCluster's processes: the worker's own periodic work, which is
 #: CPU taken from the cases (a worker runs one case at a time and nobody reads a dashboard).
 #: Measured on 1-worker clusters side by side (benchmarks/README.md, "Campaigns"): the worker
@@ -253,7 +261,7 @@ def run_case(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             setup = prepare(scenario, robots=robots)
-            result = simulate(setup)
+            result = simulate(setup, memory_bytes=CASE_MEMORY_BYTES)
         summary = result.summary()
         extras = case_extras(setup, result, summary)  # lists, min_sigma_gjm, signals
         if keep_dir is not None:

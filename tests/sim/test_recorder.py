@@ -34,11 +34,14 @@ def _run(case: str, duration: float, chunk_bytes: int | None, monkeypatch, **kw)
 
 @pytest.mark.parametrize("case, duration", [("case1", 0.6), ("spatial", 0.15)])
 def test_spilled_recording_equals_in_memory(case, duration, monkeypatch, tmp_path):
-    """Planar and spatial: every signal, the summary and trajectory.npz, chunk of 7 rows."""
+    """Planar and spatial: every signal, the summary and trajectory.npz, chunk of 7 rows
+    (``simulate``'s ``memory_bytes``)."""
     whole = _run(case, duration, None, monkeypatch)
     assert not whole.signals.spilled
     _, row_bytes = recording_size(prepare(builtin_scenario(case)))
-    spilled = _run(case, duration, 7 * row_bytes, monkeypatch, spool_dir=tmp_path / "spool")
+    spilled = _run(
+        case, duration, None, monkeypatch, spool_dir=tmp_path / "spool", memory_bytes=7 * row_bytes
+    )
     assert spilled.signals.spilled
     assert list(spilled.signals) == list(whole.signals)
     for key in whole.signals:
