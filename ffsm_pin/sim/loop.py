@@ -29,7 +29,7 @@ from ..control.interface import (
     recorded_name,
     split_reply,
 )
-from ..errors import SimulationError
+from ..errors import ParameterError, SimulationError
 from .capture_run import target_motions
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE
@@ -148,11 +148,24 @@ def simulate(
     -------
     RunResult
         The recorded signals, whether the run completed and, if not, when and why it stopped.
+
+    Raises
+    ------
+    ParameterError
+        ``memory_bytes`` is not a positive whole number.
+    StorageError
+        The recording would not fit on the disk of ``spool_dir``
+        (:func:`~ffsm_pin.sim.storage.check_storage`).
     """
     sc = setup.scenario
     dt, duration = sc.dt, sc.duration
     n_steps = int(round(duration / dt))
     record_every = max(1, int(record_every))
+    if memory_bytes is not None and (type(memory_bytes) is not int or memory_bytes < 1):
+        raise ParameterError(
+            f"simulate: memory_bytes = {memory_bytes!r}: must be a positive whole number of "
+            "bytes, or None (the recorder's 32 MiB chunk)"
+        )
     # the rows a run records go to disk past the first chunk (ffsm_pin.sim.recorder)
     check_storage(*recording_size(setup), record_every, spool_dir or tempfile.gettempdir())
     controller = setup.controller

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from ffsm_pin.control.interface import SignalLayout, SignalRow
+from ffsm_pin.errors import ParameterError
 from ffsm_pin.scenario.file import builtin_scenario
 from ffsm_pin.sim import recorder
 from ffsm_pin.sim.recorder import Recorder, Signals, write_npz
@@ -30,6 +31,14 @@ def _run(case: str, duration: float, chunk_bytes: int | None, monkeypatch, **kw)
         monkeypatch.setattr(recorder, "CHUNK_BYTES", chunk_bytes)
     sc = dataclasses.replace(builtin_scenario(case), duration=duration)
     return simulate(prepare(sc), **kw)  # a fresh controller: runs are not reentrant
+
+
+@pytest.mark.parametrize("memory_bytes", [0, -5, 1.5, "1000", True])
+def test_memory_bytes_must_be_a_positive_whole_number(memory_bytes):
+    """A bad recorder chunk is refused before the run, naming the argument."""
+    setup = prepare(dataclasses.replace(builtin_scenario("case1"), duration=0.01))
+    with pytest.raises(ParameterError, match="memory_bytes = .*positive whole number"):
+        simulate(setup, memory_bytes=memory_bytes)
 
 
 @pytest.mark.parametrize("case, duration", [("case1", 0.6), ("spatial", 0.15)])
