@@ -9,6 +9,7 @@ states (funnels, reference, errors, momentum, F_r: :func:`recorded_signals`) and
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -230,6 +231,8 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
     # what the controller says of itself: its variant, what its sigma_min measures
     scheme = getattr(setup.controller, "scheme", None)
     measure = getattr(setup.controller, "sigma_measure", None)
+    # what the run computed with: this process's, unless the caller knows (a recovered run)
+    made_by: dict[str, Any] = {} if "blas" in outcome else {"blas": blas(), "versions": versions()}
     return RunResult(
         scheme=scheme if isinstance(scheme, str) else None,
         robot=setup.robot.name,
@@ -247,5 +250,6 @@ def run_result(setup: Setup, signals: Signals, **outcome) -> RunResult:
         sigma_measure=measure if isinstance(measure, str) else None,
         estimates=dict(setup.drawn_estimates) or None,
         target=setup.target,
-        **{"blas": blas(), "versions": versions(), **outcome},  # (this process's, by default)
+        **made_by,
+        **outcome,
     )
