@@ -183,7 +183,7 @@ class BarycentricModel(PlanarDynamics):
         self._ee_angle_offset = cum_yaw[m] + g.ee_yaw
         self._ee_row = S[m].copy()
         self._ee_row_base = float(S[m][0])  # its parts, for ee_angle each step
-        self._ee_row_joints = S[m][1:].copy()
+        self._ee_row_joints = self._ee_row[1:]  # (a view: the row is kept once)
 
         self._K, self._L = (np.array(x, dtype=int) for x in np.triu_indices(nb, 1))
         self._P = len(self._K)

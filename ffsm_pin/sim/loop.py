@@ -30,6 +30,7 @@ from ..control.interface import (
     split_reply,
 )
 from ..errors import ParameterError, SimulationError
+from . import recorder
 from .capture_run import target_motions
 from .measurement import Sensor
 from .plant import STATE_BLOW_UP, STATE_NONFINITE
@@ -164,7 +165,7 @@ def simulate(
     if memory_bytes is not None and (type(memory_bytes) is not int or memory_bytes < 1):
         raise ParameterError(
             f"simulate: memory_bytes = {memory_bytes!r}: must be a positive whole number of "
-            "bytes, or None (the recorder's 32 MiB chunk)"
+            f"bytes, or None (the recorder's chunk, {recorder.CHUNK_BYTES} bytes)"
         )
     # the rows a run records go to disk past the first chunk (ffsm_pin.sim.recorder)
     check_storage(*recording_size(setup), record_every, spool_dir or tempfile.gettempdir())
