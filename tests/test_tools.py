@@ -57,6 +57,20 @@ def test_rounding_sensitivity_reruns_the_case_on_another_openblas_kernel(capsys)
     assert all(float(v) < 1e-12 for v in parting.values())
 
 
+def test_rounding_sensitivity_reruns_the_case_with_another_source(capsys, tmp_path):
+    """``--source DIR`` reruns the case in a new process with DIR's package (checked: the run
+    says which package it imported): this checkout's own package gives the same trajectory
+    bit for bit (every parting 0), and a folder without a package is refused."""
+    tool = _tool("rounding_sensitivity")
+    assert tool.main(["1", "--duration", "0.05", "--joints", "--source", str(ROOT)]) == 0
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "source " in ln]
+    assert len(line) == 1 and line[0].endswith("completed")
+    parting = dict(zip(*[iter(line[0].split()[2:-1])] * 2, strict=True))
+    assert parting == dict.fromkeys(tool.SIGNALS, "0")
+    with pytest.raises(SystemExit, match="no ffsm_pin package"):
+        tool.main(["1", "--duration", "0.05", "--joints", "--source", str(tmp_path)])
+
+
 def _fake_package(folder: Path, marker: str) -> Path:
     """A folder holding an ``ffsm_pin`` package that is only ``marker``."""
     (folder / "ffsm_pin").mkdir(parents=True)

@@ -16,12 +16,19 @@ known-model scheme runs its numpy reference unless asked), so the two can be set
 this machine (``OPENBLAS_CORETYPE``, each in a new process; the wheels' OpenBLAS picks its
 kernel at run time): what the shipped trajectory is on another CPU with the same code.
 
+``--source DIR ...`` adds the same run made by the package of another source folder (a ``git
+archive`` of an earlier revision, say), in a new process: how far a code change moved the
+trajectory, to set beside the one-ulp rows (a change that reorders arithmetic is accepted
+when every verdict is equal and it parts by at most ten times the envelope,
+docs/REPRODUCTION.md).
+
 Usage::
 
     python tools/rounding_sensitivity.py known-model --backend numba
     python tools/rounding_sensitivity.py 1-paper --joints 0 1 2 3   # (case1-paper)
     python tools/rounding_sensitivity.py spatial --duration 10
     python tools/rounding_sensitivity.py 1 --joints --blas Haswell Sandybridge
+    git archive REV | tar -x -C /tmp/old && python tools/rounding_sensitivity.py 1 --source /tmp/old
 
 Measured numbers and what they mean: benchmarks/README.md ("Rounding sensitivity").
 """
@@ -40,6 +47,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+import ffsm_pin
 from ffsm_pin import prepare
 from ffsm_pin.control.lu_jia import LuJiaController
 from ffsm_pin.scenario.file import builtin_scenario
@@ -62,10 +70,12 @@ def _run(scenario, joint: int | None = None, backend: str | None = None):
 
 
 def _saved(path: Path, run) -> None:
-    """The signals :func:`_parting` and :func:`_ending` read, to a file (``--save``)."""
+    """The signals :func:`_parting` and :func:`_ending` read, to a file (``--save``), with the
+    package that made them."""
     np.savez(path, **{k: np.asarray(run.signals[k]) for k in SIGNALS},
              completed=run.completed, stop_time=np.nan if run.stop_time is None else run.stop_time,
-             stop_cause=str(run.stop_cause))  # fmt: skip
+             stop_cause=str(run.stop_cause),
+             package=str(Path(ffsm_pin.__file__).resolve().parent))  # fmt: skip
 
 
 def _loaded(path: Path):
@@ -73,19 +83,38 @@ def _loaded(path: Path):
         return SimpleNamespace(
             signals={k: f[k] for k in SIGNALS}, completed=bool(f["completed"]),
             stop_time=float(f["stop_time"]), stop_cause=str(f["stop_cause"]),
+            package=str(f["package"]) if "package" in f else "?",
         )  # fmt: skip
+
+
+def _in_new_process(args, env: dict[str, str], cwd: str | None = None):
+    """The run as shipped, in a new process with the environment ``env``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.npz"
+        cmd = [sys.executable, str(Path(__file__).resolve()), args.case, "--joints"]
+        cmd += ["--save", str(out)]
+        if args.duration is not None:
+            cmd += ["--duration", str(args.duration)]
+        subprocess.run(cmd, env={**os.environ, **env}, cwd=cwd or tmp, check=True)
+        return _loaded(out)
 
 
 def _with_blas_kernel(args, coretype: str):
     """The run as shipped, in a new process with OpenBLAS forced to ``coretype``."""
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "run.npz"
-        cmd = [sys.executable, __file__, args.case, "--joints", "--save", str(out)]
-        if args.duration is not None:
-            cmd += ["--duration", str(args.duration)]
-        env = {**os.environ, "OPENBLAS_CORETYPE": coretype}
-        subprocess.run(cmd, env=env, check=True)
-        return _loaded(out)
+    return _in_new_process(args, {"OPENBLAS_CORETYPE": coretype})
+
+
+def _from_source(args, source: str):
+    """The run made by the package of the folder ``source``, in a new process (from a
+    temporary folder, so that no ``ffsm_pin`` of the current folder shadows it)."""
+    folder = Path(source).resolve()
+    if not (folder / "ffsm_pin" / "__init__.py").is_file():
+        raise SystemExit(f"error: --source {source}: no ffsm_pin package in that folder")
+    path = os.pathsep.join(filter(None, [str(folder), os.environ.get("PYTHONPATH", "")]))
+    run = _in_new_process(args, {"PYTHONPATH": path})
+    if Path(run.package) != folder / "ffsm_pin":
+        raise SystemExit(f"error: --source {source}: the run imported {run.package}")
+    return run
 
 
 def _parting(ref, run) -> str:
@@ -118,6 +147,13 @@ def main(argv=None) -> int:
         metavar="CORETYPE",
         help="also run it with OpenBLAS forced to these kernels (e.g. Haswell)",
     )
+    p.add_argument(
+        "--source",
+        nargs="*",
+        default=[],
+        metavar="DIR",
+        help="also run it with the package of these source folders (e.g. an earlier revision)",
+    )
     p.add_argument("--save", help=argparse.SUPPRESS)  # (the --blas runs' own processes)
     args = p.parse_args(argv)
     scenario = builtin_scenario(f"case{args.case}" if args.case[:1].isdigit() else args.case)
@@ -138,6 +174,9 @@ def main(argv=None) -> int:
     for coretype in args.blas:
         run = _with_blas_kernel(args, coretype)
         print(f"  OpenBLAS {coretype:11s} {_parting(ref, run)}   {_ending(run)}")
+    for source in args.source:
+        run = _from_source(args, source)
+        print(f"  source {source}   {_parting(ref, run)}   {_ending(run)}")
     return 0
 
 

@@ -22,6 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .._array_kernels import mm, mv, spd_solve
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kinematics_kernels import y_z
@@ -55,7 +56,7 @@ def _theta_d_increment(Y_m, s_m, M_mm, gamma_d, dt):
     """The gradient law -gamma_d Y_m^T s_m, linearly implicit in its stiff mode (as
     :func:`ffsm_pin.control.adaptation.theta_d_increment`)."""
     c = gamma_d * dt
-    return -c * (Y_m.T @ np.linalg.solve(M_mm + c * (Y_m @ Y_m.T), M_mm @ s_m))
+    return -c * (Y_m.T @ spd_solve(M_mm + c * (Y_m @ Y_m.T), mv(M_mm, s_m)))
 
 
 @njit(cache=True)
@@ -67,7 +68,7 @@ def _torque_and_update(Y, s, M_hat, m3, gains, theta_d, theta_b, theta_z, tb_new
     Y_m = np.ascontiguousarray(Y[m3:])
     s_m = s[m3:].copy()
     M_mm = np.ascontiguousarray(M_hat[m3:, m3:])
-    u = Y_m @ theta_d - gains.k_s * (M_mm @ s_m)
+    u = Y_m @ theta_d - gains.k_s * mv(M_mm, s_m)
     if not np.all(np.isfinite(u)):
         return u, False, True
     d = _theta_d_increment(Y_m, s_m, M_mm, gains.gamma_d, gains.dt)
@@ -116,7 +117,7 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
         pc, ps, K, L, S, w - w_r, w - w_r, nd, collinear
     )
     Y = planar_kernels.y_m(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
-    M_hat = S.T @ planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    M_hat = mm(mm(S.T, planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear)), S)
     u, finite, physical = _torque_and_update(Y, w - w_r, M_hat, 1, gains, theta_d, theta_b,
                                              theta_z, tb_new, tz_new)  # fmt: skip
     return u, w_r[1:].copy(), sigma, damping, finite, physical

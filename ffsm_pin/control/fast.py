@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import difference, positive_definite, put, solve
+from .._array_kernels import difference, gram, mm, mv, positive_definite, put, spd_solve
 from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..model._planar_kernels import (
@@ -77,8 +77,8 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     if not law.attitude:  # Eq. (81)
         pinv, sigma, damping = kernels.damped_pinv(Jm, law.threshold)
         Jb = J[:, 0].copy()
-        w_mc = pinv @ (target - Jb * w_b)
-        sens = -(pinv @ Jb).real
+        w_mc = mv(pinv, target - Jb * w_b)
+        sens = -(mv(pinv, Jb)).real
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, kernels.STATUS_OK, -1
     psi_b, Phi_b, ib = kernels.funnel_terms(law.funnel_b, t, err_b, law.identity)
     if ib >= 0:
@@ -93,16 +93,16 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
     a_b = theta_b[0] + g.k_b * row[0] * Phi_b[0] * psi_b[0]  # Eq. (25)
     Hp = Hbm / hh  # pseudo-inverse of the row H_bm
     U = _eye_minus_outer(Hp, Hbm)
-    A = Jm @ U
+    A = mm(Jm, U)
     pinv, sigma, damping = kernels.damped_pinv(A, law.threshold)
     Hp_ab = Hp * a_b
-    xi = pinv @ (target - Jm @ Hp_ab)  # Eq. (36)
+    xi = mv(pinv, target - mv(Jm, Hp_ab))  # Eq. (36)
     if ns is not None:  # beyond the paper: xi_n = (E - A^+ A) k_s grad mu (null_space.py)
         # (ns None, no null-space term: numba compiles none of this)
         grad = _null_space_gradient(S, off, K, L, ee_row, collinear, nt, ns,
                                     q_b, q_m, theta_b, theta_z)  # fmt: skip
         xi = xi + ns.gain * (grad - pinv @ (A @ grad))
-    w_mc = Hp_ab + U @ xi  # Eq. (25)
+    w_mc = Hp_ab + mv(U, xi)  # Eq. (25)
     return w_mc, sens, sigma, damping, hnorm, err_b, err_z, kernels.STATUS_OK, -1
 
 
@@ -223,24 +223,25 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb), e
     w_tilde = w - w_hat
     Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
-    M_hat = S.T @ Mphi @ S
+    M_hat = mm(mm(S.T, Mphi), S)
     if not positive_definite(M_hat):
         return kernels.STATUS_M_NOT_PD, 0.0, none, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
     cg = g.gamma_3 * dt
-    d_theta_d = -cg * (Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+    Mw = mv(M_hat, w_tilde)
+    d_theta_d = -cg * mv(Y_df.T, spd_solve(M_hat + cg * gram(Y_df), Mw))
     d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)  # physical.py
     if not physical:
         return kernels.STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
-    eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-    rr = difference(Ymd, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
+    eta_x = -mv(Y_df, d_theta_d) / dt  # Eq. (52)
+    rr = mv(difference(Ymd, Yh), theta_d) + g.k_de * Mw + eta_x
     status, value, w_hat_dot, u_m = _manifold(M_hat, rr, w_hat, w_mc, w_mc_dot, sens, g.k_d)
     if status != kernels.STATUS_OK:
         return status, value, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
     if theta_d_true.size:
-        M = S.T @ mass_phi(theta_d_true, pc, ps, K, L, nb, collinear) @ S
-        e = M @ w_tilde + Y_df @ (theta_d_true - theta_d)
+        M = mm(mm(S.T, mass_phi(theta_d_true, pc, ps, K, L, nb, collinear)), S)
+        e = mv(M, w_tilde) + mv(Y_df, theta_d_true - theta_d)
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     YM = y_m(pc, ps, K, L, S, w_hat_dot - g.k_de * w_tilde, nd, collinear)
     decay = np.exp(-g.k_de * dt)
@@ -265,7 +266,7 @@ def _manifold(M_hat, rr, wh, w_mc, w_mc_dot, sens, k_d):
     w_hat_dot = np.empty(nb)
     w_hat_dot[0] = wb_dot
     put(w_hat_dot, 1, tgt + sens * wb_dot)
-    u_m = M_hat[1:] @ w_hat_dot - rr[1:]
+    u_m = mv(M_hat[1:], w_hat_dot) - rr[1:]
     if not np.all(np.isfinite(u_m)):
         return kernels.STATUS_NONFINITE, 0.0, none, none
     return kernels.STATUS_OK, 0.0, w_hat_dot, u_m
@@ -279,11 +280,12 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
     The base entries alone of M = S^T M_phi S (Eq. 12) and of dM/dt e_0 = Y_Mdot(w, e_0)
     theta_d, with the values of the whole products (``(S.T @ M_phi @ S)[0, 0]`` and
     ``(velocity_regressors(..., e_0)[0] @ theta_d)[0]``), about twice as fast (no C w
-    regressor; two BLAS calls instead of seven). S's entries are 0 and +-1 and its base
-    column is ones: M_bb below adds the terms of the two products in ascending order (the
-    same bits as OpenBLAS's products here; tested to rounding, since a BLAS picks its order);
-    S^T Y_Mdot_phi has at most two terms per entry (the same bits in any order), and its
-    product with theta_d is the same BLAS call on the same matrix (tested bit for bit).
+    regressor; one BLAS call). S's entries are 0 and +-1 and its base column is ones: M_bb
+    below adds the terms of the two products in ascending order (the same bits as OpenBLAS's
+    products here; tested to rounding, since a BLAS picks its order); the body rates S w are
+    the loop of :func:`~ffsm_pin.model._planar_kernels.velocity_regressors`, S^T Y_Mdot_phi
+    has at most two terms per entry (the same bits in any order), and its product with
+    theta_d is the same BLAS call on the same matrix (tested bit for bit).
 
     Parameters
     ----------
@@ -307,7 +309,7 @@ def base_inertia(S, off, K, L, collinear, q_b, q_m, w, theta_d):
             row += S[j, 0] * Mphi[j, k]
         M_bb += row * S[k, 0]
     P = K.size
-    dphi = S @ w
+    dphi = mv(S, w)  # (as velocity_regressors)
     Y = np.zeros((nb, theta_d.size))  # S^T Y_Mdot_phi(w, e_0): only the pair columns
     for p in range(P):
         k, l = K[p], L[p]

@@ -36,10 +36,13 @@ from .._array_kernels import (
     cmtv,
     cmv,
     difference,
+    mm,
+    mv,
     positive_definite,
     put,
     smallest_singular_value_above,
     solve,
+    spd_solve,
 )
 from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
@@ -301,12 +304,13 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         if not positive_definite(M_hat):
             return kernels.STATUS_M_NOT_PD, 0.0, none, none, none, none
         cg = g.gamma_3 * dt  # Eq. (51), linearly implicit; projected if physical (physical.py)
-        d_theta_d = -cg * (Y_df.T @ solve(M_hat + cg * (Y_df @ Y_df.T), M_hat @ w_tilde))
+        Mw = mv(M_hat, w_tilde)
+        d_theta_d = -cg * (Y_df.T @ spd_solve(M_hat + cg * (Y_df @ Y_df.T), Mw))
         d_theta_d, physical = physical_increment(law.physical, theta_d, d_theta_d)
         if not physical:
             return kernels.STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-        rr = difference(YMdot, Yh) @ theta_d + g.k_de * (M_hat @ w_tilde) + eta_x
+        rr = difference(YMdot, Yh) @ theta_d + g.k_de * Mw + eta_x
         wh = w_hat
     else:  # known model: computed torque on the true reduced dynamics
         M_hat = np.ascontiguousarray(M_true)
@@ -316,15 +320,16 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     tgt = w_mc_dot - g.k_d * (wh[3:] - w_mc)  # Eqs. (60a), (64)-(65), base rows 3x3
     Mbb = np.ascontiguousarray(M_hat[:3, :3])
     Mbm = np.ascontiguousarray(M_hat[:3, 3:])
-    denom = Mbb + Mbm @ sens
+    denom = Mbb + mm(Mbm, sens)
     regular, smallest = smallest_singular_value_above(denom, 1e-12 * np.max(np.abs(Mbb)))
     if not regular:
         return kernels.STATUS_BASE_ROW, smallest, none, none, none, none
-    wb_dot = solve(denom, rr[:3] - Mbm @ tgt)
+    wb_dot = solve(denom, rr[:3] - mv(Mbm, tgt))
     w_hat_dot = np.empty(N)
     put(w_hat_dot, 0, wb_dot)  # (loops instead of slice assignments: see put)
-    put(w_hat_dot, 3, tgt + sens @ wb_dot)
-    u_m = np.ascontiguousarray(M_hat[3:]) @ w_hat_dot - rr[3:]
+    sens_wb = mv(sens, wb_dot)
+    put(w_hat_dot, 3, tgt + sens_wb)
+    u_m = mv(M_hat[3:], w_hat_dot) - rr[3:]
     if not np.all(np.isfinite(u_m)):
         return kernels.STATUS_NONFINITE, 0.0, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
@@ -332,7 +337,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         if adaptive:
             M = np.empty((N, N))
             mass_matrix(R, z, theta_d_true, M)
-            e = M @ w_tilde + Y_df @ (theta_d_true - theta_d)
+            e = mv(M, w_tilde) + Y_df @ (theta_d_true - theta_d)
         else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
             e = np.zeros(N)
     if adaptive:  # advance the controller's states to t + dt
@@ -344,7 +349,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         w_hat += dt * w_hat_dot  # Eq. (46)
     else:
         put(w_hat, 0, w + dt * w_hat_dot)
-    return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens @ wb_dot, w_tilde, e
+    return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens_wb, w_tilde, e
 
 
 @njit(cache=True)

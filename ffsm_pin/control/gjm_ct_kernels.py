@@ -27,6 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .._array_kernels import mm, mv, spd_solve
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_mass_kernels import mass_matrix
@@ -68,11 +69,11 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     a_m = w_c.imag / COMPLEX_STEP + gains.k_v * (w_md - w[1:])
     nb = S.shape[0]
     c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
-    M = S.T @ planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear) @ S
+    M = mm(mm(S.T, planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear)), S)
     _, Yh = planar_kernels.velocity_regressors(pc, ps, K, L, S, w, w, theta_d.size, collinear)
-    h = Yh @ theta_d  # C w
+    h = mv(Yh, theta_d)  # C w
     a_b = -((M[0, 1:] * a_m).sum() + h[0]) / M[0, 0]  # base rows unactuated, Eq. (9a)
-    u = M[1:, 0] * a_b + np.ascontiguousarray(M[1:, 1:]) @ a_m + h[1:]
+    u = M[1:, 0] * a_b + mv(M[1:, 1:], a_m) + h[1:]
     return u, w_md, sigma, damping
 
 
@@ -105,8 +106,8 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     subtract_dT(R, z, w, Yh)
     h = Yh @ theta_d  # C w
     Mbm = np.ascontiguousarray(M[:3, 3:])
-    a_b = -np.linalg.solve(np.ascontiguousarray(M[:3, :3]), Mbm @ a_m + h[:3])
-    u = np.ascontiguousarray(M[3:, :3]) @ a_b + np.ascontiguousarray(M[3:, 3:]) @ a_m + h[3:]
+    a_b = -spd_solve(np.ascontiguousarray(M[:3, :3]), mv(Mbm, a_m) + h[:3])  # (M_bb: SPD)
+    u = mv(M[3:, :3], a_b) + mv(M[3:, 3:], a_m) + h[3:]
     return u, w_md, sigma, damping
 
 

@@ -24,7 +24,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._array_kernels import solve
+from .._array_kernels import gram as gram_of
+from .._array_kernels import mv, spd_solve, symmetric_solve_transposed
 from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
 
 #: The complex step h of the control layer's exact derivatives (any tiny h: no subtractive
@@ -183,7 +184,7 @@ def damped_pinv(A, thr):
     thr : float
         The damping threshold [units of A].
     """
-    gram = A @ A.T
+    gram = gram_of(A)
     eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
     sigma = np.sqrt(max(eig[0], 0.0))
     damping = 0.0
@@ -191,7 +192,7 @@ def damped_pinv(A, thr):
         damping = thr * thr - sigma * sigma
         for i in range(gram.shape[0]):
             gram[i, i] += damping
-    return A.T @ np.linalg.inv(gram), sigma, damping
+    return symmetric_solve_transposed(gram, A), sigma, damping  # A^T gram^-1
 
 
 # ---------------------------------------------------------------------- null-space objective
@@ -370,11 +371,11 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
         Step [s].
     """
     m = Yz.shape[0]
-    r = z_e_dot[:m] - Yz @ theta_z
-    gram = Yz @ Yz.T
+    r = z_e_dot[:m] - mv(Yz, theta_z)
+    G = gram_of(Yz)
     for i in range(m):
-        gram[i, i] += 1.0 / (gamma_2 * dt)
-    return theta_z + Yz.T @ solve(gram, r)
+        G[i, i] += 1.0 / (gamma_2 * dt)
+    return theta_z + mv(Yz.T, spd_solve(G, r))
 
 
 __all__ = [

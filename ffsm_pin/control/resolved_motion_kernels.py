@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import cmm, cmv
+from .._array_kernels import cmm, cmv, mv
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ._docs import CONTROL_DOC
@@ -71,7 +71,7 @@ def rates_planar(geo, gains, ref, t, q_b, q_m, z_e, theta_z, theta_b):
         err[2] = wrap_angle(err[2])
     pinv, sigma, damping = damped_pinv(Js, gains.threshold)
     rate = reference_at(ref, t, True)
-    w_m = pinv @ (rate - drift - gains.k_z * err)
+    w_m = mv(pinv, rate - drift - gains.k_z * err)
     w_b = g0 - (G * w_m).sum()  # momentum conservation, Eq. (13)
     return w_m, w_b, sigma, damping
 

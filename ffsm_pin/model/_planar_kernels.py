@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._array_kernels import mv, put, put_rows
+from .._array_kernels import mm, mv, put, put_rows
 
 
 @njit(cache=True)
@@ -116,12 +116,12 @@ def _scatter_pair(Y, b, fc, fs, K, L, nb, collinear):
 def y_m(pc, ps, K, L, S, a, nd, collinear):
     """Y_M(a) with Y_M(a) theta_d = M a (Eq. 12), (nb, nd)."""
     nb = S.shape[0]
-    b = S @ a
+    b = mv(S, a)
     Y = np.zeros((nb, nd))
     for k in range(nb):
         Y[k, k] = b[k]
     _scatter_pair(Y, b, pc, -ps, K, L, nb, collinear)
-    return S.T @ Y
+    return mm(S.T, Y)
 
 
 @njit(cache=True)
@@ -130,8 +130,8 @@ def velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
     Y_h(w) theta_d = C w, each (nb, nd)."""
     nb = S.shape[0]
     P = K.size
-    dphi = S @ w
-    b = S @ sv
+    dphi = mv(S, w)
+    b = mv(S, sv)
     Ymd = np.zeros((nb, nd))
     Yh = np.zeros((nb, nd))
     fc = np.empty(P)
@@ -150,7 +150,7 @@ def velocity_regressors(pc, ps, K, L, S, w, sv, nd, collinear):
             Yh[k, nb + P + p] = -pc[p] * dl2
             Yh[l, nb + P + p] = pc[p] * dk2
     ST = S.T
-    return ST @ Ymd, ST @ Yh
+    return mm(ST, Ymd), mm(ST, Yh)
 
 
 @njit(cache=True)
@@ -160,7 +160,7 @@ def position_regressor(c, s, S, w, nz, collinear):
     Yz = np.zeros((2, nz))
     Yz[0, 0] = 1.0
     Yz[1, 1] = 1.0
-    dphi = S @ w
+    dphi = mv(S, w)
     for k in range(nb):
         if collinear:
             Yz[0, 2 + k] = -s[k] * dphi[k]
