@@ -46,15 +46,20 @@ def mm(A, B):
     few tens of ns against 0.15-0.3 us for numba's BLAS call; each entry sums its products in
     ascending order, so it may differ from a BLAS's sum in the last bits (docs/REPRODUCTION.md,
     "How exact these numbers are")."""
-    m, k = A.shape
-    p = B.shape[1]
-    out = np.zeros((m, p), dtype=A.dtype)
-    for i in range(m):
-        for l in range(k):
-            a = A[i, l]
-            for j in range(p):
-                out[i, j] += a * B[l, j]
+    out = np.zeros((A.shape[0], B.shape[1]), dtype=A.dtype)
+    _add_product(A, B, out)
     return out
+
+
+@njit(cache=True)
+def _add_product(A, B, out):
+    """out += A @ B by loops, each entry's products added in ascending order (:func:`mm`,
+    :func:`cmm`)."""
+    for i in range(A.shape[0]):
+        for l in range(A.shape[1]):
+            a = A[i, l]
+            for j in range(B.shape[1]):
+                out[i, j] += a * B[l, j]
 
 
 @njit(cache=True)
@@ -77,14 +82,8 @@ def gram(A):
 @njit(cache=True)
 def cmm(A, B):
     """A @ B as complex128 (A, B real or complex, any layout)."""
-    m, k = A.shape
-    p = B.shape[1]
-    out = np.zeros((m, p), dtype=np.complex128)
-    for i in range(m):
-        for l in range(k):
-            a = A[i, l]
-            for j in range(p):
-                out[i, j] += a * B[l, j]
+    out = np.zeros((A.shape[0], B.shape[1]), dtype=np.complex128)
+    _add_product(A, B, out)
     return out
 
 
@@ -137,14 +136,23 @@ def positive_definite(A):
     whose smallest eigenvalue is zero to rounding, where the factorisation may still complete.
     A decision, not a value: the periods' outputs are unchanged.
     """
+    if not _cholesky(A)[1]:
+        return np.linalg.eigvalsh(A)[0] > 0.0
+    return True
+
+
+@njit(cache=True)
+def _cholesky(A):
+    """(L, True) with L L^T = A, L lower triangular, for a symmetric ``A`` (its lower triangle
+    read), by loops; (part of L, False) as soon as a pivot is not positive (or NaN)."""
     n = A.shape[0]
-    L = np.empty((n, n))
+    L = np.zeros((n, n))
     for j in range(n):
         d = A[j, j]
         for k in range(j):
             d -= L[j, k] * L[j, k]
         if not d > 0.0:
-            return np.linalg.eigvalsh(A)[0] > 0.0
+            return L, False
         d = np.sqrt(d)
         L[j, j] = d
         for i in range(j + 1, n):
@@ -152,7 +160,7 @@ def positive_definite(A):
             for k in range(j):
                 x -= L[i, k] * L[j, k]
             L[i, j] = x / d
-    return True
+    return L, True
 
 
 @njit(cache=True)
@@ -325,9 +333,9 @@ def symmetric_solve_transposed(G, B):
 def spd_solve(A, b):
     """``np.linalg.solve(A, b)`` for a real symmetric positive definite ``A`` (n x n) and a
     vector ``b``, by a Cholesky factorisation in loops (n = 2..10: 0.05-0.3 us against 0.4-1 us
-    for LAPACK's dgesv with its copies). A pivot that is not positive (A not positive definite
-    to rounding, or not finite) or a result that is not finite hands the system to
-    :func:`solve`, LAPACK's, with its errors.
+    for LAPACK's dgesv with its copies; the factorisation is :func:`positive_definite`'s). A
+    matrix that is not positive definite to rounding, entries that are not finite or a result
+    that is not finite hand the system to :func:`solve`, LAPACK's, with its errors.
 
     Parameters
     ----------
@@ -342,20 +350,9 @@ def spd_solve(A, b):
         The solution x of A x = b.
     """
     n = A.shape[0]
-    L = np.zeros((n, n))
-    for j in range(n):
-        dj = A[j, j]
-        for l in range(j):
-            dj -= L[j, l] * L[j, l]
-        if not (dj > 0.0 and np.isfinite(dj)):
-            return solve(A, b)
-        dj = np.sqrt(dj)
-        L[j, j] = dj
-        for i in range(j + 1, n):
-            x = A[i, j]
-            for l in range(j):
-                x -= L[i, l] * L[j, l]
-            L[i, j] = x / dj
+    L, factored = _cholesky(A)
+    if not (factored and _finite_system(A, b)):
+        return solve(A, b)
     y = np.empty(n)
     for i in range(n):  # L y = b
         x = b[i]
