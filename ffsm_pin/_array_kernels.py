@@ -65,13 +65,14 @@ def _add_product(A, B, out):
 @njit(cache=True)
 def gram(A):
     """A @ A.T (plain transpose, complex-step safe) by loops, in A's dtype: symmetric by
-    construction (each entry below the diagonal is the one above it)."""
+    construction (each entry below the diagonal is the one above it); zeros for an A without
+    columns."""
     m, k = A.shape
-    out = np.empty((m, m), dtype=A.dtype)
+    out = np.zeros((m, m), dtype=A.dtype)
     for i in range(m):
         for j in range(i + 1):
-            acc = A[i, 0] * A[j, 0]
-            for l in range(1, k):
+            acc = out[i, j]
+            for l in range(k):
                 acc += A[i, l] * A[j, l]
             out[i, j] = acc
             out[j, i] = acc

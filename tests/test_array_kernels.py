@@ -47,6 +47,7 @@ def test_mv_and_gram_are_numpys_to_rounding(rng):
         Ac = A + 1e-20j * rng.normal(size=(m, k))
         Gc = gram(Ac)
         assert np.array_equal(Gc, Gc.T) and np.allclose(Gc, Ac @ Ac.T, rtol=1e-14, atol=0)
+    assert np.array_equal(gram(np.empty((3, 0))), np.zeros((3, 3)))  # no columns: A A^T = 0
 
 
 def test_the_damped_pseudo_inverse_solve_equals_lapacks_inverse(rng):
