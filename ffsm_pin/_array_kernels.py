@@ -31,7 +31,8 @@ def put_rows(dst, src):
 
 @njit(cache=True)
 def mv(A, x):
-    """A @ x for a real matrix A and a real or complex vector x (dtype of x)."""
+    """A @ x in x's dtype: A real and x real or complex, or both complex (a complex A with a
+    real x is a typing error)."""
     out = np.zeros(A.shape[0], dtype=x.dtype)
     for i in range(A.shape[0]):
         for j in range(A.shape[1]):
@@ -341,7 +342,7 @@ def spd_solve(A, b):
     Parameters
     ----------
     A : ndarray, shape (n, n)
-        The matrix (its upper triangle is not read).
+        The matrix (only its lower triangle enters the factorisation).
     b : ndarray, shape (n,)
         The right-hand side.
 

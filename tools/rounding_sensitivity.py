@@ -87,15 +87,16 @@ def _loaded(path: Path):
         )  # fmt: skip
 
 
-def _in_new_process(args, env: dict[str, str], cwd: str | None = None):
-    """The run as shipped, in a new process with the environment ``env``."""
+def _in_new_process(args, env: dict[str, str]):
+    """The run as shipped, in a new process with the environment ``env`` (from a temporary
+    folder, so that no ``ffsm_pin`` of the current folder shadows the one asked for)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "run.npz"
         cmd = [sys.executable, str(Path(__file__).resolve()), args.case, "--joints"]
         cmd += ["--save", str(out)]
         if args.duration is not None:
             cmd += ["--duration", str(args.duration)]
-        subprocess.run(cmd, env={**os.environ, **env}, cwd=cwd or tmp, check=True)
+        subprocess.run(cmd, env={**os.environ, **env}, cwd=tmp, check=True)
         return _loaded(out)
 
 
@@ -105,8 +106,7 @@ def _with_blas_kernel(args, coretype: str):
 
 
 def _from_source(args, source: str):
-    """The run made by the package of the folder ``source``, in a new process (from a
-    temporary folder, so that no ``ffsm_pin`` of the current folder shadows it)."""
+    """The run made by the package of the folder ``source``, in a new process."""
     folder = Path(source).resolve()
     if not (folder / "ffsm_pin" / "__init__.py").is_file():
         raise SystemExit(f"error: --source {source}: no ffsm_pin package in that folder")

@@ -78,7 +78,7 @@ def kinematic_law(geo, law, ref, ns, t, q_b, q_m, z_e, theta_b, theta_z, w_b):
         pinv, sigma, damping = kernels.damped_pinv(Jm, law.threshold)
         Jb = J[:, 0].copy()
         w_mc = mv(pinv, target - Jb * w_b)
-        sens = -(mv(pinv, Jb)).real
+        sens = -mv(pinv, Jb).real
         return w_mc, sens, sigma, damping, 0.0, err_b, err_z, kernels.STATUS_OK, -1
     psi_b, Phi_b, ib = kernels.funnel_terms(law.funnel_b, t, err_b, law.identity)
     if ib >= 0:

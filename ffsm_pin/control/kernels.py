@@ -24,8 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._array_kernels import gram as gram_of
-from .._array_kernels import mv, spd_solve, symmetric_solve_transposed
+from .._array_kernels import gram, mv, spd_solve, symmetric_solve_transposed
 from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
 
 #: The complex step h of the control layer's exact derivatives (any tiny h: no subtractive
@@ -184,15 +183,15 @@ def damped_pinv(A, thr):
     thr : float
         The damping threshold [units of A].
     """
-    gram = gram_of(A)
-    eig = np.linalg.eigvalsh(np.ascontiguousarray(gram.real))
+    G = gram(A)
+    eig = np.linalg.eigvalsh(np.ascontiguousarray(G.real))
     sigma = np.sqrt(max(eig[0], 0.0))
     damping = 0.0
     if sigma < thr:
         damping = thr * thr - sigma * sigma
-        for i in range(gram.shape[0]):
-            gram[i, i] += damping
-    return symmetric_solve_transposed(gram, A), sigma, damping  # A^T gram^-1
+        for i in range(G.shape[0]):
+            G[i, i] += damping
+    return symmetric_solve_transposed(G, A), sigma, damping  # A^T G^-1
 
 
 # ---------------------------------------------------------------------- null-space objective
@@ -372,7 +371,7 @@ def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
     """
     m = Yz.shape[0]
     r = z_e_dot[:m] - mv(Yz, theta_z)
-    G = gram_of(Yz)
+    G = gram(Yz)
     for i in range(m):
         G[i, i] += 1.0 / (gamma_2 * dt)
     return theta_z + mv(Yz.T, spd_solve(G, r))

@@ -185,9 +185,12 @@ def simulate(
     def header() -> dict:  # (made only when a spool is: a run that fits in memory has none)
         return spool_header(setup, record_every)
 
-    rec = Recorder(
-        shapes, n_rows, spool_dir, chunk_bytes=memory_bytes, packed=packed, header=header
-    )
+    def recorder_of(shapes: dict) -> Recorder:  # (again at the first period, for its signals)
+        return Recorder(
+            shapes, n_rows, spool_dir, chunk_bytes=memory_bytes, packed=packed, header=header
+        )
+
+    rec = recorder_of(shapes)
     A, A_signals = rec.arrays, rec.block
     q, v = setup.q0.copy(), setup.v0.copy()
     plant.reset(q, v)
@@ -274,14 +277,7 @@ def simulate(
                         )
                     if set(new) - set(shapes):
                         shapes = {**shapes, **new}
-                        rec = Recorder(
-                            shapes,
-                            n_rows,
-                            spool_dir,
-                            chunk_bytes=memory_bytes,
-                            packed=packed,
-                            header=header,
-                        )
+                        rec = recorder_of(shapes)
                         A, A_signals = rec.arrays, rec.block
                         A_t, A_q, A_v, A_w, A_u_m, A_u_cmd, A_z_e, A_z_e_dot, A_q_b, A_dw_b = (
                             A[key] for key in _LOOP_COLUMNS
