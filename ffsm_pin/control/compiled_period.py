@@ -60,6 +60,18 @@ class PeriodArguments(NamedTuple):
     aux: Any  #: the auxiliary system and its state, or None
 
 
+class PeriodHandles(NamedTuple):
+    """What :meth:`CompiledPeriod.period_handles` gives: the arguments of
+    :func:`.period.period_of` that stay the same every period, and where it writes."""
+
+    box: PeriodBox  #: the fixed arguments (:mod:`._period_box`)
+    aux: Any  #: the auxiliary system and its state, or None
+    M: np.ndarray  #: read-only stand-in of the true M (an adaptive law does not read it)
+    h: np.ndarray  #: read-only stand-in of the true C w
+    outputs: Any  #: the :class:`~.period.PeriodOutputs` each period writes (u_m, ...)
+    row: np.ndarray  #: the signals' row of the controller's ``signal_layout`` (views in outputs)
+
+
 @fill_doc(CONTROL_DOC)
 class CompiledPeriod:
     """The compiled side of :class:`~.controller.CoordinatedController` (a mixin: the law's
@@ -230,6 +242,21 @@ class CompiledPeriod:
             state["_box"], state["_box_of"] = None, ()
         return state
 
+    def __setstate__(self, state: dict) -> None:
+        """A copy's attributes; its outputs' signals views of its own row again (a deep copy
+        copies each view on its own, and the period would write the copies while the
+        controller hands out a row no longer written)."""
+        self.__dict__.update(state)
+        if "_row" not in state:  # (a copy made before prepare_kernels)
+            return
+        m = self.model
+        out, row = period_outputs(self.signal_layout, m.n_joints, self.m3, self.n_task)
+        row[:] = self._row
+        for mine, copied in zip(out, self._out, strict=True):
+            if not np.shares_memory(mine, row):  # (the other outputs: arrays of their own)
+                mine[...] = copied
+        self._out, self._row, self._out_fields = out, row, tuple(out)
+
     def _period_box(self) -> PeriodBox:
         """The box of the period's fixed arguments (:mod:`._period_box`), made again when the
         law's fields or the state were replaced (``release_attitude``, a capture joining a
@@ -245,9 +272,57 @@ class CompiledPeriod:
         """Run the compiled period into the outputs, keep the singularity bookkeeping, and
         raise the stop its status says."""
         status, idx, value = period_of(self._period_box(), dt, self._kernel_meas(meas), self._aux)
+        plain = status == kernels.STATUS_OK and self._out.damping[0] == 0.0
+        if not plain or self._watch.since is not None:  # (else nothing to book, no stop)
+            self.settle(meas, status, idx, value, stacklevel=3)
+
+    def period_handles(self) -> PeriodHandles:
+        """What calling the compiled period directly takes and gives, for a runner that steps
+        several controllers' periods in one call (benchmarks/bench_lockstep.py): after each
+        call of :func:`.period.period_of` with these, :meth:`settle` the result when its
+        status is not ``STATUS_OK``, its damping (``outputs.damping``) not 0 or
+        :attr:`damped_since` not None.
+
+        Returns
+        -------
+        PeriodHandles
+            The live box, outputs and row (written by each period), the stand-ins of the true
+            M and C w and the auxiliary argument.
+        """
+        return PeriodHandles(
+            self._period_box(), self._aux, self._no_M, self._no_h, self._out, self._row
+        )
+
+    @property
+    def damped_since(self) -> float | None:
+        """The time [s] since which every period was damped (the singularity watch), or
+        None; while it is not None, every period is :meth:`settle`-d."""
+        return self._watch.since
+
+    def settle(
+        self, meas: Measurement, status: int, idx: int, value: float, stacklevel: int = 1
+    ) -> None:
+        """The bookkeeping of a compiled period that returned ``(status, idx, value)`` at
+        ``meas``: the singularity watch (its warning when damping starts, its stop when
+        damping lasts too long) and the stop the status says.
+
+        Parameters
+        ----------
+        meas : Measurement
+            The period's measurement.
+        status, idx, value : int, int, float
+            What :func:`.period.period_of` returned.
+        stacklevel : int
+            Of the damping warning, as :func:`warnings.warn`'s, counted from the caller.
+
+        Raises
+        ------
+        SimulationError
+            A funnel exit, a collapse of H_bm-hat, damped least squares for longer than the
+            policy allows, an estimated inertia that is not positive definite, a singular
+            base row, a torque not finite, estimates no longer physical.
+        """
         damping = self._out.damping[0]
-        if status == kernels.STATUS_OK and damping == 0.0 and self._watch.since is None:
-            return  # the common period: nothing to book, no stop
         t = meas.t
         if status in (kernels.STATUS_FUNNEL_Z, kernels.STATUS_FUNNEL_B):
             funnel = self.funnel_z if status == kernels.STATUS_FUNNEL_Z else self.funnel_b
@@ -256,8 +331,10 @@ class CompiledPeriod:
             raise self.funnel_stop(meas, exc)
         if status == kernels.STATUS_H_COLLAPSE:
             raise collapse_stop(t, value)
-        # (the warning points at the caller of step / step_row)
-        self._watch.update(t, float(self._out.sigma_min[0]), float(damping), stacklevel=3)
+        # (the warning points at the caller's caller)
+        self._watch.update(
+            t, float(self._out.sigma_min[0]), float(damping), stacklevel=stacklevel + 1
+        )
         if status == kernels.STATUS_M_NOT_PD:
             raise inertia_stop(t)
         if status == kernels.STATUS_BASE_ROW:
@@ -268,4 +345,4 @@ class CompiledPeriod:
             raise physical_stop(t, self.physical.max_iter)
 
 
-__all__ = ["CompiledPeriod", "PeriodArguments"]
+__all__ = ["CompiledPeriod", "PeriodArguments", "PeriodHandles"]

@@ -167,7 +167,8 @@ def test_the_period_box_follows_a_replaced_state(case):
 def test_a_copy_of_a_stepped_controller_goes_on_as_the_original(case):
     """``copy.deepcopy`` of a controller that has run periods (and so holds the period's box,
     which numba cannot copy) gives a controller that continues bit for bit as the original,
-    on its own arrays: the original is not advanced by the copy's periods."""
+    torque and signals, on its own arrays: the original is not advanced by the copy's
+    periods."""
     import copy
 
     from ffsm_pin.control.interface import split_reply
@@ -176,11 +177,47 @@ def test_a_copy_of_a_stepped_controller_goes_on_as_the_original(case):
     twin = copy.deepcopy(controller)
     before = tuple(x.copy() for x in controller.law.state)
     for k in (1, 2):
-        u_twin, _ = split_reply(twin.step(meas._replace(t=k * dt)))
+        u_twin, row_twin = split_reply(twin.step(meas._replace(t=k * dt)))
     for kept, now in zip(before, controller.law.state, strict=True):
         np.testing.assert_array_equal(kept, now)  # the copy's periods left the original alone
     for k in (1, 2):
-        u_orig, _ = split_reply(controller.step(meas._replace(t=k * dt)))
+        u_orig, row_orig = split_reply(controller.step(meas._replace(t=k * dt)))
     np.testing.assert_array_equal(u_orig, u_twin)
+    np.testing.assert_array_equal(row_orig.row, row_twin.row)  # the signals too
     for a, b in zip(controller.law.state, twin.law.state, strict=True):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("case", ["case1", "spatial"])
+def test_the_period_called_through_its_handles_is_the_controllers_step(case):
+    """A runner that calls the compiled period itself (``period_handles``, then ``settle``
+    when the period is not plain; benchmarks/bench_lockstep.py) gets the torque and the
+    signals' row the controller's own ``step`` gives, bit for bit, period after period; and a
+    period whose status is a funnel exit is settled into the stop ``step`` raises."""
+    import copy
+
+    from ffsm_pin.control.interface import split_reply
+    from ffsm_pin.errors import SimulationError
+
+    controller, meas, dt = _stepped(case)
+    twin = copy.deepcopy(controller)
+    handles = twin.law.period_handles()
+    for k in (1, 2, 3):
+        m = meas._replace(t=k * dt)
+        u_step, row = split_reply(controller.step(m))
+        fields = (m.t, m.q_b, m.q_m, m.w, m.z_e, m.z_e_dot, handles.M, handles.h)
+        status, idx, value = period.period_of(handles.box, dt, fields, handles.aux)
+        assert status == period.STATUS_OK
+        if handles.outputs.damping[0] != 0.0 or twin.law.damped_since is not None:
+            twin.law.settle(m, status, idx, value)
+        np.testing.assert_array_equal(handles.outputs.u_m, u_step)
+        np.testing.assert_array_equal(handles.row, row.row)
+    far = meas._replace(t=4 * dt, z_e=meas.z_e + 1.0)  # 1 m off: outside every funnel
+    with pytest.raises(SimulationError) as by_step:
+        controller.step(far)
+    fields = (far.t, far.q_b, far.q_m, far.w, far.z_e, far.z_e_dot, handles.M, handles.h)
+    status, idx, value = period.period_of(handles.box, dt, fields, handles.aux)
+    assert status == period.STATUS_FUNNEL_Z
+    with pytest.raises(SimulationError) as by_settle:
+        twin.law.settle(far, status, idx, value)
+    assert str(by_settle.value) == str(by_step.value)

@@ -1,0 +1,356 @@
+"""What a campaign case would cost run in lock-step with the other cases of its batch: a
+prototype lock-step loop, timed against the same cases run one by one by the package's loop
+and checked against them row by row.
+
+Usage::
+
+    python benchmarks/bench_lockstep.py                       # 8 case-1 cases, 5 s each
+    python benchmarks/bench_lockstep.py --batch 16 --duration 10 --repeat 3
+
+The cases are the first ``--batch`` cases of the shipped campaign ``compare-controllers`` for
+``case1`` and the paper's controller (perturbed estimates, 100 N m torque limits, noise on
+every measurement), ``--duration`` s each.
+
+* **One by one**: each case through the package (``prepare``, ``simulate``), its loop's time
+  less its after-run signals (momentum rows and F_r, which the prototype does not compute;
+  their time is printed apart).
+* **Lock-step** (:func:`lockstep`): the batch's states as arrays (B, nq), (B, nv); each step
+  Pinocchio's kinematics case by case and the rest of the exact measurement for the batch at
+  once, the sensors' noise for the batch at once (each case's own seeded stream, drawn in
+  blocks as :class:`ffsm_pin.sim.sensors.Sensors` draws it), the batch's compiled periods in
+  one numba call (each case's own box, :meth:`~ffsm_pin.control.compiled_period.
+  CompiledPeriod.period_handles`; a period that is not plain is booked by its controller's
+  ``settle``, which raises the case's stop), the actuators' saturation for the batch at once,
+  the plant case by case (the package's ``Plant.advance``), the state checks and the recorded
+  rows for the batch at once. A case that stops leaves the batch.
+* The bare Python plant loop of the performance issue (``bench_run.py``'s), same steps.
+
+The prototype covers what these cases need and refuses the rest: a planar robot, the paper's
+controller without the auxiliary system or the physical projection, sensor noise without
+delay, actuators with torque limits alone; no capture, wheels or target, no progress, no
+spool, no dw_b column. It is a measurement of what a lock-step run loop could save, not a
+run loop of the package.
+
+Checked and printed: every recorded row's q, v, u_cmd and u_m of every case, lock-step against
+one by one (bit for bit, or the largest difference). Printed: us per case-step, the median
+over ``--repeat`` rounds (one by one and lock-step in turn), and the ratios to the bare loop.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import statistics
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import pinocchio as pin  # noqa: E402
+from _timing import checkout  # noqa: E402
+from numba import njit  # noqa: E402
+from numba.typed import List  # noqa: E402
+
+from ffsm_pin.control import kernels  # noqa: E402
+from ffsm_pin.control.interface import Measurement  # noqa: E402
+from ffsm_pin.control.period import PeriodOutputs, period_of  # noqa: E402
+from ffsm_pin.errors import SimulationError  # noqa: E402
+from ffsm_pin.scenario.devices import NOISE_KEYS  # noqa: E402
+from ffsm_pin.sim.plant import Plant, _project_base  # noqa: E402  (the plant's kernel)
+from ffsm_pin.sim.sensors import BLOCK  # noqa: E402
+
+RATE_LIMIT = 1e4  # [rad/s], as the run loop's
+PLANAR_RATES = [0, 1, 5]  # (dx/dt, dy/dt, attitude rate) of the frame's 6-vector
+STATE_KEYS = ("q", "v", "u_cmd", "u_m")  # the recorded columns compared (and the signals)
+ROWS = np.array([0, 1, 5])  # the planar momentum's rows of h_g (the plant's root table)
+
+
+@njit(cache=True)
+def periods(boxes, rows, k, dt, t, q_b, q_m, w, z_e, z_e_dot, M, h, active, status, idx, value,
+            u, damp, recorded):  # fmt: skip
+    """The compiled periods of the active cases of a batch, one call: case b's measurement is
+    row b of the arrays (its ``q_b`` the number ``q_b[b]``), its torque written to ``u[b]``,
+    its damping to ``damp[b]``, ``(status, idx, value)`` to those arrays and its signals'
+    row (``rows[b]``) to ``recorded[b, k]``."""
+    for b in range(len(boxes)):
+        if not active[b]:
+            continue
+        box = boxes[b]
+        meas = (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
+        status[b], idx[b], value[b] = period_of(box, dt, meas, None)
+        out = PeriodOutputs(*box.out)
+        for j in range(u.shape[1]):
+            u[b, j] = out.u_m[j]
+        damp[b] = out.damping[0]
+        row = rows[b]
+        for j in range(row.size):
+            recorded[b, k, j] = row[j]
+
+
+def cases(scenario: str, batch: int, duration: float) -> list:
+    """The scenarios of the first ``batch`` lu-jia cases of ``scenario`` in
+    compare-controllers."""
+    from ffsm_pin.scenario.file import scenario_from_toml
+    from ffsm_pin.sweep.campaign import load_campaign
+    from ffsm_pin.sweep.cases import expand
+
+    found = [
+        c
+        for c in expand(load_campaign("compare-controllers"))
+        if not c.nominal
+        and c.values.get("scenario") == scenario
+        and c.values.get("controller.type") == "lu-jia"
+    ][:batch]
+    if len(found) < batch:
+        raise SystemExit(f"compare-controllers has {len(found)} such cases, not {batch}")
+    return [
+        dataclasses.replace(scenario_from_toml(c.scenario_toml), duration=duration) for c in found
+    ]
+
+
+def prepared(scenarios) -> list:
+    from ffsm_pin.sim.run import prepare
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return [prepare(sc) for sc in scenarios]
+
+
+def one_by_one(scenarios) -> tuple[float, float, int, list]:
+    """(loop seconds less after-run signals, after-run seconds, steps, results) of the cases
+    run by the package, one after the other."""
+    import ffsm_pin.sim.loop as loop
+
+    after = [0.0]
+    original = loop.system_signals
+
+    def timed(*args, **kwargs):
+        t0 = time.perf_counter()
+        out = original(*args, **kwargs)
+        after[0] += time.perf_counter() - t0
+        return out
+
+    loop.system_signals = timed
+    try:
+        results, wall = [], 0.0
+        for setup in prepared(scenarios):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = loop.simulate(setup)
+            results.append(res)
+            wall += res.wall_time_s
+    finally:
+        loop.system_signals = original
+    steps = sum(r.steps for r in results)
+    return wall - after[0], after[0], steps, results
+
+
+def lockstep(setups) -> tuple[float, int, dict]:
+    """Run the prepared ``setups`` (one robot, planar, the cases above) in lock-step:
+    (seconds, case-steps, recorded arrays ``q``, ``v``, ``u_cmd``, ``u_m`` (B, rows, ...) and
+    ``rows`` (B,))."""
+    B = len(setups)
+    s0 = setups[0]
+    sc = s0.scenario
+    dt, substeps, n_steps = sc.dt, sc.substeps, int(round(sc.duration / sc.dt))
+    n = s0.model.n_joints
+    for s in setups:
+        law = s.controller.law
+        if s.robot.base != "planar" or law.auxiliary is not None or law.physical is not None:
+            raise SystemExit("the prototype takes planar lu-jia cases without aux or physical")
+        if s.sensors is None or s.sensors.spec.delay or s.target is not None:
+            raise SystemExit("the prototype takes noisy sensors without delay and no target")
+        a = s.actuators
+        if a is None or a.lagged or a.rate_limited or a.noisy:
+            raise SystemExit("the prototype takes actuators with torque limits alone")
+    models = [s.robot.model for s in setups]
+    datas = [m.createData() for m in models]
+    fid = s0.robot.ee_frame_id
+    plants = [Plant(s.robot, integrator=s.scenario.integrator) for s in setups]
+    Q = np.array([s.q0 for s in setups])
+    V = np.array([s.v0 for s in setups])
+    for p, q, v in zip(plants, Q, V, strict=True):
+        p.reset(q.copy(), v.copy())
+        if p.integrator != "semi-implicit" or p.project_position or substeps != 1:
+            raise SystemExit("the prototype steps the semi-implicit plant, one substep")
+    pdatas = [p.data for p in plants]
+    h0 = np.array([p.momentum0 for p in plants])
+    tau, acc = np.zeros(V.shape), np.empty(V.shape)
+    handles = [s.controller.law.period_handles() for s in setups]
+    boxes = List([h.box for h in handles])
+    M_none, h_none = handles[0].M, handles[0].h
+    laws = [s.controller.law for s in setups]
+    limits = np.array([s.actuators.limit for s in setups])
+    # the sensors' noise: each case's stream, BLOCK measurements drawn at once
+    sizes = {"joints": n, "joint_rates": n, "base_attitude": 1, "base_rate": 1}
+    sizes |= {"ee_pose": 3, "ee_velocity": 3}
+    bounds = np.cumsum([0] + [sizes[k] for k in NOISE_KEYS])
+    sl = {k: slice(bounds[i], bounds[i + 1]) for i, k in enumerate(NOISE_KEYS)}
+    sigma = [np.concatenate([s.sensors.sigma[k] for k in NOISE_KEYS]) for s in setups]
+    noise = np.empty((B, BLOCK, bounds[-1]))
+    row = BLOCK
+    rows = n_steps + 1
+    rec = {
+        "q": np.full((B, rows, Q.shape[1]), np.nan), "v": np.full((B, rows, V.shape[1]), np.nan),
+        "u_cmd": np.full((B, rows, n), np.nan), "u_m": np.full((B, rows, n), np.nan),
+    }  # fmt: skip
+    signal_rows = np.full((B, rows, handles[0].row.size), np.nan)
+    row_list = List([h.row for h in handles])
+    booked = np.zeros(B, dtype=np.bool_)  # the controller's damped_since is not None
+    active = np.ones(B, dtype=np.bool_)
+    done = np.full(B, rows)  # rows recorded per case
+    status = np.zeros(B, dtype=np.int64)
+    idx = np.zeros(B, dtype=np.int64)
+    value = np.zeros(B)
+    U = np.zeros((B, n))
+    damp = np.zeros(B)
+    XY = np.empty((B, 2))
+    ZD = np.empty((B, 3))
+    EA = np.empty(B)
+    prev = None
+    wall0 = time.perf_counter()
+    for k in range(n_steps + 1):
+        t = k * dt
+        live = np.flatnonzero(active)
+        if live.size == 0:
+            break
+        # the exact measurement: Pinocchio case by case, the rest at once
+        q_b = np.array(
+            [math.atan2(sin, cos) for cos, sin in Q[:, 2:4]]
+        )  # (not np.arctan2: other bits)
+        if prev is not None:  # continuous attitude
+            q_b += 2 * math.pi * np.round((prev - q_b) / (2 * math.pi))
+        prev = q_b
+        q_m, w = Q[:, 4:], V[:, 2:]
+        for b in live:
+            model, data = models[b], datas[b]
+            pin.forwardKinematics(model, data, Q[b], V[b])
+            XY[b] = pin.updateFramePlacement(model, data, fid).translation[:2]
+            ZD[b] = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED).vector[
+                PLANAR_RATES
+            ]
+            EA[b] = setups[b].model.ee_angle(q_b[b], q_m[b])
+        z_e = np.column_stack((XY, EA))
+        # what the controllers see: each case's noise of this measurement
+        if row == BLOCK:
+            for b in range(B):
+                noise[b] = setups[b].sensors.rng.standard_normal((BLOCK, bounds[-1])) * sigma[b]
+            row = 0
+        z = noise[:, row]
+        row += 1
+        seen_q_b = q_b + z[:, sl["base_attitude"]][:, 0]
+        seen_q_m = q_m + z[:, sl["joints"]]
+        seen_w = w + np.concatenate((z[:, sl["base_rate"]], z[:, sl["joint_rates"]]), axis=1)
+        seen_z_e = z_e + z[:, sl["ee_pose"]]
+        seen_z_e_dot = ZD + z[:, sl["ee_velocity"]]
+        periods(boxes, row_list, k, dt, t, seen_q_b, seen_q_m, seen_w, seen_z_e, seen_z_e_dot,
+                M_none, h_none, active, status, idx, value, U, damp, signal_rows)  # fmt: skip
+        # the bookkeeping of a period that is not plain (a stop raises), case by case
+        book = active & ((status != kernels.STATUS_OK) | (damp != 0.0) | booked)
+        for b in np.flatnonzero(book):
+            meas = Measurement(t, seen_q_b[b], seen_q_m[b], seen_w[b], seen_z_e[b],
+                               seen_z_e_dot[b], None, None)  # fmt: skip
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    laws[b].settle(meas, int(status[b]), int(idx[b]), float(value[b]))
+            except SimulationError:
+                active[b] = False
+                done[b] = k
+            booked[b] = laws[b].damped_since is not None
+        live = np.flatnonzero(active)
+        u_m = np.minimum(np.maximum(U, -limits), limits)  # the actuators (limits alone)
+        u_m = np.minimum(np.maximum(u_m + 0.0, -limits), limits)
+        rec["q"][:, k], rec["v"][:, k], rec["u_cmd"][:, k], rec["u_m"][:, k] = Q, V, U, u_m
+        if k == n_steps:
+            break
+        # the plant, semi-implicit Euler as Plant.step: ABA and the configuration case by case,
+        # the velocity update at once, the momentum projection by the plant's own kernel
+        tau[:, 3:] = u_m
+        for b in live:
+            acc[b] = pin.aba(models[b], pdatas[b], Q[b], V[b], tau[b])
+        V = V + dt * acc
+        dq = dt * V
+        Q = Q.copy()
+        for b in live:
+            model, data = models[b], pdatas[b]
+            Q[b] = pin.integrate(model, Q[b], dq[b])
+            _project_base(pin.computeCentroidalMap(model, data, Q[b]), V[b], h0[b], ROWS)
+        bad = ~(np.isfinite(Q).all(axis=1) & np.isfinite(V).all(axis=1))
+        bad |= np.abs(V[:, 2:]).max(axis=1) > RATE_LIMIT
+        for b in np.flatnonzero(bad & active):
+            active[b] = False
+            done[b] = k + 1
+    wall = time.perf_counter() - wall0
+    steps = int(sum(min(d, rows) for d in done)) - B  # (rows recorded less the first)
+    return wall, max(steps, 1), {**rec, "signals": signal_rows, "rows": done}
+
+
+def compare(results, rec, layout) -> str:
+    """Lock-step against one by one, row by row (q, v, u_cmd, u_m and the controller's signals
+    of its ``layout``): how many cases are equal bit for bit, the largest difference of the
+    others."""
+    from ffsm_pin.control.interface import recorded_name
+
+    equal, worst = 0, 0.0
+    for b, res in enumerate(results):
+        rows = min(int(rec["rows"][b]), len(res["t"]))
+        pairs = [(np.asarray(res[key])[:rows], rec[key][b, :rows]) for key in STATE_KEYS]
+        for key, (start, stop, shape) in layout.slots.items():
+            lock = rec["signals"][b, :rows, start:stop].reshape(rows, *shape)
+            pairs.append((np.asarray(res[recorded_name(key)])[:rows], lock))
+        same = True
+        for one, lock in pairs:
+            if not np.array_equal(one, lock):
+                same = False
+                worst = max(worst, float(np.nanmax(np.abs(one - lock))))
+        equal += same
+    text = f"{equal} of {len(results)} cases bit for bit equal"
+    return text if equal == len(results) else f"{text}; largest difference {worst:.3g}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", default="case1", choices=["case1", "planar5"])
+    ap.add_argument("--batch", type=int, default=8, help="cases (default 8)")
+    ap.add_argument("--duration", type=float, default=5.0, help="simulated s per case")
+    ap.add_argument("--repeat", type=int, default=3, help="rounds (default 3)")
+    a = ap.parse_args()
+    from bench_run import bare_loop
+
+    scenarios = cases(a.scenario, a.batch, a.duration)
+    lockstep(prepared([dataclasses.replace(sc, duration=0.05) for sc in scenarios]))  # compile
+    one, lock, after, bare = [], [], [], []
+    check = ""
+    for _ in range(a.repeat):
+        wall, after_s, steps, results = one_by_one(scenarios)
+        one.append(wall / steps)
+        after.append(after_s / steps)
+        wall, steps_l, rec = lockstep(prepared(scenarios))
+        lock.append(wall / steps_l)
+        check = compare(results, rec, prepared(scenarios[:1])[0].controller.signal_layout)
+        b = bare_loop(a.scenario, a.duration)
+        bare.append(b["python_wall_time_s"] / b["steps"])
+    py = statistics.median(bare) * 1e6
+    o, k = statistics.median(one) * 1e6, statistics.median(lock) * 1e6
+    print(f"ffsm-pin lock-step prototype: {checkout(ROOT)}, load {os.getloadavg()[0]:.1f}")
+    print(f"{a.batch} {a.scenario} lu-jia cases of compare-controllers, {a.duration} s each, "
+          f"{a.repeat} rounds; us per case-step, median")  # fmt: skip
+    print(f"  one by one (loop less after-run)  {o:7.2f}  {o / py:5.2f}x the bare Python loop")
+    print(f"  after-run signals (one by one)    {statistics.median(after) * 1e6:7.2f}")
+    print(f"  lock-step prototype               {k:7.2f}  {k / py:5.2f}x the bare Python loop")
+    print(f"  lock-step / one by one            {k / o:7.3f}")
+    print(f"  bare Python loop                  {py:7.2f}")
+    print(f"  rows: {check}")
+
+
+if __name__ == "__main__":
+    main()
