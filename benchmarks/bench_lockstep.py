@@ -5,35 +5,38 @@ and checked against them row by row.
 Usage::
 
     python benchmarks/bench_lockstep.py                       # 8 case-1 cases, 5 s each
+    python benchmarks/bench_lockstep.py --scenario spatial-realistic --duration 4
     python benchmarks/bench_lockstep.py --batch 16 --duration 10 --repeat 3
 
 The cases are the first ``--batch`` cases of the shipped campaign ``compare-controllers`` for
-``case1`` and the paper's controller (perturbed estimates, 100 N m torque limits, noise on
-every measurement), ``--duration`` s each.
+``--scenario`` (``case1``, ``planar5`` or ``spatial-realistic``) and the paper's controller
+(perturbed estimates, torque limits, noise on every measurement), ``--duration`` s each.
 
 * **One by one**: each case through the package (``prepare``, ``simulate``), its loop's time
   less its after-run signals (momentum rows and F_r, which the prototype does not compute;
   their time is printed apart).
 * **Lock-step** (:func:`lockstep`): the batch's states as arrays (B, nq), (B, nv); each step
-  Pinocchio's kinematics case by case and the rest of the exact measurement for the batch at
-  once, the sensors' noise for the batch at once (each case's own seeded stream, drawn in
-  blocks as :class:`ffsm_pin.sim.sensors.Sensors` draws it), the batch's compiled periods in
-  one numba call (each case's own box, :meth:`~ffsm_pin.control.compiled_period.
-  CompiledPeriod.period_handles`; a period that is not plain is booked by its controller's
-  ``settle``, which raises the case's stop), the actuators' saturation for the batch at once,
-  the plant case by case (the package's ``Plant.advance``), the state checks and the recorded
-  rows for the batch at once. A case that stops leaves the batch.
+  the exact measurement (Pinocchio's kinematics case by case, the rest at once where it is
+  the same arithmetic: a table per root joint, :data:`MEASUREMENTS`), the sensors' noise for
+  the batch at once (each case's own seeded stream, drawn in blocks as
+  :class:`ffsm_pin.sim.sensors.Sensors` draws it), the batch's compiled periods in one numba
+  call (each case's own box, ``CompiledPeriod.period_handles``; a period that is not plain
+  is booked by its controller's ``settle``, which raises the case's stop), the actuators'
+  saturation for the batch at once, the plant (ABA, ``pin.integrate`` and the plant's own
+  projection kernel case by case, the semi-implicit velocity update at once), the state
+  checks and the recorded rows for the batch at once. A case that stops leaves the batch.
 * The bare Python plant loop of the performance issue (``bench_run.py``'s), same steps.
 
-The prototype covers what these cases need and refuses the rest: a planar robot, the paper's
+The prototype covers what these cases need and refuses the rest: the paper's adaptive
 controller without the auxiliary system or the physical projection, sensor noise without
-delay, actuators with torque limits alone; no capture, wheels or target, no progress, no
-spool, no dw_b column. It is a measurement of what a lock-step run loop could save, not a
-run loop of the package.
+delay, actuators with torque limits alone, the semi-implicit plant in one substep; no
+capture, wheels or target, no progress, no spool, no dw_b column, no after-run signals. It
+measures what a lock-step run loop could save; it is not a run loop of the package.
 
-Checked and printed: every recorded row's q, v, u_cmd and u_m of every case, lock-step against
-one by one (bit for bit, or the largest difference). Printed: us per case-step, the median
-over ``--repeat`` rounds (one by one and lock-step in turn), and the ratios to the bare loop.
+Checked and printed: every recorded row's q, v, u_cmd, u_m and controller signals of every
+case, lock-step against one by one (bit for bit, or the largest difference). Printed: us per
+case-step, the median over ``--repeat`` rounds (one by one and lock-step in turn), and the
+ratios to the bare loop.
 """
 
 from __future__ import annotations
@@ -70,7 +73,6 @@ from ffsm_pin.sim.sensors import BLOCK  # noqa: E402
 RATE_LIMIT = 1e4  # [rad/s], as the run loop's
 PLANAR_RATES = [0, 1, 5]  # (dx/dt, dy/dt, attitude rate) of the frame's 6-vector
 STATE_KEYS = ("q", "v", "u_cmd", "u_m")  # the recorded columns compared (and the signals)
-ROWS = np.array([0, 1, 5])  # the planar momentum's rows of h_g (the plant's root table)
 
 
 @njit(cache=True)
@@ -153,10 +155,76 @@ def one_by_one(scenarios) -> tuple[float, float, int, list]:
     return wall - after[0], after[0], steps, results
 
 
+class PlanarMeasurement:
+    """The exact measurement of a planar batch, as :class:`ffsm_pin.sim.measurement.Sensor`
+    makes it case by case: Pinocchio's kinematics case by case, the base angle (continued
+    from the last), q_m, w and the end-effector angle for the batch at once."""
+
+    n_base, n_linear, rows = 3, 2, np.array([0, 1, 5])  # the plant's root table's row
+
+    def __init__(self, setups):
+        self.setups, B = setups, len(setups)
+        self.models = [s.robot.model for s in setups]
+        self.datas = [m.createData() for m in self.models]
+        self.fid = setups[0].robot.ee_frame_id
+        self.xy, self.rates, self.angle = np.empty((B, 2)), np.empty((B, 3)), np.empty(B)
+        self.prev = None
+
+    def __call__(self, Q, V, live):
+        # (math.atan2 as the sensor's: np.arctan2 gives other bits for some angles)
+        q_b = np.array([math.atan2(sin, cos) for cos, sin in Q[:, 2:4]])
+        if self.prev is not None:  # continuous attitude
+            q_b += 2 * math.pi * np.round((self.prev - q_b) / (2 * math.pi))
+        self.prev = q_b
+        q_m, w, fid = Q[:, 4:], V[:, 2:], self.fid
+        for b in live:
+            model, data = self.models[b], self.datas[b]
+            pin.forwardKinematics(model, data, Q[b], V[b])
+            self.xy[b] = pin.updateFramePlacement(model, data, fid).translation[:2]
+            twist = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED).vector
+            self.rates[b] = twist[PLANAR_RATES]
+            self.angle[b] = self.setups[b].model.ee_angle(q_b[b], q_m[b])
+        return q_b, q_m, w, np.column_stack((self.xy, self.angle)), self.rates
+
+
+class SpatialMeasurement:
+    """The exact measurement of a free-flyer batch, as :class:`~ffsm_pin.sim.measurement.
+    Sensor` makes it: Pinocchio's kinematics and the sensor's compiled MRP arithmetic case by
+    case."""
+
+    n_base, n_linear, rows = 6, 3, np.arange(6)
+
+    def __init__(self, setups):
+        from ffsm_pin.sim._sensor_kernels import spatial_measurement
+
+        B, n = len(setups), setups[0].model.n_joints
+        self.models = [s.robot.model for s in setups]
+        self.datas = [m.createData() for m in self.models]
+        self.fid = setups[0].robot.ee_frame_id
+        self.kernel = spatial_measurement
+        self.q_b, self.w = np.empty((B, 3)), np.empty((B, n + 3))
+        self.z_e, self.z_e_dot = np.empty((B, 6)), np.empty((B, 6))
+
+    def __call__(self, Q, V, live):
+        fid = self.fid
+        for b in live:
+            model, data = self.models[b], self.datas[b]
+            pin.forwardKinematics(model, data, Q[b], V[b])
+            oMf = pin.updateFramePlacement(model, data, fid)
+            twist = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            q_b, _, z_e, z_e_dot, w = self.kernel(Q[b], V[b], oMf.homogeneous, twist.vector)
+            self.q_b[b], self.z_e[b], self.z_e_dot[b], self.w[b] = q_b, z_e, z_e_dot, w
+        return self.q_b, Q[:, 7:], self.w, self.z_e, self.z_e_dot
+
+
+#: The batch's measurement and root rows per root joint (what differs between the geometries).
+MEASUREMENTS = {"planar": PlanarMeasurement, "free-flyer": SpatialMeasurement}
+
+
 def lockstep(setups) -> tuple[float, int, dict]:
-    """Run the prepared ``setups`` (one robot, planar, the cases above) in lock-step:
-    (seconds, case-steps, recorded arrays ``q``, ``v``, ``u_cmd``, ``u_m`` (B, rows, ...) and
-    ``rows`` (B,))."""
+    """Run the prepared ``setups`` (one robot, the cases above) in lock-step: (seconds,
+    case-steps, recorded arrays ``q``, ``v``, ``u_cmd``, ``u_m`` and the controllers' signal
+    rows ``signals`` (B, rows, ...), and ``rows`` (B,) recorded per case)."""
     B = len(setups)
     s0 = setups[0]
     sc = s0.scenario
@@ -164,16 +232,15 @@ def lockstep(setups) -> tuple[float, int, dict]:
     n = s0.model.n_joints
     for s in setups:
         law = s.controller.law
-        if s.robot.base != "planar" or law.auxiliary is not None or law.physical is not None:
-            raise SystemExit("the prototype takes planar lu-jia cases without aux or physical")
+        if law.auxiliary is not None or law.physical is not None or not law.adaptive:
+            raise SystemExit("the prototype takes adaptive lu-jia cases without aux, physical")
         if s.sensors is None or s.sensors.spec.delay or s.target is not None:
             raise SystemExit("the prototype takes noisy sensors without delay and no target")
         a = s.actuators
         if a is None or a.lagged or a.rate_limited or a.noisy:
             raise SystemExit("the prototype takes actuators with torque limits alone")
-    models = [s.robot.model for s in setups]
-    datas = [m.createData() for m in models]
-    fid = s0.robot.ee_frame_id
+    measure = MEASUREMENTS[s0.robot.base](setups)
+    nb, n_lin, momentum_rows = measure.n_base, measure.n_linear, measure.rows
     plants = [Plant(s.robot, integrator=s.scenario.integrator) for s in setups]
     Q = np.array([s.q0 for s in setups])
     V = np.array([s.v0 for s in setups])
@@ -181,18 +248,17 @@ def lockstep(setups) -> tuple[float, int, dict]:
         p.reset(q.copy(), v.copy())
         if p.integrator != "semi-implicit" or p.project_position or substeps != 1:
             raise SystemExit("the prototype steps the semi-implicit plant, one substep")
-    pdatas = [p.data for p in plants]
+    models, pdatas = [p.model for p in plants], [p.data for p in plants]
     h0 = np.array([p.momentum0 for p in plants])
     tau, acc = np.zeros(V.shape), np.empty(V.shape)
     handles = [s.controller.law.period_handles() for s in setups]
-    boxes = List([h.box for h in handles])
+    boxes, row_list = List([h.box for h in handles]), List([h.row for h in handles])
     M_none, h_none = handles[0].M, handles[0].h
     laws = [s.controller.law for s in setups]
     limits = np.array([s.actuators.limit for s in setups])
     # the sensors' noise: each case's stream, BLOCK measurements drawn at once
-    sizes = {"joints": n, "joint_rates": n, "base_attitude": 1, "base_rate": 1}
-    sizes |= {"ee_pose": 3, "ee_velocity": 3}
-    bounds = np.cumsum([0] + [sizes[k] for k in NOISE_KEYS])
+    sizes = [s0.sensors.sigma[k].size for k in NOISE_KEYS]
+    bounds = np.cumsum([0, *sizes])
     sl = {k: slice(bounds[i], bounds[i + 1]) for i, k in enumerate(NOISE_KEYS)}
     sigma = [np.concatenate([s.sensors.sigma[k] for k in NOISE_KEYS]) for s in setups]
     noise = np.empty((B, BLOCK, bounds[-1]))
@@ -203,7 +269,6 @@ def lockstep(setups) -> tuple[float, int, dict]:
         "u_cmd": np.full((B, rows, n), np.nan), "u_m": np.full((B, rows, n), np.nan),
     }  # fmt: skip
     signal_rows = np.full((B, rows, handles[0].row.size), np.nan)
-    row_list = List([h.row for h in handles])
     booked = np.zeros(B, dtype=np.bool_)  # the controller's damped_since is not None
     active = np.ones(B, dtype=np.bool_)
     done = np.full(B, rows)  # rows recorded per case
@@ -212,33 +277,13 @@ def lockstep(setups) -> tuple[float, int, dict]:
     value = np.zeros(B)
     U = np.zeros((B, n))
     damp = np.zeros(B)
-    XY = np.empty((B, 2))
-    ZD = np.empty((B, 3))
-    EA = np.empty(B)
-    prev = None
     wall0 = time.perf_counter()
     for k in range(n_steps + 1):
         t = k * dt
         live = np.flatnonzero(active)
         if live.size == 0:
             break
-        # the exact measurement: Pinocchio case by case, the rest at once
-        q_b = np.array(
-            [math.atan2(sin, cos) for cos, sin in Q[:, 2:4]]
-        )  # (not np.arctan2: other bits)
-        if prev is not None:  # continuous attitude
-            q_b += 2 * math.pi * np.round((prev - q_b) / (2 * math.pi))
-        prev = q_b
-        q_m, w = Q[:, 4:], V[:, 2:]
-        for b in live:
-            model, data = models[b], datas[b]
-            pin.forwardKinematics(model, data, Q[b], V[b])
-            XY[b] = pin.updateFramePlacement(model, data, fid).translation[:2]
-            ZD[b] = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED).vector[
-                PLANAR_RATES
-            ]
-            EA[b] = setups[b].model.ee_angle(q_b[b], q_m[b])
-        z_e = np.column_stack((XY, EA))
+        q_b, q_m, w, z_e, z_e_dot = measure(Q, V, live)
         # what the controllers see: each case's noise of this measurement
         if row == BLOCK:
             for b in range(B):
@@ -246,11 +291,12 @@ def lockstep(setups) -> tuple[float, int, dict]:
             row = 0
         z = noise[:, row]
         row += 1
-        seen_q_b = q_b + z[:, sl["base_attitude"]][:, 0]
+        base = z[:, sl["base_attitude"]]
+        seen_q_b = q_b + (base[:, 0] if q_b.ndim == 1 else base)
         seen_q_m = q_m + z[:, sl["joints"]]
         seen_w = w + np.concatenate((z[:, sl["base_rate"]], z[:, sl["joint_rates"]]), axis=1)
         seen_z_e = z_e + z[:, sl["ee_pose"]]
-        seen_z_e_dot = ZD + z[:, sl["ee_velocity"]]
+        seen_z_e_dot = z_e_dot + z[:, sl["ee_velocity"]]
         periods(boxes, row_list, k, dt, t, seen_q_b, seen_q_m, seen_w, seen_z_e, seen_z_e_dot,
                 M_none, h_none, active, status, idx, value, U, damp, signal_rows)  # fmt: skip
         # the bookkeeping of a period that is not plain (a stop raises), case by case
@@ -274,7 +320,7 @@ def lockstep(setups) -> tuple[float, int, dict]:
             break
         # the plant, semi-implicit Euler as Plant.step: ABA and the configuration case by case,
         # the velocity update at once, the momentum projection by the plant's own kernel
-        tau[:, 3:] = u_m
+        tau[:, nb:] = u_m
         for b in live:
             acc[b] = pin.aba(models[b], pdatas[b], Q[b], V[b], tau[b])
         V = V + dt * acc
@@ -283,9 +329,9 @@ def lockstep(setups) -> tuple[float, int, dict]:
         for b in live:
             model, data = models[b], pdatas[b]
             Q[b] = pin.integrate(model, Q[b], dq[b])
-            _project_base(pin.computeCentroidalMap(model, data, Q[b]), V[b], h0[b], ROWS)
+            _project_base(pin.computeCentroidalMap(model, data, Q[b]), V[b], h0[b], momentum_rows)
         bad = ~(np.isfinite(Q).all(axis=1) & np.isfinite(V).all(axis=1))
-        bad |= np.abs(V[:, 2:]).max(axis=1) > RATE_LIMIT
+        bad |= np.abs(V[:, n_lin:]).max(axis=1) > RATE_LIMIT
         for b in np.flatnonzero(bad & active):
             active[b] = False
             done[b] = k + 1
@@ -319,7 +365,9 @@ def compare(results, rec, layout) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenario", default="case1", choices=["case1", "planar5"])
+    ap.add_argument(
+        "--scenario", default="case1", choices=["case1", "planar5", "spatial-realistic"]
+    )
     ap.add_argument("--batch", type=int, default=8, help="cases (default 8)")
     ap.add_argument("--duration", type=float, default=5.0, help="simulated s per case")
     ap.add_argument("--repeat", type=int, default=3, help="rounds (default 3)")
