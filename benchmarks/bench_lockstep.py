@@ -130,6 +130,7 @@ def one_by_one(scenarios) -> tuple[float, float, int, list]:
     """(loop seconds less after-run signals, after-run seconds, steps, results) of the cases
     run by the package, one after the other."""
     import ffsm_pin.sim.loop as loop
+    from ffsm_pin.sweep.engine import CASE_MEMORY_BYTES
 
     after = [0.0]
     original = loop.system_signals
@@ -146,7 +147,7 @@ def one_by_one(scenarios) -> tuple[float, float, int, list]:
         for setup in prepared(scenarios):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                res = loop.simulate(setup)
+                res = loop.simulate(setup, memory_bytes=CASE_MEMORY_BYTES)  # (a worker's)
             results.append(res)
             wall += res.wall_time_s
     finally:
@@ -157,10 +158,10 @@ def one_by_one(scenarios) -> tuple[float, float, int, list]:
 
 class PlanarMeasurement:
     """The exact measurement of a planar batch, as :class:`ffsm_pin.sim.measurement.Sensor`
-    makes it case by case: Pinocchio's kinematics case by case, the base angle (continued
-    from the last), q_m, w and the end-effector angle for the batch at once."""
+    makes it case by case: Pinocchio's kinematics and the end-effector angle case by case,
+    the base angle (continued from the last), q_m and w for the batch at once."""
 
-    n_base, n_linear, rows = 3, 2, np.array([0, 1, 5])  # the plant's root table's row
+    n_base, n_linear, rows = 3, 2, np.array([0, 1, 5])  # (the plant's root table's)
 
     def __init__(self, setups):
         self.setups, B = setups, len(setups)
@@ -272,6 +273,7 @@ def lockstep(setups) -> tuple[float, int, dict]:
     booked = np.zeros(B, dtype=np.bool_)  # the controller's damped_since is not None
     active = np.ones(B, dtype=np.bool_)
     done = np.full(B, rows)  # rows recorded per case
+    steps = np.full(B, n_steps)  # per case, as its run reports them
     status = np.zeros(B, dtype=np.int64)
     idx = np.zeros(B, dtype=np.int64)
     value = np.zeros(B)
@@ -310,7 +312,7 @@ def lockstep(setups) -> tuple[float, int, dict]:
                     laws[b].settle(meas, int(status[b]), int(idx[b]), float(value[b]))
             except SimulationError:
                 active[b] = False
-                done[b] = k
+                done[b] = steps[b] = k
             booked[b] = laws[b].damped_since is not None
         live = np.flatnonzero(active)
         u_m = np.minimum(np.maximum(U, -limits), limits)  # the actuators (limits alone)
@@ -334,10 +336,9 @@ def lockstep(setups) -> tuple[float, int, dict]:
         bad |= np.abs(V[:, n_lin:]).max(axis=1) > RATE_LIMIT
         for b in np.flatnonzero(bad & active):
             active[b] = False
-            done[b] = k + 1
+            done[b], steps[b] = k + 1, k
     wall = time.perf_counter() - wall0
-    steps = int(sum(min(d, rows) for d in done)) - B  # (rows recorded less the first)
-    return wall, max(steps, 1), {**rec, "signals": signal_rows, "rows": done}
+    return wall, max(int(steps.sum()), 1), {**rec, "signals": signal_rows, "rows": done}
 
 
 def compare(results, rec, layout) -> str:
