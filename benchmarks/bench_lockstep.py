@@ -67,7 +67,7 @@ from ffsm_pin.control.interface import Measurement  # noqa: E402
 from ffsm_pin.control.period import PeriodOutputs, period_of  # noqa: E402
 from ffsm_pin.errors import SimulationError  # noqa: E402
 from ffsm_pin.scenario.devices import NOISE_KEYS  # noqa: E402
-from ffsm_pin.sim.plant import Plant, _project_base  # noqa: E402  (the plant's kernel)
+from ffsm_pin.sim.plant import Plant, _project_base  # noqa: E402  (private: see lockstep)
 from ffsm_pin.sim.sensors import BLOCK  # noqa: E402
 
 RATE_LIMIT = 1e4  # [rad/s], as the run loop's
@@ -196,6 +196,7 @@ class SpatialMeasurement:
     n_base, n_linear, rows = 6, 3, np.arange(6)
 
     def __init__(self, setups):
+        # (a private module: the sensor's own MRP arithmetic, so the bits are the sensor's)
         from ffsm_pin.sim._sensor_kernels import spatial_measurement
 
         B, n = len(setups), setups[0].model.n_joints
@@ -321,7 +322,8 @@ def lockstep(setups) -> tuple[float, int, dict]:
         if k == n_steps:
             break
         # the plant, semi-implicit Euler as Plant.step: ABA and the configuration case by case,
-        # the velocity update at once, the momentum projection by the plant's own kernel
+        # the velocity update at once, the momentum projection by the plant's own kernel (a
+        # private one, read here so that lock-step stays bit for bit)
         tau[:, nb:] = u_m
         for b in live:
             acc[b] = pin.aba(models[b], pdatas[b], Q[b], V[b], tau[b])
