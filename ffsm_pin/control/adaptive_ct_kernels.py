@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._array_kernels import mm, mv, spd_solve
+from .._array_kernels import mv, spd_solve
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kinematics_kernels import y_z
@@ -117,7 +117,7 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
         pc, ps, K, L, S, w - w_r, w - w_r, nd, collinear
     )
     Y = planar_kernels.y_m(pc, ps, K, L, S, w_r_dot, nd, collinear) + 0.25 * (Yh_plus - Yh_minus)
-    M_hat = mm(mm(S.T, planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear)), S)
+    M_hat = planar_kernels.mass_matrix(theta_d, pc, ps, K, L, S, collinear)
     u, finite, physical = _torque_and_update(Y, w - w_r, M_hat, 1, gains, theta_d, theta_b,
                                              theta_z, tb_new, tz_new)  # fmt: skip
     return u, w_r[1:].copy(), sigma, damping, finite, physical

@@ -28,6 +28,7 @@ from .._docstrings import fill_doc
 from ..model._planar_kernels import (
     column_sums,
     jacobian,
+    mass_matrix,
     mass_phi,
     position_regressor,
     trig,
@@ -222,8 +223,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         e = np.zeros(nb if theta_d_true.size else 0)  # w~ = 0, Y_df = 0, theta_d-hat = theta_d
         return kernels.STATUS_OK, 0.0, u_m, w_mc_dot + sens * w_hat_dot[0], np.zeros(nb), e
     w_tilde = w - w_hat
-    Mphi = mass_phi(theta_d, pc, ps, K, L, nb, collinear)
-    M_hat = mm(mm(S.T, Mphi), S)
+    M_hat = mass_matrix(theta_d, pc, ps, K, L, S, collinear)
     if not positive_definite(M_hat):
         return kernels.STATUS_M_NOT_PD, 0.0, none, none, none, none
     Ymd, Yh = velocity_regressors(pc, ps, K, L, S, w, w_tilde, nd, collinear)
@@ -240,7 +240,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         return status, value, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
     if theta_d_true.size:
-        M = mm(mm(S.T, mass_phi(theta_d_true, pc, ps, K, L, nb, collinear)), S)
+        M = mass_matrix(theta_d_true, pc, ps, K, L, S, collinear)
         e = mv(M, w_tilde) + mv(Y_df, theta_d_true - theta_d)
     # Eq. (49)-(50): filtered regressor; Eq. (51); Eq. (46)
     YM = y_m(pc, ps, K, L, S, w_hat_dot - g.k_de * w_tilde, nd, collinear)

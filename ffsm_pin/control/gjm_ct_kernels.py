@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._array_kernels import mm, mv, spd_solve
+from .._array_kernels import mv, spd_solve
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_mass_kernels import mass_matrix
@@ -67,9 +67,8 @@ def period_planar(geo, gains_f, ref_f, meas_f, est_f):
     )  # fmt: skip
     w_md = w_c.real.copy()
     a_m = w_c.imag / COMPLEX_STEP + gains.k_v * (w_md - w[1:])
-    nb = S.shape[0]
     c, s, pc, ps = planar_kernels.trig(S, off, K, L, q_b, q_m)
-    M = mm(mm(S.T, planar_kernels.mass_phi(theta_d, pc, ps, K, L, nb, collinear)), S)
+    M = planar_kernels.mass_matrix(theta_d, pc, ps, K, L, S, collinear)
     _, Yh = planar_kernels.velocity_regressors(pc, ps, K, L, S, w, w, theta_d.size, collinear)
     h = mv(Yh, theta_d)  # C w
     a_b = -((M[0, 1:] * a_m).sum() + h[0]) / M[0, 0]  # base rows unactuated, Eq. (9a)

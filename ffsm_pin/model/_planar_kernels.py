@@ -68,6 +68,13 @@ def mass_phi(theta_d, pc, ps, K, L, nb, collinear):
 
 
 @njit(cache=True)
+def mass_matrix(theta_d, pc, ps, K, L, S, collinear):
+    """M = S^T M_phi S of Eq. (12), (nb, nb): :func:`mass_phi` and two products by loops
+    (:func:`~ffsm_pin._array_kernels.mm`), the one planar M of the compiled periods."""
+    return mm(mm(S.T, mass_phi(theta_d, pc, ps, K, L, S.shape[0], collinear)), S)
+
+
+@njit(cache=True)
 def jacobian(theta_z, c, s, S, ee_row, collinear):
     """(3, nb) [J_b J_m] of Eq. (3)."""
     nb = S.shape[0]
@@ -176,6 +183,7 @@ def position_regressor(c, s, S, w, nz, collinear):
 __all__ = [
     "column_sums",
     "jacobian",
+    "mass_matrix",
     "mass_phi",
     "position_regressor",
     "trig",
