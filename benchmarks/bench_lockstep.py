@@ -100,19 +100,11 @@ def periods(boxes, rows, k, dt, t, q_b, q_m, w, z_e, z_e_dot, M, h, active, stat
 def cases(scenario: str, batch: int, duration: float) -> list:
     """The scenarios of the first ``batch`` lu-jia cases of ``scenario`` in
     compare-controllers."""
-    from ffsm_pin.scenario.file import scenario_from_toml
-    from ffsm_pin.sweep.campaign import load_campaign
-    from ffsm_pin.sweep.cases import expand
+    from bench_step_parts import campaign_cases
 
-    found = [
-        c
-        for c in expand(load_campaign("compare-controllers"))
-        if not c.nominal
-        and c.values.get("scenario") == scenario
-        and c.values.get("controller.type") == "lu-jia"
-    ][:batch]
-    if len(found) < batch:
-        raise SystemExit(f"compare-controllers has {len(found)} such cases, not {batch}")
+    from ffsm_pin.scenario.file import scenario_from_toml
+
+    found = campaign_cases(scenario, "lu-jia", batch)
     return [
         dataclasses.replace(scenario_from_toml(c.scenario_toml), duration=duration) for c in found
     ]

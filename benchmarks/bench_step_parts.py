@@ -68,18 +68,24 @@ STAGES = [
 ]
 
 
-def campaign_case(scenario: str, controller: str):
-    """The first non-nominal case of ``compare-controllers`` for that scenario and controller."""
+def campaign_cases(scenario: str, controller: str, count: int = 1) -> list:
+    """The first ``count`` non-nominal cases of ``compare-controllers`` for that scenario and
+    controller (also ``bench_lockstep.py``'s)."""
     from ffsm_pin.sweep.campaign import load_campaign
     from ffsm_pin.sweep.cases import expand
 
-    for case in expand(load_campaign("compare-controllers")):
-        v = case.values
-        if not case.nominal and (v.get("scenario"), v.get("controller.type")) == (
-            scenario, controller,
-        ):  # fmt: skip
-            return case
-    raise SystemExit(f"compare-controllers has no case of {scenario} x {controller}")
+    found = [
+        case
+        for case in expand(load_campaign("compare-controllers"))
+        if not case.nominal
+        and (case.values.get("scenario"), case.values.get("controller.type"))
+        == (scenario, controller)
+    ][:count]
+    if len(found) < count:
+        raise SystemExit(
+            f"compare-controllers has {len(found)} cases of {scenario} x {controller}, not {count}"
+        )
+    return found
 
 
 def run(scenario, wrap: bool) -> dict:
@@ -133,7 +139,7 @@ def measure_row(scenario: str, controller: str, scale: float) -> dict:
 
     from ffsm_pin.scenario.file import scenario_from_toml
 
-    sc = scenario_from_toml(campaign_case(scenario, controller).scenario_toml)
+    sc = scenario_from_toml(campaign_cases(scenario, controller)[0].scenario_toml)
     duration = sc.duration * scale
     run(dataclasses.replace(sc, duration=1.0), wrap=False)  # warm-up: numba's cache loaded
     scaled = dataclasses.replace(sc, duration=duration)
