@@ -153,7 +153,7 @@ class PlanarMeasurement:
     makes it case by case: Pinocchio's kinematics and the end-effector angle case by case,
     the base angle (continued from the last), q_m and w for the batch at once."""
 
-    n_base, n_linear, rows = 3, 2, np.array([0, 1, 5])  # (the plant's root table's)
+    rows = np.array([0, 1, 5])  # h_g's rows the plant keeps (its root table's, private)
 
     def __init__(self, setups):
         self.setups, B = setups, len(setups)
@@ -185,7 +185,7 @@ class SpatialMeasurement:
     Sensor` makes it: Pinocchio's kinematics and the sensor's compiled MRP arithmetic case by
     case."""
 
-    n_base, n_linear, rows = 6, 3, np.arange(6)
+    rows = np.arange(6)  # h_g's rows the plant keeps
 
     def __init__(self, setups):
         # (a private module: the sensor's own MRP arithmetic, so the bits are the sensor's)
@@ -234,7 +234,7 @@ def lockstep(setups) -> tuple[float, int, dict]:
         if a is None or a.lagged or a.rate_limited or a.noisy:
             raise SystemExit("the prototype takes actuators with torque limits alone")
     measure = MEASUREMENTS[s0.robot.base](setups)
-    nb, n_lin, momentum_rows = measure.n_base, measure.n_linear, measure.rows
+    momentum_rows = measure.rows
     plants = [Plant(s.robot, integrator=s.scenario.integrator) for s in setups]
     Q = np.array([s.q0 for s in setups])
     V = np.array([s.v0 for s in setups])
@@ -242,6 +242,7 @@ def lockstep(setups) -> tuple[float, int, dict]:
         p.reset(q.copy(), v.copy())
         if p.integrator != "semi-implicit" or p.project_position or substeps != 1:
             raise SystemExit("the prototype steps the semi-implicit plant, one substep")
+    nb, n_lin = plants[0].n_base, plants[0].n_linear  # base velocity size, its linear part
     models, pdatas = [p.model for p in plants], [p.data for p in plants]
     h0 = np.array([p.momentum0 for p in plants])
     tau, acc = np.zeros(V.shape), np.empty(V.shape)
