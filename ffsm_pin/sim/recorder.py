@@ -184,47 +184,6 @@ class Signals(Mapping):
         return data.reshape(stop - start, *shape)
 
 
-class Thinned(Mapping):
-    """Every ``step``-th row (and the last) of the per-row signals of ``signals``, read on
-    first use and kept in memory; the ``constants`` (no time axis) are passed through.
-
-    Parameters
-    ----------
-    signals : mapping of str to ndarray
-        The recorded signals ("t" among them).
-    step : int
-        Row stride.
-    constants : iterable of str
-        Keys without a time axis.
-    """
-
-    def __init__(self, signals: Mapping[str, np.ndarray], step: int, constants=()):
-        self._signals, self._step = signals, int(step)
-        self._constants = set(constants)
-        self._rows = len(signals["t"])
-        self._cache: dict[str, np.ndarray] = {}
-
-    def __getitem__(self, key: str) -> np.ndarray:
-        if key not in self._cache:
-            arr = self._signals[key]
-            if key in self._constants or np.ndim(arr) == 0:
-                self._cache[key] = arr
-            elif isinstance(self._signals, Signals):
-                self._cache[key] = self._signals.every(key, self._step)
-            else:
-                idx = np.arange(0, self._rows, self._step)
-                if idx[-1] != self._rows - 1:
-                    idx = np.append(idx, self._rows - 1)
-                self._cache[key] = np.asarray(arr)[idx]
-        return self._cache[key]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._signals)
-
-    def __len__(self) -> int:
-        return len(self._signals)
-
-
 class Recorder:
     """Rows of the per-step signals ``shapes`` (key -> row shape), held a chunk at a time.
 
@@ -311,6 +270,32 @@ class Recorder:
         self.i += 1
         if self.i == self.chunk_rows:
             self._spill()
+
+    def write_rows(
+        self, columns: Mapping[str, np.ndarray], block: np.ndarray | None = None
+    ) -> None:
+        """Record whole rows at once, as that many :meth:`commit`-ed rows (the bytes copied):
+        ``columns`` key -> rows of each unpacked signal, ``block`` the packed signals' rows
+        side by side (a lock-step run's, :mod:`ffsm_pin.sim.lockstep`).
+
+        Parameters
+        ----------
+        columns : mapping of str to ndarray
+            Each unpacked signal's rows.
+        block : ndarray or None
+            The packed signals' rows (None: there are none).
+        """
+        rows = len(block) if block is not None else len(next(iter(columns.values())))
+        done = 0
+        while done < rows:
+            i, n = self.i, min(self.chunk_rows - self.i, rows - done)
+            for key, values in columns.items():
+                self.arrays[key][i : i + n] = values[done : done + n]
+            if block is not None:
+                self.block[i : i + n] = block[done : done + n]
+            done, self.i = done + n, i + n
+            if self.i == self.chunk_rows:
+                self._spill()
 
     def _spill(self) -> None:
         if self.i == 0:

@@ -13,9 +13,10 @@ import numpy as np
 from ..attitude import mrp
 from ..control.registry import DEFAULT_TYPE
 from .files import RunFolder, held_interrupt, output_error, strict_json
-from .recorder import Signals, Thinned, write_npz
+from .recorder import Signals, write_npz
 from .relaxation import relaxation_summary
 from .target_run import target_summary
+from .thinned import Thinned
 
 # Keys of trajectory.npz required by docs/cli.md (one row per recorded sample).
 CONTRACT_KEYS = (

@@ -81,8 +81,20 @@ class Sensors:
         self._slices = dict(zip(NOISE_KEYS, map(slice, bounds[:-1], bounds[1:]), strict=True))
         self._row = BLOCK  # next row of the current block (none drawn yet)
 
+    @property
+    def noise_slices(self) -> dict[str, slice]:
+        """Where each key of :data:`NOISE_KEYS` sits in a row of :meth:`noise_block`."""
+        return dict(self._slices)
+
+    def noise_block(self) -> np.ndarray:
+        """The noise of the next :data:`BLOCK` measurements, drawn from the sensors' stream:
+        ``BLOCK x`` the keys' entries side by side (:attr:`noise_slices`). What
+        :meth:`observe` draws; a runner that adds the noise itself (a lock-step run,
+        :mod:`ffsm_pin.sim.lockstep`) calls it instead, never both."""
+        return self.rng.standard_normal((BLOCK, self._sigma_all.size)) * self._sigma_all
+
     def _draw_block(self) -> None:
-        z = self.rng.standard_normal((BLOCK, self._sigma_all.size)) * self._sigma_all
+        z = self.noise_block()
         sl = self._slices
         self._q_b = z[:, sl["base_attitude"]]
         self._q_m = z[:, sl["joints"]]

@@ -7,16 +7,14 @@
   process of the campaign, interrupts the campaign process alone, which then stops the cluster.
 * :func:`shutdown`: close the client and the cluster without a word (no Dask traceback or log
   of the cancelled tasks and closed connections, also after a Ctrl-C).
-* :func:`warm_up`: a task that runs a few steps of a case, so that the numba kernels of its
-  robot and controller are compiled (and saved to numba's on-disk cache) or loaded before its
-  cases run; :func:`run_cases` submits one per robot and controller type of the campaign, and
-  their batches wait for it: on an empty cache each pair's kernels are compiled once for the
-  cluster, by one worker, not by every worker that reaches them.
-* :func:`run_case`: one case. It never raises for a bad run: a run that raises becomes an
-  ``error`` outcome with the error text, a run that stops early a ``stopped`` one.
-* :func:`run_batch`: the task, a batch of cases that share a robot
-  (:mod:`ffsm_pin.sweep.batches`), run one after the other by :func:`run_case` with the robot
-  loaded once; each case gives the outcome it gives alone.
+* The tasks (:mod:`ffsm_pin.sweep.worker`, named here too): :func:`warm_up` runs a few steps
+  of a case, so that the numba kernels of its robot and controller are compiled (and saved to
+  numba's on-disk cache) or loaded before its cases run; :func:`run_cases` submits one per
+  robot and controller type of the campaign, and their batches wait for it: on an empty cache
+  each pair's kernels are compiled once for the cluster, by one worker, not by every worker
+  that reaches them. :func:`run_case` runs one case; :func:`run_batch`, the task, a batch of
+  cases that share a robot (:mod:`ffsm_pin.sweep.batches`), those lock-step takes together;
+  each case gives the outcome it gives alone.
 * :func:`run_cases`: submits the batches and yields ``(case, outcome)`` per case as tasks
   finish. A worker that dies has its tasks re-run on another worker by the scheduler (up to
   ``distributed.scheduler.allowed-failures`` times, then each case of the batch is an
@@ -27,34 +25,36 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import logging
 import os
 import signal
 import threading
-import time
-import traceback
 import uuid
 import warnings
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator
 from contextlib import AbstractContextManager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import dask
 from distributed import Client, LocalCluster, as_completed
 from distributed.scheduler import KilledWorker
 
-from .._cpu_time import work_time
 from .batches import default_batch_size, kernel_key, make_batches
 from .cases import Case
-
-if TYPE_CHECKING:
-    from ..robot import Robot
-    from ..scenario.spec import RobotSpec
+from .worker import (
+    CASE_MEMORY_BYTES,
+    WARMUP_STEPS,
+    run_batch,
+    run_case,
+    summary_scalars,
+    warm_up,
+)
 
 __all__ = [
+    "CASE_MEMORY_BYTES",
     "QUIET_WORKERS",
+    "WARMUP_STEPS",
     "n_workers",
     "run_batch",
     "run_case",
@@ -64,16 +64,6 @@ __all__ = [
     "summary_scalars",
     "warm_up",
 ]
-
-WARMUP_STEPS = 20
-
-#: [bytes] A case's rows held in memory before its recorder spills them (``simulate``'s
-#: ``memory_bytes``; a single run's chunk is 32 MiB). A case's rows are read once, for its row
-#: of the table, and never recovered (a worker that dies has its case run again), so spilling
-#: them is only a cost: 13 us a step of a 40 s ``spatial-realistic`` case, 14 % of its loop
-#: (benchmarks/README.md, "A campaign case's rows in memory"). This bounds a worker's memory
-#: for its rows; a longer case spills the rest as a single run does.
-CASE_MEMORY_BYTES = 256 * 2**20
 
 #: Dask settings for the LocalCluster's processes: the worker's own periodic work, which is
 #: CPU taken from the cases (a worker runs one case at a time and nobody reads a dashboard).
@@ -192,128 +182,6 @@ def _silence_logs() -> None:
     """No more logs from Dask and its event loop in this process (a worker's, or ours)."""
     for name in ("distributed", "tornado", "asyncio"):
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
-
-
-def warm_up(scenario_toml: str) -> None:
-    """Run :data:`WARMUP_STEPS` steps of a scenario, so that the kernels its cases run are
-    compiled (and saved to numba's on-disk cache) or loaded; never raises (a case that fails
-    the same way reports it).
-
-    Parameters
-    ----------
-    scenario_toml : str
-        The scenario (a case's resolved scenario).
-    """
-    try:
-        from ..scenario.file import scenario_from_toml
-        from ..sim.run import prepare, simulate
-
-        sc = scenario_from_toml(scenario_toml)
-        sc = dataclasses.replace(sc, duration=WARMUP_STEPS * sc.dt)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            simulate(prepare(sc))
-    except Exception:  # noqa: BLE001 - a case that fails the same way reports it
-        pass
-
-
-def summary_scalars(summary: dict[str, Any]) -> dict[str, Any]:
-    """The scalar entries of a run's summary.json (lists such as final_err_z are left out)."""
-    return {k: v for k, v in summary.items() if v is None or isinstance(v, (bool, int, float, str))}
-
-
-def run_case(
-    scenario_toml: str,
-    keep_dir: str | None = None,
-    robots: Callable[[RobotSpec], Robot] | None = None,
-) -> dict[str, Any]:
-    """Simulate one case (on a worker): ``{"status", "error", **summary scalars}``.
-
-    ``status`` is ``"completed"``, ``"stopped"`` (the run stopped early: a result) or
-    ``"error"`` (the run raised; ``error`` holds the exception and where it happened);
-    ``case_wall_s`` and ``case_cpu_s`` are the case's wall and CPU time on the worker [s], the
-    CPU time of its thread and of the helper thread its after-run signals use
-    (:mod:`ffsm_pin._cpu_time`).
-    ``keep_dir``: write the run folder there as ``python -m ffsm_pin.sim`` does.
-
-    Parameters
-    ----------
-    scenario_toml : str
-        The case's resolved scenario.
-    keep_dir : str or None
-        Where to write the run folder; None: nowhere.
-    robots : callable or None
-        Where the run's robot comes from (a batch's
-        :class:`~ffsm_pin.sim.robots.SharedRobots`); None: loaded from its URDF.
-
-    Returns
-    -------
-    dict
-        The outcome.
-    """
-    from ..scenario.file import scenario_from_toml
-    from ..sim.run import prepare, simulate
-    from .explain import case_extras
-
-    wall0, cpu0 = time.perf_counter(), work_time()
-    try:
-        scenario = scenario_from_toml(scenario_toml)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            setup = prepare(scenario, robots=robots)
-            result = simulate(setup, memory_bytes=CASE_MEMORY_BYTES)
-        summary = result.summary()
-        extras = case_extras(setup, result, summary)  # lists, min_sigma_gjm, signals
-        if keep_dir is not None:
-            from ..sim.outputs import write_outputs
-
-            write_outputs(Path(keep_dir), result, scenario, setup.robot, figures=True, replay=True)
-    except Exception as exc:  # noqa: BLE001 - recorded in the row, the campaign goes on
-        where = traceback.extract_tb(exc.__traceback__)[-1]
-        text = f"{type(exc).__name__}: {exc} ({Path(where.filename).name}:{where.lineno})"
-        return {"status": "error", "error": " ".join(text.split()), **_cost(wall0, cpu0)}
-    status = "completed" if result.completed else "stopped"
-    scalars = summary_scalars(summary)
-    return {"status": status, "error": None, **scalars, **extras, **_cost(wall0, cpu0)}
-
-
-def run_batch(
-    scenario_tomls: Sequence[str],
-    keep_dirs: Sequence[str | None] | None = None,
-    after: object = None,
-) -> list[dict[str, Any]]:
-    """Simulate the cases of a batch one after the other (the task a worker runs).
-
-    Each case is :func:`run_case`, with the robots of the batch loaded once
-    (:class:`~ffsm_pin.sim.robots.SharedRobots`: every case gets its own copy); a case that
-    raises is an ``error`` outcome of its own and the next case runs.
-
-    Parameters
-    ----------
-    scenario_tomls : sequence of str
-        The cases' resolved scenarios.
-    keep_dirs : sequence of (str or None), or None
-        Per case, where to write its run folder; None: nowhere.
-    after : object
-        Not read: what the batch's task waits for (:func:`run_cases` passes the futures of
-        the warm-ups of the batch's kernels; Dask runs a task once its arguments are done).
-
-    Returns
-    -------
-    list of dict
-        The outcomes, in the order of the cases.
-    """
-    from ..sim.robots import SharedRobots
-
-    robots = SharedRobots()
-    keeps = [None] * len(scenario_tomls) if keep_dirs is None else list(keep_dirs)
-    return [run_case(t, k, robots) for t, k in zip(scenario_tomls, keeps, strict=True)]
-
-
-def _cost(wall0: float, cpu0: float) -> dict[str, float]:
-    """Wall and CPU time of the whole case on its worker (parse, set-up, simulation, summary,
-    run folder) [s]; the summary's wall_time_s covers the simulation loop only."""
-    return {"case_wall_s": time.perf_counter() - wall0, "case_cpu_s": work_time() - cpu0}
 
 
 def n_workers(client: Client) -> int:

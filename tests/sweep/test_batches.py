@@ -104,7 +104,19 @@ def _same(a: dict, b: dict) -> bool:
     return True
 
 
-def test_each_case_of_a_batch_is_its_single_task():
+def test_each_case_of_a_batch_is_its_single_task(monkeypatch):
+    """The cases lock-step takes run together (the three planar lu-jia cases, the two spatial
+    ones: ffsm_pin.sim.lockstep), the others alone; each outcome is its single task's."""
+    import ffsm_pin.sim.lockstep as lockstep
+
+    together: list[int] = []
+    original = lockstep.simulate_lockstep
+
+    def counted(setups, **kwargs):
+        together.append(len(setups))
+        return original(setups, **kwargs)
+
+    monkeypatch.setattr(lockstep, "simulate_lockstep", counted)
     planar = _short("case1").replace('initial = "paper"', 'initial = "perturbed"')
     seeded = planar.replace("seed = 0", "seed = 5", 1)  # other estimates
     spatial = _short("spatial")
@@ -117,6 +129,7 @@ def test_each_case_of_a_batch_is_its_single_task():
         warnings.simplefilter("ignore")
         batch = run_batch(tomls)
         alone = [run_case(t) for t in tomls]
+    assert sorted(together) == [2, 3]  # (the narrow funnel's and the missing robot's alone)
     assert [o["status"] for o in batch] == [o["status"] for o in alone]
     assert batch[1]["status"] == batch[3]["status"] == "error"
     assert "not strictly inside its funnel" in batch[1]["error"]
