@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import ParameterError, choices_text
 from .backend import BACKENDS
+from .compiled_period import PeriodHandles
 from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
 from .held_body import CaptureEvent, join_held_body
@@ -261,3 +262,57 @@ class LuJiaController:
             at_t.append(np.array([margin_kernel(law.physical, law.theta_d)]))
         out = law.step_row(meas, self._dt)
         return out.u_m, SignalRow(np.concatenate((out.signals, *at_t)), self.signal_layout)
+
+    # ------------------------------------------------------------------ lock-step
+    @property
+    def lockstep_obstacle(self) -> str | None:
+        """Why this controller's periods cannot be stepped together with other controllers'
+        (one compiled call for a batch of runs, :mod:`ffsm_pin.sim.lockstep`), or None: the
+        compiled backend, an adaptive scheme, neither the auxiliary system nor the physical
+        projection (their signals are made around the period), the true theta_d known."""
+        law = self.law
+        checks = (
+            (law.backend != "numba", "the controller's numpy backend"),
+            (not law.adaptive, "the known-model scheme (the true M and C w measured)"),
+            (law.auxiliary is not None, "the saturation auxiliary system"),
+            (law.physical is not None, "the physical projection of the estimates"),
+            (law.theta_d_true is None, "no true theta_d (Eq. 54's signals)"),
+            (self._wheels is not None, "the wheels' own law"),
+        )
+        return next((why for bad, why in checks if bad), None)
+
+    @property
+    def period(self) -> float:
+        """The control period dt [s] its :meth:`step` takes."""
+        return self._dt
+
+    def period_handles(self) -> PeriodHandles:
+        """The compiled period's handles (:meth:`.compiled_period.CompiledPeriod.period_handles`):
+        what a lock-step runner calls the period with, instead of :meth:`step`, when
+        :attr:`lockstep_obstacle` is None; :meth:`settle` each period that is not plain.
+
+        Returns
+        -------
+        PeriodHandles
+            The live box, outputs and row.
+        """
+        return self.law.period_handles()
+
+    def settle(self, meas: Measurement, status: int, idx: int, value: float) -> None:
+        """The bookkeeping after a period run through :meth:`period_handles`
+        (:meth:`.compiled_period.CompiledPeriod.settle`: the singularity watch, the stops).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The period's measurement.
+        status, idx, value : int, int, float
+            What the period returned.
+        """
+        self.law.settle(meas, status, idx, value, stacklevel=2)
+
+    @property
+    def damped_since(self) -> float | None:
+        """Since when every period was damped [s], or None (then a plain period needs no
+        :meth:`settle`)."""
+        return self.law.damped_since

@@ -16,10 +16,12 @@ stay case by case: the physics is each case's own Pinocchio model, as in its sin
 
 Each case stops on its own (a funnel left, damped too long, a blow-up) with the stop message,
 the rows and the summary its single run gives; the others go on. What lock-step takes is what
-:func:`lockstep_obstacle` accepts (the paper's adaptive controller on the compiled backend;
-sensors exact, ideal or noisy without delay; actuators without torque noise; the
-semi-implicit plant without substeps; no target, capture, wheels or approach); anything else
-runs through :func:`~ffsm_pin.sim.loop.simulate`, as :func:`lockstep_groups` sorts it.
+:func:`lockstep_obstacle` accepts: a controller that offers its compiled period to be stepped
+from outside (its ``lockstep_obstacle`` None, ``period_handles``, ``settle``: the paper's
+adaptive controller on the compiled backend); sensors exact, ideal or noisy without delay;
+actuators without torque noise; the semi-implicit plant without substeps; no target,
+capture, wheels or approach. Anything else runs through :func:`~ffsm_pin.sim.loop.simulate`,
+as :func:`lockstep_groups` sorts it.
 Equality with the single runs is tested bit for bit (tests/sim/test_lockstep.py) and checked
 on the campaign cases by ``benchmarks/bench_lockstep.py``. See docs/campaigns.md, "Lock-step
 batches".
@@ -41,7 +43,6 @@ from ..control import _first_compile, kernels
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques
 from ..control.interface import Measurement, recorded_name
-from ..control.lu_jia import LuJiaController
 from ..errors import ParameterError, SimulationError
 from . import _lockstep_kernels
 from ._sensor_kernels import spatial_measurement
@@ -75,14 +76,12 @@ def lockstep_obstacle(setup: Setup) -> str | None:
         The first feature lock-step does not take, in words.
     """
     sc, ctrl = setup.scenario, setup.controller
-    if type(ctrl) is not LuJiaController:
-        return f"controller {type(ctrl).__name__}: lock-step runs the paper's controller alone"
-    law = ctrl.law
+    why = getattr(ctrl, "lockstep_obstacle", f"controller {type(ctrl).__name__}: no period "
+                  "to step in lock-step (no lockstep_obstacle, period_handles)")  # fmt: skip
+    if why is not None:
+        return why
     checks = (
-        (law.backend != "numba", "the controller's numpy backend"),
-        (not law.adaptive, "the known-model scheme (the true M and C w measured)"),
-        (law.auxiliary is not None, "the saturation auxiliary system"),
-        (law.physical is not None, "the physical projection of the estimates"),
+        (getattr(ctrl, "period", None) != sc.dt, "a control period other than the step"),
         (setup.target is not None or setup.approach is not None, "a [target]"),
         (sc.robot.wheels is not None, "reaction wheels"),
         (
@@ -290,7 +289,7 @@ class _Lockstep:
         for plant, q, v in zip(self.plants, self.Q, self.V, strict=True):
             plant.reset(q.copy(), v.copy())
         self.sensing = _SENSING[s0.robot.base](setups)
-        self.handles = [s.controller.law.period_handles() for s in setups]  # type: ignore[attr-defined]
+        self.handles = [s.controller.period_handles() for s in setups]  # type: ignore[attr-defined]
         self.reactions = [reaction_torques(s.model, s.theta_d, numba_available()) for s in setups]
         # each case's recorder, as its single run's (rows handed over a chunk at a time)
         n_rows = rows_recorded(self.n_steps, 1)
@@ -340,7 +339,7 @@ class _Lockstep:
         boxes = List([h.box for h in self.handles])
         rows = List([h.row for h in self.handles])
         M_none, h_none = self.handles[0].M, self.handles[0].h
-        laws = [s.controller.law for s in setups]  # type: ignore[attr-defined]
+        controllers: list = [s.controller for s in setups]  # (each: period_handles, settle)
         sensors = [s.sensors for s in setups]
         mode = _sensing_mode(setups[0])
         noisy, seen_cols = mode == "noisy", mode != "exact"
@@ -357,8 +356,10 @@ class _Lockstep:
             max_change = np.array([a.max_change for a in acts])  # type: ignore[union-attr]
             rate_lim = np.array([a.rate_limited for a in acts])  # type: ignore[union-attr]
             zeros, U_m, sat = np.zeros(n), np.empty((B, n)), np.zeros(B, dtype=np.bool_)
+            limits = (limit, alpha, lagged, max_change, rate_lim)  # each case's, as a bundle
         status, idx = np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64)
         value, damp, U = np.zeros(B), np.zeros(B), np.zeros((B, n))
+        period_out = (status, idx, value, U, damp)  # what the periods write, per case
         booked = np.zeros(B, dtype=np.bool_)  # damped_since is not None: settle every period
         block_row = 0
         _first_compile.finish()
@@ -395,9 +396,9 @@ class _Lockstep:
                     buf["meas_q_b"][:, j], buf["meas_q_m"][:, j] = s_q_b.reshape(B, -1), s_q_m
                     buf["meas_w"][:, j], buf["meas_z_e"][:, j] = s_w, s_z_e[:, :nt]
                     buf["meas_z_e_dot"][:, j] = s_z_e_dot[:, :nt]
-                _lockstep_kernels.periods(boxes, rows, dt, t, s_q_b, s_q_m, s_w, s_z_e, s_z_e_dot,
-                                          M_none, h_none, self.active, status, idx, value, U,
-                                          damp, self.signal_rows, j)  # fmt: skip
+                seen = (s_q_b, s_q_m, s_w, s_z_e, s_z_e_dot)
+                _lockstep_kernels.periods(boxes, rows, dt, t, seen, M_none, h_none, self.active,
+                                          period_out, self.signal_rows, j)  # fmt: skip
                 book = self.active & ((status != kernels.STATUS_OK) | (damp != 0.0) | booked)
                 for b in np.flatnonzero(book):  # a period that is not plain: its bookkeeping
                     q_b_seen = float(s_q_b[b]) if s_q_b.ndim == 1 else s_q_b[b]
@@ -405,18 +406,15 @@ class _Lockstep:
                         t, q_b_seen, s_q_m[b], s_w[b], s_z_e[b], s_z_e_dot[b], None, None
                     )
                     try:
-                        laws[b].settle(meas, int(status[b]), int(idx[b]), float(value[b]))
+                        controllers[b].settle(meas, int(status[b]), int(idx[b]), float(value[b]))
                     except SimulationError as exc:  # the case stops; its row is not recorded
                         self.stop(b, exc, k, k)
-                    booked[b] = laws[b].damped_since is not None
+                    booked[b] = controllers[b].damped_since is not None
                 live = np.flatnonzero(self.active)
                 if ideal:
                     u_m = U
                 else:
-                    _lockstep_kernels.actuate_all(
-                        U, X, limit, alpha, lagged, max_change, rate_lim, zeros, U_m,
-                        self.active, sat,
-                    )  # fmt: skip
+                    _lockstep_kernels.actuate_all(U, X, limits, zeros, U_m, self.active, sat)
                     u_m = U_m
                     at = sat & self.active
                     self.saturated += at
