@@ -29,7 +29,6 @@ batches".
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Hashable, Sequence
 from functools import partial
@@ -37,16 +36,16 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-from numba.typed import List
 
-from ..control import _first_compile, kernels
+from ..control import _first_compile
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques
-from ..control.interface import Measurement, recorded_name
+from ..control.interface import recorded_name
 from ..errors import ParameterError, SimulationError
 from . import _lockstep_kernels
-from ._sensor_kernels import spatial_measurement
+from ._lockstep_parts import SENSING, Actuation, Control, Noise, sensing_mode
 from .loop import RATE_LIMIT
+from .plant import STATE_NONFINITE
 from .recorder import Recorder
 from .recording import recorder_shapes, run_result, spool_header, stop_outcome
 from .result import RunResult
@@ -88,21 +87,10 @@ def lockstep_obstacle(setup: Setup) -> str | None:
             sc.integrator != "semi-implicit" or sc.substeps != 1,
             "an integrator other than the semi-implicit Euler step, one substep a period",
         ),  # fmt: skip
-        (_sensing_mode(setup) is None, "sensors with a delay"),
+        (sensing_mode(setup) is None, "sensors with a delay"),
         (setup.actuators is not None and setup.actuators.noisy, "actuators' torque noise"),
     )
     return next((why for bad, why in checks if bad), None)
-
-
-def _sensing_mode(setup: Setup) -> str | None:
-    """What the controller sees: ``"exact"`` (no sensors), ``"ideal"`` (sensors that change
-    nothing, recorded as seen), ``"noisy"`` (noise without delay); None: anything else."""
-    s = setup.sensors
-    if s is None:
-        return "exact"
-    if s.ideal:
-        return "ideal"
-    return "noisy" if s.noisy and s.spec.delay == 0 else None
 
 
 def lockstep_key(setup: Setup) -> Hashable:
@@ -112,7 +100,7 @@ def lockstep_key(setup: Setup) -> Hashable:
     ideal = setup.actuators is None or setup.actuators.ideal
     shapes = tuple(sorted(recorder_shapes(setup).items()))
     steps = int(round(sc.duration / sc.dt))
-    return (setup.robot.base, m.nq, m.nv, setup.n_task, sc.dt, steps, _sensing_mode(setup),
+    return (setup.robot.base, m.nq, m.nv, setup.n_task, sc.dt, steps, sensing_mode(setup),
             ideal, shapes)  # fmt: skip
 
 
@@ -138,86 +126,6 @@ def lockstep_groups(setups: Sequence[Setup], smallest: int = 2) -> list[list[int
         if lockstep_obstacle(setup) is None:
             groups.setdefault(lockstep_key(setup), []).append(i)
     return [g for g in groups.values() if len(g) >= smallest]
-
-
-class _PlanarSensing:
-    """The exact measurement of a planar batch, the arithmetic of
-    :class:`~ffsm_pin.sim.measurement.Sensor`: Pinocchio's kinematics and the end-effector
-    angle case by case, the continued base angle, q_m and w for the batch at once."""
-
-    rates = np.array([0, 1, 5])  # (dx/dt, dy/dt, attitude rate) of the frame's 6-vector
-
-    def __init__(self, setups: Sequence[Setup]):
-        B = len(setups)
-        self.models = [s.robot.model for s in setups]
-        self.datas = [m.createData() for m in self.models]
-        self.angles = [s.model.ee_angle for s in setups]  # type: ignore[attr-defined]
-        self.fid = setups[0].robot.ee_frame_id
-        self.z_e, self.z_e_dot = np.empty((B, 3)), np.empty((B, 3))
-        self.prev: np.ndarray | None = None
-
-    def measure(self, Q, V, live):
-        # (math.atan2, the sensor's: numpy's arctan2 gives other bits for some angles)
-        q_b = np.array([math.atan2(s, c) for c, s in Q[:, 2:4]])
-        if self.prev is not None:  # continuous attitude
-            q_b += 2 * math.pi * np.round((self.prev - q_b) / (2 * math.pi))
-        self.prev = q_b
-        q_m, fid = Q[:, 4:], self.fid
-        for b in live:
-            model, data = self.models[b], self.datas[b]
-            pin.forwardKinematics(model, data, Q[b], V[b])
-            self.z_e[b] = pin.updateFramePlacement(model, data, fid).translation
-            twist = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED).vector
-            self.z_e_dot[b] = twist[self.rates]
-            self.z_e[b, 2] = self.angles[b](q_b[b], q_m[b])
-        return q_b, q_m, V[:, 2:], self.z_e, self.z_e_dot
-
-    def base_acceleration(self, acc, live):
-        return acc[:, 2]
-
-
-class _SpatialSensing:
-    """The exact measurement of a free-flyer batch: Pinocchio's kinematics and the sensor's
-    compiled MRP arithmetic case by case; the base acceleration by the measured R_0."""
-
-    def __init__(self, setups: Sequence[Setup]):
-        B, n = len(setups), setups[0].model.n_joints
-        self.models = [s.robot.model for s in setups]
-        self.datas = [m.createData() for m in self.models]
-        self.fid = setups[0].robot.ee_frame_id
-        self.q_b, self.w, self.R0 = np.empty((B, 3)), np.empty((B, n + 3)), np.empty((B, 3, 3))
-        self.z_e, self.z_e_dot, self.dw_b = np.empty((B, 6)), np.empty((B, 6)), np.empty((B, 3))
-
-    def measure(self, Q, V, live):
-        fid = self.fid
-        for b in live:
-            model, data = self.models[b], self.datas[b]
-            pin.forwardKinematics(model, data, Q[b], V[b])
-            oMf = pin.updateFramePlacement(model, data, fid)
-            twist = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-            q_b, R0, z_e, z_e_dot, w = spatial_measurement(Q[b], V[b], oMf.homogeneous,
-                                                           twist.vector)  # fmt: skip
-            self.q_b[b], self.R0[b], self.z_e[b], self.z_e_dot[b], self.w[b] = (
-                q_b,
-                R0,
-                z_e,
-                z_e_dot,
-                w,
-            )
-        return self.q_b, Q[:, 7:], self.w, self.z_e, self.z_e_dot
-
-    def base_acceleration(self, acc, live):
-        for b in live:  # (ndarray.dot, as the sensor's: the same BLAS call)
-            self.dw_b[b] = self.R0[b].dot(acc[b, 3:6])
-        return self.dw_b
-
-
-#: The batch's exact measurement per root joint (``robot.base``): what differs between the
-#: geometries, as the sensor's and the plant's tables.
-_SENSING: dict[str, type[_PlanarSensing] | type[_SpatialSensing]] = {
-    "planar": _PlanarSensing,
-    "free-flyer": _SpatialSensing,
-}
 
 
 def simulate_lockstep(
@@ -288,7 +196,7 @@ class _Lockstep:
         self.V = np.array([s.v0 for s in setups])
         for plant, q, v in zip(self.plants, self.Q, self.V, strict=True):
             plant.reset(q.copy(), v.copy())
-        self.sensing = _SENSING[s0.robot.base](setups)
+        self.sensing = SENSING[s0.robot.base](setups)
         self.handles = [s.controller.period_handles() for s in setups]  # type: ignore[attr-defined]
         self.reactions = [reaction_torques(s.model, s.theta_d, numba_available()) for s in setups]
         # each case's recorder, as its single run's (rows handed over a chunk at a time)
@@ -307,61 +215,43 @@ class _Lockstep:
             )  # fmt: skip
             for s in setups
         ]
-        self.columns = [k for k in self.shapes if k not in packed]
+        self.columns = [k for k in self.shapes if k not in packed and k != "t"]
         T = min(CHUNK_STEPS, n_rows)
         self.buf = {k: np.full((B, T, *self.shapes[k]), np.nan) for k in self.columns}
         self.signal_rows = np.full((B, T, self.handles[0].row.size), np.nan)
         self.active = np.ones(B, dtype=np.bool_)
-        self.rows = np.zeros(B, dtype=np.int64)  # rows committed per case
+        self.rows = np.zeros(B, dtype=np.int64)  # rows committed by a stopped case
         self.flushed = 0  # steps handed to the recorders
         self.steps = np.full(B, self.n_steps)
         self.stops: list[SimulationError | None] = [None] * B
         self.saturated = np.zeros(B, dtype=np.int64)  # periods with a joint at its limit
-        self.per_joint = np.zeros((B, n), dtype=np.int64)
-        self.wall = 0.0
+        self.n_base, self.n_lin = self.plants[0].n_base, self.plants[0].n_linear
+        self.tau, self.acc = np.zeros(self.V.shape), np.zeros(self.V.shape)
+        self.state = np.zeros(B, dtype=np.int64)  # the plant's state check per case
 
     def flush(self, k: int) -> None:
-        """Hand the rows of the steps before ``k`` to each case's recorder."""
+        """Hand the rows of the steps before ``k`` to each case's recorder (a case still
+        going has committed them all; a stopped one its :attr:`rows`)."""
+        t = np.arange(self.flushed, k) * self.dt  # (the loop's k * dt, bit for bit)
         for b, rec in enumerate(self.recorders):
-            count = min(int(self.rows[b]), k) - self.flushed
+            count = (k if self.active[b] else min(int(self.rows[b]), k)) - self.flushed
             if count > 0:
-                rec.write_rows({key: self.buf[key][b, :count] for key in self.columns},
-                               self.signal_rows[b, :count])  # fmt: skip
+                columns = {key: self.buf[key][b, :count] for key in self.columns}
+                rec.write_rows({**columns, "t": t[:count]}, self.signal_rows[b, :count])
         self.flushed = k
 
-    def loop(self) -> None:  # noqa: C901, PLR0912, PLR0915 - the run loop, step by step
-        setups, dt, n, nt = self.setups, self.dt, self.n, self.nt
-        B, T, buf = len(setups), self.signal_rows.shape[1], self.buf
-        Q, V = self.Q, self.V
-        plants = self.plants
-        n_base, n_lin = plants[0].n_base, plants[0].n_linear
-        tau, acc = np.zeros(V.shape), np.zeros(V.shape)
-        boxes = List([h.box for h in self.handles])
-        rows = List([h.row for h in self.handles])
-        M_none, h_none = self.handles[0].M, self.handles[0].h
-        controllers: list = [s.controller for s in setups]  # (each: period_handles, settle)
-        sensors = [s.sensors for s in setups]
-        mode = _sensing_mode(setups[0])
-        noisy, seen_cols = mode == "noisy", mode != "exact"
-        if noisy:
-            sl = sensors[0].noise_slices  # type: ignore[union-attr]
-            noise = np.empty((B, 0, 0))
-        acts = [s.actuators for s in setups]
-        ideal = acts[0] is None or acts[0].ideal  # type: ignore[union-attr]
-        if not ideal:
-            X = np.array([a.x for a in acts])  # type: ignore[union-attr]
-            limit = np.array([a.limit for a in acts])  # type: ignore[union-attr]
-            alpha = np.array([a.alpha for a in acts], dtype=float)  # type: ignore[union-attr]
-            lagged = np.array([a.lagged for a in acts])  # type: ignore[union-attr]
-            max_change = np.array([a.max_change for a in acts])  # type: ignore[union-attr]
-            rate_lim = np.array([a.rate_limited for a in acts])  # type: ignore[union-attr]
-            zeros, U_m, sat = np.zeros(n), np.empty((B, n)), np.zeros(B, dtype=np.bool_)
-            limits = (limit, alpha, lagged, max_change, rate_lim)  # each case's, as a bundle
-        status, idx = np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64)
-        value, damp, U = np.zeros(B), np.zeros(B), np.zeros((B, n))
-        period_out = (status, idx, value, U, damp)  # what the periods write, per case
-        booked = np.zeros(B, dtype=np.bool_)  # damped_since is not None: settle every period
-        block_row = 0
+    def loop(self) -> None:
+        """Step every case to its end or its stop."""
+        setups, dt, B = self.setups, self.dt, len(self.setups)
+        T = self.signal_rows.shape[1]
+        boxes = _lockstep_kernels.listed(self.handles[0].box, B)
+        rows = _lockstep_kernels.listed(self.handles[0].row, B)
+        for b, handles in enumerate(self.handles):
+            _lockstep_kernels.put(boxes, b, handles.box)
+            _lockstep_kernels.put(rows, b, handles.row)
+        noise = Noise(setups)
+        control = Control(setups, boxes, rows, self.handles[0])
+        acts = Actuation(setups)
         _first_compile.finish()
         k = 0
         try:
@@ -373,96 +263,74 @@ class _Lockstep:
                 live = np.flatnonzero(self.active)
                 if live.size == 0:
                     break
-                q_b, q_m, w, z_e, z_e_dot = self.sensing.measure(Q, V, live)
-                if noisy:  # each case's noise of this measurement, drawn a block at a time
-                    if block_row == noise.shape[1]:
-                        noise = np.array([s.noise_block() for s in sensors])  # type: ignore[union-attr]
-                        block_row = 0
-                    z = noise[:, block_row]
-                    block_row += 1
-                    base = z[:, sl["base_attitude"]]
-                    s_q_b = q_b + (base[:, 0] if q_b.ndim == 1 else base)
-                    s_q_m = q_m + z[:, sl["joints"]]
-                    s_w = w + np.concatenate(
-                        (z[:, sl["base_rate"]], z[:, sl["joint_rates"]]), axis=1
-                    )
-                    s_z_e, s_z_e_dot = z_e + z[:, sl["ee_pose"]], z_e_dot + z[:, sl["ee_velocity"]]
-                else:
-                    s_q_b, s_q_m, s_w, s_z_e, s_z_e_dot = q_b, q_m, w, z_e, z_e_dot
-                buf["t"][:, j], buf["q"][:, j], buf["v"][:, j], buf["w"][:, j] = t, Q, V, w
-                buf["z_e"][:, j], buf["z_e_dot"][:, j] = z_e[:, :nt], z_e_dot[:, :nt]
-                buf["q_b"][:, j] = q_b.reshape(B, -1)
-                if seen_cols:
-                    buf["meas_q_b"][:, j], buf["meas_q_m"][:, j] = s_q_b.reshape(B, -1), s_q_m
-                    buf["meas_w"][:, j], buf["meas_z_e"][:, j] = s_w, s_z_e[:, :nt]
-                    buf["meas_z_e_dot"][:, j] = s_z_e_dot[:, :nt]
-                seen = (s_q_b, s_q_m, s_w, s_z_e, s_z_e_dot)
-                _lockstep_kernels.periods(boxes, rows, dt, t, seen, M_none, h_none, self.active,
-                                          period_out, self.signal_rows, j)  # fmt: skip
-                book = self.active & ((status != kernels.STATUS_OK) | (damp != 0.0) | booked)
-                for b in np.flatnonzero(book):  # a period that is not plain: its bookkeeping
-                    q_b_seen = float(s_q_b[b]) if s_q_b.ndim == 1 else s_q_b[b]
-                    meas = Measurement(
-                        t, q_b_seen, s_q_m[b], s_w[b], s_z_e[b], s_z_e_dot[b], None, None
-                    )
-                    try:
-                        controllers[b].settle(meas, int(status[b]), int(idx[b]), float(value[b]))
-                    except SimulationError as exc:  # the case stops; its row is not recorded
-                        self.stop(b, exc, k, k)
-                    booked[b] = controllers[b].damped_since is not None
-                live = np.flatnonzero(self.active)
-                if ideal:
-                    u_m = U
-                else:
-                    _lockstep_kernels.actuate_all(U, X, limits, zeros, U_m, self.active, sat)
-                    u_m = U_m
-                    at = sat & self.active
-                    self.saturated += at
-                    self.per_joint[at] += np.abs(U_m[at]) >= limit[at]
-                tau[:, n_base:] = u_m
-                for b in live:
-                    acc[b] = pin.aba(plants[b].model, plants[b].data, Q[b], V[b], tau[b])
-                buf["u_m"][:, j], buf["u_cmd"][:, j] = u_m, U
-                buf["dw_b"][:, j] = self.sensing.base_acceleration(acc, live)
-                self.rows[live] += 1
-                if k == self.n_steps:
-                    break
-                # the plant, as Plant.step: the semi-implicit velocity update for the batch,
-                # pin.integrate and the momentum projection case by case
-                V_new = V.copy()
-                V_new[live] = V[live] + dt * acc[live]
-                dq = dt * V_new
-                Q_new = Q.copy()
-                for b in live:
-                    p = plants[b]
-                    Q_new[b] = pin.integrate(p.model, Q[b], dq[b])
-                    p.restore_momentum(Q_new[b], V_new[b])  # (Plant.step's projection)
-                # the state checks of the loop, for the batch (a stopped case keeps its last
-                # state, finite)
-                finite = np.isfinite(Q_new).all(axis=1) & np.isfinite(V_new).all(axis=1)
-                with np.errstate(invalid="ignore"):
-                    rate = np.abs(V_new[:, n_lin:]).max(axis=1)
-                for b in live[~finite[live] | (rate[live] > RATE_LIMIT)]:
-                    if not finite[b]:
-                        what = "the plant state became non-finite"
-                    else:  # (1e4: RATE_LIMIT)
-                        what = (f"numerical blow-up, a rate exceeded 1e4 rad/s (max |w| = "
-                                f"{np.max(np.abs(V_new[b, n_lin:])):.3g})")  # fmt: skip
-                    blow = SimulationError(f"t = {t + dt:.4f} s: {what}", time=t + dt,
-                                          cause="nonfinite")  # fmt: skip
-                    self.stop(b, blow, k, k + 1)
-                    Q_new[b], V_new[b] = Q[b], V[b]
-                Q, V = Q_new, V_new
+                exact = self.sensing.measure(self.Q, self.V, live)
+                seen = noise.add(exact)
+                self.record_measurement(j, exact, seen)
+                for b, exc in control.step(t, dt, seen, self.active, self.signal_rows, j):
+                    self.stop(b, exc, k, k)  # the case stops; its row is not recorded
+                if len(live) != np.count_nonzero(self.active):
+                    live = np.flatnonzero(self.active)
+                u_m = acts.apply(control.u, self.active)
+                self.advance(k, t, u_m, live, j, control.u)
         except KeyboardInterrupt:  # Ctrl-C: every run still going stops, its rows kept
-            self.rows[self.active] = np.minimum(self.rows[self.active], k)
-            for b in np.flatnonzero(self.active):
-                self.stop(b, SimulationError(f"t = {k * dt:.4f} s: interrupted (Ctrl-C)",
-                                             time=k * dt, cause="interrupted"), k, k)  # fmt: skip
+            for going in np.flatnonzero(self.active):
+                why = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
+                self.stop(going, SimulationError(why, time=k * dt, cause="interrupted"), k, k)
         self.flush(self.n_steps + 1)
-        if not ideal:
-            for a, x, counts in zip(acts, X, self.per_joint, strict=True):
-                a.x[:] = x  # type: ignore[union-attr]
-                a.saturated_periods += counts  # type: ignore[union-attr]
+        acts.finish()
+        self.saturated = acts.periods_at
+
+    def record_measurement(self, j: int, exact: tuple, seen: tuple) -> None:
+        """Row ``j`` of the buffers: the state, what was measured and what was seen."""
+        buf, B, nt = self.buf, len(self.setups), self.nt
+        q_b, _, w, z_e, z_e_dot = exact
+        buf["q"][:, j], buf["v"][:, j], buf["w"][:, j] = self.Q, self.V, w
+        buf["z_e"][:, j], buf["z_e_dot"][:, j] = z_e[:, :nt], z_e_dot[:, :nt]
+        buf["q_b"][:, j] = q_b.reshape(B, -1)
+        if "meas_q_b" in buf:  # (with sensors)
+            s_q_b, s_q_m, s_w, s_z_e, s_z_e_dot = seen
+            buf["meas_q_b"][:, j], buf["meas_q_m"][:, j] = s_q_b.reshape(B, -1), s_q_m
+            buf["meas_w"][:, j], buf["meas_z_e"][:, j] = s_w, s_z_e[:, :nt]
+            buf["meas_z_e_dot"][:, j] = s_z_e_dot[:, :nt]
+
+    def advance(self, k, t, u_m, live, j, u_cmd) -> None:
+        """The plant's step ``k`` for the live cases, as :meth:`~.plant.Plant.step`: ABA,
+        the semi-implicit velocity update for the batch, ``pin.integrate`` and the momentum
+        projection case by case; the row's torques and base acceleration; the state checks
+        (a case whose state is not finite or blows up stops, keeping its last state)."""
+        dt, plants, buf, Q, V = self.dt, self.plants, self.buf, self.Q, self.V
+        self.tau[:, self.n_base :] = u_m
+        acc = self.acc
+        for b in live:
+            acc[b] = pin.aba(plants[b].model, plants[b].data, Q[b], V[b], self.tau[b])
+        buf["u_m"][:, j], buf["u_cmd"][:, j] = u_m, u_cmd
+        buf["dw_b"][:, j] = self.sensing.base_acceleration(acc, live)
+        if k == self.n_steps:
+            return
+        if len(live) == len(plants):
+            V_new = V + dt * acc
+        else:
+            V_new = V.copy()
+            V_new[live] = V[live] + dt * acc[live]
+        dq = dt * V_new
+        Q_new = Q.copy()
+        for b in live:
+            p = plants[b]
+            Q_new[b] = pin.integrate(p.model, Q[b], dq[b])
+            p.restore_momentum(Q_new[b], V_new[b])  # (Plant.step's projection)
+        if _lockstep_kernels.state_checks(Q_new, V_new, self.n_lin, RATE_LIMIT, self.active,
+                                          self.state):  # fmt: skip
+            for b in np.flatnonzero(self.state):
+                if self.state[b] == STATE_NONFINITE:
+                    what = "the plant state became non-finite"
+                else:  # (1e4: RATE_LIMIT)
+                    what = (f"numerical blow-up, a rate exceeded 1e4 rad/s (max |w| = "
+                            f"{np.max(np.abs(V_new[b, self.n_lin :])):.3g})")  # fmt: skip
+                blow = SimulationError(f"t = {t + dt:.4f} s: {what}", time=t + dt,
+                                       cause="nonfinite")  # fmt: skip
+                self.stop(b, blow, k, k + 1)
+                Q_new[b], V_new[b] = Q[b], V[b]
+        self.Q, self.V = Q_new, V_new
 
     def stop(self, b: int | np.integer, exc: SimulationError, steps: int, rows: int) -> None:
         """Case ``b`` stops: ``exc`` says why, after ``steps`` steps and ``rows`` rows."""
