@@ -47,7 +47,13 @@ from ._lockstep_parts import SENSING, Actuation, Control, Noise, sensing_mode
 from .loop import RATE_LIMIT
 from .plant import STATE_NONFINITE
 from .recorder import Recorder
-from .recording import recorder_shapes, run_result, spool_header, stop_outcome
+from .recording import (
+    recorder_shapes,
+    recording_size,
+    run_result,
+    spool_header,
+    stop_outcome,
+)
 from .result import RunResult
 from .setup import Setup
 from .storage import rows_recorded
@@ -59,6 +65,11 @@ __all__ = ["lockstep_groups", "lockstep_obstacle", "simulate_lockstep"]
 #: Steps whose rows a lock-step run holds for the whole batch before handing them to each
 #: case's recorder.
 CHUNK_STEPS = 1024
+
+#: [bytes] The most a lock-step group's recordings hold together (:func:`lockstep_groups`): a
+#: group's runs keep their rows until they all end, where runs one by one hold one run's at a
+#: time (about 30 MB for 30 s of case 1, 130 MB for 20 s of ``spatial-realistic``).
+GROUP_BYTES = 2**30
 
 
 def lockstep_obstacle(setup: Setup) -> str | None:
@@ -104,10 +115,14 @@ def lockstep_key(setup: Setup) -> Hashable:
             ideal, shapes)  # fmt: skip
 
 
-def lockstep_groups(setups: Sequence[Setup], smallest: int = 2) -> list[list[int]]:
+def lockstep_groups(
+    setups: Sequence[Setup], smallest: int = 2, memory_bytes: int = GROUP_BYTES
+) -> list[list[int]]:
     """The indices of ``setups`` that can run in lock-step, in groups that share a
-    :func:`lockstep_key` (in order of their first index); groups of fewer than ``smallest``
-    runs are left out (a run alone gains nothing).
+    :func:`lockstep_key` (in order of their first index), each cut so that its runs'
+    recordings (:func:`~.recording.recording_size`, held together until the runs end) fit in
+    ``memory_bytes``; groups of fewer than ``smallest`` runs are left out (a run alone gains
+    nothing).
 
     Parameters
     ----------
@@ -115,17 +130,28 @@ def lockstep_groups(setups: Sequence[Setup], smallest: int = 2) -> list[list[int
         Prepared runs.
     smallest : int
         The fewest runs of a group.
+    memory_bytes : int
+        The most bytes of recordings a group holds (a run larger than it: a group alone).
 
     Returns
     -------
     list of list of int
         The groups.
     """
-    groups: dict[Hashable, list[int]] = {}
+    groups: dict[Hashable, list[list[int]]] = {}
+    held: dict[Hashable, int] = {}  # bytes of the key's last group
     for i, setup in enumerate(setups):
-        if lockstep_obstacle(setup) is None:
-            groups.setdefault(lockstep_key(setup), []).append(i)
-    return [g for g in groups.values() if len(g) >= smallest]
+        if lockstep_obstacle(setup) is not None:
+            continue
+        key = lockstep_key(setup)
+        steps, row = recording_size(setup)
+        size = (steps + 1) * row
+        if key not in groups or held[key] + size > memory_bytes:
+            groups.setdefault(key, []).append([])
+            held[key] = 0
+        groups[key][-1].append(i)
+        held[key] += size
+    return [g for cut in groups.values() for g in cut if len(g) >= smallest]
 
 
 def simulate_lockstep(

@@ -135,3 +135,15 @@ def test_rows_written_at_once_are_the_rows_committed_one_by_one():
     assert a.spilled and b.spilled
     for key in shapes:
         assert np.array_equal(np.asarray(a[key]), np.asarray(b[key])), key
+
+
+def test_groups_hold_no_more_recording_than_their_budget():
+    """Five runs of one key: cut into groups whose recordings fit the budget, in order."""
+    from ffsm_pin.sim.recording import recording_size
+
+    setups = _prepared(_scenarios("case1", 0.1, 5, sensors=False))
+    steps, row = recording_size(setups[0])
+    one = (steps + 1) * row
+    assert lockstep_groups(setups) == [[0, 1, 2, 3, 4]]
+    assert lockstep_groups(setups, memory_bytes=2 * one) == [[0, 1], [2, 3]]  # (4: alone)
+    assert lockstep_groups(setups, memory_bytes=2 * one, smallest=1) == [[0, 1], [2, 3], [4]]
