@@ -46,6 +46,7 @@ from .compiled import state_field
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .kinematic import along_measured_motion
+from .lockstep import adaptive_ct_planar, adaptive_ct_spatial
 from .physical import PhysicalTerm, increment, initial_projection, margin_kernel, physical_term
 from .resolved_motion import ResolvedMotionBaseline, rate_gains
 from .stops import physical_stop
@@ -112,6 +113,8 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
     theta_d = state_field("theta_d", "theta_d-hat (the gradient law)")
     theta_b = state_field("theta_b", "theta_b-hat (Eq. 28)")
 
+    lockstep_kernels = {1: adaptive_ct_planar, 3: adaptive_ct_spatial}  # (ffsm_pin.sim.lockstep)
+
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.take_context(ctx)
         estimates = ctx.required_estimates()
@@ -174,12 +177,34 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
             assert self.physical is not None
             raise physical_stop(meas.t, self.physical.max_iter)
         if not finite:
-            raise SimulationError(
-                f"t = {meas.t:.4f} s: the adaptive-ct torque became non-finite", time=meas.t,
-                cause="nonfinite",
-            )  # fmt: skip
+            raise self.nonfinite_stop(meas.t)
         signals.update(w_mc=w_r, sigma_min=sigma, damping=damping)
         return u, signals
+
+    def nonfinite_stop(self, t: float) -> SimulationError:
+        """The stop of a torque that is not finite at ``t`` [s].
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        SimulationError
+            The stop (cause ``"nonfinite"``).
+        """
+        return SimulationError(
+            f"t = {t:.4f} s: the adaptive-ct torque became non-finite", time=t, cause="nonfinite"
+        )
+
+    @property
+    def lockstep_obstacle(self) -> str | None:
+        """As the baselines' (:class:`~.resolved_motion.ResolvedMotionBaseline`), and not with
+        ``adaptation = "physical"`` (its stop and its margin are made around the period)."""
+        if self.physical is not None:
+            return "the physical projection of the estimates"
+        return super().lockstep_obstacle
 
     def step_numpy(self, meas: Measurement):
         """:meth:`step` in numpy: the readable reference of the compiled period."""

@@ -32,6 +32,7 @@ from .gjm_ct_kernels import PERIOD, GjmKernelGains
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .kinematic import along_measured_motion
+from .lockstep import gjm_ct_planar, gjm_ct_spatial
 from .resolved_motion import (
     ResolvedMotionBaseline,
     ResolvedRates,
@@ -92,6 +93,8 @@ class GjmComputedTorque(ResolvedMotionBaseline):
     theta_z = state_field("theta_z", "theta_z-hat, the scenario's estimate")
     theta_d = state_field("theta_d", "theta_d-hat, the scenario's estimate")
     theta_b = state_field("theta_b", "theta_b-hat, the scenario's estimate")
+
+    lockstep_kernels = {1: gjm_ct_planar, 3: gjm_ct_spatial}  # (ffsm_pin.sim.lockstep)
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.take_context(ctx)

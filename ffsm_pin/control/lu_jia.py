@@ -13,12 +13,12 @@ import numpy as np
 
 from ..errors import ParameterError, choices_text
 from .backend import BACKENDS
-from .compiled_period import PeriodHandles
 from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
 from .held_body import CaptureEvent, join_held_body
 from .interface import ControllerContext, Measurement, SignalLayout, SignalRow
 from .kinematic import KinematicInputs
+from .lockstep import LockstepHandles, lu_jia_periods
 from .lu_jia_params import LuJiaParams
 from .physical import margin_kernel
 from .saturation import auxiliary_term, demand_problem
@@ -286,17 +286,19 @@ class LuJiaController:
         """The control period dt [s] its :meth:`step` takes."""
         return self._dt
 
-    def period_handles(self) -> PeriodHandles:
-        """The compiled period's handles (:meth:`.compiled_period.CompiledPeriod.period_handles`):
-        what a lock-step runner calls the period with, instead of :meth:`step`, when
-        :attr:`lockstep_obstacle` is None; :meth:`settle` each period that is not plain.
+    def lockstep_handles(self) -> LockstepHandles:
+        """The paper's batch kernel (:func:`.lockstep.lu_jia_periods`) and this run's item for
+        it: the compiled period's live box and the signals row it writes
+        (:meth:`.compiled_period.CompiledPeriod.period_handles`); :meth:`settle` each period
+        that is not plain.
 
         Returns
         -------
-        PeriodHandles
-            The live box, outputs and row.
+        LockstepHandles
+            The item, the kernel, the stand-ins of the true M and C w, the row's width.
         """
-        return self.law.period_handles()
+        h = self.law.period_handles()
+        return LockstepHandles((h.box, h.row), lu_jia_periods, h.M, h.h, h.row.size)
 
     def settle(self, meas: Measurement, status: int, idx: int, value: float) -> None:
         """The bookkeeping after a period run through :meth:`period_handles`

@@ -19,13 +19,14 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._docstrings import fill_doc
-from ..errors import ParameterError, expected_count
+from ..errors import ParameterError, SimulationError, expected_count
 from ._docs import CONTROL_DOC
 from .compiled import CompiledController, kernel_measurement
 from .held_body import CaptureEvent, join_held_body
 from .interface import ControllerContext, Measurement
 from .kinematic import momentum_evaluator, wrap_angle
 from .linalg import damped_row_pinv
+from .lockstep import LockstepHandles
 from .reference_kernels import reference_arrays
 
 
@@ -193,6 +194,7 @@ class ResolvedMotionBaseline(CompiledController):
     sigma_measure = "J*-hat"  # its sigma_min: the generalized Jacobian of the estimated model
     gains: Any
     theta_z: np.ndarray
+    signal_shapes: dict[str, tuple[int, ...]]  # the signals it returns, in the row's order
 
     def take_context(self, ctx: ControllerContext) -> None:
         """The run's sizes, reference and threshold from ``ctx`` (kept, to rebuild the
@@ -276,6 +278,75 @@ class ResolvedMotionBaseline(CompiledController):
         self._geo = self.context.model.kernel_constants()
         self._fields = (tuple(gains), tuple(reference_arrays(self.reference)))
         self._period = periods[self.m3]
+
+    # ------------------------------------------------------------------ lock-step
+    #: The batch kernels (:mod:`.lockstep`) per attitude size m3; None: no lock-step.
+    lockstep_kernels: dict[int, Any] | None = None
+
+    @property
+    def lockstep_obstacle(self) -> str | None:
+        """Why this controller's periods cannot be stepped together with others' (one compiled
+        call for a batch of runs, :mod:`ffsm_pin.sim.lockstep`), or None."""
+        if self.lockstep_kernels is None:
+            return f"controller {type(self).__name__}: no batch kernel"
+        if self.backend != "numba":
+            return "the controller's numpy backend"
+        return None
+
+    @property
+    def period(self) -> float:
+        """The control period dt [s] its :meth:`step` takes."""
+        return self.context.dt
+
+    def lockstep_handles(self) -> LockstepHandles:
+        """The batch kernel of this geometry and this run's item for it: the compiled
+        period's bundles and the live estimates (:mod:`.lockstep`).
+
+        Returns
+        -------
+        LockstepHandles
+            The item, the kernel, no true M and C w, the signals' row width.
+        """
+        assert self.lockstep_kernels is not None
+        gains, ref = self._fields
+        width = sum(int(np.prod(shape)) for shape in self.signal_shapes.values())
+        item = (self._geo, gains, ref, tuple(self.state))
+        return LockstepHandles(item, self.lockstep_kernels[self.m3], None, None, width)
+
+    def settle(self, meas: Measurement, status: int, idx: int, value: float) -> None:
+        """The stop of a period run through :meth:`lockstep_handles` whose status is not
+        plain (:meth:`nonfinite_stop`).
+
+        Parameters
+        ----------
+        meas : Measurement
+            The period's measurement.
+        status, idx, value : int, int, float
+            What the period returned.
+        """
+        raise self.nonfinite_stop(meas.t)
+
+    def nonfinite_stop(self, t: float) -> SimulationError:
+        """The stop of a torque that is not finite at ``t`` [s] (a controller that checks its
+        torque itself; the run checks every torque too).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        SimulationError
+            The stop (cause ``"nonfinite"``).
+        """
+        return SimulationError(
+            f"t = {t:.4f} s: the {type(self).__name__} torque became non-finite", time=t,
+            cause="nonfinite",
+        )  # fmt: skip
+
+    #: Since when every period was damped (None: the baselines keep no singularity watch).
+    damped_since: float | None = None
 
     def run_period(self, meas: Measurement) -> tuple:
         """The compiled period at ``meas`` on the bundles of :meth:`prepare_period` and the

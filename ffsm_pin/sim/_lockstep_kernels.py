@@ -1,13 +1,14 @@
-"""The compiled parts of a lock-step run (:mod:`.lockstep`): the batch's control periods in
-one call, and its actuators in one call, each case by the very kernel its single run calls."""
+"""The compiled parts of a lock-step run (:mod:`.lockstep`): the batch's typed lists, its
+actuators in one call (each case by the very kernel its single run calls), the torque and
+state checks for the batch. The controllers' batch kernels are theirs
+(:mod:`ffsm_pin.control.lockstep`)."""
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 from numba.typed import List
 
-from ..control.kernels import STATUS_OK
-from ..control.period import PeriodOutputs, period_of
 from ._actuator_kernel import actuate
 from .plant import STATE_OK, _state_status  # (the plant's own state check, for the batch)
 
@@ -27,38 +28,6 @@ def listed(first, count):
 def put(items, i, item):
     """``items[i] = item`` for a list of :func:`listed`, compiled and cached."""
     items[i] = item
-
-
-@njit(cache=True)
-def periods(boxes, rows, dt, t, seen, M, h, active, out, signals, j):
-    """The compiled periods of the active cases, one call: case ``b`` sees row ``b`` of the
-    measurement arrays ``seen = (q_b, q_m, w, z_e, z_e_dot)`` (its ``q_b`` the number
-    ``q_b[b]`` on a planar robot) and the stand-ins ``M``, ``h`` (adaptive laws); its period's
-    results go to row ``b`` of ``out = (status, idx, value, u, damping, booked, book)`` (its
-    torque [N m] to ``u[b]``) and its signals' row (``rows[b]``, written by the period) to
-    ``signals[b, j]``. ``book[b]``: the period needs its controller's bookkeeping (a status
-    not OK, damping, or ``booked[b]``, damped before); returns how many do."""
-    q_b, q_m, w, z_e, z_e_dot = seen
-    status, idx, value, u, damping, booked, book = out
-    count = 0
-    for b in range(len(boxes)):
-        book[b] = False
-        if not active[b]:
-            continue
-        box = boxes[b]
-        meas = (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
-        status[b], idx[b], value[b] = period_of(box, dt, meas, None)
-        outputs = PeriodOutputs(*box.out)
-        for i in range(u.shape[1]):
-            u[b, i] = outputs.u_m[i]
-        damping[b] = outputs.damping[0]
-        row = rows[b]
-        for i in range(row.size):
-            signals[b, j, i] = row[i]
-        if status[b] != STATUS_OK or damping[b] != 0.0 or booked[b]:
-            book[b] = True
-            count += 1
-    return count
 
 
 @njit(cache=True)
@@ -92,4 +61,19 @@ def state_checks(Q, V, n_linear, rate_limit, active, state):
             state[b] = _state_status(Q[b], V[b], n_linear, rate_limit)
             if state[b] != STATE_OK:
                 count += 1
+    return count
+
+
+@njit(cache=True)
+def torque_faults(u, active, faulty):
+    """``faulty[b]``: an active case's torque ``u[b]`` holds an entry that is not finite (the
+    run's check of a controller's torque); returns how many do."""
+    count = 0
+    for b in range(u.shape[0]):
+        faulty[b] = False
+        if active[b]:
+            for i in range(u.shape[1]):
+                if not np.isfinite(u[b, i]):
+                    faulty[b] = True
+            count += faulty[b]
     return count

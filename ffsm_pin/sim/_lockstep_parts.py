@@ -16,6 +16,7 @@ from ..control.interface import Measurement
 from ..errors import SimulationError
 from . import _lockstep_kernels
 from ._sensor_kernels import spatial_measurement
+from .loop import ControllerFault, checked_torque
 from .sensors import BLOCK
 from .setup import Setup
 
@@ -143,34 +144,44 @@ class Noise:
 
 
 class Control:
-    """The batch's controllers: their compiled periods in one call, the bookkeeping of the
-    periods that are not plain case by case (the controller's ``settle``)."""
+    """The batch's controllers: their compiled periods in one call of their batch kernel
+    (:mod:`ffsm_pin.control.lockstep`), the bookkeeping of the periods that are not plain case
+    by case (the controller's ``settle``), the run's own check of every torque."""
 
-    def __init__(self, setups: Sequence[Setup], boxes, rows, first):
+    def __init__(self, setups: Sequence[Setup], handles: Sequence):
         B, n = len(setups), setups[0].model.n_joints
-        self.controllers: list = [s.controller for s in setups]  # (period_handles, settle)
-        self.boxes, self.rows, self.M, self.h = boxes, rows, first.M, first.h
+        self.controllers: list = [s.controller for s in setups]  # (settle, damped_since)
+        self.items = _lockstep_kernels.listed(handles[0].item, B)
+        for b, h in enumerate(handles):
+            _lockstep_kernels.put(self.items, b, h.item)
+        self.kernel, self.M, self.h = handles[0].kernel, handles[0].M, handles[0].h
         self.u = np.zeros((B, n))  # the commanded torques [N m]
         self.booked = np.zeros(B, dtype=np.bool_)  # damped before: settled every period
         self.out = (np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64), np.zeros(B),
                     self.u, np.zeros(B), self.booked, np.zeros(B, dtype=np.bool_))  # fmt: skip
+        self.faulty = np.zeros(B, dtype=np.bool_)
 
     def step(self, t, dt, seen, active, signals, j):
         """Each active case's period at ``t``; yields ``(case, stop)`` of those that stop."""
-        if not _lockstep_kernels.periods(self.boxes, self.rows, dt, t, seen, self.M, self.h,
-                                         active, self.out, signals, j):  # fmt: skip
-            return
-        status, idx, value, _, _, booked, book = self.out
-        q_b, q_m, w, z_e, z_e_dot = seen
-        for b in np.flatnonzero(book):
-            q_b_seen = float(q_b[b]) if q_b.ndim == 1 else q_b[b]
-            meas = Measurement(t, q_b_seen, q_m[b], w[b], z_e[b], z_e_dot[b], None, None)
-            controller = self.controllers[b]
-            try:
-                controller.settle(meas, int(status[b]), int(idx[b]), float(value[b]))
-            except SimulationError as exc:
-                yield b, exc
-            booked[b] = controller.damped_since is not None
+        if self.kernel(self.items, dt, t, seen, self.M, self.h, active, self.out, signals, j):
+            status, idx, value, _, _, booked, book = self.out
+            q_b, q_m, w, z_e, z_e_dot = seen
+            for b in np.flatnonzero(book):
+                q_b_seen = float(q_b[b]) if q_b.ndim == 1 else q_b[b]
+                meas = Measurement(t, q_b_seen, q_m[b], w[b], z_e[b], z_e_dot[b], None, None)
+                controller = self.controllers[b]
+                try:
+                    controller.settle(meas, int(status[b]), int(idx[b]), float(value[b]))
+                except SimulationError as exc:
+                    yield b, exc
+                    active[b] = False  # (the caller stops it; not checked below)
+                booked[b] = controller.damped_since is not None
+        if _lockstep_kernels.torque_faults(self.u, active, self.faulty):  # the run's check
+            for b in np.flatnonzero(self.faulty):
+                try:
+                    checked_torque(self.u[b].copy(), self.u.shape[1])
+                except ControllerFault as fault:
+                    yield b, SimulationError(f"t = {t:.4f} s: {fault}", time=t, cause="controller")
 
 
 class Actuation:

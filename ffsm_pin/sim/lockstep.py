@@ -17,8 +17,9 @@ stay case by case: the physics is each case's own Pinocchio model, as in its sin
 Each case stops on its own (a funnel left, damped too long, a blow-up) with the stop message,
 the rows and the summary its single run gives; the others go on. What lock-step takes is what
 :func:`lockstep_obstacle` accepts: a controller that offers its compiled period to be stepped
-from outside (its ``lockstep_obstacle`` None, ``period_handles``, ``settle``: the paper's
-adaptive controller on the compiled backend); sensors exact, ideal or noisy without delay;
+from outside (its ``lockstep_obstacle`` None, ``lockstep_handles``, ``settle``:
+:mod:`ffsm_pin.control.lockstep`; the paper's controller and the baselines on the compiled
+backend); sensors exact, ideal or noisy without delay;
 actuators without torque noise; the semi-implicit plant without substeps; no target,
 capture, wheels or approach. Anything else runs through :func:`~ffsm_pin.sim.loop.simulate`,
 as :func:`lockstep_groups` sorts it.
@@ -40,7 +41,7 @@ import pinocchio as pin
 from ..control import _first_compile
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques
-from ..control.interface import recorded_name
+from ..control.interface import SignalLayout, recorded_name
 from ..errors import ParameterError, SimulationError
 from . import _lockstep_kernels
 from ._lockstep_parts import SENSING, Actuation, Control, Noise, sensing_mode
@@ -86,8 +87,8 @@ def lockstep_obstacle(setup: Setup) -> str | None:
         The first feature lock-step does not take, in words.
     """
     sc, ctrl = setup.scenario, setup.controller
-    why = getattr(ctrl, "lockstep_obstacle", f"controller {type(ctrl).__name__}: no period "
-                  "to step in lock-step (no lockstep_obstacle, period_handles)")  # fmt: skip
+    why = getattr(ctrl, "lockstep_obstacle", f"controller {type(ctrl).__name__}: no batch "
+                  "period (no lockstep_obstacle, lockstep_handles)")  # fmt: skip
     if why is not None:
         return why
     checks = (
@@ -105,14 +106,15 @@ def lockstep_obstacle(setup: Setup) -> str | None:
 
 
 def lockstep_key(setup: Setup) -> Hashable:
-    """What the runs of one lock-step share: the robot's root joint and sizes, the task, the
-    step and the steps, the sensors' mode, ideal actuators or not, the recorded signals."""
+    """What the runs of one lock-step share: the controller's class (its batch kernel), the
+    robot's root joint and sizes, the task, the step and the steps, the sensors' mode, ideal
+    actuators or not, the recorded signals."""
     sc, m = setup.scenario, setup.robot.model
     ideal = setup.actuators is None or setup.actuators.ideal
     shapes = tuple(sorted(recorder_shapes(setup).items()))
     steps = int(round(sc.duration / sc.dt))
-    return (setup.robot.base, m.nq, m.nv, setup.n_task, sc.dt, steps, sensing_mode(setup),
-            ideal, shapes)  # fmt: skip
+    return (type(setup.controller), setup.robot.base, m.nq, m.nv, setup.n_task, sc.dt, steps,
+            sensing_mode(setup), ideal, shapes)  # fmt: skip
 
 
 def lockstep_groups(
@@ -223,12 +225,18 @@ class _Lockstep:
         for plant, q, v in zip(self.plants, self.Q, self.V, strict=True):
             plant.reset(q.copy(), v.copy())
         self.sensing = SENSING[s0.robot.base](setups)
-        self.handles = [s.controller.period_handles() for s in setups]  # type: ignore[attr-defined]
+        self.handles = [s.controller.lockstep_handles() for s in setups]  # type: ignore[attr-defined]
         self.reactions = [reaction_torques(s.model, s.theta_d, numba_available()) for s in setups]
-        # each case's recorder, as its single run's (rows handed over a chunk at a time)
+        # each case's recorder, as its single run's (rows handed over a chunk at a time); the
+        # controller's signals a row each step, packed as its layout's or split into columns
         n_rows = rows_recorded(self.n_steps, 1)
-        layout = s0.controller.signal_layout  # type: ignore[attr-defined]
-        packed = [recorded_name(key) for key in layout.shapes]
+        ctrl = s0.controller
+        layout = getattr(ctrl, "signal_layout", None)
+        packed = [recorded_name(key) for key in layout.shapes] if layout else []
+        self.split = [] if layout else [
+            (recorded_name(key), start, stop, shape)
+            for key, (start, stop, shape) in SignalLayout(ctrl.signal_shapes).slots.items()  # type: ignore[attr-defined]
+        ]  # fmt: skip
         self.shapes = recorder_shapes(s0)
         self.recorders = [
             Recorder(
@@ -241,10 +249,11 @@ class _Lockstep:
             )  # fmt: skip
             for s in setups
         ]
-        self.columns = [k for k in self.shapes if k not in packed and k != "t"]
+        signal_keys = {*packed, *(name for name, *_ in self.split), "t"}
+        self.columns = [k for k in self.shapes if k not in signal_keys]
         T = min(CHUNK_STEPS, n_rows)
         self.buf = {k: np.full((B, T, *self.shapes[k]), np.nan) for k in self.columns}
-        self.signal_rows = np.full((B, T, self.handles[0].row.size), np.nan)
+        self.signal_rows = np.full((B, T, self.handles[0].width), np.nan)
         self.active = np.ones(B, dtype=np.bool_)
         self.rows = np.zeros(B, dtype=np.int64)  # rows committed by a stopped case
         self.flushed = 0  # steps handed to the recorders
@@ -263,20 +272,19 @@ class _Lockstep:
             count = (k if self.active[b] else min(int(self.rows[b]), k)) - self.flushed
             if count > 0:
                 columns = {key: self.buf[key][b, :count] for key in self.columns}
-                rec.write_rows({**columns, "t": t[:count]}, self.signal_rows[b, :count])
+                columns["t"] = t[:count]
+                rows = self.signal_rows[b, :count]
+                for name, start, stop, shape in self.split:  # (unpacked signals)
+                    columns[name] = rows[:, start:stop].reshape(count, *shape)
+                rec.write_rows(columns, None if self.split else rows)
         self.flushed = k
 
     def loop(self) -> None:
         """Step every case to its end or its stop."""
-        setups, dt, B = self.setups, self.dt, len(self.setups)
+        setups, dt = self.setups, self.dt
         T = self.signal_rows.shape[1]
-        boxes = _lockstep_kernels.listed(self.handles[0].box, B)
-        rows = _lockstep_kernels.listed(self.handles[0].row, B)
-        for b, handles in enumerate(self.handles):
-            _lockstep_kernels.put(boxes, b, handles.box)
-            _lockstep_kernels.put(rows, b, handles.row)
         noise = Noise(setups)
-        control = Control(setups, boxes, rows, self.handles[0])
+        control = Control(setups, self.handles)
         acts = Actuation(setups)
         _first_compile.finish()
         k = 0

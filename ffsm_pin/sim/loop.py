@@ -57,26 +57,41 @@ _SEEN_COLUMNS = ("meas_q_b", "meas_q_m", "meas_w", "meas_z_e", "meas_z_e_dot")
 RATE_LIMIT = 1e4
 
 
-class _ControllerFault(Exception):
+class ControllerFault(Exception):
     """A controller broke the interface (a bad torque or signal); the run stops."""
 
 
-def _checked_torque(u, n: int) -> np.ndarray:
+def checked_torque(u, n: int) -> np.ndarray:
+    """``u`` as the run applies it: real numbers, shape ``(n,)``, finite, or a
+    :class:`ControllerFault` that says which (the run's stop, cause ``"controller"``).
+
+    Parameters
+    ----------
+    u : array_like
+        The controller's torque [N m].
+    n : int
+        Joints.
+
+    Returns
+    -------
+    ndarray
+        ``u`` as float64.
+    """
     u = np.asarray(u)
     if u.dtype.kind not in "fiu":  # (not bool, complex, strings or objects)
-        raise _ControllerFault(
+        raise ControllerFault(
             f"the controller returned a torque of dtype {u.dtype} ({u.tolist()!r:.80}); "
             f"expected real numbers, shape ({n},), one per joint [N m]"
         )
     if u.dtype != np.float64:
         u = u.astype(float)
     if u.shape != (n,):
-        raise _ControllerFault(
+        raise ControllerFault(
             f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
             "joint [N m]"
         )
     if not all(map(math.isfinite, u.tolist())):  # (np.isfinite(u).all(), three times dearer)
-        raise _ControllerFault(
+        raise ControllerFault(
             f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
         )
     return u
@@ -91,7 +106,7 @@ def _standard_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
     }  # fmt: skip
 
 
-def _signal_fault(key: str, value) -> _ControllerFault | None:
+def _signal_fault(key: str, value) -> ControllerFault | None:
     """Why a controller's signal ``value`` cannot be recorded (not real numbers), or None."""
     if type(value) in (float, int, np.float64) or (
         type(value) is np.ndarray and value.dtype.kind in "fiu"
@@ -100,7 +115,7 @@ def _signal_fault(key: str, value) -> _ControllerFault | None:
     kind = np.asarray(value).dtype.kind if not isinstance(value, Mapping) else "O"
     if kind in "fiu" and not isinstance(value, (bool, np.bool_)):
         return None
-    return _ControllerFault(
+    return ControllerFault(
         f"the controller's signal {key!r} is a {type(value).__name__}, not real numbers; "
         "each signal needs the same name, shape and type (numbers) every period"
     )
@@ -255,7 +270,7 @@ def simulate(
                 if capture is not None:  # a grasp this period: the controller's on_capture
                     capture.notify(controller)
                 u_cmd, signals = split_reply(controller.step(seen))
-                u_cmd = _checked_torque(u_cmd, n)
+                u_cmd = checked_torque(u_cmd, n)
                 if wheels is not None:  # the controller's wheel torques, or the wheels' own
                     wheels.command(controller, seen)
                 if k == 0:  # the controller's signals: names and shapes from the first period
@@ -266,12 +281,12 @@ def simulate(
                             raise fault
                     new = {names[key]: np.shape(val) for key, val in signals.items()}
                     if any(shapes.get(key, shape) != shape for key, shape in new.items()):
-                        raise _ControllerFault(
+                        raise ControllerFault(
                             f"the controller's signals {new} differ from its signal_shapes"
                         )
                     wrong = {k_: s_ for k_, s_ in new.items() if standard.get(k_, s_) != s_}
                     if wrong:
-                        raise _ControllerFault(
+                        raise ControllerFault(
                             f"the controller's standard signals {wrong} need the shapes "
                             f"{ {k_: standard[k_] for k_ in wrong} } (docs/controllers.md)"
                         )
@@ -303,7 +318,7 @@ def simulate(
             except KeyboardInterrupt:
                 raise
             except BaseException as exc:  # a controller's own failure (sys.exit too) is a stop
-                what = str(exc) if isinstance(exc, _ControllerFault) else (
+                what = str(exc) if isinstance(exc, ControllerFault) else (
                     f"the controller raised {type(exc).__name__}: {exc}"
                 )  # fmt: skip
                 stop = SimulationError(f"t = {t:.4f} s: {what}", time=t, cause="controller")

@@ -26,11 +26,11 @@ NOISE = (("joints", 1e-4), ("joint_rates", 1e-3), ("base_attitude", 1e-4),
 CASES = {"planar": ("case1", 0.6, 2.0), "spatial": ("spatial", 0.3, 0.2)}
 
 
-def _scenarios(case, duration, count, sensors=True, **actuators):
+def _scenarios(case, duration, count, sensors=True, controller="lu-jia", **actuators):
     """``count`` cases of ``case`` as a campaign draws them: their own estimates, sensor and
     actuator seeds."""
     sc = builtin_scenario(case)
-    ctrl = sc.controller
+    ctrl = dataclasses.replace(sc.controller, type=controller)
     out = []
     for i in range(count):
         est = dataclasses.replace(ctrl.estimates, initial="perturbed", seed=10 + i)
@@ -67,12 +67,14 @@ def _assert_same_results(scenarios):
     return alone
 
 
+@pytest.mark.parametrize("controller", ["lu-jia", "gjm-ct", "adaptive-ct"])
 @pytest.mark.parametrize("geometry", sorted(CASES))
-def test_lockstep_runs_equal_their_single_runs_bit_for_bit(geometry):
+def test_lockstep_runs_equal_their_single_runs_bit_for_bit(geometry, controller):
     """Noisy sensors (each case's own stream), torque limits that saturate, perturbed
-    estimates: the campaign's cases."""
+    estimates: the campaign's cases, for the paper's controller and both baselines."""
     case, duration, limit = CASES[geometry]
-    scenarios = _scenarios(case, duration, 3, torque_limit=limit)
+    limit = limit if controller == "lu-jia" else limit / 4  # (the baselines command less)
+    scenarios = _scenarios(case, duration, 3, controller=controller, torque_limit=limit)
     alone = _assert_same_results(scenarios)
     assert all(r.completed for r in alone)
     assert any(r.summary()["saturation_fraction"] > 0 for r in alone)  # the limits acted
@@ -100,21 +102,26 @@ def test_a_run_that_stops_stops_alone_with_its_own_message():
 def test_what_lockstep_does_not_take_is_named_and_refused():
     sc = builtin_scenario("case1")
     delayed = dataclasses.replace(sc, duration=0.1, sensors=SensorSpec(delay=2))
-    baseline = dataclasses.replace(
-        sc, duration=0.1, controller=dataclasses.replace(sc.controller, type="gjm-ct")
-    )
+    lj = sc.controller.lu_jia
+    known = dataclasses.replace(sc, duration=0.1, controller=dataclasses.replace(
+        sc.controller, lu_jia=dataclasses.replace(lj, scheme="known-model")))  # fmt: skip
     noisy = dataclasses.replace(sc, duration=0.1, actuators=ActuatorSpec(torque_noise=0.1))
     plain = dataclasses.replace(sc, duration=0.1)
-    setups = _prepared([delayed, baseline, noisy, plain, plain])
+    baseline = dataclasses.replace(
+        plain, controller=dataclasses.replace(sc.controller, type="gjm-ct")
+    )
+    setups = _prepared([delayed, known, noisy, plain, baseline, plain, baseline])
     reasons = [lockstep_obstacle(s) for s in setups]
-    assert "delay" in reasons[0] and "GjmCt" in reasons[1] or "gjm" in reasons[1].lower()
-    assert "noise" in reasons[2] and reasons[3] is None
-    assert lockstep_groups(setups) == [[3, 4]]
+    assert "delay" in reasons[0] and "known-model" in reasons[1] and "noise" in reasons[2]
+    assert reasons[3:] == [None] * 4
+    assert lockstep_groups(setups) == [[3, 5], [4, 6]]  # (one controller class a group)
     with pytest.raises(ParameterError, match="run 0"):
         simulate_lockstep(setups[:1] + setups[3:])
     longer = _prepared([dataclasses.replace(sc, duration=0.2)])
     with pytest.raises(ParameterError, match="differ"):
         simulate_lockstep(setups[3:4] + longer)
+    with pytest.raises(ParameterError, match="differ"):
+        simulate_lockstep(setups[3:5])
 
 
 def test_rows_written_at_once_are_the_rows_committed_one_by_one():
