@@ -8,10 +8,12 @@ Usage::
     python benchmarks/bench_lockstep.py                       # 8 case-1 cases, 5 s each
     python benchmarks/bench_lockstep.py --scenario spatial-realistic --duration 4
     python benchmarks/bench_lockstep.py --batch 16 --duration 10 --repeat 3
+    python benchmarks/bench_lockstep.py --controller gjm-ct
 
 The cases are the first ``--batch`` cases of the shipped campaign ``compare-controllers`` for
-``--scenario`` (``case1``, ``planar5`` or ``spatial-realistic``) and the paper's controller
-(perturbed estimates, torque limits, noise on every measurement), ``--duration`` s each.
+``--scenario`` (``case1``, ``planar5`` or ``spatial-realistic``) and ``--controller`` (the
+paper's by default; perturbed estimates, torque limits, noise on every measurement),
+``--duration`` s each.
 
 * **One by one**: each case through ``simulate`` (its loop and its after-run signals, the
   summary's ``wall_time_s``), with a campaign worker's memory chunk.
@@ -47,14 +49,14 @@ from ffsm_pin.sim.lockstep import simulate_lockstep  # noqa: E402
 from ffsm_pin.sweep.worker import CASE_MEMORY_BYTES  # noqa: E402
 
 
-def cases(scenario: str, batch: int, duration: float) -> list:
-    """The scenarios of the first ``batch`` lu-jia cases of ``scenario`` in
+def cases(scenario: str, batch: int, duration: float, controller: str = "lu-jia") -> list:
+    """The scenarios of the first ``batch`` ``controller`` cases of ``scenario`` in
     compare-controllers."""
     from bench_step_parts import campaign_cases
 
     from ffsm_pin.scenario.file import scenario_from_toml
 
-    found = campaign_cases(scenario, "lu-jia", batch)
+    found = campaign_cases(scenario, controller, batch)
     return [
         dataclasses.replace(scenario_from_toml(c.scenario_toml), duration=duration) for c in found
     ]
@@ -108,13 +110,14 @@ def main() -> None:
     ap.add_argument(
         "--scenario", default="case1", choices=["case1", "planar5", "spatial-realistic"]
     )
+    ap.add_argument("--controller", default="lu-jia", choices=["lu-jia", "gjm-ct", "adaptive-ct"])
     ap.add_argument("--batch", type=int, default=8, help="cases (default 8)")
     ap.add_argument("--duration", type=float, default=5.0, help="simulated s per case")
     ap.add_argument("--repeat", type=int, default=3, help="rounds (default 3)")
     a = ap.parse_args()
     from bench_run import bare_loop
 
-    scenarios = cases(a.scenario, a.batch, a.duration)
+    scenarios = cases(a.scenario, a.batch, a.duration, a.controller)
     lockstep([dataclasses.replace(sc, duration=0.05) for sc in scenarios[:2]])  # compile
     one, lock, bare = [], [], []
     check = ""
@@ -129,8 +132,9 @@ def main() -> None:
     py = statistics.median(bare) * 1e6
     o, k = statistics.median(one) * 1e6, statistics.median(lock) * 1e6
     print(f"ffsm-pin lock-step runs: {checkout(ROOT)}, load {os.getloadavg()[0]:.1f}")
-    print(f"{a.batch} {a.scenario} lu-jia cases of compare-controllers, {a.duration} s each, "
-          f"{a.repeat} rounds; us per case-step (loop and after-run signals), median")  # fmt: skip
+    print(f"{a.batch} {a.scenario} {a.controller} cases of compare-controllers, "
+          f"{a.duration} s each, {a.repeat} rounds; us per case-step (loop and after-run "
+          "signals), median")  # fmt: skip
     print(f"  one by one (simulate)          {o:7.2f}  {o / py:5.2f}x the bare Python loop")
     print(f"  lock-step (simulate_lockstep)  {k:7.2f}  {k / py:5.2f}x the bare Python loop")
     print(f"  lock-step / one by one         {k / o:7.3f}")

@@ -14,17 +14,16 @@ call, the semi-implicit velocity update, the state checks and the recorded rows.
 calls (kinematics, ABA, ``integrate``, the centroidal map) and the plant's momentum projection
 stay case by case: the physics is each case's own Pinocchio model, as in its single run.
 
-Each case stops on its own (a funnel left, damped too long, a blow-up) with the stop message,
-the rows and the summary its single run gives; the others go on. What lock-step takes is what
-:func:`lockstep_obstacle` accepts: a controller that offers its compiled period to be stepped
-from outside (its ``lockstep_obstacle`` None, ``lockstep_handles``, ``settle``:
-:mod:`ffsm_pin.control.lockstep`; the paper's controller and the baselines on the compiled
-backend); sensors exact, ideal or noisy without delay;
-actuators without torque noise; the semi-implicit plant without substeps; no target,
-capture, wheels or approach. Anything else runs through :func:`~ffsm_pin.sim.loop.simulate`,
-as :func:`lockstep_groups` sorts it.
+Each case stops on its own (a funnel left, damped too long, a torque not finite, a blow-up)
+with the stop message, the rows and the summary its single run gives; the others go on.
+What lock-step takes is what :func:`lockstep_obstacle` accepts: a controller that offers its
+compiled period over a batch (``lockstep_obstacle`` None, ``lockstep_handles``, ``settle``:
+:mod:`ffsm_pin.control.lockstep`; the paper's controller and both baselines on the compiled
+backend), sensors exact, ideal or noisy without delay, actuators without torque noise, the
+semi-implicit plant in one substep, no target, capture, wheels or approach. Anything else
+runs through :func:`~ffsm_pin.sim.loop.simulate`, as :func:`lockstep_groups` sorts it.
 Equality with the single runs is tested bit for bit (tests/sim/test_lockstep.py) and checked
-on the campaign cases by ``benchmarks/bench_lockstep.py``. See docs/campaigns.md, "Lock-step
+on the campaign's cases by ``benchmarks/bench_lockstep.py``. See docs/campaigns.md, "Lock-step
 batches".
 """
 
