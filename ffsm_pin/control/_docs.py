@@ -7,6 +7,14 @@ from __future__ import annotations
 from .._docstrings import doc_entries
 
 CONTROL_DOC = doc_entries(
+    # the bookkeeping of a period a lock-step runner ran (control/lockstep.py)
+    params_settle="""
+        Parameters
+        ----------
+        meas : Measurement
+            The period's measurement.
+        status, idx, value : int, int, float
+            What the period returned.""",
     # one period of the paper's law (control/controller.py, control/compiled_period.py)
     params_step_period="""
         Parameters

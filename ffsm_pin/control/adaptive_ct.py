@@ -38,7 +38,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._docstrings import fill_doc
-from ..errors import SimulationError
 from ._docs import CONTROL_DOC
 from .adaptation import theta_b_step, theta_d_increment, theta_z_step
 from .adaptive_ct_kernels import PERIOD, AdaptiveCtKernelGains
@@ -46,7 +45,7 @@ from .compiled import state_field
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .kinematic import along_measured_motion
-from .lockstep import adaptive_ct_planar, adaptive_ct_spatial
+from .lockstep import adaptive_ct_periods
 from .physical import PhysicalTerm, increment, initial_projection, margin_kernel, physical_term
 from .resolved_motion import ResolvedMotionBaseline, rate_gains
 from .stops import physical_stop
@@ -113,7 +112,8 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
     theta_d = state_field("theta_d", "theta_d-hat (the gradient law)")
     theta_b = state_field("theta_b", "theta_b-hat (Eq. 28)")
 
-    lockstep_kernels = {1: adaptive_ct_planar, 3: adaptive_ct_spatial}  # (ffsm_pin.sim.lockstep)
+    label = "adaptive-ct"  # (its messages)
+    lockstep_kernel = staticmethod(adaptive_ct_periods)  # its periods over a batch (sim.lockstep)
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.take_context(ctx)
@@ -181,23 +181,6 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
         signals.update(w_mc=w_r, sigma_min=sigma, damping=damping)
         return u, signals
 
-    def nonfinite_stop(self, t: float) -> SimulationError:
-        """The stop of a torque that is not finite at ``t`` [s].
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-
-        Returns
-        -------
-        SimulationError
-            The stop (cause ``"nonfinite"``).
-        """
-        return SimulationError(
-            f"t = {t:.4f} s: the adaptive-ct torque became non-finite", time=t, cause="nonfinite"
-        )
-
     @property
     def lockstep_obstacle(self) -> str | None:
         """As the baselines' (:class:`~.resolved_motion.ResolvedMotionBaseline`), and not with
@@ -231,10 +214,7 @@ class AdaptiveComputedTorque(ResolvedMotionBaseline):
         M_hat = m.mass_matrix(self.theta_d, q_b, q_m)
         u = Y_m @ self.theta_d - self.gains.k_s * (M_hat[m3:, m3:] @ s_m)
         if not np.all(np.isfinite(u)):
-            raise SimulationError(
-                f"t = {t:.4f} s: the adaptive-ct torque became non-finite", time=t,
-                cause="nonfinite",
-            )  # fmt: skip
+            raise self.nonfinite_stop(t)
         # the gradient law, linearly implicit in its stiff mode (as Eq. 51's, theta_d_increment)
         d_theta_d = theta_d_increment(Y_m, s_m, M_hat[m3:, m3:], g.gamma_d, dt)
         if self.physical is not None:  # projected onto the physical set (physical.py)

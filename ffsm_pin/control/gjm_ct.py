@@ -32,7 +32,7 @@ from .gjm_ct_kernels import PERIOD, GjmKernelGains
 from .interface import ControllerContext, Measurement
 from .kernels import COMPLEX_STEP, Estimates
 from .kinematic import along_measured_motion
-from .lockstep import gjm_ct_planar, gjm_ct_spatial
+from .lockstep import gjm_ct_periods
 from .resolved_motion import (
     ResolvedMotionBaseline,
     ResolvedRates,
@@ -94,7 +94,7 @@ class GjmComputedTorque(ResolvedMotionBaseline):
     theta_d = state_field("theta_d", "theta_d-hat, the scenario's estimate")
     theta_b = state_field("theta_b", "theta_b-hat, the scenario's estimate")
 
-    lockstep_kernels = {1: gjm_ct_planar, 3: gjm_ct_spatial}  # (ffsm_pin.sim.lockstep)
+    lockstep_kernel = staticmethod(gjm_ct_periods)  # its periods over a batch (sim.lockstep)
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):
         self.take_context(ctx)

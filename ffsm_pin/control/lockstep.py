@@ -25,7 +25,8 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from .._docstrings import doc_entries, fill_doc
 from . import adaptive_ct_kernels, gjm_ct_kernels
@@ -123,43 +124,59 @@ def _baseline_row(u, b, u_b, w_md, sigma, damping_b, signals, j):
     signals[b, j, n + 1] = damping_b
 
 
+def _gjm_ct_period(geo, gains, ref, meas, est):
+    """gjm-ct's period of the geometry of ``meas`` (compiled code only: :func:`_gjm_ct_choice`)."""
+    raise NotImplementedError("compiled code only")
+
+
+def _adaptive_ct_period(geo, gains, ref, meas, est):
+    """adaptive-ct's period of the geometry of ``meas`` (compiled code only)."""
+    raise NotImplementedError("compiled code only")
+
+
+def _by_geometry(planar, spatial):
+    """An overload's implementation: ``planar`` when the measurement's q_b is a number, else
+    ``spatial`` (chosen when the caller is compiled, so one batch kernel serves both)."""
+
+    def choose(geo, gains, ref, meas, est):
+        period = planar if isinstance(meas.types[1], types.Float) else spatial
+
+        def call(geo, gains, ref, meas, est):
+            return period(geo, gains, ref, meas, est)
+
+        return call
+
+    return choose
+
+
+overload(_gjm_ct_period)(_by_geometry(gjm_ct_kernels.period_planar, gjm_ct_kernels.period_spatial))
+overload(_adaptive_ct_period)(
+    _by_geometry(adaptive_ct_kernels.period_planar, adaptive_ct_kernels.period_spatial)
+)
+
+
+@njit(cache=True)
+def _case_measurement(seen, b, t, M, h):
+    """Run ``b``'s measurement tuple, as :func:`.compiled.kernel_measurement` makes it."""
+    q_b, q_m, w, z_e, z_e_dot = seen
+    return (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
+
+
 @njit(cache=True)
 @fill_doc(_DOC)
-def gjm_ct_planar(items, dt, t, seen, M, h, active, out, signals, j):
-    """gjm-ct's planar periods (:func:`.gjm_ct_kernels.period_planar`); an item is its
+def gjm_ct_periods(items, dt, t, seen, M, h, active, out, signals, j):
+    """gjm-ct's periods (:mod:`.gjm_ct_kernels`, planar or spatial); an item is its
     ``(geo, gains, reference, estimates)`` bundles. Signals: w_mc, sigma_min, damping.
 
     %(batch_params)s
     """
-    q_b, q_m, w, z_e, z_e_dot = seen
-    status, idx, value, u, damping, booked, book = out
+    u, damping, book = out[3], out[4], out[6]
     for b in range(len(items)):
         book[b] = False
         if active[b]:
             geo, gains, ref, est = items[b]
-            meas = (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
-            u_b, w_md, sigma, damp = gjm_ct_kernels.period_planar(geo, gains, ref, meas, est)
-            damping[b] = damp
-            _baseline_row(u, b, u_b, w_md, sigma, damp, signals, j)
-    return 0
-
-
-@njit(cache=True)
-@fill_doc(_DOC)
-def gjm_ct_spatial(items, dt, t, seen, M, h, active, out, signals, j):
-    """gjm-ct's spatial periods (:func:`.gjm_ct_kernels.period_spatial`), as
-    :func:`gjm_ct_planar`.
-
-    %(batch_params)s
-    """
-    q_b, q_m, w, z_e, z_e_dot = seen
-    status, idx, value, u, damping, booked, book = out
-    for b in range(len(items)):
-        book[b] = False
-        if active[b]:
-            geo, gains, ref, est = items[b]
-            meas = (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
-            u_b, w_md, sigma, damp = gjm_ct_kernels.period_spatial(geo, gains, ref, meas, est)
+            meas = _case_measurement(seen, b, t, M, h)
+            u_b, w_md, sigma, damp = _gjm_ct_period(geo, gains, ref, meas, est)
             damping[b] = damp
             _baseline_row(u, b, u_b, w_md, sigma, damp, signals, j)
     return 0
@@ -177,26 +194,23 @@ def _estimates_row(est, signals, b, j, start):
 
 @njit(cache=True)
 @fill_doc(_DOC)
-def adaptive_ct_planar(items, dt, t, seen, M, h, active, out, signals, j):
-    """adaptive-ct's planar periods (:func:`.adaptive_ct_kernels.period_planar`, the
-    estimates advanced in place); an item is its ``(geo, gains, reference, estimates)``.
-    Signals: w_mc, sigma_min, damping, then the estimates at t. A torque not finite: status
+def adaptive_ct_periods(items, dt, t, seen, M, h, active, out, signals, j):
+    """adaptive-ct's periods (:mod:`.adaptive_ct_kernels`, planar or spatial; the estimates
+    advanced in place); an item is its ``(geo, gains, reference, estimates)``. Signals: w_mc,
+    sigma_min, damping, then the estimates at t. A torque not finite: status
     :data:`~.kernels.STATUS_NONFINITE` (the controller's ``settle`` raises its stop).
 
     %(batch_params)s
     """
-    q_b, q_m, w, z_e, z_e_dot = seen
-    status, idx, value, u, damping, booked, book = out
+    status, u, damping, book = out[0], out[3], out[4], out[6]
     count = 0
     for b in range(len(items)):
         book[b] = False
         if active[b]:
             geo, gains, ref, est = items[b]
-            _estimates_row(est, signals, b, j, q_m.shape[1] + 2)
-            meas = (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
-            u_b, w_r, sigma, damp, finite, _ = adaptive_ct_kernels.period_planar(
-                geo, gains, ref, meas, est
-            )
+            _estimates_row(est, signals, b, j, u.shape[1] + 2)
+            meas = _case_measurement(seen, b, t, M, h)
+            u_b, w_r, sigma, damp, finite, _ = _adaptive_ct_period(geo, gains, ref, meas, est)
             damping[b] = damp
             _baseline_row(u, b, u_b, w_r, sigma, damp, signals, j)
             status[b] = STATUS_OK if finite else STATUS_NONFINITE
@@ -206,36 +220,4 @@ def adaptive_ct_planar(items, dt, t, seen, M, h, active, out, signals, j):
     return count
 
 
-@njit(cache=True)
-@fill_doc(_DOC)
-def adaptive_ct_spatial(items, dt, t, seen, M, h, active, out, signals, j):
-    """adaptive-ct's spatial periods (:func:`.adaptive_ct_kernels.period_spatial`), as
-    :func:`adaptive_ct_planar`.
-
-    %(batch_params)s
-    """
-    q_b, q_m, w, z_e, z_e_dot = seen
-    status, idx, value, u, damping, booked, book = out
-    count = 0
-    for b in range(len(items)):
-        book[b] = False
-        if active[b]:
-            geo, gains, ref, est = items[b]
-            _estimates_row(est, signals, b, j, q_m.shape[1] + 2)
-            meas = (t, q_b[b], q_m[b], w[b], z_e[b], z_e_dot[b], M, h)
-            u_b, w_r, sigma, damp, finite, _ = adaptive_ct_kernels.period_spatial(
-                geo, gains, ref, meas, est
-            )
-            damping[b] = damp
-            _baseline_row(u, b, u_b, w_r, sigma, damp, signals, j)
-            status[b] = STATUS_OK if finite else STATUS_NONFINITE
-            if not finite:
-                book[b] = True
-                count += 1
-    return count
-
-
-__all__ = [
-    "LockstepHandles", "adaptive_ct_planar", "adaptive_ct_spatial", "gjm_ct_planar",
-    "gjm_ct_spatial", "lu_jia_periods",
-]  # fmt: skip
+__all__ = ["LockstepHandles", "adaptive_ct_periods", "gjm_ct_periods", "lu_jia_periods"]

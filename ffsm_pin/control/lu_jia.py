@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._docstrings import fill_doc
 from ..errors import ParameterError, choices_text
+from ._docs import CONTROL_DOC
 from .backend import BACKENDS
 from .controller import CoordinatedController, check_feasibility
 from .gains import step_problems
@@ -300,16 +302,12 @@ class LuJiaController:
         h = self.law.period_handles()
         return LockstepHandles((h.box, h.row), lu_jia_periods, h.M, h.h, h.row.size)
 
+    @fill_doc(CONTROL_DOC)
     def settle(self, meas: Measurement, status: int, idx: int, value: float) -> None:
-        """The bookkeeping after a period run through :meth:`period_handles`
+        """The bookkeeping after a period run through :meth:`lockstep_handles`
         (:meth:`.compiled_period.CompiledPeriod.settle`: the singularity watch, the stops).
 
-        Parameters
-        ----------
-        meas : Measurement
-            The period's measurement.
-        status, idx, value : int, int, float
-            What the period returned.
+        %(params_settle)s
         """
         self.law.settle(meas, status, idx, value, stacklevel=2)
 

@@ -280,14 +280,16 @@ class ResolvedMotionBaseline(CompiledController):
         self._period = periods[self.m3]
 
     # ------------------------------------------------------------------ lock-step
-    #: The batch kernels (:mod:`.lockstep`) per attitude size m3; None: no lock-step.
-    lockstep_kernels: dict[int, Any] | None = None
+    #: What its messages call it.
+    label = "controller"
+    #: The batch kernel (:mod:`.lockstep`); None: no lock-step.
+    lockstep_kernel: Any = None
 
     @property
     def lockstep_obstacle(self) -> str | None:
         """Why this controller's periods cannot be stepped together with others' (one compiled
         call for a batch of runs, :mod:`ffsm_pin.sim.lockstep`), or None."""
-        if self.lockstep_kernels is None:
+        if self.lockstep_kernel is None:
             return f"controller {type(self).__name__}: no batch kernel"
         if self.backend != "numba":
             return "the controller's numpy backend"
@@ -307,22 +309,17 @@ class ResolvedMotionBaseline(CompiledController):
         LockstepHandles
             The item, the kernel, no true M and C w, the signals' row width.
         """
-        assert self.lockstep_kernels is not None
         gains, ref = self._fields
         width = sum(int(np.prod(shape)) for shape in self.signal_shapes.values())
         item = (self._geo, gains, ref, tuple(self.state))
-        return LockstepHandles(item, self.lockstep_kernels[self.m3], None, None, width)
+        return LockstepHandles(item, self.lockstep_kernel, None, None, width)
 
+    @fill_doc(CONTROL_DOC)
     def settle(self, meas: Measurement, status: int, idx: int, value: float) -> None:
         """The stop of a period run through :meth:`lockstep_handles` whose status is not
         plain (:meth:`nonfinite_stop`).
 
-        Parameters
-        ----------
-        meas : Measurement
-            The period's measurement.
-        status, idx, value : int, int, float
-            What the period returned.
+        %(params_settle)s
         """
         raise self.nonfinite_stop(meas.t)
 
@@ -341,9 +338,8 @@ class ResolvedMotionBaseline(CompiledController):
             The stop (cause ``"nonfinite"``).
         """
         return SimulationError(
-            f"t = {t:.4f} s: the {type(self).__name__} torque became non-finite", time=t,
-            cause="nonfinite",
-        )  # fmt: skip
+            f"t = {t:.4f} s: the {self.label} torque became non-finite", time=t, cause="nonfinite"
+        )
 
     #: Since when every period was damped (None: the baselines keep no singularity watch).
     damped_since: float | None = None
