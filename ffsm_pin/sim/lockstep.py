@@ -34,6 +34,7 @@ from collections.abc import Hashable, Sequence
 from functools import partial
 from pathlib import Path
 
+import numba
 import numpy as np
 import pinocchio as pin
 
@@ -105,15 +106,17 @@ def lockstep_obstacle(setup: Setup) -> str | None:
 
 
 def lockstep_key(setup: Setup) -> Hashable:
-    """What the runs of one lock-step share: the controller's class (its batch kernel), the
-    robot's root joint and sizes, the task, the step and the steps, the sensors' mode, ideal
-    actuators or not, the recorded signals."""
+    """What the runs of one lock-step share: the controller's class (its batch kernel) and the
+    compiled type of its item (options that change its bundles), the robot's root joint and
+    sizes, the task, the step and the steps, the sensors' mode, ideal actuators or not, the
+    recorded signals."""
     sc, m = setup.scenario, setup.robot.model
     ideal = setup.actuators is None or setup.actuators.ideal
     shapes = tuple(sorted(recorder_shapes(setup).items()))
     steps = int(round(sc.duration / sc.dt))
-    return (type(setup.controller), setup.robot.base, m.nq, m.nv, setup.n_task, sc.dt, steps,
-            sensing_mode(setup), ideal, shapes)  # fmt: skip
+    item = numba.typeof(setup.controller.lockstep_handles().item)  # type: ignore[attr-defined]
+    return (type(setup.controller), item, setup.robot.base, m.nq, m.nv, setup.n_task, sc.dt,
+            steps, sensing_mode(setup), ideal, shapes)  # fmt: skip
 
 
 def lockstep_groups(
