@@ -45,15 +45,12 @@ from ..control.interface import SignalLayout, recorded_name
 from ..errors import ParameterError, SimulationError
 from . import _lockstep_kernels
 from ._lockstep_parts import SENSING, Actuation, Control, Noise, sensing_mode
-from .loop import RATE_LIMIT
-from .plant import STATE_NONFINITE
+from .loop import RATE_LIMIT, interrupted_stop, loop_result, state_stop
 from .recorder import Recorder
 from .recording import (
     recorder_shapes,
     recording_size,
-    run_result,
     spool_header,
-    stop_outcome,
 )
 from .result import RunResult
 from .setup import Setup
@@ -310,8 +307,7 @@ class _Lockstep:
                 self.advance(k, t, u_m, live, j, control.u)
         except KeyboardInterrupt:  # Ctrl-C: every run still going stops, its rows kept
             for going in np.flatnonzero(self.active):
-                why = f"t = {k * dt:.4f} s: interrupted (Ctrl-C)"
-                self.stop(going, SimulationError(why, time=k * dt, cause="interrupted"), k, k)
+                self.stop(going, interrupted_stop(k * dt), k, k)
         self.flush(self.n_steps + 1)
         acts.finish()
         self.saturated = acts.periods_at
@@ -356,15 +352,9 @@ class _Lockstep:
             p.restore_momentum(Q_new[b], V_new[b])  # (Plant.step's projection)
         if _lockstep_kernels.state_checks(Q_new, V_new, self.n_lin, RATE_LIMIT, self.active,
                                           self.state):  # fmt: skip
-            for b in np.flatnonzero(self.state):
-                if self.state[b] == STATE_NONFINITE:
-                    what = "the plant state became non-finite"
-                else:  # (1e4: RATE_LIMIT)
-                    what = (f"numerical blow-up, a rate exceeded 1e4 rad/s (max |w| = "
-                            f"{np.max(np.abs(V_new[b, self.n_lin :])):.3g})")  # fmt: skip
-                blow = SimulationError(f"t = {t + dt:.4f} s: {what}", time=t + dt,
-                                       cause="nonfinite")  # fmt: skip
-                self.stop(b, blow, k, k + 1)
+            for b in np.flatnonzero(self.state):  # (a stopped case keeps its last state)
+                stop = state_stop(int(self.state[b]), t + dt, V_new[b], self.n_lin)
+                self.stop(b, stop, k, k + 1)
                 Q_new[b], V_new[b] = Q[b], V[b]
         self.Q, self.V = Q_new, V_new
 
@@ -379,16 +369,12 @@ class _Lockstep:
         out = []
         for b, setup in enumerate(self.setups):
             t0 = time.perf_counter()
-            steps, acts = int(self.steps[b]), setup.actuators
+            steps = int(self.steps[b])
             signals = system_signals(setup, self.recorders[b].finish(), None, None,
                                      self.reactions[b], self.plants[b])  # fmt: skip
             outcomes = system_outcomes(signals, None, None, steps + 1)
             share = wall * (steps + 1) / total + time.perf_counter() - t0
-            out.append(run_result(
-                setup, signals, steps=steps, wall_time_s=share, **stop_outcome(self.stops[b]),
-                events=setup.events + list(getattr(setup.controller, "events", [])),
-                saturation_fraction=int(self.saturated[b]) / (steps + 1) if acts else 0.0,
-                saturation_per_joint=acts.saturation_per_joint(steps + 1) if acts
-                else [0.0] * self.n, capture=None, outcomes=outcomes,
-            ))  # fmt: skip
+            saturated = int(self.saturated[b])
+            out.append(loop_result(setup, signals, steps, share, self.stops[b], saturated,
+                                   None, outcomes))  # fmt: skip
         return out

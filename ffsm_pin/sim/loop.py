@@ -33,7 +33,7 @@ from ..errors import ParameterError, SimulationError
 from . import recorder
 from .capture_run import target_motions
 from .measurement import Sensor
-from .plant import STATE_BLOW_UP, STATE_NONFINITE
+from .plant import STATE_NONFINITE, STATE_OK
 from .recorder import Recorder
 from .recording import (
     recorder_shapes,
@@ -373,39 +373,97 @@ def simulate(
             if final:
                 break
             status = plant.state_status(q_new, v_new, RATE_LIMIT)
-            if status == STATE_NONFINITE:
-                stop = SimulationError(
-                    f"t = {t + dt:.4f} s: the plant state became non-finite",
-                    time=t + dt, cause="nonfinite",
-                )  # fmt: skip
-                break
-            if status == STATE_BLOW_UP:
-                stop = SimulationError(  # (1e4: RATE_LIMIT)
-                    f"t = {t + dt:.4f} s: numerical blow-up, a rate exceeded 1e4 rad/s "
-                    f"(max |w| = {np.max(np.abs(v_new[n_lin:])):.3g})",
-                    time=t + dt, cause="nonfinite",
-                )  # fmt: skip
+            if status != STATE_OK:
+                stop = state_stop(status, t + dt, v_new, n_lin)
                 break
             q, v = q_new, v_new
     except KeyboardInterrupt:  # Ctrl-C: a stop like any other; the rows so far are kept
-        stop = SimulationError(
-            f"t = {k * dt:.4f} s: interrupted (Ctrl-C)", time=k * dt, cause="interrupted"
-        )
+        stop = interrupted_stop(k * dt)
     # the whole system's signals and summary keys: with the target, with the wheels
     signals = system_signals(setup, rec.finish(), capture, wheels, reaction, plant)
     outcomes = system_outcomes(signals, capture, wheels, k + 1)
     wall = time.perf_counter() - wall0  # the loop and the signals computed after it
     if progress is not None:
         progress(min(k * dt, duration))
+    return loop_result(setup, signals, k, wall, stop, saturated, capture, outcomes)
+
+
+def state_stop(status: int, t: float, v: np.ndarray, n_linear: int) -> SimulationError:
+    """The stop of a plant state at ``t`` [s] that its check (:meth:`~.plant.Plant.
+    state_status`) did not pass: not finite, or a rate above :data:`RATE_LIMIT`.
+
+    Parameters
+    ----------
+    status : int
+        ``STATE_NONFINITE`` or ``STATE_BLOW_UP``.
+    t : float
+        Time of the state [s].
+    v : ndarray
+        Its velocity (Pinocchio convention).
+    n_linear : int
+        Linear base velocity entries of ``v`` (the rates come after them).
+
+    Returns
+    -------
+    SimulationError
+        The stop (cause ``"nonfinite"``).
+    """
+    if status == STATE_NONFINITE:
+        what = "the plant state became non-finite"
+    else:  # STATE_BLOW_UP (1e4: RATE_LIMIT)
+        what = (f"numerical blow-up, a rate exceeded 1e4 rad/s (max |w| = "
+                f"{np.max(np.abs(v[n_linear:])):.3g})")  # fmt: skip
+    return SimulationError(f"t = {t:.4f} s: {what}", time=t, cause="nonfinite")
+
+
+def interrupted_stop(t: float) -> SimulationError:
+    """The stop of a run a Ctrl-C ended at ``t`` [s] (cause ``"interrupted"``)."""
+    return SimulationError(f"t = {t:.4f} s: interrupted (Ctrl-C)", time=t, cause="interrupted")
+
+
+def loop_result(setup: Setup, signals, steps: int, wall: float, stop, saturated: int,
+                capture=None, outcomes=()) -> RunResult:  # fmt: skip
+    """The result of a run loop that took ``steps`` steps in ``wall`` [s] (its after-run
+    signals included), stopped by ``stop`` (None: completed), with ``saturated`` control
+    periods at a torque limit (a single run's, :func:`simulate`, and a lock-step case's,
+    :mod:`.lockstep`).
+
+    Parameters
+    ----------
+    setup : Setup
+        The run's setup.
+    signals : Signals
+        Its signals, the after-run ones included.
+    steps : int
+        Steps taken.
+    wall : float
+        The loop's wall time [s].
+    stop : SimulationError or None
+        What stopped the run; None: it completed.
+    saturated : int
+        Control periods with some joint at its torque limit.
+    capture : CaptureMotion or None
+        The capture hook (its outcome is reported).
+    outcomes : tuple
+        The capture's and the wheels' summary keys (``system_outcomes``).
+
+    Returns
+    -------
+    RunResult
+        The result.
+    """
+    actuators, n = setup.actuators, setup.model.n_joints
     return run_result(
         setup,
         signals,
-        steps=k,
+        steps=steps,
         wall_time_s=wall,
         **stop_outcome(stop),
-        events=setup.events + list(getattr(controller, "events", [])),
-        saturation_fraction=saturated / (k + 1) if actuators is not None else 0.0,
-        saturation_per_joint=actuators.saturation_per_joint(k + 1) if actuators else [0.0] * n,
+        events=setup.events + list(getattr(setup.controller, "events", [])),
+        saturation_fraction=saturated / (steps + 1) if actuators is not None else 0.0,
+        saturation_per_joint=(
+            actuators.saturation_per_joint(steps + 1) if actuators else [0.0] * n
+        ),
         capture=None if capture is None else capture.outcome,
         outcomes=outcomes,
     )
