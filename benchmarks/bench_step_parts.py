@@ -59,7 +59,7 @@ STAGES = [
     ("measurement", "ffsm_pin.sim.measurement", "Sensor", "measure"),
     ("sensor noise", "ffsm_pin.sim.sensors", "Sensors", "observe"),
     ("actuators", "ffsm_pin.sim.actuators", "Actuators", "apply"),
-    ("torque check", "ffsm_pin.sim.loop", None, "_checked_torque"),
+    ("torque check", "ffsm_pin.sim.loop", None, "checked_torque"),
     ("state check", "ffsm_pin.sim.plant", "Plant", "state_status"),
     ("reply split", "ffsm_pin.sim.loop", None, "split_reply"),
     ("base acceleration", "ffsm_pin.sim.measurement", "Sensor", "base_angular_acceleration"),

@@ -43,12 +43,14 @@ from .._array_kernels import (
     smallest_singular_value_above,
     solve,
     spd_solve,
+    symmetric_eigen,
+    symmetric_solve_transposed,
 )
 from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
-from ..model._spatial_mass_kernels import mass_matrix, ym
+from ..model._spatial_mass_kernels import mass_matrix, mass_times, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import kernels
 from ._docs import CONTROL_DOC
@@ -132,10 +134,10 @@ def _projector(Hbm):
     """(H_bm^+ = H^T (H H^T)^-1, U = E - H^+ H, smallest singular value of Re H)."""
     n = Hbm.shape[1]
     HH = cmmt(Hbm, Hbm)
-    hnorm = np.sqrt(max(np.linalg.eigvalsh(np.ascontiguousarray(HH.real))[0], 0.0))
+    hnorm = np.sqrt(max(symmetric_eigen(HH.real)[0][0], 0.0))
     if not hnorm > 1e-9:
         return np.zeros((n, 3), dtype=np.complex128), np.zeros((n, n), dtype=np.complex128), hnorm
-    Hp = cmm(Hbm.T, np.linalg.inv(HH))
+    Hp = symmetric_solve_transposed(HH, Hbm)  # (HH^-1 H)^T = H^T HH^-1
     U = -cmm(Hp, Hbm)
     for i in range(n):
         U[i, i] += 1.0
@@ -235,11 +237,31 @@ def theta_b_step(theta_b, Yb, gamma_1, dt):
     for i in range(3):
         for j in range(3):
             Yb[i, j] = -1.0 if i == j else 0.0
-    lam, V = np.linalg.eigh(Yb @ Yb.T)
-    f = np.empty(3)
-    for i in range(3):
-        f[i] = -np.expm1(-gamma_1 * dt * lam[i]) / lam[i] if lam[i] > 0 else gamma_1 * dt
-    return theta_b - Yb.T @ (V @ (f * (V.T @ (Yb @ theta_b))))
+    G = np.zeros((3, 3))  # G = Y Y^T and y = Y theta_b in one pass over the columns
+    y0 = y1 = y2 = 0.0
+    for j in range(theta_b.size):
+        a0, a1, a2, t = Yb[0, j], Yb[1, j], Yb[2, j], theta_b[j]
+        G[0, 0] += a0 * a0
+        G[0, 1] += a0 * a1
+        G[0, 2] += a0 * a2
+        G[1, 1] += a1 * a1
+        G[1, 2] += a1 * a2
+        G[2, 2] += a2 * a2
+        y0 += a0 * t
+        y1 += a1 * t
+        y2 += a2 * t
+    lam, V = symmetric_eigen(G)  # (its upper triangle)
+    c = np.empty(3)
+    for i in range(3):  # f(lam) V^T y
+        f = -np.expm1(-gamma_1 * dt * lam[i]) / lam[i] if lam[i] > 0 else gamma_1 * dt
+        c[i] = f * (V[0, i] * y0 + V[1, i] * y1 + V[2, i] * y2)
+    c0 = V[0, 0] * c[0] + V[0, 1] * c[1] + V[0, 2] * c[2]
+    c1 = V[1, 0] * c[0] + V[1, 1] * c[1] + V[1, 2] * c[2]
+    c2 = V[2, 0] * c[0] + V[2, 1] * c[1] + V[2, 2] * c[2]
+    out = np.empty(theta_b.size)
+    for j in range(theta_b.size):  # theta_b - Y^T V f V^T Y theta_b
+        out[j] = theta_b[j] - (Yb[0, j] * c0 + Yb[1, j] * c1 + Yb[2, j] * c2)
+    return out
 
 
 @njit(cache=True)
@@ -334,10 +356,10 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         return kernels.STATUS_NONFINITE, 0.0, none, none, none, none
     e = none  # Eq. (54) with the true M and theta_d, before the estimates advance
     if theta_d_true.size:
-        if adaptive:
-            M = np.empty((N, N))
-            mass_matrix(R, z, theta_d_true, M)
-            e = mv(M, w_tilde) + Y_df @ (theta_d_true - theta_d)
+        if adaptive:  # M w~ without forming the true M
+            Mw_true = np.empty(N)
+            mass_times(R, z, theta_d_true, w_tilde, Mw_true)
+            e = Mw_true + Y_df @ (theta_d_true - theta_d)
         else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
             e = np.zeros(N)
     if adaptive:  # advance the controller's states to t + dt

@@ -178,3 +178,61 @@ def mass_matrix(R, z, theta, M):
                 for i in range(3):
                     x[i] = Km[0, i] * sc[c, 0] + Km[1, i] * sc[c, 1] + Km[2, i] * sc[c, 2]
                 _add_st(M, c, l, z, x[0], x[1], x[2], base_only)
+
+
+@njit(cache=True)
+@fill_doc(KERNEL_DOC)
+def mass_times(R, z, theta, a, out):
+    """out = M(q, theta_d) a (Eq. 9a) without forming M: the body rates b_k = S_k a, each
+    body's and each body pair's 3x3 inertia block applied to them, and the sums S_k^T y_k
+    (real). About a third of :func:`mass_matrix`'s work: for a product alone (the diagnostic
+    e of Eq. 54).
+
+    %(params_R_z)s
+    theta : ndarray (n_d,)
+        Dynamic parameters theta_d of Eq. (12) [kg m^2].
+    a : ndarray (N,)
+        The vector M multiplies ([rad/s] or [rad/s^2]).
+    out : ndarray (N,)
+        M a, overwritten.
+    """
+    nb = R.shape[0]
+    b = np.empty((nb, 3))
+    body_rates(z, a, b)
+    y = np.zeros((nb, 3))  # y_k: what body k's columns of S_k^T receive
+    J = np.empty((3, 3))
+    T1 = np.empty((3, 3))
+    B = np.empty((3, 3))
+    for k in range(nb):  # S_k^T (R_k J_k R_k^T) S_k a
+        t = theta[6 * k : 6 * k + 6]
+        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
+        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
+        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
+        mm(R[k], J, T1)
+        mmt(T1, R[k], B)
+        for i in range(3):
+            y[k, i] += B[i, 0] * b[k, 0] + B[i, 1] * b[k, 1] + B[i, 2] * b[k, 2]
+    p = 6 * nb
+    D = np.empty((3, 3))
+    X = np.empty((3, 3))
+    for k in range(nb):  # S_k^T K S_l a + S_l^T K^T S_k a, K = tr(X) E - X^T
+        for l in range(k + 1, nb):
+            for i in range(3):
+                for j in range(3):
+                    D[i, j] = theta[p + 3 * i + j]
+            p += 9
+            mm(R[k], D, T1)
+            mmt(T1, R[l], X)
+            tr = X[0, 0] + X[1, 1] + X[2, 2]
+            for i in range(3):
+                xl = X[0, i] * b[l, 0] + X[1, i] * b[l, 1] + X[2, i] * b[l, 2]  # X^T b_l
+                xk = X[i, 0] * b[k, 0] + X[i, 1] * b[k, 1] + X[i, 2] * b[k, 2]  # X b_k
+                y[k, i] += tr * b[l, i] - xl
+                y[l, i] += tr * b[k, i] - xk
+    s0 = s1 = s2 = 0.0  # out = sum_k S_k^T y_k: suffix sums over the bodies after joint j
+    for k in range(nb - 1, 0, -1):
+        s0 += y[k, 0]
+        s1 += y[k, 1]
+        s2 += y[k, 2]
+        out[2 + k] = z[k - 1, 0] * s0 + z[k - 1, 1] * s1 + z[k - 1, 2] * s2
+    out[0], out[1], out[2] = s0 + y[0, 0], s1 + y[0, 1], s2 + y[0, 2]

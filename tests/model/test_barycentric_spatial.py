@@ -340,3 +340,28 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     assert blockc.tobytes() == colsc[:3].tobytes()
     assert rel(colsc.real, full[:, :3]) < 1e-14
     assert rel(colsc.imag / h, rate) < 1e-12
+
+
+@PROPERTY
+@given(seed=SEEDS, n=st.integers(1, 8))
+def test_mass_times_kernel_is_the_mass_matrix_product(spatial_chain, spatial_state, seed, n):
+    """``mass_times`` (M a without forming M, the diagnostic e of Eq. 54) equals Pinocchio's M
+    times a, and the compiled M kernel's product, to rounding."""
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_mass_kernels import mass_matrix, mass_times
+
+    robot = spatial_chain(n, seed % 3)
+    rng = np.random.default_rng(seed)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kinematics(s.base_attitude, s.joint_angles, bm._joint_rot_c, bm._axes_c, R, z)
+    a = rng.normal(size=n + 3)
+    out = np.empty(n + 3)
+    mass_times(R, z, bm.theta_d, a, out)
+    assert rel(out, s.M @ a) < TOL
+    th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)  # any parameters, not only a body's
+    M = np.empty((n + 3, n + 3))
+    mass_matrix(R, z, th, M)
+    mass_times(R, z, th, a, out)
+    assert rel(out, M @ a) < 1e-14
