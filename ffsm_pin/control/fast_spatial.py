@@ -50,7 +50,7 @@ from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
-from ..model._spatial_mass_kernels import mass_matrix, mass_times, ym
+from ..model._spatial_mass_kernels import base_inertia_rate, mass_matrix, mass_times, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import kernels
 from ._docs import CONTROL_DOC
@@ -377,8 +377,8 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
 @njit(cache=True)
 @fill_doc(CONTROL_DOC)
 def base_inertia(jr, ax, q_b, q_m, w, theta_d):
-    """(M_bb, dM_bb/dt) of the true model, from the base columns of M alone; dM_bb/dt along the
-    motion (dq_b/dt = L_b w_b, dq_m/dt = w_m) by a complex step.
+    """(M_bb, dM_bb/dt) of the true model, the base block of M alone; dM_bb/dt along the motion
+    w in real arithmetic (:func:`~ffsm_pin.model._spatial_mass_kernels.base_inertia_rate`).
 
     Parameters
     ----------
@@ -393,17 +393,13 @@ def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     %(theta_d_true)s
     """
     n = q_m.size
-    nb = n + 1
-    R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
-    M = np.empty((3, 3))  # M_bb alone (mass_matrix skips the joint rows)
-    mass_matrix(R, z, theta_d, M)
-    hj = 1j * kernels.COMPLEX_STEP
-    Rc = np.empty((nb, 3, 3), dtype=np.complex128)
-    zc = np.empty((n, 3), dtype=np.complex128)
-    kinematics(q_b + hj * q_b_rate, q_m + hj * w[3:], jr, ax, Rc, zc)
-    Mc = np.empty((3, 3), dtype=np.complex128)
-    mass_matrix(Rc, zc, theta_d + 0j, Mc)  # + 0j: the specialisation of _geometry
-    return M, Mc.imag / kernels.COMPLEX_STEP
+    R = np.empty((n + 1, 3, 3))
+    z = np.empty((n, 3))
+    kinematics(q_b, q_m, jr, ax, R, z)
+    M = np.empty((3, 3))
+    M_dot = np.empty((3, 3))
+    base_inertia_rate(R, z, w, theta_d, M, M_dot)
+    return M, M_dot
 
 
 @njit(cache=True, nogil=True)  # rows in two threads: control/diagnostics.rows_beside

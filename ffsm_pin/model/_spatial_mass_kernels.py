@@ -236,3 +236,87 @@ def mass_times(R, z, theta, a, out):
         s2 += y[k, 2]
         out[2 + k] = z[k - 1, 0] * s0 + z[k - 1, 1] * s1 + z[k - 1, 2] * s2
     out[0], out[1], out[2] = s0 + y[0, 0], s1 + y[0, 1], s2 + y[0, 2]
+
+
+@njit(cache=True, inline="always")
+def _spin(a, b, X, out):
+    """out += [a]x X - X [b]x (3x3): the rate of a block R_k ... R_l^T whose two sides turn at
+    a and b ([rad/s], dR/dt = [a]x R)."""
+    for j in range(3):
+        out[0, j] += a[1] * X[2, j] - a[2] * X[1, j]
+        out[1, j] += a[2] * X[0, j] - a[0] * X[2, j]
+        out[2, j] += a[0] * X[1, j] - a[1] * X[0, j]
+    for i in range(3):
+        out[i, 0] -= X[i, 1] * b[2] - X[i, 2] * b[1]
+        out[i, 1] -= X[i, 2] * b[0] - X[i, 0] * b[2]
+        out[i, 2] -= X[i, 0] * b[1] - X[i, 1] * b[0]
+
+
+@njit(cache=True)
+@fill_doc(KERNEL_DOC)
+def base_inertia_rate(R, z, w, theta, M, M_dot):
+    """M_bb(q, theta_d) and its rate dM_bb/dt along the motion w, in real arithmetic: each
+    body's rotation turns at its angular velocity o_k = S_k w (dR_k/dt = [o_k]x R_k), so a
+    block X = R_k J R_l^T changes at [o_k]x X - X [o_l]x. M_bb has the bits of
+    :func:`mass_matrix`'s base block (the same sums in the same order); the rate is exact, as
+    a complex step through that kernel is (tests/control/test_diagnostics.py).
+
+    %(params_R_z)s
+    w : ndarray (N,)
+        (w_b inertial, dq_m/dt) [rad/s].
+    theta : ndarray (n_d,)
+        Dynamic parameters theta_d of Eq. (12) [kg m^2].
+    M, M_dot : ndarray (3, 3)
+        M_bb [kg m^2] and dM_bb/dt [kg m^2/s], overwritten.
+    """
+    nb = R.shape[0]
+    o = np.empty((nb, 3))
+    body_rates(z, w, o)
+    M[:] = 0.0
+    M_dot[:] = 0.0
+    J = np.empty((3, 3))
+    T1 = np.empty((3, 3))
+    X = np.empty((3, 3))
+    dX = np.empty((3, 3))
+    for k in range(nb):  # R_k J_k R_k^T
+        t = theta[6 * k : 6 * k + 6]
+        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
+        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
+        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
+        mm(R[k], J, T1)
+        mmt(T1, R[k], X)
+        dX[:] = 0.0
+        _spin(o[k], o[k], X, dX)
+        for i in range(3):
+            for j in range(3):
+                M[i, j] += X[i, j]
+                M_dot[i, j] += dX[i, j]
+    p = 6 * nb
+    Km = np.empty((3, 3))
+    dK = np.empty((3, 3))
+    for k in range(nb):  # + K + K^T, K = tr(X) E - X^T, X = R_k D R_l^T
+        for l in range(k + 1, nb):
+            for i in range(3):
+                for j in range(3):
+                    J[i, j] = theta[p + 3 * i + j]
+            p += 9
+            mm(R[k], J, T1)
+            mmt(T1, R[l], X)
+            dX[:] = 0.0
+            _spin(o[k], o[l], X, dX)
+            tr = X[0, 0] + X[1, 1] + X[2, 2]
+            dtr = dX[0, 0] + dX[1, 1] + dX[2, 2]
+            for i in range(3):
+                for j in range(3):
+                    Km[i, j] = -X[j, i]
+                    dK[i, j] = -dX[j, i]
+                Km[i, i] += tr
+                dK[i, i] += dtr
+            for i in range(3):
+                for j in range(3):
+                    M[i, j] += Km[i, j]
+                    M_dot[i, j] += dK[i, j]
+            for i in range(3):
+                for j in range(3):
+                    M[i, j] += Km[j, i]
+                    M_dot[i, j] += dK[j, i]

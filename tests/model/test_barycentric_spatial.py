@@ -365,3 +365,35 @@ def test_mass_times_kernel_is_the_mass_matrix_product(spatial_chain, spatial_sta
     mass_matrix(R, z, th, M)
     mass_times(R, z, th, a, out)
     assert rel(out, M @ a) < 1e-14
+
+
+@PROPERTY
+@given(seed=SEEDS, n=st.integers(1, 8))
+def test_base_inertia_rate_is_the_complex_step_of_the_mass_kernel(
+    spatial_chain, spatial_state, seed, n
+):
+    """``base_inertia_rate``: M_bb with the bits of the M kernel's base block, and dM_bb/dt in
+    real arithmetic equal to the exact complex step through that kernel along the motion
+    (dq_b/dt = L_b w_b, dq_m/dt = w_m) to rounding."""
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_mass_kernels import base_inertia_rate, mass_matrix
+
+    robot = spatial_chain(n, seed % 3)
+    rng = np.random.default_rng(seed)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    qb, qm, w = s.base_attitude, s.joint_angles, s.w
+    th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kinematics(qb, qm, bm._joint_rot_c, bm._axes_c, R, z)
+    block, M, M_dot = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    mass_matrix(R, z, th, block)
+    base_inertia_rate(R, z, w, th, M, M_dot)
+    assert M.tobytes() == block.tobytes()
+    h = 1e-30
+    Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
+    kinematics(qb + 1j * h * (mrp.L_matrix(qb) @ w[:3]), qm + 1j * h * w[3:],
+               bm._joint_rot_c, bm._axes_c, Rc, zc)  # fmt: skip
+    blockc = np.empty((3, 3), complex)
+    mass_matrix(Rc, zc, th + 0j, blockc)
+    assert rel(M_dot, blockc.imag / h, 1e-300) < 1e-13
