@@ -50,7 +50,13 @@ from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
-from ..model._spatial_mass_kernels import base_inertia_rate, mass_matrix, mass_times, ym
+from ..model._spatial_mass_kernels import (
+    base_columns,
+    base_inertia_rate,
+    mass_matrix,
+    mass_times,
+    ym,
+)
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import kernels
 from ._docs import CONTROL_DOC
@@ -123,7 +129,7 @@ def task_geometry(jr, ax, er, m, nt, q_b, q_m, theta_z, theta_d):
     if nt > 3:
         attitude_rows(R[m], er, z, m, J[3:6])
     Mc = np.empty((n + 3, 3), dtype=np.complex128)
-    mass_matrix(R, z, theta_d, Mc)  # the base columns only: Mc is (n + 3, 3)
+    base_columns(R, z, theta_d, Mc)  # M's base columns, the step's tangent in real arithmetic
     Hbb = np.ascontiguousarray(Mc[:3].T)
     Hbm = np.ascontiguousarray(Mc[3:].T)
     return J, Hbb, Hbm, R[0].copy()

@@ -320,3 +320,106 @@ def base_inertia_rate(R, z, w, theta, M, M_dot):
                 for j in range(3):
                     M[i, j] += Km[j, i]
                     M_dot[i, j] += dK[j, i]
+
+
+@njit(cache=True)
+@fill_doc(KERNEL_DOC)
+def base_columns(R, z, theta, M):
+    """M's base columns (N, 3) at complex-step arguments x + i dx (dx a small multiple of a
+    tangent, as the kinematic law of :mod:`ffsm_pin.control.fast_spatial` passes them): the
+    values of :func:`mass_matrix` with a 3-column output, in real (value, tangent)
+    arithmetic instead of complex products, to rounding (tests/model).
+
+    Each body's rotation turns at o_k, [o_k]x = Im(R_k) Re(R_k)^T (dR_k = [o_k]x R_k), so a
+    block X = R_k D R_l^T has the tangent [o_k]x X - X [o_l]x + R_k dD R_l^T; the blocks are
+    summed per body (C_k) before the joint rows z_j . sum_{k > j} C_k are formed.
+
+    %(params_R_z)s
+        Complex (their imaginary parts the step).
+    theta : ndarray (n_d,)
+        Dynamic parameters theta_d of Eq. (12) [kg m^2], complex.
+    M : ndarray (N, 3)
+        The base columns, overwritten (complex).
+    """
+    nb = R.shape[0]
+    Rr = np.ascontiguousarray(R.real)
+    o = np.empty((nb, 3))  # [o_k]x = Im(R_k) Re(R_k)^T, skew to rounding: its mean
+    W = np.empty((3, 3))
+    Ri = np.empty((3, 3))
+    for k in range(nb):
+        for i in range(3):
+            for j in range(3):
+                Ri[i, j] = R[k, i, j].imag
+        mmt(Ri, Rr[k], W)
+        o[k, 0] = 0.5 * (W[2, 1] - W[1, 2])
+        o[k, 1] = 0.5 * (W[0, 2] - W[2, 0])
+        o[k, 2] = 0.5 * (W[1, 0] - W[0, 1])
+    C = np.zeros((nb, 3, 3))
+    dC = np.zeros((nb, 3, 3))
+    J = np.empty((3, 3))
+    dJ = np.empty((3, 3))
+    T1 = np.empty((3, 3))
+    X = np.empty((3, 3))
+    dX = np.empty((3, 3))
+    for k in range(nb):  # R_k J_k R_k^T
+        for i in range(3):
+            for j in range(3):
+                c = theta[6 * k + _SYM[i, j]]
+                J[i, j], dJ[i, j] = c.real, c.imag
+        mm(Rr[k], J, T1)
+        mmt(T1, Rr[k], X)
+        mm(Rr[k], dJ, T1)
+        mmt(T1, Rr[k], dX)
+        _spin(o[k], o[k], X, dX)
+        for i in range(3):
+            for j in range(3):
+                C[k, i, j] += X[i, j]
+                dC[k, i, j] += dX[i, j]
+    p = 6 * nb
+    for k in range(nb):  # K = tr(X) E - X^T to body k, K^T to body l
+        for l in range(k + 1, nb):
+            for i in range(3):
+                for j in range(3):
+                    c = theta[p + 3 * i + j]
+                    J[i, j], dJ[i, j] = c.real, c.imag
+            p += 9
+            mm(Rr[k], J, T1)
+            mmt(T1, Rr[l], X)
+            mm(Rr[k], dJ, T1)
+            mmt(T1, Rr[l], dX)
+            _spin(o[k], o[l], X, dX)
+            tr = X[0, 0] + X[1, 1] + X[2, 2]
+            dtr = dX[0, 0] + dX[1, 1] + dX[2, 2]
+            for i in range(3):
+                for j in range(3):
+                    C[k, i, j] -= X[j, i]
+                    dC[k, i, j] -= dX[j, i]
+                    C[l, i, j] -= X[i, j]
+                    dC[l, i, j] -= dX[i, j]
+                C[k, i, i] += tr
+                dC[k, i, i] += dtr
+                C[l, i, i] += tr
+                dC[l, i, i] += dtr
+    S = np.zeros((3, 3))  # sum_{k' >= k} C_k', and its tangent
+    dS = np.zeros((3, 3))
+    for k in range(nb - 1, -1, -1):
+        for i in range(3):
+            for j in range(3):
+                S[i, j] += C[k, i, j]
+                dS[i, j] += dC[k, i, j]
+        if k == 0:
+            break
+        a0, a1, a2 = z[k - 1, 0].real, z[k - 1, 1].real, z[k - 1, 2].real
+        d0, d1, d2 = z[k - 1, 0].imag, z[k - 1, 1].imag, z[k - 1, 2].imag
+        for c in range(3):  # joint k - 1's row: z . S e_c
+            v = a0 * S[0, c] + a1 * S[1, c] + a2 * S[2, c]
+            t = d0 * S[0, c] + d1 * S[1, c] + d2 * S[2, c]
+            t += a0 * dS[0, c] + a1 * dS[1, c] + a2 * dS[2, c]
+            M[2 + k, c] = v + 1j * t
+    for i in range(3):
+        for c in range(3):
+            M[i, c] = S[i, c] + 1j * dS[i, c]
+
+
+#: theta_k's index of the inertia entry (i, j): (xx, xy, xz, yy, yz, zz).
+_SYM = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])

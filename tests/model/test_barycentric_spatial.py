@@ -397,3 +397,35 @@ def test_base_inertia_rate_is_the_complex_step_of_the_mass_kernel(
     blockc = np.empty((3, 3), complex)
     mass_matrix(Rc, zc, th + 0j, blockc)
     assert rel(M_dot, blockc.imag / h, 1e-300) < 1e-13
+
+
+@PROPERTY
+@given(seed=SEEDS, n=st.integers(1, 8))
+def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_state, seed, n):
+    """``base_columns`` (the kinematic law's H_bb, H_bm at a complex step, in real (value,
+    tangent) arithmetic) gives the complex M kernel's base columns: the values to rounding and
+    the imaginary parts (the exact rate along the motion and the parameters' direction) to
+    rounding of their own size; with a zero step, zero imaginary parts."""
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_mass_kernels import base_columns, mass_matrix
+
+    robot = spatial_chain(n, seed % 3)
+    rng = np.random.default_rng(seed)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    qb, qm, w = s.base_attitude, s.joint_angles, s.w
+    th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
+    dth = rng.normal(size=bm.n_d) * np.abs(th).max()
+    h = 1e-30
+    for step in (h, 0.0):
+        Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
+        kinematics(qb + 1j * step * (mrp.L_matrix(qb) @ w[:3]), qm + 1j * step * w[3:],
+                   bm._joint_rot_c, bm._axes_c, Rc, zc)  # fmt: skip
+        want, got = np.empty((n + 3, 3), complex), np.empty((n + 3, 3), complex)
+        mass_matrix(Rc, zc, th + 1j * step * dth, want)
+        base_columns(Rc, zc, th + 1j * step * dth, got)
+        assert rel(got.real, want.real) < 1e-14
+        if step:
+            assert rel(got.imag / h, want.imag / h, 1e-300) < 1e-13
+        else:
+            assert not np.any(got.imag)
