@@ -26,7 +26,7 @@ from .._array_kernels import mv, spd_solve
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
 from ..model._spatial_kinematics_kernels import y_z
-from ..model._spatial_mass_kernels import mass_matrix, ym
+from ..model._spatial_mass_kernels import mass_matrix_by_sums, ym
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import fast, fast_spatial
 from ._docs import CONTROL_DOC
@@ -168,7 +168,7 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
         subtract_dT(R, z, x, Yh)
         Y += (0.25 * sign) * Yh
     M_hat = np.empty((N, N))
-    mass_matrix(R, z, theta_d, M_hat)
+    mass_matrix_by_sums(R, z, theta_d, M_hat)
     u, finite, physical = _torque_and_update(Y, w - w_r, M_hat, 3, gains, theta_d, theta_b,
                                              theta_z, tb_new, tz_new)  # fmt: skip
     return u, w_r[3:].copy(), sigma, damping, finite, physical

@@ -53,7 +53,7 @@ from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, posit
 from ..model._spatial_mass_kernels import (
     base_columns,
     base_inertia_rate,
-    mass_matrix,
+    mass_matrix_by_sums,
     mass_times,
     ym,
 )
@@ -328,7 +328,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
     none = np.empty(0)
     if adaptive:
         M_hat = np.empty((N, N))
-        mass_matrix(R, z, theta_d, M_hat)
+        mass_matrix_by_sums(R, z, theta_d, M_hat)
         if not positive_definite(M_hat):
             return kernels.STATUS_M_NOT_PD, 0.0, none, none, none, none
         cg = g.gamma_3 * dt  # Eq. (51), linearly implicit; projected if physical (physical.py)
@@ -470,6 +470,6 @@ def compile_beside_law(meas, state) -> None:
     """
     n, nd = meas.q_m.size, state.theta_d.size
     R, z, M = np.zeros((n + 1, 3, 3)), np.zeros((n, 3)), np.zeros((n + 3, n + 3))
-    mass_matrix(R, z, np.zeros(nd), M)
+    mass_matrix_by_sums(R, z, np.zeros(nd), M)
     a, Y = np.zeros(n + 3), np.zeros((n + 3, nd))  # ym(..., False): a literal in the period
     ym.compile((typeof(R), typeof(z), typeof(a), typeof(Y), types.literal(False)))

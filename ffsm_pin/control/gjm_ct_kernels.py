@@ -30,7 +30,7 @@ from numba import njit
 from .._array_kernels import mv, spd_solve
 from .._docstrings import fill_doc
 from ..model import _planar_kernels as planar_kernels
-from ..model._spatial_mass_kernels import mass_matrix
+from ..model._spatial_mass_kernels import mass_matrix_by_sums
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from ._docs import CONTROL_DOC
 from .fast_spatial import measured_kinematics
@@ -98,7 +98,7 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     w_md = w_c.real.copy()
     a_m = w_c.imag / COMPLEX_STEP + gains.k_v * (w_md - w[3:])
     M = np.empty((N, N))
-    mass_matrix(R, z, theta_d, M)
+    mass_matrix_by_sums(R, z, theta_d, M)
     Yh = np.empty((N, nd))
     Yb = np.empty((3, nd))  # (Y_b, not used; Y_M and Y_Mdot not computed)
     velocity_terms(R, z, w, w, w, None, None, Yh, Yb)

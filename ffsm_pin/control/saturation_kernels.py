@@ -18,7 +18,7 @@ from .._array_kernels import put
 from ..attitude._mrp_kernels import l_matrix
 from ..model._planar_kernels import jacobian, mass_phi, trig
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian
-from ..model._spatial_mass_kernels import mass_matrix
+from ..model._spatial_mass_kernels import mass_matrix_by_sums
 from ..model.planar import PlanarKernelConstants
 from ..model.spatial import SpatialKernelConstants
 from ._dispatch import overload_for_geometry
@@ -78,7 +78,7 @@ def spatial_maps(geo, law, meas, state):
     kinematics(q_b, q_m, jr, ax, R, z)
     if law.adaptive:
         M = np.empty((N, N))
-        mass_matrix(R, z, state.theta_d, M)
+        mass_matrix_by_sums(R, z, state.theta_d, M)
     else:
         M = meas.M.copy()
     V = np.empty((n + 1, 3))

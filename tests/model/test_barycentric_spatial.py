@@ -429,3 +429,28 @@ def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_s
             assert rel(got.imag / h, want.imag / h, 1e-300) < 1e-13
         else:
             assert not np.any(got.imag)
+
+
+@PROPERTY
+@given(seed=SEEDS, n=st.integers(1, 8))
+def test_mass_matrix_by_sums_is_the_mass_matrix(spatial_chain, spatial_state, seed, n):
+    """``mass_matrix_by_sums`` (the periods' M-hat) is Pinocchio's M with the true parameters
+    and the M kernel's matrix with any parameters, to rounding; symmetric bit for bit."""
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_mass_kernels import mass_matrix, mass_matrix_by_sums
+
+    robot = spatial_chain(n, seed % 3)
+    rng = np.random.default_rng(seed)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kinematics(s.base_attitude, s.joint_angles, bm._joint_rot_c, bm._axes_c, R, z)
+    got = np.empty((n + 3, n + 3))
+    mass_matrix_by_sums(R, z, bm.theta_d, got)
+    assert rel(got, s.M) < TOL
+    th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d) + rng.normal(size=bm.n_d)
+    want = np.empty((n + 3, n + 3))
+    mass_matrix(R, z, th, want)
+    mass_matrix_by_sums(R, z, th, got)
+    assert rel(got, want) < 1e-14
+    assert np.array_equal(got, got.T)
