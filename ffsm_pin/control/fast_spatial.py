@@ -50,13 +50,8 @@ from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
-from ..model._spatial_mass_kernels import (
-    base_columns,
-    base_inertia_rate,
-    mass_matrix_by_sums,
-    mass_times,
-    ym,
-)
+from ..model._spatial_mass_kernels import mass_matrix_by_sums, mass_times, ym
+from ..model._spatial_mass_tangent_kernels import base_columns, base_inertia_rate
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import kernels
 from ._docs import CONTROL_DOC
@@ -384,7 +379,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
 @fill_doc(CONTROL_DOC)
 def base_inertia(jr, ax, q_b, q_m, w, theta_d):
     """(M_bb, dM_bb/dt) of the true model, the base block of M alone; dM_bb/dt along the motion
-    w in real arithmetic (:func:`~ffsm_pin.model._spatial_mass_kernels.base_inertia_rate`).
+    w in real arithmetic (:func:`~ffsm_pin.model._spatial_mass_tangent_kernels.base_inertia_rate`).
 
     Parameters
     ----------

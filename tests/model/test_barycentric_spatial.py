@@ -376,7 +376,8 @@ def test_base_inertia_rate_is_the_complex_step_of_the_mass_kernel(
     real arithmetic equal to the exact complex step through that kernel along the motion
     (dq_b/dt = L_b w_b, dq_m/dt = w_m) to rounding."""
     from ffsm_pin.model._spatial_kinematics_kernels import kinematics
-    from ffsm_pin.model._spatial_mass_kernels import base_inertia_rate, mass_matrix
+    from ffsm_pin.model._spatial_mass_kernels import mass_matrix
+    from ffsm_pin.model._spatial_mass_tangent_kernels import base_inertia_rate
 
     robot = spatial_chain(n, seed % 3)
     rng = np.random.default_rng(seed)
@@ -407,7 +408,8 @@ def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_s
     the imaginary parts (the exact rate along the motion and the parameters' direction) to
     rounding of their own size; with a zero step, zero imaginary parts."""
     from ffsm_pin.model._spatial_kinematics_kernels import kinematics
-    from ffsm_pin.model._spatial_mass_kernels import base_columns, mass_matrix
+    from ffsm_pin.model._spatial_mass_kernels import mass_matrix
+    from ffsm_pin.model._spatial_mass_tangent_kernels import base_columns
 
     robot = spatial_chain(n, seed % 3)
     rng = np.random.default_rng(seed)
