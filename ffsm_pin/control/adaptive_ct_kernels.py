@@ -158,15 +158,17 @@ def period_spatial(geo, gains_f, ref_f, meas_f, est_f):
     for j in range(n):
         w_r[3 + j], w_r_dot[3 + j] = w_mc[j].real, w_mc[j].imag / COMPLEX_STEP
     # Y = Y_M(dw_r/dt) + 1/4 (Y_h(w + w_r) - Y_h(w - w_r)) (polarization); the first pass of
-    # velocity_terms also gives Y_M(dw_r/dt)
+    # velocity_terms also gives Y_M(dw_r/dt), the second none (Y_Mdot not used: not computed)
     Y = np.empty((N, nd))
-    scratch = np.empty((N, nd))  # Y_M of the second pass, unused
     Yh = np.empty((N, nd))
-    for sign in (1.0, -1.0):
-        x = w + sign * w_r  # (Y_Mdot not used: not computed)
-        velocity_terms(R, z, x, w_r_dot, x, Y if sign > 0 else scratch, None, Yh, Yw)
-        subtract_dT(R, z, x, Yh)
-        Y += (0.25 * sign) * Yh
+    x = w + w_r
+    velocity_terms(R, z, x, w_r_dot, x, Y, None, Yh, Yw)
+    subtract_dT(R, z, x, Yh)
+    Y += 0.25 * Yh
+    x = w - w_r
+    velocity_terms(R, z, x, w_r_dot, x, None, None, Yh, Yw)
+    subtract_dT(R, z, x, Yh)
+    Y += -0.25 * Yh
     M_hat = np.empty((N, N))
     mass_matrix_by_sums(R, z, theta_d, M_hat)
     u, finite, physical = _torque_and_update(Y, w - w_r, M_hat, 3, gains, theta_d, theta_b,
