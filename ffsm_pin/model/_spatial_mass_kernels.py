@@ -56,6 +56,39 @@ def _add_cross(Y, col, k, z, q, b, p, R, j, base_only):
     )  # fmt: skip
 
 
+@njit(cache=True, inline="always")
+def body_block(R, theta, k, J, T1, X):
+    """X = R_k J_k R_k^T: body k's inertia J_k (theta's entries 6k .. 6k + 5: xx, xy, xz, yy,
+    yz, zz) in the inertial frame; J and T1 scratch (3x3, the dtype of X)."""
+    t = theta[6 * k : 6 * k + 6]
+    J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
+    J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
+    J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
+    mm(R[k], J, T1)
+    mmt(T1, R[k], X)
+
+
+@njit(cache=True, inline="always")
+def pair_block(R, theta, p, k, l, D, T1, X):
+    """X = R_k D_kl R_l^T: the pair's 3x3 parameters D_kl (theta's entries p .. p + 8, row by
+    row) between the frames of bodies k and l; D and T1 scratch (3x3)."""
+    for i in range(3):
+        for j in range(3):
+            D[i, j] = theta[p + 3 * i + j]
+    mm(R[k], D, T1)
+    mmt(T1, R[l], X)
+
+
+@njit(cache=True, inline="always")
+def pair_coupling(X, Km):
+    """Km = tr(X) E - X^T: the block S_k^T Km S_l of M for the pair block X (3x3)."""
+    tr = X[0, 0] + X[1, 1] + X[2, 2]
+    for i in range(3):
+        for j in range(3):
+            Km[i, j] = -X[j, i]
+        Km[i, i] += tr
+
+
 @njit(cache=True)
 def ym(R, z, a, Y, base_only):
     """Y with Y theta_d = M a (rows 1-3 only if base_only).
@@ -143,12 +176,7 @@ def mass_matrix(R, z, theta, M):
     T1 = np.empty((3, 3), dtype=M.dtype)
     B = np.empty((3, 3), dtype=M.dtype)
     for k in range(nb):
-        t = theta[6 * k : 6 * k + 6]
-        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
-        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
-        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
-        mm(R[k], J, T1)
-        mmt(T1, R[k], B)
+        body_block(R, theta, k, J, T1, B)
         for c in range(min(3 + k, ncols)):
             for i in range(3):
                 x[i] = B[i, 0] * sc[c, 0] + B[i, 1] * sc[c, 1] + B[i, 2] * sc[c, 2]
@@ -159,17 +187,9 @@ def mass_matrix(R, z, theta, M):
     Km = np.empty((3, 3), dtype=M.dtype)
     for k in range(nb):
         for l in range(k + 1, nb):
-            for i in range(3):
-                for j in range(3):
-                    D[i, j] = theta[p + 3 * i + j]
+            pair_block(R, theta, p, k, l, D, T1, X)
             p += 9
-            mm(R[k], D, T1)
-            mmt(T1, R[l], X)
-            tr = X[0, 0] + X[1, 1] + X[2, 2]
-            for i in range(3):
-                for j in range(3):
-                    Km[i, j] = -X[j, i]
-                Km[i, i] += tr
+            pair_coupling(X, Km)
             for c in range(min(3 + l, ncols)):  # S_k^T K S_l
                 for i in range(3):
                     x[i] = Km[i, 0] * sc[c, 0] + Km[i, 1] * sc[c, 1] + Km[i, 2] * sc[c, 2]
@@ -204,12 +224,7 @@ def mass_times(R, z, theta, a, out):
     T1 = np.empty((3, 3))
     B = np.empty((3, 3))
     for k in range(nb):  # S_k^T (R_k J_k R_k^T) S_k a
-        t = theta[6 * k : 6 * k + 6]
-        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
-        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
-        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
-        mm(R[k], J, T1)
-        mmt(T1, R[k], B)
+        body_block(R, theta, k, J, T1, B)
         for i in range(3):
             y[k, i] += B[i, 0] * b[k, 0] + B[i, 1] * b[k, 1] + B[i, 2] * b[k, 2]
     p = 6 * nb
@@ -217,12 +232,8 @@ def mass_times(R, z, theta, a, out):
     X = np.empty((3, 3))
     for k in range(nb):  # S_k^T K S_l a + S_l^T K^T S_k a, K = tr(X) E - X^T
         for l in range(k + 1, nb):
-            for i in range(3):
-                for j in range(3):
-                    D[i, j] = theta[p + 3 * i + j]
+            pair_block(R, theta, p, k, l, D, T1, X)
             p += 9
-            mm(R[k], D, T1)
-            mmt(T1, R[l], X)
             tr = X[0, 0] + X[1, 1] + X[2, 2]
             for i in range(3):
                 xl = X[0, i] * b[l, 0] + X[1, i] * b[l, 1] + X[2, i] * b[l, 2]  # X^T b_l
@@ -263,29 +274,17 @@ def mass_matrix_by_sums(R, z, theta, M):
     T1 = np.empty((3, 3))
     X = np.empty((3, 3))
     for k in range(nb):
-        t = theta[6 * k : 6 * k + 6]
-        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
-        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
-        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
-        mm(R[k], J, T1)
-        mmt(T1, R[k], X)
+        body_block(R, theta, k, J, T1, X)
         K[k, k] = X
     p = 6 * nb
     for k in range(nb):
         for l in range(k + 1, nb):
-            for i in range(3):
-                for j in range(3):
-                    J[i, j] = theta[p + 3 * i + j]
+            pair_block(R, theta, p, k, l, J, T1, X)
             p += 9
-            mm(R[k], J, T1)
-            mmt(T1, R[l], X)
-            tr = X[0, 0] + X[1, 1] + X[2, 2]
+            pair_coupling(X, K[k, l])
             for i in range(3):
                 for j in range(3):
-                    K[k, l, i, j] = -X[j, i]
-                    K[l, k, j, i] = -X[j, i]
-                K[k, l, i, i] += tr
-                K[l, k, i, i] += tr
+                    K[l, k, j, i] = K[k, l, i, j]
     F = np.zeros((nb, N, 3))  # F[k, c] = sum_{l >= k(c)} K_kl s_c
     T = np.empty((3, 3))
     for k in range(nb):

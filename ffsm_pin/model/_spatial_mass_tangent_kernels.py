@@ -16,6 +16,7 @@ from numba import njit
 from .._docstrings import fill_doc
 from ._kernel_docs import KERNEL_DOC
 from ._spatial_kinematics_kernels import body_rates, mm, mmt
+from ._spatial_mass_kernels import body_block, pair_block, pair_coupling
 
 
 @njit(cache=True, inline="always")
@@ -59,12 +60,7 @@ def base_inertia_rate(R, z, w, theta, M, M_dot):
     X = np.empty((3, 3))
     dX = np.empty((3, 3))
     for k in range(nb):  # R_k J_k R_k^T
-        t = theta[6 * k : 6 * k + 6]
-        J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
-        J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
-        J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
-        mm(R[k], J, T1)
-        mmt(T1, R[k], X)
+        body_block(R, theta, k, J, T1, X)
         dX[:] = 0.0
         _spin(o[k], o[k], X, dX)
         for i in range(3):
@@ -76,22 +72,12 @@ def base_inertia_rate(R, z, w, theta, M, M_dot):
     dK = np.empty((3, 3))
     for k in range(nb):  # + K + K^T, K = tr(X) E - X^T, X = R_k D R_l^T
         for l in range(k + 1, nb):
-            for i in range(3):
-                for j in range(3):
-                    J[i, j] = theta[p + 3 * i + j]
+            pair_block(R, theta, p, k, l, J, T1, X)
             p += 9
-            mm(R[k], J, T1)
-            mmt(T1, R[l], X)
             dX[:] = 0.0
             _spin(o[k], o[l], X, dX)
-            tr = X[0, 0] + X[1, 1] + X[2, 2]
-            dtr = dX[0, 0] + dX[1, 1] + dX[2, 2]
-            for i in range(3):
-                for j in range(3):
-                    Km[i, j] = -X[j, i]
-                    dK[i, j] = -dX[j, i]
-                Km[i, i] += tr
-                dK[i, i] += dtr
+            pair_coupling(X, Km)
+            pair_coupling(dX, dK)  # (linear: the rate of Km)
             for i in range(3):
                 for j in range(3):
                     M[i, j] += Km[i, j]

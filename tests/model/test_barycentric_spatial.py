@@ -342,20 +342,25 @@ def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial
     assert rel(colsc.imag / h, rate) < 1e-12
 
 
+def _rotations(bm, s):
+    """(R, z) of the compiled kernels at the state ``s``: body rotations and joint axes."""
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+
+    n = len(s.joint_angles)
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kinematics(s.base_attitude, s.joint_angles, bm._joint_rot_c, bm._axes_c, R, z)
+    return R, z
+
+
 @PROPERTY
 @given(seed=SEEDS, n=st.integers(1, 8))
 def test_mass_times_kernel_is_the_mass_matrix_product(spatial_chain, spatial_state, seed, n):
     """``mass_times`` (M a without forming M, the diagnostic e of Eq. 54) equals Pinocchio's M
     times a, and the compiled M kernel's product, to rounding."""
-    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
     from ffsm_pin.model._spatial_mass_kernels import mass_matrix, mass_times
 
-    robot = spatial_chain(n, seed % 3)
-    rng = np.random.default_rng(seed)
-    s = SpatialState(robot).update(*spatial_state(robot, rng))
-    bm = SpatialBarycentricModel(robot.geometry)
-    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kinematics(s.base_attitude, s.joint_angles, bm._joint_rot_c, bm._axes_c, R, z)
+    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    R, z = _rotations(bm, s)
     a = rng.normal(size=n + 3)
     out = np.empty(n + 3)
     mass_times(R, z, bm.theta_d, a, out)
@@ -379,14 +384,10 @@ def test_base_inertia_rate_is_the_complex_step_of_the_mass_kernel(
     from ffsm_pin.model._spatial_mass_kernels import mass_matrix
     from ffsm_pin.model._spatial_mass_tangent_kernels import base_inertia_rate
 
-    robot = spatial_chain(n, seed % 3)
-    rng = np.random.default_rng(seed)
-    s = SpatialState(robot).update(*spatial_state(robot, rng))
-    bm = SpatialBarycentricModel(robot.geometry)
+    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
     qb, qm, w = s.base_attitude, s.joint_angles, s.w
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
-    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kinematics(qb, qm, bm._joint_rot_c, bm._axes_c, R, z)
+    R, z = _rotations(bm, s)
     block, M, M_dot = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     mass_matrix(R, z, th, block)
     base_inertia_rate(R, z, w, th, M, M_dot)
@@ -411,10 +412,7 @@ def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_s
     from ffsm_pin.model._spatial_mass_kernels import mass_matrix
     from ffsm_pin.model._spatial_mass_tangent_kernels import base_columns
 
-    robot = spatial_chain(n, seed % 3)
-    rng = np.random.default_rng(seed)
-    s = SpatialState(robot).update(*spatial_state(robot, rng))
-    bm = SpatialBarycentricModel(robot.geometry)
+    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
     qb, qm, w = s.base_attitude, s.joint_angles, s.w
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
     dth = rng.normal(size=bm.n_d) * np.abs(th).max()
@@ -438,15 +436,10 @@ def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_s
 def test_mass_matrix_by_sums_is_the_mass_matrix(spatial_chain, spatial_state, seed, n):
     """``mass_matrix_by_sums`` (the periods' M-hat) is Pinocchio's M with the true parameters
     and the M kernel's matrix with any parameters, to rounding; symmetric bit for bit."""
-    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
     from ffsm_pin.model._spatial_mass_kernels import mass_matrix, mass_matrix_by_sums
 
-    robot = spatial_chain(n, seed % 3)
-    rng = np.random.default_rng(seed)
-    s = SpatialState(robot).update(*spatial_state(robot, rng))
-    bm = SpatialBarycentricModel(robot.geometry)
-    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kinematics(s.base_attitude, s.joint_angles, bm._joint_rot_c, bm._axes_c, R, z)
+    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    R, z = _rotations(bm, s)
     got = np.empty((n + 3, n + 3))
     mass_matrix_by_sums(R, z, bm.theta_d, got)
     assert rel(got, s.M) < TOL
