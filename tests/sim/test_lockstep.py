@@ -11,6 +11,7 @@ import warnings
 import numpy as np
 import pytest
 
+from ffsm_pin.control.registry import BUILTIN
 from ffsm_pin.errors import ParameterError
 from ffsm_pin.scenario import ActuatorSpec
 from ffsm_pin.scenario.devices import SensorSpec
@@ -24,6 +25,10 @@ NOISE = (("joints", 1e-4), ("joint_rates", 1e-3), ("base_attitude", 1e-4),
 #: (built-in case, duration [s], a torque limit [N m] its commands exceed) per geometry: a
 #: planar and a free-flyer robot
 CASES = {"planar": ("case1", 0.6, 2.0), "spatial": ("spatial", 0.3, 0.2)}
+
+
+#: Every built-in controller that offers lock-step batches (a next one is tested too).
+LOCKSTEP_CONTROLLERS = [name for name, cls in BUILTIN.items() if hasattr(cls, "lockstep_handles")]
 
 
 def _scenarios(case, duration, count, sensors=True, controller="lu-jia", **actuators):
@@ -67,7 +72,7 @@ def _assert_same_results(scenarios):
     return alone
 
 
-@pytest.mark.parametrize("controller", ["lu-jia", "gjm-ct", "adaptive-ct"])
+@pytest.mark.parametrize("controller", LOCKSTEP_CONTROLLERS)
 @pytest.mark.parametrize("geometry", sorted(CASES))
 def test_lockstep_runs_equal_their_single_runs_bit_for_bit(geometry, controller):
     """Noisy sensors (each case's own stream), torque limits that saturate, perturbed
