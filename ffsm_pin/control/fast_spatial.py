@@ -13,10 +13,12 @@ suite checks that both give the same outputs and trajectories
 * Regressors, M-hat and the Jacobians come from the compiled spatial kernels
   (:mod:`ffsm_pin.model._spatial_kinematics_kernels`,
   :mod:`~ffsm_pin.model._spatial_mass_kernels`,
+  :mod:`~ffsm_pin.model._spatial_mass_tangent_kernels`,
   :mod:`~ffsm_pin.model._spatial_velocity_kernels`); the kinematic law is evaluated once with
-  complex arguments ``x + i h dx/dt`` (the dtype-generic kinematics, Jacobian and mass-matrix
-  kernels), so that ``w_mc`` is the real part and the exact ``d w_mc/dt`` the imaginary part
-  over h.
+  complex arguments ``x + i h dx/dt`` (the dtype-generic kinematics and Jacobian kernels; the
+  momentum rows H_bb, H_bm carry the step in real (value, tangent) arithmetic,
+  ``base_columns``), so that ``w_mc`` is the real part and the exact ``d w_mc/dt`` the
+  imaginary part over h.
 * Schemes ``ppc``, ``no-ppc``, ``no-attitude`` and ``known-model`` (``adaptive = False``:
   Pinocchio's M and C w passed in, no adaptation); tasks ``pose`` (6 rows) and
   ``position`` (3 rows); null-space objectives none, manipulability, joint-centering.
