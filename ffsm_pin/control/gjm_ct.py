@@ -94,6 +94,7 @@ class GjmComputedTorque(ResolvedMotionBaseline):
     theta_d = state_field("theta_d", "theta_d-hat, the scenario's estimate")
     theta_b = state_field("theta_b", "theta_b-hat, the scenario's estimate")
 
+    label = "gjm-ct"  # (its messages)
     lockstep_kernel = staticmethod(gjm_ct_periods)  # its periods over a batch (sim.lockstep)
 
     def __init__(self, ctx: ControllerContext, *, backend: str = "auto"):

@@ -31,10 +31,10 @@ from ..control.interface import (
 )
 from ..errors import ParameterError, SimulationError
 from . import recorder
-from .capture_run import target_motions
+from .capture_run import CaptureMotion, target_motions
 from .measurement import Sensor
 from .plant import STATE_NONFINITE, STATE_OK
-from .recorder import Recorder
+from .recorder import Recorder, Signals
 from .recording import (
     recorder_shapes,
     recording_size,
@@ -421,8 +421,16 @@ def interrupted_stop(t: float) -> SimulationError:
     return SimulationError(f"t = {t:.4f} s: interrupted (Ctrl-C)", time=t, cause="interrupted")
 
 
-def loop_result(setup: Setup, signals, steps: int, wall: float, stop, saturated: int,
-                capture=None, outcomes=()) -> RunResult:  # fmt: skip
+def loop_result(
+    setup: Setup,
+    signals: Signals,
+    steps: int,
+    wall: float,
+    stop: SimulationError | None,
+    saturated: int,
+    capture: CaptureMotion | None = None,
+    outcomes: tuple = (),
+) -> RunResult:
     """The result of a run loop that took ``steps`` steps in ``wall`` [s] (its after-run
     signals included), stopped by ``stop`` (None: completed), with ``saturated`` control
     periods at a torque limit (a single run's, :func:`simulate`, and a lock-step case's,
