@@ -52,7 +52,7 @@ class SpatialDynamics(SpatialReference):
         if self._use_fast(theta_d, q_b, q_m):
             R, z = self._rz(q_b, q_m)
             M = np.empty((self._N, self._N))
-            kmass.mass_matrix(R, z, np.ascontiguousarray(theta_d), M)
+            kmass.mass_matrix_by_sums(R, z, np.ascontiguousarray(theta_d), M)
             return M
         kin = self.kinematics(q_b, q_m)
         return self._mass_core(kin.R, kin.S, theta_d)

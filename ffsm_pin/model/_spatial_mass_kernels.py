@@ -147,66 +147,11 @@ def ym(R, z, a, Y, base_only):
 
 @njit(cache=True)
 @fill_doc(KERNEL_DOC)
-def mass_matrix(R, z, theta, M):
-    """M(q, theta_d) (Eq. 9a), or its first columns when M has fewer columns than rows:
-    with M (N, 3), the base columns, i.e. the transposed momentum rows (H_bb H_bm) of
-    Eq. (13); with M (3, 3), the base block M_bb alone (the same values as those rows of the
-    larger forms: the joint rows are skipped, not reordered). Real or complex (dtype of M: the
-    complex-step evaluation of the kinematic law in :mod:`ffsm_pin.control.fast_spatial` passes
-    complex arguments).
-
-    %(params_R_z)s
-    theta : ndarray (n_d,)
-        Dynamic parameters theta_d of Eq. (12) [kg m^2].
-    M : ndarray (N, N), (N, 3) or (3, 3)
-        The mass matrix [kg m^2], its base columns or its base block, overwritten.
-    """
-    nb = R.shape[0]
-    M[:] = 0.0
-    N, ncols = z.shape[0] + 3, M.shape[1]
-    base_only = M.shape[0] == 3
-    J = np.empty((3, 3), dtype=M.dtype)
-    sc = np.zeros((N, 3), dtype=M.dtype)  # columns of S: e_0, e_1, e_2, z_1, ..., z_n
-    for i in range(3):
-        sc[i, i] = 1.0
-    for j in range(nb - 1):
-        for i in range(3):  # sc[3 + j] = z[j]; a slice assignment from an array would compile
-            sc[3 + j, i] = z[j, i]  # numba's shape-mismatch message, a second of a first run
-    x = np.empty(3, dtype=M.dtype)
-    T1 = np.empty((3, 3), dtype=M.dtype)
-    B = np.empty((3, 3), dtype=M.dtype)
-    for k in range(nb):
-        body_block(R, theta, k, J, T1, B)
-        for c in range(min(3 + k, ncols)):
-            for i in range(3):
-                x[i] = B[i, 0] * sc[c, 0] + B[i, 1] * sc[c, 1] + B[i, 2] * sc[c, 2]
-            _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
-    p = 6 * nb
-    D = np.empty((3, 3), dtype=M.dtype)
-    X = np.empty((3, 3), dtype=M.dtype)
-    Km = np.empty((3, 3), dtype=M.dtype)
-    for k in range(nb):
-        for l in range(k + 1, nb):
-            pair_block(R, theta, p, k, l, D, T1, X)
-            p += 9
-            pair_coupling(X, Km)
-            for c in range(min(3 + l, ncols)):  # S_k^T K S_l
-                for i in range(3):
-                    x[i] = Km[i, 0] * sc[c, 0] + Km[i, 1] * sc[c, 1] + Km[i, 2] * sc[c, 2]
-                _add_st(M, c, k, z, x[0], x[1], x[2], base_only)
-            for c in range(min(3 + k, ncols)):  # S_l^T K^T S_k
-                for i in range(3):
-                    x[i] = Km[0, i] * sc[c, 0] + Km[1, i] * sc[c, 1] + Km[2, i] * sc[c, 2]
-                _add_st(M, c, l, z, x[0], x[1], x[2], base_only)
-
-
-@njit(cache=True)
-@fill_doc(KERNEL_DOC)
 def mass_times(R, z, theta, a, out):
     """out = M(q, theta_d) a (Eq. 9a) without forming M: the body rates b_k = S_k a, each
     body's and each body pair's 3x3 inertia block applied to them, and the sums S_k^T y_k
-    (real). About a third of :func:`mass_matrix`'s work: for a product alone (the diagnostic
-    e of Eq. 54).
+    (real), for a product alone (the diagnostic e of Eq. 54): cheaper than forming M by
+    :func:`mass_matrix_by_sums` and multiplying.
 
     %(params_R_z)s
     theta : ndarray (n_d,)
@@ -257,9 +202,10 @@ def mass_matrix_by_sums(R, z, theta, M):
     its transpose for l < k), M[r, c] = s_r . sum_{k >= k(r)} sum_{l >= k(c)} K_kl s_c, where
     s_c is M's column c of S (e_c for the base, z_j for joint j) and k(c) the first body it
     moves (0 for the base, j + 1 for joint j). Suffix sums over l and then over k form every
-    entry from the 3x3 blocks once: about a third of :func:`mass_matrix`'s work, the same
-    matrix to rounding (tests/model); symmetric bit for bit (the lower triangle mirrored).
-    The control periods' M-hat.
+    entry from the 3x3 blocks once; symmetric bit for bit (the lower triangle mirrored). The
+    one compiled M of the package: the control periods' M-hat and the model's
+    :meth:`~ffsm_pin.model.spatial.SpatialBarycentricModel.mass_matrix` (numba backend); the
+    numpy reference's M to rounding (tests/model).
 
     %(params_R_z)s
     theta : ndarray (n_d,)

@@ -2,8 +2,8 @@
 arithmetic: M_bb with dM_bb/dt along the motion (F_r of Eq. 7 after a run) and M's base
 columns at a complex step (H_bb, H_bm of the kinematic law), where each body's rotation turns
 at its angular velocity o_k (dR_k/dt = [o_k]x R_k), so that a block X = R_k J R_l^T changes at
-[o_k]x X - X [o_l]x: exact, as a complex step through :mod:`._spatial_mass_kernels`' M is,
-without complex products (tests/model).
+[o_k]x X - X [o_l]x: exact, as a complex step through the numpy reference's M is, without
+complex products (tests/model).
 
 Shapes as in :mod:`._spatial_mass_kernels`.
 """
@@ -38,10 +38,9 @@ def _spin(a, b, X, out):
 def base_inertia_rate(R, z, w, theta, M, M_dot):
     """M_bb(q, theta_d) and its rate dM_bb/dt along the motion w, in real arithmetic: each
     body's rotation turns at its angular velocity o_k = S_k w (dR_k/dt = [o_k]x R_k), so a
-    block X = R_k J R_l^T changes at [o_k]x X - X [o_l]x. M_bb has the bits of the base
-    block of :func:`~ffsm_pin.model._spatial_mass_kernels.mass_matrix` (the same sums in the
-    same order); the rate is exact, as a complex step through that kernel is
-    (tests/control/test_diagnostics.py).
+    block X = R_k J R_l^T changes at [o_k]x X - X [o_l]x. Both equal the numpy reference's
+    M_bb and its exact complex step along the motion to rounding (tests/model,
+    tests/control/test_diagnostics.py).
 
     %(params_R_z)s
     w : ndarray (N,)
@@ -94,9 +93,9 @@ def base_inertia_rate(R, z, w, theta, M, M_dot):
 def base_columns(R, z, theta, M):
     """M's base columns (N, 3) at complex-step arguments x + i dx (dx a small multiple of a
     tangent, as the kinematic law of :mod:`ffsm_pin.control.fast_spatial` passes them): the
-    values of :func:`~ffsm_pin.model._spatial_mass_kernels.mass_matrix` with a 3-column
-    output, in real (value, tangent) arithmetic instead of complex products, to rounding
-    (tests/model). R, z and theta complex, their imaginary parts the step.
+    numpy reference's M at those complex arguments, its first three columns, in real (value,
+    tangent) arithmetic instead of complex products, to rounding (tests/model). R, z and
+    theta complex, their imaginary parts the step.
 
     Each body's rotation turns at o_k, [o_k]x = Im(R_k) Re(R_k)^T (dR_k = [o_k]x R_k), so a
     block X = R_k D R_l^T has the tangent [o_k]x X - X [o_l]x + R_k dD R_l^T; the blocks are

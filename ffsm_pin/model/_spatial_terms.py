@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from ._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
-from ._spatial_mass_kernels import mass_matrix
+from ._spatial_mass_kernels import mass_matrix_by_sums
 from ._spatial_velocity_kernels import subtract_dT, velocity_terms
 
 
@@ -94,4 +94,4 @@ def controller_terms(geo, s_b, q_m, theta_z, theta_d, w, a, sv, out):
             Yb[i, j] = -1.0 if i == j else 0.0
     velocity_terms(R, z, w, a, sv, YM, YMdot, Yh, Yb[:, 3:])
     subtract_dT(R, z, w, Yh)
-    mass_matrix(R, z, theta_d, M)
+    mass_matrix_by_sums(R, z, theta_d, M)

@@ -300,46 +300,25 @@ def test_example_robot_data_arms_on_a_satellite(spatial_state, rng, name, ee, lo
 
 @PROPERTY
 @given(seed=SEEDS, n=st.integers(1, 8))
-def test_mass_matrix_kernel_base_columns_and_complex_step(spatial_chain, spatial_state, seed, n):
-    """The compiled M kernel with a 3-column output gives M's base columns (with a 3x3 output
-    the same bits of M_bb, the block F_r after a run needs), and with complex
-    arguments x + i h dx its imaginary part over h is the exact rate: the parameter
-    direction plus dM/dt along the motion, i.e. M(theta') + sum_j (Y_Mdot(w, e_j) theta)
-    columns (the same kernel serves the complex-step kinematic law of fast_spatial)."""
-    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
-    from ffsm_pin.model._spatial_mass_kernels import mass_matrix
-
-    robot = spatial_chain(n, seed % 3)
-    rng = np.random.default_rng(seed)
-    s = SpatialState(robot).update(*spatial_state(robot, rng))
-    bm = SpatialBarycentricModel(robot.geometry)
+def test_reference_mass_matrix_complex_step_is_the_exact_rate(
+    spatial_chain, spatial_state, seed, n
+):
+    """The numpy reference's M at complex arguments x + i h dx (what the tangent kernels are
+    checked against below): its real part is M, its imaginary part over h the exact rate,
+    the parameters' direction plus dM/dt along the motion, i.e. M(theta') + the columns
+    Y_Mdot(w, e_j) theta."""
+    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
     qb, qm, w = s.base_attitude, s.joint_angles, s.w
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
     dth = rng.normal(size=bm.n_d)
-    full = bm.mass_matrix(th, qb, qm)
-    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
-    kinematics(qb, qm, bm._joint_rot_c, bm._axes_c, R, z)
-    cols = np.empty((n + 3, 3))
-    mass_matrix(R, z, th, cols)
-    assert np.array_equal(cols, full[:, :3])
-    block = np.empty((3, 3))  # M_bb alone: the same bits as the base rows of the larger forms
-    mass_matrix(R, z, th, block)
-    assert block.tobytes() == full[:3, :3].tobytes()
     h = 1e-30
-    qb_rate = mrp.L_matrix(qb) @ w[:3]
-    Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
-    kinematics(qb + 1j * h * qb_rate, qm + 1j * h * w[3:], bm._joint_rot_c, bm._axes_c,
-               Rc, zc)  # fmt: skip
-    colsc = np.empty((n + 3, 3), complex)
-    mass_matrix(Rc, zc, th + 1j * h * dth, colsc)
-    rate = bm.mass_matrix(dth, qb, qm)[:, :3] + np.column_stack(
-        [bm.Y_Mdot(qb, qm, w, e) @ th for e in np.eye(n + 3)[:3]]
+    got = bm.mass_matrix(th + 1j * h * dth, qb + 1j * h * (mrp.L_matrix(qb) @ w[:3]),
+                         qm + 1j * h * w[3:])  # fmt: skip
+    rate = bm.mass_matrix(dth, qb, qm) + np.column_stack(
+        [bm.Y_Mdot(qb, qm, w, e) @ th for e in np.eye(n + 3)]
     )
-    blockc = np.empty((3, 3), complex)
-    mass_matrix(Rc, zc, th + 1j * h * dth, blockc)
-    assert blockc.tobytes() == colsc[:3].tobytes()
-    assert rel(colsc.real, full[:, :3]) < 1e-14
-    assert rel(colsc.imag / h, rate) < 1e-12
+    assert rel(got.real, bm.mass_matrix(th, qb, qm)) < 1e-14
+    assert rel(got.imag / h, rate) < 1e-12
 
 
 def _rotations(bm, s):
@@ -356,74 +335,70 @@ def _rotations(bm, s):
 @given(seed=SEEDS, n=st.integers(1, 8))
 def test_mass_times_kernel_is_the_mass_matrix_product(spatial_chain, spatial_state, seed, n):
     """``mass_times`` (M a without forming M, the diagnostic e of Eq. 54) equals Pinocchio's M
-    times a, and the compiled M kernel's product, to rounding."""
-    from ffsm_pin.model._spatial_mass_kernels import mass_matrix, mass_times
+    times a, and the numpy reference's product with any parameters, to rounding."""
+    from ffsm_pin.model._spatial_mass_kernels import mass_times
 
-    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    robot, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
     R, z = _rotations(bm, s)
     a = rng.normal(size=n + 3)
     out = np.empty(n + 3)
     mass_times(R, z, bm.theta_d, a, out)
     assert rel(out, s.M @ a) < TOL
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)  # any parameters, not only a body's
-    M = np.empty((n + 3, n + 3))
-    mass_matrix(R, z, th, M)
+    ref = SpatialBarycentricModel(robot.geometry, backend="numpy")
+    M = ref.mass_matrix(th, s.base_attitude, s.joint_angles)
     mass_times(R, z, th, a, out)
     assert rel(out, M @ a) < 1e-14
 
 
 @PROPERTY
 @given(seed=SEEDS, n=st.integers(1, 8))
-def test_base_inertia_rate_is_the_complex_step_of_the_mass_kernel(
+def test_base_inertia_rate_is_the_complex_step_of_the_reference(
     spatial_chain, spatial_state, seed, n
 ):
-    """``base_inertia_rate``: M_bb with the bits of the M kernel's base block, and dM_bb/dt in
-    real arithmetic equal to the exact complex step through that kernel along the motion
-    (dq_b/dt = L_b w_b, dq_m/dt = w_m) to rounding."""
-    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
-    from ffsm_pin.model._spatial_mass_kernels import mass_matrix
+    """``base_inertia_rate``: M_bb, and dM_bb/dt in real arithmetic, equal to the numpy
+    reference's M_bb and its exact complex step along the motion (dq_b/dt = L_b w_b,
+    dq_m/dt = w_m), to rounding."""
     from ffsm_pin.model._spatial_mass_tangent_kernels import base_inertia_rate
 
-    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    robot, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    ref = SpatialBarycentricModel(robot.geometry, backend="numpy")
     qb, qm, w = s.base_attitude, s.joint_angles, s.w
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
     R, z = _rotations(bm, s)
-    block, M, M_dot = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    mass_matrix(R, z, th, block)
+    M, M_dot = np.empty((3, 3)), np.empty((3, 3))
     base_inertia_rate(R, z, w, th, M, M_dot)
-    assert M.tobytes() == block.tobytes()
     h = 1e-30
-    Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
-    kinematics(qb + 1j * h * (mrp.L_matrix(qb) @ w[:3]), qm + 1j * h * w[3:],
-               bm._joint_rot_c, bm._axes_c, Rc, zc)  # fmt: skip
-    blockc = np.empty((3, 3), complex)
-    mass_matrix(Rc, zc, th + 0j, blockc)
-    assert rel(M_dot, blockc.imag / h, 1e-300) < 1e-13
+    want = ref.mass_matrix(th + 0j, qb + 1j * h * (mrp.L_matrix(qb) @ w[:3]),
+                           qm + 1j * h * w[3:])[:3, :3]  # fmt: skip
+    assert rel(M, want.real) < 1e-14
+    assert rel(M_dot, want.imag / h, 1e-300) < 1e-13
 
 
 @PROPERTY
 @given(seed=SEEDS, n=st.integers(1, 8))
-def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_state, seed, n):
+def test_base_columns_kernel_is_the_complex_reference(spatial_chain, spatial_state, seed, n):
     """``base_columns`` (the kinematic law's H_bb, H_bm at a complex step, in real (value,
-    tangent) arithmetic) gives the complex M kernel's base columns: the values to rounding and
-    the imaginary parts (the exact rate along the motion and the parameters' direction) to
-    rounding of their own size; with a zero step, zero imaginary parts."""
+    tangent) arithmetic) gives the numpy reference's base columns of M at the same complex
+    arguments: the values to rounding and the imaginary parts (the exact rate along the motion
+    and the parameters' direction) to rounding of their own size; with a zero step, zero
+    imaginary parts."""
     from ffsm_pin.model._spatial_kinematics_kernels import kinematics
-    from ffsm_pin.model._spatial_mass_kernels import mass_matrix
     from ffsm_pin.model._spatial_mass_tangent_kernels import base_columns
 
-    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    robot, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    ref = SpatialBarycentricModel(robot.geometry, backend="numpy")
     qb, qm, w = s.base_attitude, s.joint_angles, s.w
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d)
     dth = rng.normal(size=bm.n_d) * np.abs(th).max()
     h = 1e-30
     for step in (h, 0.0):
+        qb_c, qm_c = qb + 1j * step * (mrp.L_matrix(qb) @ w[:3]), qm + 1j * step * w[3:]
         Rc, zc = np.empty((n + 1, 3, 3), complex), np.empty((n, 3), complex)
-        kinematics(qb + 1j * step * (mrp.L_matrix(qb) @ w[:3]), qm + 1j * step * w[3:],
-                   bm._joint_rot_c, bm._axes_c, Rc, zc)  # fmt: skip
-        want, got = np.empty((n + 3, 3), complex), np.empty((n + 3, 3), complex)
-        mass_matrix(Rc, zc, th + 1j * step * dth, want)
+        kinematics(qb_c, qm_c, bm._joint_rot_c, bm._axes_c, Rc, zc)
+        got = np.empty((n + 3, 3), complex)
         base_columns(Rc, zc, th + 1j * step * dth, got)
+        want = ref.mass_matrix(th + 1j * step * dth, qb_c, qm_c)[:, :3]
         assert rel(got.real, want.real) < 1e-14
         if step:
             assert rel(got.imag / h, want.imag / h, 1e-300) < 1e-13
@@ -434,18 +409,18 @@ def test_base_columns_kernel_is_the_complex_mass_kernel(spatial_chain, spatial_s
 @PROPERTY
 @given(seed=SEEDS, n=st.integers(1, 8))
 def test_mass_matrix_by_sums_is_the_mass_matrix(spatial_chain, spatial_state, seed, n):
-    """``mass_matrix_by_sums`` (the periods' M-hat) is Pinocchio's M with the true parameters
-    and the M kernel's matrix with any parameters, to rounding; symmetric bit for bit."""
-    from ffsm_pin.model._spatial_mass_kernels import mass_matrix, mass_matrix_by_sums
+    """``mass_matrix_by_sums`` (the one compiled M: the periods' M-hat, the model's M) is
+    Pinocchio's M with the true parameters and the numpy reference's M with any parameters, to
+    rounding; symmetric bit for bit."""
+    from ffsm_pin.model._spatial_mass_kernels import mass_matrix_by_sums
 
-    _, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    robot, bm, s, rng = _setup(spatial_chain, spatial_state, seed, n)
+    ref = SpatialBarycentricModel(robot.geometry, backend="numpy")
     R, z = _rotations(bm, s)
     got = np.empty((n + 3, n + 3))
     mass_matrix_by_sums(R, z, bm.theta_d, got)
     assert rel(got, s.M) < TOL
     th = bm.theta_d * rng.uniform(0.5, 1.5, bm.n_d) + rng.normal(size=bm.n_d)
-    want = np.empty((n + 3, n + 3))
-    mass_matrix(R, z, th, want)
     mass_matrix_by_sums(R, z, th, got)
-    assert rel(got, want) < 1e-14
+    assert rel(got, ref.mass_matrix(th, s.base_attitude, s.joint_angles)) < 1e-14
     assert np.array_equal(got, got.T)
