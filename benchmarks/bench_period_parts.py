@@ -14,6 +14,9 @@ compiled loop (numba's dispatch paid once per loop, not per period):
 * ``geometry``: the geometry step at each (measurement, state);
 * ``kinematic``: the geometry step and the kinematic law with the period's complex arguments
   built around it, less the row above;
+* ``kinematic, real arguments``: the geometry step and the kinematic law at the same values as
+  real arguments (no derivative), less the geometry row: what the law costs without the
+  complex step, beside the ``kinematic`` row;
 * ``dynamic``: those and the dynamic level (on copies of the states: it advances them), less
   the row above;
 * ``period, compiled loop``: the whole period along the sequence from its first state (the
@@ -78,9 +81,10 @@ from ffsm_pin.sim.setup import prepare  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 STEPS = ("geometry", "kinematic", "dynamic")  # rows timed by time_steps, cumulatively
+REAL_LAW = "kinematic, real arguments"  # timed by time_real_law, less the geometry row
 ROWS = (
-    "geometry", "kinematic", "dynamic", "period, compiled loop", "period, from Python",
-    "period, bundles unboxed",
+    "geometry", "kinematic", REAL_LAW, "dynamic", "period, compiled loop",
+    "period, from Python", "period, bundles unboxed",
 )  # fmt: skip
 
 
@@ -127,6 +131,19 @@ def time_steps(geo, law_f, ref_f, dt, metas, states, last):
         w_mc_dot = w_mc_c.imag / COMPLEX_STEP
         sens = np.ascontiguousarray(sens)
         acc += dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state)[1]
+    return acc
+
+
+@njit(cache=True)
+def time_real_law(geo, law_f, ref_f, dt, metas, states):
+    """The geometry step and the kinematic law at real arguments (the values the period's
+    complex arguments have, without their steps) at each (measurement, state)."""
+    acc = 0.0
+    for k in range(len(metas)):
+        law, ref, meas, state = _bundles(law_f, ref_f, metas[k], states[k])
+        w_b = geometry_terms(geo, law, dt, meas, state)[4]
+        acc += kinematic_law(geo, law, ref, law.null_space, meas.t, meas.q_b, meas.q_m,
+                             meas.z_e, state.theta_b, state.theta_z, w_b)[2]  # fmt: skip
     return acc
 
 
@@ -188,11 +205,14 @@ def replay_of(case: str, duration: float) -> Replay:
 def sample(row: str, rep: Replay) -> float:
     """Seconds per period of ``row`` over the sequence, from fresh copies of its states."""
     geo, law, ref, dt, out, metas, states = rep
-    if row in STEPS:
+    if row in STEPS or row == REAL_LAW:
         compiled = List(metas)  # (a typed list for the compiled loops; Python iterates metas)
         copies = List([tuple(x.copy() for x in st) for st in states])
         t0 = time.perf_counter()
-        time_steps(geo, law, ref, dt, compiled, copies, STEPS.index(row) + 1)
+        if row == REAL_LAW:
+            time_real_law(geo, law, ref, dt, compiled, copies)
+        else:
+            time_steps(geo, law, ref, dt, compiled, copies, STEPS.index(row) + 1)
         return (time.perf_counter() - t0) / len(metas)
     state = tuple(x.copy() for x in states[0])
     box = period_box(geo, law, ref, state, out)
@@ -235,14 +255,14 @@ def main() -> int:
             for row in ROWS:
                 times[row].append(sample(row, rep))
         # the kinematic and dynamic rows time the steps before them too: their differences
-        for later, earlier in ((STEPS[2], STEPS[1]), (STEPS[1], STEPS[0])):
+        for later, earlier in ((STEPS[2], STEPS[1]), (STEPS[1], STEPS[0]), (REAL_LAW, STEPS[0])):
             times[later] = [a - b for a, b in zip(times[later], times[earlier], strict=True)]
         whole = statistics.median(times["period, compiled loop"])
         print(f"{case} ({len(rep.metas)} periods, {law.model.n_joints} joints):")
         for row in ROWS:
             med = statistics.median(times[row])
             q = statistics.quantiles(times[row], n=4) if args.repeat > 1 else [med] * 3
-            print(f"  {row:24s} {med * 1e6:8.2f}  {med / whole:6.1%}  "
+            print(f"  {row:25s} {med * 1e6:8.2f}  {med / whole:6.1%}  "
                   f"({q[0] * 1e6:.2f} .. {q[2] * 1e6:.2f})", flush=True)  # fmt: skip
     return 0
 
