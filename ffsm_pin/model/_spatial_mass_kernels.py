@@ -18,6 +18,21 @@ from numba import njit
 from .._docstrings import fill_doc
 from ._kernel_docs import KERNEL_DOC
 from ._spatial_kinematics_kernels import body_rates, mm, mmt
+from ._spatial_layout import SYM6
+
+
+def _symmetric_index(entries) -> np.ndarray:
+    """(3, 3) index of each entry of a symmetric 3x3 matrix in a 6-vector stored in the order
+    ``entries`` ((i, j) pairs, i <= j)."""
+    index = np.empty((3, 3), dtype=np.int64)
+    for p, (i, j) in enumerate(entries):
+        index[i, j] = index[j, i] = p
+    return index
+
+
+#: theta_k's index of body k's inertia entry (i, j) (:data:`._spatial_layout.SYM6`'s order:
+#: xx, xy, xz, yy, yz, zz), for the compiled kernels.
+INERTIA_INDEX = _symmetric_index(SYM6)
 
 
 @njit(cache=True, inline="always")
@@ -60,10 +75,9 @@ def _add_cross(Y, col, k, z, q, b, p, R, j, base_only):
 def body_block(R, theta, k, J, T1, X):
     """X = R_k J_k R_k^T: body k's inertia J_k (theta's entries 6k .. 6k + 5: xx, xy, xz, yy,
     yz, zz) in the inertial frame; J and T1 scratch (3x3, the dtype of X)."""
-    t = theta[6 * k : 6 * k + 6]
-    J[0, 0], J[0, 1], J[0, 2] = t[0], t[1], t[2]
-    J[1, 0], J[1, 1], J[1, 2] = t[1], t[3], t[4]
-    J[2, 0], J[2, 1], J[2, 2] = t[2], t[4], t[5]
+    for i in range(3):
+        for j in range(3):
+            J[i, j] = theta[6 * k + INERTIA_INDEX[i, j]]
     mm(R[k], J, T1)
     mmt(T1, R[k], X)
 

@@ -16,7 +16,7 @@ from numba import njit
 from .._docstrings import fill_doc
 from ._kernel_docs import KERNEL_DOC
 from ._spatial_kinematics_kernels import body_rates, mm, mmt
-from ._spatial_mass_kernels import body_block, pair_block, pair_coupling
+from ._spatial_mass_kernels import INERTIA_INDEX, body_block, pair_block, pair_coupling
 
 
 @njit(cache=True, inline="always")
@@ -130,7 +130,7 @@ def base_columns(R, z, theta, M):
     for k in range(nb):  # R_k J_k R_k^T
         for i in range(3):
             for j in range(3):
-                c = theta[6 * k + _SYM[i, j]]
+                c = theta[6 * k + INERTIA_INDEX[i, j]]
                 J[i, j], dJ[i, j] = c.real, c.imag
         mm(Rr[k], J, T1)
         mmt(T1, Rr[k], X)
@@ -185,7 +185,3 @@ def base_columns(R, z, theta, M):
     for i in range(3):
         for c in range(3):
             M[i, c] = S[i, c] + 1j * dS[i, c]
-
-
-#: theta_k's index of the inertia entry (i, j): (xx, xy, xz, yy, yz, zz).
-_SYM = np.array([[0, 1, 2], [1, 3, 4], [2, 4, 5]])
