@@ -97,7 +97,7 @@ def real(name):
     return {s for s in getattr(F, name).signatures if str(s[0].dtype) == "float64"}
 
 def beside(meas, state):
-    before = {name: real(name) for name in ("ym", "mass_matrix_by_sums")}
+    before = {name: real(name) for name in ("add_ym", "mass_matrix_by_sums")}
     original(meas, state)
     for name in before:
         seen[name] = real(name)
@@ -116,9 +116,9 @@ print("ok")
 def test_the_spatial_first_run_compiles_what_the_period_asks_for(tmp_path):
     """30-90 s (one spatial compilation in one process, from an empty cache): after
     ``compile_beside_law``, compiling the period (its dynamic level here) adds no real
-    signature to ``mass_matrix_by_sums`` (M-hat) or ``ym``: those compiled beside the law are
-    the ones the period calls (a literal ``False`` for ``ym``'s ``base_only``); a mismatch
-    would compile them twice."""
+    signature to ``mass_matrix_by_sums`` (M-hat) or ``add_ym`` (Y_M of Eq. 49): those
+    compiled beside the law are the ones the period calls (a literal ``False`` for
+    ``add_ym``'s ``base_only``); a mismatch would compile them twice."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "NUMBA_CACHE_DIR": str(tmp_path)}
     proc = subprocess.run([sys.executable, "-c", BESIDE_LAW], capture_output=True, text=True,
                           env=env, timeout=900)  # fmt: skip

@@ -37,7 +37,6 @@ from .._array_kernels import (
     cmmt,
     cmtv,
     cmv,
-    difference,
     mm,
     mv,
     positive_definite,
@@ -52,7 +51,7 @@ from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
-from ..model._spatial_mass_kernels import mass_matrix_by_sums, mass_times, ym
+from ..model._spatial_mass_kernels import add_ym, mass_matrix_by_sums, mass_times
 from ..model._spatial_mass_tangent_kernels import base_columns, base_inertia_rate
 from ..model._spatial_velocity_kernels import subtract_dT, velocity_terms
 from . import kernels
@@ -286,21 +285,21 @@ def geometry_terms(geo, law, dt, meas, state):
     R, z, q_b_rate = measured_kinematics(jr, ax, q_b, q_m, w)
     tb_new = theta_b.copy()
     tz_new = theta_z.copy()
-    YM = np.empty((N, nd))
-    YMdot = np.empty((N, nd))
-    Yh = np.empty((N, nd))
+    Yc = np.empty((N, nd))
     w_tilde = np.zeros(N)
     if law.adaptive:
         g = law.gains
         w_tilde = w - w_hat
         Yb = np.empty((3, nd + 3))
-        velocity_terms(R, z, w, w, w_tilde, None, YMdot, Yh, Yb[:, 3:])  # (Y_M: dynamic level)
-        subtract_dT(R, z, w, Yh)
+        # Y_c with Y_c theta_d = dM/dt w-hat - dT/dq: Y_Mdot(w, w~) - Y_h(w) = -Y_c, one
+        # regressor where there were two (Y_h(w) is Y_Mdot(w, w) less the dT/dq rows)
+        velocity_terms(R, z, w, w, w_hat, None, Yc, None, Yb[:, 3:])
+        subtract_dT(R, z, w, Yc)
         tb_new = theta_b_step(theta_b, Yb, g.gamma_1, dt)
         Yz = np.empty((3, nz))
         y_z(R, z, w, Yz)
         tz_new = kernels.theta_z_step(theta_z, Yz, meas.z_e_dot, g.gamma_2, dt)  # Eq. (42)
-    return (R, z, YM, YMdot, Yh, w_tilde), tb_new, tz_new, q_b_rate, w[:3]
+    return (R, z, Yc, w_tilde), tb_new, tz_new, q_b_rate, w[:3]
 
 
 @njit(cache=True)
@@ -315,7 +314,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
 
     %(params_dynamic_level)s
     """
-    R, z, YM, YMdot, Yh, w_tilde = terms
+    R, z, Yc, w_tilde = terms
     g, adaptive, w = law.gains, law.adaptive, meas.w
     M_true, h_true, theta_d_true = meas.M, meas.h, law.theta_d_true
     theta_d, w_hat, Y_df = state.theta_d, state.w_hat, state.Y_df
@@ -335,7 +334,7 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         if not physical:
             return kernels.STATUS_NOT_PHYSICAL, 0.0, none, none, none, none
         eta_x = -(Y_df @ d_theta_d) / dt  # Eq. (52)
-        rr = difference(YMdot, Yh) @ theta_d + g.k_de * Mw + eta_x
+        rr = g.k_de * Mw + eta_x - Yc @ theta_d  # (Y_Mdot(w, w~) - Y_h(w)) theta_d + ...
         wh = w_hat
     else:  # known model: computed torque on the true reduced dynamics
         M_hat = np.ascontiguousarray(M_true)
@@ -366,10 +365,12 @@ def dynamic_level(geo, terms, law, dt, meas, w_mc, w_mc_dot, sens, state):
         else:  # w~ = 0, Y_df = 0 and theta_d-hat = theta_d
             e = np.zeros(N)
     if adaptive:  # advance the controller's states to t + dt
-        ym(R, z, w_hat_dot - g.k_de * w_tilde, YM, False)  # Eq. (49)
+        # Eq. (49)'s Y_dc = Y_M(dw-hat/dt - k_de w~) - Y_Mdot(w, w~) + Y_h(w) = Y_M(.) + Y_c,
+        # Y_M added into Y_c in place
+        add_ym(R, z, w_hat_dot - g.k_de * w_tilde, Yc, False)
         decay = np.exp(-g.k_de * dt)
         gain = -np.expm1(-g.k_de * dt) / g.k_de
-        kernels.filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)  # Eq. (50)
+        kernels.filter_input_update(Y_df, decay, gain, Yc)  # Eq. (50)
         theta_d += d_theta_d  # Eq. (51)
         w_hat += dt * w_hat_dot  # Eq. (46)
     else:
@@ -468,5 +469,5 @@ def compile_beside_law(meas, state) -> None:
     n, nd = meas.q_m.size, state.theta_d.size
     R, z, M = np.zeros((n + 1, 3, 3)), np.zeros((n, 3)), np.zeros((n + 3, n + 3))
     mass_matrix_by_sums(R, z, np.zeros(nd), M)
-    a, Y = np.zeros(n + 3), np.zeros((n + 3, nd))  # ym(..., False): a literal in the period
-    ym.compile((typeof(R), typeof(z), typeof(a), typeof(Y), types.literal(False)))
+    a, Y = np.zeros(n + 3), np.zeros((n + 3, nd))  # add_ym(..., False): a literal in the period
+    add_ym.compile((typeof(R), typeof(z), typeof(a), typeof(Y), types.literal(False)))

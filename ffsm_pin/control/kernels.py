@@ -352,6 +352,26 @@ def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):
 
 
 @njit(cache=True)
+def filter_input_update(Y_df, decay, gain, Y_dc):
+    """Eq. (50) over one period, in place, from its input ``Y_dc`` formed beforehand:
+    ``Y_df <- decay Y_df + gain Y_dc`` (the spatial period adds Y_M into Y_c, so that Y_dc
+    is one array; :func:`filter_regressor_update` takes its three terms).
+
+    Parameters
+    ----------
+    Y_df : ndarray
+        The filtered regressor, updated in place.
+    decay, gain : float
+        exp(-k_de dt) and (1 - exp(-k_de dt)) / k_de.
+    Y_dc : ndarray
+        Y_dc, shaped as Y_df.
+    """
+    for i in range(Y_df.shape[0]):
+        for j in range(Y_df.shape[1]):
+            Y_df[i, j] = decay * Y_df[i, j] + gain * Y_dc[i, j]
+
+
+@njit(cache=True)
 def theta_z_step(theta_z, Yz, z_e_dot, gamma_2, dt):
     """Eq. (42) by backward Euler on the position rows ``Yz`` of Y_z (as
     :func:`ffsm_pin.control.adaptation.theta_z_step`); ``z_e_dot`` the measured rates.
@@ -381,7 +401,8 @@ __all__ = [
     "COMPLEX_STEP", "JOINT_CENTERING", "STATUS_BASE_ROW", "STATUS_FUNNEL_B", "STATUS_FUNNEL_Z",
     "STATUS_H_COLLAPSE", "STATUS_M_NOT_PD", "STATUS_NONFINITE", "STATUS_NOT_PHYSICAL",
     "STATUS_OK", "Estimates",
-    "FUNNEL_RECORD", "NullSpaceTerm", "damped_pinv", "filter_regressor_update",
+    "FUNNEL_RECORD", "NullSpaceTerm", "damped_pinv", "filter_input_update",
+    "filter_regressor_update",
     "funnel_constants", "funnel_terms", "joint_centering_gradient", "manipulability",
     "manipulability_gradient", "null_space_term", "perturbed_joints", "spd_det",
     "theta_z_step", "wrap_angle",

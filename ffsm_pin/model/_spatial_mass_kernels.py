@@ -121,8 +121,29 @@ def ym(R, z, a, Y, base_only):
     base_only : bool
         Only the base rows 1-3 (Eq. 14's regressor of H_bb w_b + H_bm w_m).
     """
-    nb = R.shape[0]
     Y[:] = 0.0
+    add_ym(R, z, a, Y, base_only)
+
+
+@njit(cache=True)
+def add_ym(R, z, a, Y, base_only):
+    """Y += Y_M(a) in place (:func:`ym` without clearing ``Y`` first: a regressor added to
+    another without a pass over a third array, as Eq. (50)'s filter input is).
+
+    Parameters
+    ----------
+    R : ndarray (n+1, 3, 3)
+        Body rotations R_k (real or complex).
+    z : ndarray (n, 3)
+        Inertial joint axes z_j.
+    a : ndarray (N,)
+        The vector M multiplies.
+    Y : ndarray (N, n_d), or (3, n_d) with ``base_only``
+        The regressor Y_M(a) is added to it.
+    base_only : bool
+        Only the base rows 1-3.
+    """
+    nb = R.shape[0]
     b = np.zeros((nb, 3), dtype=R.dtype)
     body_rates(z, a, b)
     for k in range(nb):

@@ -218,9 +218,11 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
     """Y_M(a), Y_Mdot(w, s), the dM/dt w part of Y_h(w) (before :func:`subtract_dT`) and the
     base rows Yb of Y_M(w), in one pass with shared rotations (see the comment above).
 
-    ``YM`` or ``YMdot`` None: that regressor is not computed (numba compiles none of its code;
-    ``a`` resp. ``s`` is then not read). The others are the same values either way: each entry
-    is its own expression.
+    ``YM``, ``YMdot`` or ``Yh`` None: that regressor is not computed (numba compiles none of
+    its code; ``a`` resp. ``s`` is then not read). The others are the same values either way:
+    each entry is its own expression.  (Y_Mdot(w, s) with ``s = w`` is the dM/dt w part of
+    Y_h(w): a caller wanting Y_Mdot(w, s) - Y_h(w) asks for Y_Mdot(w, s - w) alone and adds
+    the dT/dq rows, :func:`subtract_dT` with the sign turned; docs/spatial.md section 4.)
 
     %(params_R_real_z)s
     w : ndarray (N,)
@@ -234,7 +236,7 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
         Y_M(a), with Y_M theta_d = M a; overwritten.
     YMdot : ndarray (N, n_d) or None
         Y_Mdot(w, s), with Y_Mdot theta_d = dM/dt s; overwritten.
-    Yh : ndarray (N, n_d)
+    Yh : ndarray (N, n_d) or None
         The dM/dt w part of Y_h(w), overwritten (:func:`subtract_dT` completes it).
     Yb : ndarray (3, n_d)
         The base rows of Y_M(w) (Eq. 14 without its A_0 columns), overwritten.
@@ -286,7 +288,8 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                         YM[r, col] = ba * p
                     if YMdot is not None:
                         YMdot[r, col] = ds * p + bs * dp
-                    Yh[r, col] = dw * p + bw * dp
+                    if Yh is not None:
+                        Yh[r, col] = dw * p + bw * dp
                 for r in range(3):
                     Yb[r, col] = bw * PR[k, i0, r]
             else:
@@ -299,7 +302,8 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                         YM[r, col] = ba * p + ba2 * p2
                     if YMdot is not None:
                         YMdot[r, col] = ds * p + bs * dp + ds2 * p2 + bs2 * dp2
-                    Yh[r, col] = dw * p + bw * dp + dw2 * p2 + bw2 * dp2
+                    if Yh is not None:
+                        Yh[r, col] = dw * p + bw * dp + dw2 * p2 + bw2 * dp2
                 for r in range(3):
                     Yb[r, col] = bw * PR[k, i0, r] + bw2 * PR[k, i1, r]
             for r in range(3 + k, N):
@@ -307,7 +311,8 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                     YM[r, col] = 0.0
                 if YMdot is not None:
                     YMdot[r, col] = 0.0
-                Yh[r, col] = 0.0
+                if Yh is not None:
+                    Yh[r, col] = 0.0
     # ---- pair columns: D_kl, Eq. (9a) second sum, 9 columns (i, j) at a time
     # per body: PP[k, r, 3 i + j] = PR[k, i, r] (repeated over j), PT[k, r, 3 i + j] = PR[k, j, r]
     P4 = np.empty((4, nb, N, 9))
@@ -357,7 +362,6 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 d1 = dPb[1, l, r] + dPb[1, k, r]
                 d2 = dPb[2, l, r] + dPb[2, k, r]
                 ptl, dptl, ppk, dppk = PT[l, r], dPT[l, r], PP[k, r], dPP[k, r]
-                yh = Yh[r, col : col + 9]
                 for c in range(9):
                     q, dq = q9[c], dq9[c]
                     pl, dpl, pk, dpk = ptl[c], dptl[c], ppk[c], dppk[c]
@@ -368,10 +372,11 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                             dq * p1 + q * d1
                             - dU9[1, c] * pl - U9[1, c] * dpl - dG9[1, c] * pk - G9[1, c] * dpk
                         )  # fmt: skip
-                    yh[c] = (
-                        dq * p2 + q * d2
-                        - dU9[2, c] * pl - U9[2, c] * dpl - dG9[2, c] * pk - G9[2, c] * dpk
-                    )  # fmt: skip
+                    if Yh is not None:
+                        Yh[r, col + c] = (
+                            dq * p2 + q * d2
+                            - dU9[2, c] * pl - U9[2, c] * dpl - dG9[2, c] * pk - G9[2, c] * dpk
+                        )  # fmt: skip
             for r in range(3):
                 p2 = Pb[2, l, r] + Pb[2, k, r]
                 for c in range(9):
@@ -380,7 +385,6 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                 p0, p1, p2 = Pb[0, k, r], Pb[1, k, r], Pb[2, k, r]
                 d1, d2 = dPb[1, k, r], dPb[2, k, r]
                 ppk, dppk = PP[k, r], dPP[k, r]
-                yh = Yh[r, col : col + 9]
                 for c in range(9):
                     q, dq = q9[c], dq9[c]
                     pk, dpk = ppk[c], dppk[c]
@@ -388,12 +392,14 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
                         YM[r, col + c] = q * p0 - G9[0, c] * pk
                     if YMdot is not None:
                         YMdot[r, col + c] = dq * p1 + q * d1 - dG9[1, c] * pk - G9[1, c] * dpk
-                    yh[c] = dq * p2 + q * d2 - dG9[2, c] * pk - G9[2, c] * dpk
+                    if Yh is not None:
+                        Yh[r, col + c] = dq * p2 + q * d2 - dG9[2, c] * pk - G9[2, c] * dpk
             for r in range(3 + l, N):
                 for c in range(9):
                     if YM is not None:
                         YM[r, col + c] = 0.0
                     if YMdot is not None:
                         YMdot[r, col + c] = 0.0
-                    Yh[r, col + c] = 0.0
+                    if Yh is not None:
+                        Yh[r, col + c] = 0.0
             col += 9

@@ -13,6 +13,7 @@ from ffsm_pin._array_kernels import difference, positive_definite, smallest_sing
 from ffsm_pin.control.funnel import Funnel, FunnelExit, FunnelParams
 from ffsm_pin.control.kernels import (
     damped_pinv,
+    filter_input_update,
     filter_regressor_update,
     funnel_constants,
     funnel_terms,
@@ -199,8 +200,8 @@ def test_the_determinant_bound_decides_clear_cases_and_is_never_wrong(rng, scale
 
 
 def test_loops_give_the_bits_of_the_array_expressions(rng):
-    """difference and filter_regressor_update (Eq. 50) equal the numpy expressions they replace
-    byte for byte, signed zeros included."""
+    """difference, filter_regressor_update and filter_input_update (Eq. 50) equal the numpy
+    expressions they replace byte for byte, signed zeros included."""
     shape = (10, 33)
     Y_df, YM, YMdot, Yh = (rng.normal(size=shape) for _ in range(4))
     for arr in (Y_df, YM, YMdot, Yh):  # signed zeros where the sums cancel
@@ -210,5 +211,9 @@ def test_loops_give_the_bits_of_the_array_expressions(rng):
     assert difference(YMdot, Yh).tobytes() == (YMdot - Yh).tobytes()
     decay, gain = np.exp(-0.3e-3), -np.expm1(-0.3e-3) / 0.3
     expected = decay * Y_df + gain * (YM - YMdot + Yh)
+    Y_dc = YM - YMdot + Yh
+    Y_df2 = Y_df.copy()
     filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh)
     assert Y_df.tobytes() == expected.tobytes()
+    filter_input_update(Y_df2, decay, gain, Y_dc)  # the same input formed beforehand
+    assert Y_df2.tobytes() == expected.tobytes()

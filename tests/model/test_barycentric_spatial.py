@@ -212,8 +212,8 @@ def test_compiled_kernels_equal_numpy_reference(spatial_chain, spatial_state, se
 def test_velocity_terms_without_some_regressors_keeps_the_others_bits(
     spatial_chain, spatial_state, rng, n
 ):
-    """``velocity_terms`` with Y_M or Y_Mdot None (what the paper's controller, gjm-ct and
-    adaptive-ct do not use) writes the other outputs with the bits of the full call, and
+    """``velocity_terms`` with Y_M, Y_Mdot or Y_h None (what the paper's controller, gjm-ct
+    and adaptive-ct do not use) writes the other outputs with the bits of the full call, and
     never reads the vector of a regressor it skips (NaN there would show)."""
     from ffsm_pin.model._spatial_kinematics_kernels import kinematics
     from ffsm_pin.model._spatial_velocity_kernels import velocity_terms
@@ -229,15 +229,55 @@ def test_velocity_terms_without_some_regressors_keeps_the_others_bits(
     full = [np.empty((N, nd)) for _ in range(3)] + [np.empty((3, nd))]
     velocity_terms(R, z, w, a, sv, *full)
     nan = np.full(N, np.nan)
-    for skip_ym, skip_ymdot in [(True, False), (False, True), (True, True)]:
+    skips = [(True, False, False), (False, True, False), (True, True, False),
+             (True, False, True), (False, False, True)]  # fmt: skip
+    for skip_ym, skip_ymdot, skip_yh in skips:
         out = [np.full((N, nd), np.nan) for _ in range(3)] + [np.full((3, nd), np.nan)]
         velocity_terms(
             R, z, w, nan if skip_ym else a, nan if skip_ymdot else sv,
-            None if skip_ym else out[0], None if skip_ymdot else out[1], out[2], out[3],
+            None if skip_ym else out[0], None if skip_ymdot else out[1],
+            None if skip_yh else out[2], out[3],
         )  # fmt: skip
-        kept = [i for i, skip in enumerate((skip_ym, skip_ymdot, False, False)) if not skip]
+        skipped = (skip_ym, skip_ymdot, skip_yh, False)
+        kept = [i for i, skip in enumerate(skipped) if not skip]
         for i in kept:
-            assert np.array_equal(out[i], full[i]), (skip_ym, skip_ymdot, i)
+            assert np.array_equal(out[i], full[i]), (skipped, i)
+
+
+@pytest.mark.parametrize("n", [1, 4, 7])
+def test_dynamic_level_regressor_is_one_velocity_regressor(spatial_chain, spatial_state, rng, n):
+    """What the compiled spatial period forms for Eqs. (49)-(52) (docs/spatial.md section 4):
+    Y_c = Y_Mdot(w, w-hat) less the dT/dq rows equals -(Y_Mdot(w, w~) - Y_h(w)) of the numpy
+    reference (w~ = w - w-hat), and Y_M(a) added into it in place (``add_ym``) equals the
+    reference's Y_M(a) + Y_c: the filter input of Eq. (50)."""
+    from ffsm_pin.model._spatial_kinematics_kernels import kinematics
+    from ffsm_pin.model._spatial_mass_kernels import add_ym, ym
+    from ffsm_pin.model._spatial_velocity_kernels import subtract_dT, velocity_terms
+
+    robot = spatial_chain(n, n % 3)
+    s = SpatialState(robot).update(*spatial_state(robot, rng))
+    bm = SpatialBarycentricModel(robot.geometry)
+    ref = SpatialBarycentricModel(robot.geometry, backend="numpy")
+    consts = bm.kernel_constants()
+    N, nd = n + 3, bm.n_d
+    qb, qm, w = s.base_attitude, s.joint_angles, s.w
+    R, z = np.empty((n + 1, 3, 3)), np.empty((n, 3))
+    kinematics(qb, qm, consts.joint_rot, consts.axes, R, z)
+    w_hat = w + 0.3 * rng.normal(size=N) * np.abs(w).max()
+    a = rng.normal(size=N)
+    Yc, Yb = np.full((N, nd), np.nan), np.empty((3, nd))
+    velocity_terms(R, z, w, w, w_hat, None, Yc, None, Yb)
+    subtract_dT(R, z, w, Yc)
+    expected = ref.Y_Mdot(qb, qm, w, w - w_hat) - ref.Y_h(qb, qm, w)
+    assert rel(Yc, -expected) < 1e-12
+    Y_dc = Yc.copy()
+    add_ym(R, z, a, Y_dc, False)
+    assert rel(Y_dc, ref.Y_M(qb, qm, a) - expected) < 1e-12
+    # ym is add_ym into zeros, bit for bit
+    Y0, Y1 = np.full((N, nd), np.nan), np.zeros((N, nd))
+    ym(R, z, a, Y0, False)
+    add_ym(R, z, a, Y1, False)
+    assert np.array_equal(Y0, Y1)
 
 
 def test_unknown_backend(spatial_chain):
