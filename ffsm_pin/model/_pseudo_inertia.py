@@ -77,8 +77,10 @@ def planar_table(n_bodies: int, collinear: bool) -> PseudoInertiaTable:
     return _table(e, nb if collinear else 2 * nb)
 
 
-#: the entries (i, j) of a symmetric 3x3 matrix in theta_d's order (as _spatial_layout.SYM6)
-_SYM6 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+#: the entries (i, j) of a symmetric 3x3 matrix in theta_d's order (xx, xy, xz, yy, yz, zz):
+#: each body's inertia in the spatial layout (here, the lowest module that reads it;
+#: :mod:`._spatial_layout` and the kernels import it)
+SYM6 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
 
 def spatial_table(n_bodies: int) -> PseudoInertiaTable:
@@ -98,7 +100,7 @@ def spatial_table(n_bodies: int) -> PseudoInertiaTable:
     nb = n_bodies
     e = []
     for k in range(nb):
-        for s, (i, j) in enumerate(_SYM6):
+        for s, (i, j) in enumerate(SYM6):
             p = 6 * k + s
             if i == j:  # tr(Jbar)/2 on the three diagonal entries, minus J_ii on its own
                 e += [(3 * k + a, 3 * k + a, p, 0.5 - (a == i)) for a in range(3)]

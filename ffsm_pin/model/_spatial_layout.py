@@ -11,10 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ._pseudo_inertia import PseudoInertiaTable, spatial_table
-
-#: the entries (i, j) of a symmetric 3x3 matrix in theta_d's order (xx, xy, xz, yy, yz, zz)
-SYM6 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+# SYM6: the entries (i, j) of a body's symmetric 3x3 inertia in theta_d's order (xx, xy, xz,
+# yy, yz, zz), defined in the lower module and read from here by the model and its kernels
+from ._pseudo_inertia import SYM6, PseudoInertiaTable, spatial_table
 
 
 @dataclass(frozen=True)
