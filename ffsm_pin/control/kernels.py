@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from .._array_kernels import gram, mv, spd_solve, symmetric_solve_transposed
+from .._docstrings import doc_entries, fill_doc
 from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
 
 #: The complex step h of the control layer's exact derivatives (any tiny h: no subtractive
@@ -329,7 +330,18 @@ def objective_gradient(ns, q_m, A):
 
 
 # ---------------------------------------------------------------------- estimators
+#: the entries Eq. (50)'s two updates share
+_FILTER_DOC = doc_entries(
+    filter_state="""
+        Y_df : ndarray
+            The filtered regressor, updated in place.
+        decay, gain : float
+            exp(-k_de dt) and (1 - exp(-k_de dt)) / k_de.""",
+)
+
+
 @njit(cache=True)
+@fill_doc(_FILTER_DOC)
 def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):
     """Eq. (50) over one period, in place: ``Y_df <- decay Y_df + gain ((YM - YMdot) + Yh)``
     with ``decay = exp(-k_de dt)``, ``gain = (1 - exp(-k_de dt)) / k_de`` and Y_dc = Y_M(dw-hat
@@ -339,10 +351,7 @@ def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):
 
     Parameters
     ----------
-    Y_df : ndarray
-        The filtered regressor, updated in place.
-    decay, gain : float
-        exp(-k_de dt) and (1 - exp(-k_de dt)) / k_de.
+    %(filter_state)s
     YM, YMdot, Yh : ndarray
         The terms of Y_dc, shaped as Y_df.
     """
@@ -352,6 +361,7 @@ def filter_regressor_update(Y_df, decay, gain, YM, YMdot, Yh):
 
 
 @njit(cache=True)
+@fill_doc(_FILTER_DOC)
 def filter_input_update(Y_df, decay, gain, Y_dc):
     """Eq. (50) over one period, in place, from its input ``Y_dc`` formed beforehand:
     ``Y_df <- decay Y_df + gain Y_dc`` (the spatial period adds Y_M into Y_c, so that Y_dc
@@ -359,10 +369,7 @@ def filter_input_update(Y_df, decay, gain, Y_dc):
 
     Parameters
     ----------
-    Y_df : ndarray
-        The filtered regressor, updated in place.
-    decay, gain : float
-        exp(-k_de dt) and (1 - exp(-k_de dt)) / k_de.
+    %(filter_state)s
     Y_dc : ndarray
         Y_dc, shaped as Y_df.
     """

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._docstrings import fill_doc
+from .._docstrings import doc_entries, fill_doc
 from ._kernel_docs import KERNEL_DOC
 from ._spatial_kinematics_kernels import body_rates, mm, mmt
 from ._spatial_layout import SYM6
@@ -103,45 +103,48 @@ def pair_coupling(X, Km):
         Km[i, i] += tr
 
 
+#: the entries :func:`ym` and :func:`add_ym` share
+_YM_DOC = doc_entries(
+    R_any="""
+        R : ndarray (n+1, 3, 3)
+            Body rotations R_k (real or complex).""",
+    z=KERNEL_DOC["z"],
+    a="""
+        a : ndarray (N,)
+            The vector M multiplies (an acceleration [rad/s^2], or w [rad/s] for the
+            momentum rows).""",
+    base_only="""
+        base_only : bool
+            Only the base rows 1-3 (Eq. 14's regressor of H_bb w_b + H_bm w_m).""",
+    Y_set="""
+        Y : ndarray (N, n_d), or (3, n_d) with ``base_only``
+            The regressor Y_M(a), overwritten.""",
+    Y_add="""
+        Y : ndarray (N, n_d), or (3, n_d) with ``base_only``
+            Y_M(a) is added to it.""",
+    params_ym=("R_any", "z", "a", "Y_set", "base_only"),
+    params_add_ym=("R_any", "z", "a", "Y_add", "base_only"),
+)
+
+
 @njit(cache=True)
+@fill_doc(_YM_DOC)
 def ym(R, z, a, Y, base_only):
     """Y with Y theta_d = M a (rows 1-3 only if base_only).
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real or complex).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
-    a : ndarray (N,)
-        The vector M multiplies (an acceleration [rad/s^2], or w [rad/s] for the momentum
-        rows).
-    Y : ndarray (N, n_d), or (3, n_d) with ``base_only``
-        The regressor Y_M(a), overwritten.
-    base_only : bool
-        Only the base rows 1-3 (Eq. 14's regressor of H_bb w_b + H_bm w_m).
+    %(params_ym)s
     """
     Y[:] = 0.0
     add_ym(R, z, a, Y, base_only)
 
 
 @njit(cache=True)
+@fill_doc(_YM_DOC)
 def add_ym(R, z, a, Y, base_only):
     """Y += Y_M(a) in place (:func:`ym` without clearing ``Y`` first: a regressor added to
     another without a pass over a third array, as Eq. (50)'s filter input is).
 
-    Parameters
-    ----------
-    R : ndarray (n+1, 3, 3)
-        Body rotations R_k (real or complex).
-    z : ndarray (n, 3)
-        Inertial joint axes z_j.
-    a : ndarray (N,)
-        The vector M multiplies.
-    Y : ndarray (N, n_d), or (3, n_d) with ``base_only``
-        The regressor Y_M(a) is added to it.
-    base_only : bool
-        Only the base rows 1-3.
+    %(params_add_ym)s
     """
     nb = R.shape[0]
     b = np.zeros((nb, 3), dtype=R.dtype)
