@@ -220,9 +220,10 @@ def velocity_terms(R, z, w, a, s, YM, YMdot, Yh, Yb):
 
     ``YM``, ``YMdot`` or ``Yh`` None: that regressor is not computed (numba compiles none of
     its code; ``a`` resp. ``s`` is then not read). The others are the same values either way:
-    each entry is its own expression.  (Y_Mdot(w, s) with ``s = w`` is the dM/dt w part of
-    Y_h(w): a caller wanting Y_Mdot(w, s) - Y_h(w) asks for Y_Mdot(w, s - w) alone and adds
-    the dT/dq rows, :func:`subtract_dT` with the sign turned; docs/spatial.md section 4.)
+    each entry is its own expression. (Y_Mdot(w, s) with ``s = w`` is the dM/dt w part of
+    Y_h(w), so Y_Mdot(w, s) - Y_h(w) = -(Y_Mdot(w, w - s) less the dT/dq rows): one
+    regressor, ``YMdot`` for the vector w - s and :func:`subtract_dT` on it, as the paper's
+    spatial period forms it with s = w~, w - s = w-hat; docs/spatial.md section 4.)
 
     %(params_R_real_z)s
     w : ndarray (N,)
