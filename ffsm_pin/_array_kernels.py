@@ -128,6 +128,16 @@ def difference(A, B):
 
 
 @njit(cache=True)
+def add_scaled(A, c, B):
+    """``A += c * B`` in place for two matrices of the same shape, by loops: the same values as
+    numba's array expression (each entry ``A + (c B)``), without its temporary (on the
+    spatial regressors, 10 x 300: about 0.25 us against 2 us)."""
+    for i in range(A.shape[0]):
+        for j in range(A.shape[1]):
+            A[i, j] += c * B[i, j]
+
+
+@njit(cache=True)
 def positive_definite(A):
     """True when the symmetric real ``A`` is positive definite (M-hat of the filter, Eq. 46).
 
@@ -448,7 +458,7 @@ def spd_solve(A, b):
 
 
 __all__ = [
-    "cmm", "cmmt", "cmtv", "cmv", "difference", "gram", "mm", "mv", "positive_definite", "put",
-    "put_rows", "smallest_singular_value_above", "solve", "spd_solve",
+    "add_scaled", "cmm", "cmmt", "cmtv", "cmv", "difference", "gram", "mm", "mv",
+    "positive_definite", "put", "put_rows", "smallest_singular_value_above", "solve", "spd_solve",
     "symmetric_eigen", "symmetric_solve_transposed",
 ]  # fmt: skip

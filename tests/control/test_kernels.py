@@ -9,7 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ffsm_pin._array_kernels import difference, positive_definite, smallest_singular_value_above
+from ffsm_pin._array_kernels import (
+    add_scaled,
+    difference,
+    positive_definite,
+    smallest_singular_value_above,
+)
 from ffsm_pin.control.funnel import Funnel, FunnelExit, FunnelParams
 from ffsm_pin.control.kernels import (
     damped_pinv,
@@ -200,8 +205,9 @@ def test_the_determinant_bound_decides_clear_cases_and_is_never_wrong(rng, scale
 
 
 def test_loops_give_the_bits_of_the_array_expressions(rng):
-    """difference, filter_regressor_update and filter_input_update (Eq. 50) equal the numpy
-    expressions they replace byte for byte, signed zeros included."""
+    """difference, add_scaled (adaptive-ct's polarization), filter_regressor_update and
+    filter_input_update (Eq. 50) equal the numpy expressions they replace byte for byte,
+    signed zeros included."""
     shape = (10, 33)
     Y_df, YM, YMdot, Yh = (rng.normal(size=shape) for _ in range(4))
     for arr in (Y_df, YM, YMdot, Yh):  # signed zeros where the sums cancel
@@ -209,6 +215,11 @@ def test_loops_give_the_bits_of_the_array_expressions(rng):
         arr[rng.random(shape) < 0.1] = -0.0
     YMdot[:, :3] = YM[:, :3]  # exact cancellations
     assert difference(YMdot, Yh).tobytes() == (YMdot - Yh).tobytes()
+    for c in (0.25, -0.25, 0.1):
+        got, expected = YM.copy(), YM.copy()
+        add_scaled(got, c, Yh)
+        expected += c * Yh
+        assert got.tobytes() == expected.tobytes(), c
     decay, gain = np.exp(-0.3e-3), -np.expm1(-0.3e-3) / 0.3
     expected = decay * Y_df + gain * (YM - YMdot + Yh)
     Y_dc = YM - YMdot + Yh
