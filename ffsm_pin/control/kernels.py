@@ -125,7 +125,8 @@ def funnel_terms(f, t, e, identity):
     """(psi, Phi, exit index or -1) of Eqs. (18)-(22) for the funnel ``f``
     (records of :data:`FUNNEL_RECORD`) at time ``t`` [s], in the dtype of the error ``e`` (real, or
     complex for a complex step in ``t`` or the state). The exit index is the component nearest
-    to (or farthest beyond) its bound, as :class:`~ffsm_pin.control.funnel.Funnel` reports it;
+    to (or farthest beyond) its bound, as :class:`~ffsm_pin.control.funnel.Funnel` reports it
+    (psi and Phi are then not Eqs. 21-22's: the period stops);
     ``identity`` gives psi = e, Phi = 1 (no prescribed performance).
 
     Parameters
@@ -147,8 +148,9 @@ def funnel_terms(f, t, e, identity):
             psi[i] = e[i]
             Phi[i] = 1.0
         return psi, Phi, -1
-    rho = np.empty(m, dtype=e.dtype)  # complex when t is complex-stepped
-    s = np.empty(m, dtype=e.dtype)
+    # rho (complex when t is complex-stepped) and s = e / rho held in Phi and psi until
+    # Eqs. (21)-(22) replace them (two arrays fewer a call); on an exit psi and Phi hold them
+    rho, s = Phi, psi
     worst, idx = np.inf, -1
     for i in range(m):
         c = f[i]
