@@ -10,7 +10,7 @@ from numba import njit
 from numba.typed import List
 
 from ._actuator_kernel import actuate
-from .plant import STATE_OK, _state_status  # (the plant's own state check, for the batch)
+from .plant import STATE_OK, _project_base, _state_status  # (the plant's own, for the batch)
 
 
 @njit(cache=True)
@@ -62,6 +62,30 @@ def state_checks(Q, V, n_linear, rate_limit, active, state):
             if state[b] != STATE_OK:
                 count += 1
     return count
+
+
+@njit(cache=True)
+def restore_momenta(Ag, V, momentum0, rows, live):
+    """:meth:`~.plant.Plant.restore_momentum` of each case ``b`` in ``live``, in one call: the
+    base twist of ``V[b]`` corrected in place so that the momentum at the case's new
+    configuration, whose centroidal map is ``Ag[b]``, is ``momentum0[b]`` again (the
+    plant's own projection kernel, case by case: the same bits).
+
+    Parameters
+    ----------
+    Ag : ndarray, shape (B, 6, nv)
+        Each case's centroidal map at its new configuration.
+    V : ndarray, shape (B, nv)
+        The velocities, corrected in place.
+    momentum0 : ndarray, shape (B, r)
+        Each case's conserved rows of h_g.
+    rows : ndarray, shape (r,)
+        Those rows (:attr:`~.plant.Plant.conserved_rows`).
+    live : ndarray of int
+        The cases to correct.
+    """
+    for b in live:
+        _project_base(Ag[b], V[b], momentum0[b], rows)
 
 
 @njit(cache=True)

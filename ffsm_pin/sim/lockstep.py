@@ -223,6 +223,10 @@ class _Lockstep:
         self.V = np.array([s.v0 for s in setups])
         for plant, q, v in zip(self.plants, self.Q, self.V, strict=True):
             plant.reset(q.copy(), v.copy())
+        # the momentum projection's terms: each case's conserved momentum, its rows, the maps
+        self.momentum0 = np.array([p.momentum0 for p in self.plants])
+        self.momentum_rows = self.plants[0].conserved_rows
+        self.Ag = np.empty((B, 6, self.V.shape[1]))
         self.sensing = SENSING[s0.robot.base](setups)
         self.handles = [s.controller.lockstep_handles() for s in setups]  # type: ignore[attr-defined]
         self.reactions = [reaction_torques(s.model, s.theta_d, numba_available()) for s in setups]
@@ -345,11 +349,13 @@ class _Lockstep:
             V_new = V.copy()
             V_new[live] = V[live] + dt * acc[live]
         dq = dt * V_new
-        Q_new = Q.copy()
+        Q_new, Ag = Q.copy(), self.Ag
         for b in live:
             p = plants[b]
             Q_new[b] = pin.integrate(p.model, Q[b], dq[b])
-            p.restore_momentum(Q_new[b], V_new[b])  # (Plant.step's projection)
+            Ag[b] = pin.computeCentroidalMap(p.model, p.data, Q_new[b])
+        # Plant.step's projection (restore_momentum), the batch's in one call
+        _lockstep_kernels.restore_momenta(Ag, V_new, self.momentum0, self.momentum_rows, live)
         if _lockstep_kernels.state_checks(Q_new, V_new, self.n_lin, RATE_LIMIT, self.active,
                                           self.state):  # fmt: skip
             for b in np.flatnonzero(self.state):  # (a stopped case keeps its last state)

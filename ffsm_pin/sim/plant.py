@@ -411,6 +411,13 @@ class Plant:
         """
         return _state_status(q, v, self.n_linear, rate_limit)
 
+    @property
+    def conserved_rows(self) -> np.ndarray:
+        """The rows of Pinocchio's centroidal momentum h_g = (P, L) that :attr:`momentum0`
+        holds and the projection keeps: planar (P_x, P_y, L_z), free-flyer all six (a copy:
+        the root table's own array stays as it is)."""
+        return self._rows.copy()
+
     def restore_momentum(self, q, v) -> None:
         """Correct the base twist of ``v`` in place so that the momentum at ``q`` is
         :attr:`momentum0` again: the projection :meth:`step` makes after each step (a lock-step
