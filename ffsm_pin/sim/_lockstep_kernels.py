@@ -66,10 +66,10 @@ def state_checks(Q, V, n_linear, rate_limit, active, state):
 
 @njit(cache=True)
 def restore_momenta(Ag, V, momentum0, rows, live):
-    """:meth:`~.plant.Plant.restore_momentum` of each case ``b`` in ``live``, in one call: the
-    base twist of ``V[b]`` corrected in place so that the momentum at the case's new
-    configuration, whose centroidal map is ``Ag[b]``, is ``momentum0[b]`` again (the
-    plant's own projection kernel, case by case: the same bits).
+    """The momentum projection :meth:`~.plant.Plant.step` makes after each step, for each
+    case ``b`` in ``live`` in one call: the base twist of ``V[b]`` corrected in place so that
+    the momentum at the case's new configuration, whose centroidal map is ``Ag[b]``, is
+    ``momentum0[b]`` again (the plant's own projection kernel, case by case: the same bits).
 
     Parameters
     ----------

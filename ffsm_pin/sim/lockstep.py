@@ -354,7 +354,7 @@ class _Lockstep:
             p = plants[b]
             Q_new[b] = pin.integrate(p.model, Q[b], dq[b])
             Ag[b] = pin.computeCentroidalMap(p.model, p.data, Q_new[b])
-        # Plant.step's projection (restore_momentum), the batch's in one call
+        # Plant.step's momentum projection, the batch's in one call
         _lockstep_kernels.restore_momenta(Ag, V_new, self.momentum0, self.momentum_rows, live)
         if _lockstep_kernels.state_checks(Q_new, V_new, self.n_lin, RATE_LIMIT, self.active,
                                           self.state):  # fmt: skip

@@ -418,18 +418,6 @@ class Plant:
         the root table's own array stays as it is)."""
         return self._rows.copy()
 
-    def restore_momentum(self, q, v) -> None:
-        """Correct the base twist of ``v`` in place so that the momentum at ``q`` is
-        :attr:`momentum0` again: the projection :meth:`step` makes after each step (a lock-step
-        run's plant steps, :mod:`.lockstep`).
-
-        Parameters
-        ----------
-        %(q_v)s
-        """
-        Ag = pin.computeCentroidalMap(self.model, self.data, q)
-        _project_base(Ag, v, self.momentum0, self._rows)  # type: ignore[arg-type]  # (reset)
-
     def project(self, q, v, momentum=None) -> np.ndarray:
         """Base twist that restores the conserved momentum at q, joint rates unchanged (a new
         array; v is not modified). ``momentum``: the conserved rows to restore instead of
