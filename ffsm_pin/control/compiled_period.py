@@ -215,18 +215,9 @@ class CompiledPeriod:
             raise ParameterError("step_row needs theta_d_true (the row's e of Eq. 54)")
 
     def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
-        # what the paper's controller calls every period: _require_truth, _period_box and
-        # _run_compiled written out (the same calls; three Python calls fewer a period)
-        if self.theta_d_true is None:
-            self._require_truth()
-        box, made_of = self._box, self._box_of
-        if box is None or made_of[0] is not self._fields or made_of[1] is not self.state:
-            box = self._period_box()
-        status, idx, value = period_of(box, dt, self._kernel_meas(meas), self._aux)
-        out = self._out
-        if status != kernels.STATUS_OK or out.damping[0] != 0.0 or self._watch.since is not None:
-            self.settle(meas, status, idx, value, stacklevel=2)
-        return RowOutput(out.u_m.copy(), self._row.copy())
+        self._require_truth()
+        self._run_compiled(meas, dt)
+        return RowOutput(self._out.u_m.copy(), self._row.copy())
 
     def step_compiled(self, meas: Measurement, dt: float) -> ControlOutput:
         """:meth:`step` by the compiled period; the outputs are copies.
