@@ -3,7 +3,8 @@ a proportion (Wilson score, Clopper-Pearson exact), the exact McNemar test of tw
 on paired runs, and run counts: for an interval of a given half-width, and to tell two rates
 apart.
 
-scipy does the exact binomial arithmetic (``scipy.stats.binomtest``) and the normal quantiles.
+scipy does the exact binomial arithmetic (``scipy.stats.binomtest``, the beta quantiles of
+Clopper-Pearson's bounds) and the normal quantiles.
 """
 
 from __future__ import annotations
@@ -89,10 +90,16 @@ def clopper_pearson(
     """
     if n <= 0:
         return None, None
-    from scipy.stats import binomtest
+    from scipy.special import betaincinv
 
-    ci = binomtest(int(kept), int(n)).proportion_ci(confidence_level=level, method="exact")
-    return float(ci.low), float(ci.high)
+    # the bounds are quantiles of beta distributions (Clopper & Pearson 1934): what
+    # scipy.stats.binomtest(...).proportion_ci(method="exact") finds by root-finding on the
+    # binomial tail (27 ms a call, most of a campaign report's statistics), in one call of the
+    # inverse regularised incomplete beta function (tests/sweep/test_stats.py: the same to 1e-10)
+    k, n, tail = int(kept), int(n), (1.0 - level) / 2
+    lower = 0.0 if k == 0 else float(betaincinv(k, n - k + 1, tail))
+    upper = 1.0 if k == n else float(betaincinv(k + 1, n - k, 1.0 - tail))
+    return lower, upper
 
 
 def mcnemar_exact(only_a: int, only_b: int) -> float:

@@ -30,6 +30,20 @@ def test_clopper_pearson_known_values():
     assert clopper_pearson(0, 0) == (None, None)
 
 
+def test_clopper_pearson_is_scipys_exact_interval():
+    # the bounds by the beta quantiles are those scipy's binomtest finds by root-finding on the
+    # binomial tails (its bracketing stops at about 1e-12), for every count up to n = 60 and
+    # for large campaigns, at two levels
+    from scipy.stats import binomtest
+
+    cases = [(k, n) for n in range(1, 61) for k in range(n + 1)]
+    cases += [(0, 400), (1, 400), (200, 400), (399, 400), (400, 400), (7, 10_000)]
+    for level in (0.95, 0.99):
+        for k, n in cases:
+            ci = binomtest(k, n).proportion_ci(confidence_level=level, method="exact")
+            assert clopper_pearson(k, n, level) == pytest.approx((ci.low, ci.high), abs=1e-10)
+
+
 def test_wilson_known_values_and_wider_exact():
     assert wilson(5, 10) == pytest.approx((0.2366, 0.7634), abs=1e-4)  # Newcombe 1998
     assert wilson(0, 11) == pytest.approx((0.0, 0.2588), abs=1e-4)
