@@ -45,6 +45,7 @@ from ..control.interface import SignalLayout, recorded_name
 from ..errors import ParameterError, SimulationError
 from . import _lockstep_kernels
 from ._lockstep_parts import SENSING, Actuation, Control, Noise, sensing_mode
+from .chunk_pool import ChunkPool
 from .loop import RATE_LIMIT, interrupted_stop, loop_result, state_stop
 from .recorder import Recorder
 from .recording import (
@@ -159,6 +160,7 @@ def simulate_lockstep(
     setups: Sequence[Setup],
     spool_dir: str | Path | None = None,
     memory_bytes: int | None = None,
+    pool: ChunkPool | None = None,
 ) -> list[RunResult]:
     """Run ``setups`` in lock-step; see the module docstring.
 
@@ -175,6 +177,8 @@ def simulate_lockstep(
     spool_dir : str, Path or None
         As :func:`~ffsm_pin.sim.loop.simulate`'s.
     memory_bytes : int or None
+        As :func:`~ffsm_pin.sim.loop.simulate`'s.
+    pool : ChunkPool or None
         As :func:`~ffsm_pin.sim.loop.simulate`'s.
 
     Returns
@@ -198,7 +202,7 @@ def simulate_lockstep(
         )
     if not setups:
         return []
-    run = _Lockstep(setups, spool_dir, memory_bytes)
+    run = _Lockstep(setups, spool_dir, memory_bytes, pool)
     wall0 = time.perf_counter()
     run.loop()
     return run.results(time.perf_counter() - wall0)
@@ -207,7 +211,7 @@ def simulate_lockstep(
 class _Lockstep:
     """The state of a lock-step run: the batch's arrays, each case's recorder and stop."""
 
-    def __init__(self, setups, spool_dir, memory_bytes):
+    def __init__(self, setups, spool_dir, memory_bytes, pool):
         self.setups = setups
         s0 = setups[0]
         sc = s0.scenario
@@ -247,6 +251,7 @@ class _Lockstep:
                 n_rows,
                 spool_dir,
                 chunk_bytes=memory_bytes,
+                pool=pool,
                 packed=packed,
                 header=partial(spool_header, s, 1),
             )  # fmt: skip

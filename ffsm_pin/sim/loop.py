@@ -32,6 +32,7 @@ from ..control.interface import (
 from ..errors import ParameterError, SimulationError
 from . import recorder
 from .capture_run import CaptureMotion, target_motions
+from .chunk_pool import ChunkPool
 from .measurement import Sensor
 from .plant import STATE_NONFINITE, STATE_OK
 from .recorder import Recorder, Signals
@@ -142,6 +143,7 @@ def simulate(
     record_every: int = 1,
     spool_dir: str | Path | None = None,
     memory_bytes: int | None = None,
+    pool: ChunkPool | None = None,
 ) -> RunResult:
     """Run the closed loop for the scenario's duration; see the module docstring.
 
@@ -165,6 +167,10 @@ def simulate(
         to ``spool_dir``; None: :data:`~ffsm_pin.sim.recorder.CHUNK_BYTES`. A larger chunk
         spares a long run the spill's copies (a campaign's cases: ``ffsm_pin.sweep.engine``)
         at that memory, and a run killed before its first spill leaves nothing to recover.
+    pool : ChunkPool or None
+        Where the recorder's large arrays come from: memory reused within a process
+        (:mod:`ffsm_pin.sim.chunk_pool`, a campaign worker's), or fresh memory when None. The
+        same rows either way.
 
     Returns
     -------
@@ -208,7 +214,13 @@ def simulate(
 
     def recorder_of(shapes: dict) -> Recorder:  # (again at the first period, for its signals)
         return Recorder(
-            shapes, n_rows, spool_dir, chunk_bytes=memory_bytes, packed=packed, header=header
+            shapes,
+            n_rows,
+            spool_dir,
+            chunk_bytes=memory_bytes,
+            packed=packed,
+            header=header,
+            pool=pool,
         )
 
     rec = recorder_of(shapes)

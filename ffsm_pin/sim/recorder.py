@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from .chunk_pool import ChunkPool
+
 # rows held in memory: as many as fit in this many bytes (at least one)
 CHUNK_BYTES = 32 * 2**20
 # rows read at a time when a spilled recording is summarised, decimated or packed
@@ -210,6 +212,9 @@ class Recorder:
         Called when the spool folder is made: what the spool says of its run (JSON-able), written
         into :data:`SPOOL_HEADER` with the row shapes before any row, so that the rows of a run
         killed before its end can be read back (:mod:`ffsm_pin.sim.recover`).
+    pool : ChunkPool or None
+        Where the chunk's memory comes from (:mod:`ffsm_pin.sim.chunk_pool`: memory reused
+        within a campaign worker); fresh memory when None.
     """
 
     def __init__(
@@ -220,14 +225,16 @@ class Recorder:
         chunk_bytes: int | None = None,
         packed: Sequence[str] = (),
         header: Callable[[], Mapping[str, Any]] | None = None,
+        pool: ChunkPool | None = None,
     ):
         self._header = header
+        full = np.full if pool is None else pool.full
         chunk_bytes = CHUNK_BYTES if chunk_bytes is None else chunk_bytes
         self.shapes = dict(shapes)
         row = sum(8 * int(np.prod(s)) for s in self.shapes.values())
         self.chunk_rows = int(max(1, min(capacity, chunk_bytes // max(1, row))))
         widths = [int(np.prod(self.shapes[key])) for key in packed]
-        self.block = np.full((self.chunk_rows, sum(widths)), np.nan)
+        self.block = full((self.chunk_rows, sum(widths)), np.nan)
         views, start = {}, 0
         for key, width in zip(packed, widths, strict=True):
             views[key] = self.block[:, start : start + width].reshape(
@@ -235,7 +242,7 @@ class Recorder:
             )
             start += width
         self.arrays = {
-            k: views[k] if k in views else np.full((self.chunk_rows, *s), np.nan)
+            k: views[k] if k in views else full((self.chunk_rows, *s), np.nan)
             for k, s in self.shapes.items()
         }
         self.i = 0  # row of the chunk being written

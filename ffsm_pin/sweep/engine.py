@@ -80,6 +80,16 @@ QUIET_WORKERS: dict[str, Any] = {
     "distributed.admin.system-monitor.interval": "2s",
     # worker and nanny memory polling, 100 ms by default; a case holds a few MB
     "distributed.worker.memory.monitor-interval": "1s",
+    # the environment a nanny starts its worker with: Dask's default less its
+    # MALLOC_TRIM_THRESHOLD_ = 65536, which makes glibc give every freed array above 128 KB
+    # back to the system, so that each case's arrays are fresh memory again (page faults:
+    # 1.8 us a step of the spatial cells on one worker, benchmarks/README.md "Recorder memory
+    # kept in the worker"); the worker holds its last cases' memory instead
+    "distributed.nanny.pre-spawn-environ": {
+        "OMP_NUM_THREADS": 1,
+        "MKL_NUM_THREADS": 1,
+        "OPENBLAS_NUM_THREADS": 1,
+    },
 }
 
 

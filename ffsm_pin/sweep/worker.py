@@ -31,7 +31,8 @@ if TYPE_CHECKING:
     from ..sim.setup import Setup
 
 __all__ = [
-    "CASE_MEMORY_BYTES", "WARMUP_STEPS", "run_batch", "run_case", "summary_scalars", "warm_up",
+    "CASE_MEMORY_BYTES", "WARMUP_STEPS", "recorder_pool", "run_batch", "run_case",
+    "summary_scalars", "warm_up",
 ]  # fmt: skip
 
 #: Steps of a :func:`warm_up` run.
@@ -211,7 +212,9 @@ def run_batch(
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 results = simulate_lockstep(
-                    [ready[i][1] for i in cases], memory_bytes=CASE_MEMORY_BYTES
+                    [ready[i][1] for i in cases],
+                    memory_bytes=CASE_MEMORY_BYTES,
+                    pool=recorder_pool(),
                 )
         except Exception:  # noqa: BLE001 - its cases run alone below, set up again
             for i in cases:
@@ -225,6 +228,8 @@ def run_batch(
             start = (time.perf_counter() - own_wall, work_time() - own_cpu)  # (its own part)
             outcomes[i] = _outcome(scenario, setup, res, keeps[i], *start,
                                    shared=(wall * part, cpu * part))  # fmt: skip
+        del res  # (and the list: the recorders' memory back to the pool for the next group)
+        results.clear()
     for i, (scenario, setup, own_wall, own_cpu) in ready.items():
         if outcomes[i] is None:  # one lock-step does not take: alone, on its set-up
             wall0, cpu0 = time.perf_counter() - own_wall, work_time() - own_cpu
@@ -240,10 +245,30 @@ def _simulated(scenario, setup, keep_dir, wall0: float, cpu0: float) -> dict[str
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            result = simulate(setup, memory_bytes=CASE_MEMORY_BYTES)
+            result = simulate(setup, memory_bytes=CASE_MEMORY_BYTES, pool=recorder_pool())
     except Exception as exc:  # noqa: BLE001 - recorded in the row, the campaign goes on
         return _error(exc, wall0, cpu0)
     return _outcome(scenario, setup, result, keep_dir, wall0, cpu0)
+
+
+_POOL: list = []  # the process's ChunkPool, made by the first case that runs here
+
+
+def recorder_pool():
+    """The worker process's :class:`~ffsm_pin.sim.chunk_pool.ChunkPool`: its cases' recorders
+    reuse the memory of the cases before them (benchmarks/README.md, "Recorder memory kept in
+    the worker").
+
+    Returns
+    -------
+    ChunkPool
+        The pool (one per process).
+    """
+    if not _POOL:
+        from ..sim.chunk_pool import ChunkPool
+
+        _POOL.append(ChunkPool())
+    return _POOL[0]
 
 
 def _cost(wall0: float, cpu0: float, shared=(0.0, 0.0)) -> dict[str, float]:

@@ -48,3 +48,22 @@ def test_a_campaign_case_keeps_its_rows_in_memory(monkeypatch):
         if key not in TIMING:
             assert _same(outcome[key], value), key
     assert CASE_MEMORY_BYTES >= 2**20 * 32  # never less than a single run's chunk
+
+
+def test_the_workers_keep_freed_memory(monkeypatch):
+    """The campaign's workers start without Dask's MALLOC_TRIM_THRESHOLD_ (glibc would give
+    each case's freed arrays back to the system, and the next case pay their page faults
+    again; benchmarks/README.md), with Dask's one thread per numerical library kept."""
+    import os
+
+    from ffsm_pin.sweep.engine import shutdown, start_client
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)  # (a nanny before may leak it)
+    client, cluster = start_client(1, quiet=True)
+    try:
+        env = client.run(lambda: dict(os.environ))
+    finally:
+        shutdown(client, cluster)
+    (worker_env,) = env.values()
+    assert "MALLOC_TRIM_THRESHOLD_" not in worker_env
+    assert worker_env["OMP_NUM_THREADS"] == "1" and worker_env["OPENBLAS_NUM_THREADS"] == "1"
