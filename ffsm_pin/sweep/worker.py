@@ -27,6 +27,7 @@ from .._cpu_time import work_time
 if TYPE_CHECKING:
     from ..robot import Robot
     from ..scenario.spec import RobotSpec, Scenario
+    from ..sim.chunk_pool import ChunkPool
     from ..sim.result import RunResult
     from ..sim.setup import Setup
 
@@ -251,10 +252,10 @@ def _simulated(scenario, setup, keep_dir, wall0: float, cpu0: float) -> dict[str
     return _outcome(scenario, setup, result, keep_dir, wall0, cpu0)
 
 
-_POOL: list = []  # the process's ChunkPool, made by the first case that runs here
+_POOL: list[ChunkPool] = []  # the process's pool, made by the first case that runs here
 
 
-def recorder_pool():
+def recorder_pool() -> ChunkPool:
     """The worker process's :class:`~ffsm_pin.sim.chunk_pool.ChunkPool`: its cases' recorders
     reuse the memory of the cases before them (benchmarks/README.md, "Recorder memory kept in
     the worker").
