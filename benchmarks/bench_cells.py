@@ -22,8 +22,9 @@ Printed per trial and cells: the campaign's wall time over its steps, the cases'
 (``case_cpu_s``) and their loops (``wall_time_s``) over the same steps, and the bare Python
 loop of ``bench_run.py`` (Pinocchio ABA, integrate, momentum projection) measured just before
 it for each of the cells' scenarios (the median of three 1 s loops), weighted by that
-scenario's steps in the campaign; the ratios to it and the medians over trials. The issue's
-targets: planar <= 2.5x, spatial <= 4x.
+scenario's steps in the campaign; the ratios to it and the medians over trials; then, for the
+last trial, each cell's (scenario and controller) case CPU and loops over its steps. The
+issue's targets: planar <= 2.5x, spatial <= 4x.
 """
 
 from __future__ import annotations
@@ -104,6 +105,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="bench_cells_"))
     rows: dict[str, list[dict[str, float]]] = {c: [] for c in args.cells}
+    cell_rows: dict[str, list[str]] = {}  # the last trial's, per scenario and controller
     load = os.getloadavg()[0]
     print(f"ffsm-pin cells benchmark: {checkout(ROOT)}, python {sys.version.split()[0]}, "
           f"os.cpu_count() = {os.cpu_count()}, load average {load:.2f} (start)")  # fmt: skip
@@ -134,6 +136,7 @@ def main(argv=None) -> int:
                     "loops": sum(r["wall_time_s"] for r in table) / steps,
                 }  # fmt: skip
                 rows[cells].append(row)
+                cell_rows[cells] = _per_cell(table)
                 print(f"trial {k + 1} {cells}: {len(table)} cases, {steps} steps, wall {wall:.1f} "
                       f"s: {1e6 * row['per_step']:.1f} us a step, {row['per_step'] / bare_step:.2f}"
                       f"x the bare loop ({1e6 * bare_step:.2f} us)", flush=True)  # fmt: skip
@@ -154,7 +157,25 @@ def main(argv=None) -> int:
             f"{1e6 * med['loops']:.1f} ({med['loops'] / med['bare']:.2f}x) | "
             f"{1e6 * med['bare']:.2f} |"
         )
+    print("\nper cell, the last trial: case CPU / steps | loops / steps [us]")
+    for cells, lines in cell_rows.items():
+        print(f"{cells}: " + "; ".join(lines))
     return 0
+
+
+def _per_cell(table: list[dict]) -> list[str]:
+    """Per scenario and controller of a campaign's rows: its cases' CPU and loops over its
+    steps [us] (where a campaign's time goes, cell by cell)."""
+    cells: dict[tuple[str, str], list[dict]] = {}
+    for r in table:
+        cells.setdefault((r["scenario"], r["controller.type"]), []).append(r)
+    out = []
+    for (scenario, controller), rs in sorted(cells.items()):
+        steps = sum(r["steps"] for r in rs)
+        cpu = sum(r["case_cpu_s"] for r in rs) / steps
+        loops = sum(r["wall_time_s"] for r in rs) / steps
+        out.append(f"{scenario} {controller} {1e6 * cpu:.1f} | {1e6 * loops:.1f}")
+    return out
 
 
 if __name__ == "__main__":
