@@ -54,6 +54,7 @@ from .worker import (
 __all__ = [
     "CASE_MEMORY_BYTES",
     "QUIET_WORKERS",
+    "TRIM_VARIABLE",
     "WARMUP_STEPS",
     "n_workers",
     "run_batch",
@@ -80,17 +81,21 @@ QUIET_WORKERS: dict[str, Any] = {
     "distributed.admin.system-monitor.interval": "2s",
     # worker and nanny memory polling, 100 ms by default; a case holds a few MB
     "distributed.worker.memory.monitor-interval": "1s",
-    # the environment a nanny starts its worker with: Dask's default less its
-    # MALLOC_TRIM_THRESHOLD_ = 65536, which makes glibc give every freed array above 128 KB
-    # back to the system, so that each case's arrays are fresh memory again (page faults:
-    # 1.8 us a step of the spatial cells on one worker, benchmarks/README.md "Recorder memory
-    # kept in the worker"); the worker holds its last cases' memory instead
-    "distributed.nanny.pre-spawn-environ": {
-        "OMP_NUM_THREADS": 1,
-        "MKL_NUM_THREADS": 1,
-        "OPENBLAS_NUM_THREADS": 1,
-    },
 }
+
+#: The variable of Dask's ``distributed.nanny.pre-spawn-environ`` (65536 by default) the
+#: campaign's workers start without: it makes glibc give every freed array above 128 KB back
+#: to the system, so that each case's arrays are fresh memory again (page faults: 1.8 us a step
+#: of the spatial cells on one worker, benchmarks/README.md "Recorder memory kept in the
+#: worker"); the worker holds its last cases' memory instead.
+TRIM_VARIABLE = "MALLOC_TRIM_THRESHOLD_"
+
+
+def _worker_environ() -> dict[str, Any]:
+    """The environment a nanny starts its worker with: Dask's (its defaults and any setting of
+    yours) less :data:`TRIM_VARIABLE`."""
+    environ = dask.config.get("distributed.nanny.pre-spawn-environ", default={}) or {}
+    return {key: value for key, value in environ.items() if key != TRIM_VARIABLE}
 
 
 def start_client(
@@ -122,7 +127,8 @@ def start_client(
         with warnings.catch_warnings():  # "port 8787 in use" when another cluster runs: harmless
             warnings.simplefilter("ignore")
             # the nannies pass this config to their workers
-            with _sigint_blocked(), dask.config.set(QUIET_WORKERS):
+            spawn = {"distributed.nanny.pre-spawn-environ": _worker_environ()}
+            with _sigint_blocked(), dask.config.set({**QUIET_WORKERS, **spawn}):
                 cluster = LocalCluster(
                     n_workers=n,
                     threads_per_worker=1,
