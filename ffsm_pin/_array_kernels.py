@@ -154,82 +154,6 @@ def positive_definite(A):
 
 
 @njit(cache=True)
-def symmetric_eigen(A):
-    """(eigenvalues ascending, eigenvectors as columns) of a small real symmetric ``A`` (its
-    upper triangle read), as ``np.linalg.eigh``: cyclic Jacobi rotations by loops until the
-    off-diagonal part is below 1e-18 of the diagonal's (quadratic convergence: 3-5 sweeps for
-    3 x 3). The 3 x 3 exponentials of Eq. (28) and the smallest singular value of H_bm-hat
-    (spatial): about 0.1 us against 1-1.5 us for LAPACK's call inside a kernel. Eigenvalues to
-    rounding of |A| like LAPACK's (tests/test_array_kernels.py), in another order of
-    operations.
-
-    Parameters
-    ----------
-    A : ndarray, shape (m, m)
-        The symmetric matrix (real).
-
-    Returns
-    -------
-    lam : ndarray, shape (m,)
-        The eigenvalues, ascending.
-    V : ndarray, shape (m, m)
-        Orthonormal eigenvectors, column ``i`` for ``lam[i]``.
-    """
-    m = A.shape[0]
-    a = np.empty((m, m))
-    for i in range(m):
-        for j in range(i, m):
-            a[i, j] = A[i, j]
-            a[j, i] = A[i, j]
-    V = np.zeros((m, m))
-    for i in range(m):
-        V[i, i] = 1.0
-    for _sweep in range(50):
-        off = 0.0
-        diag = 0.0
-        for i in range(m):
-            diag += a[i, i] * a[i, i]
-            for j in range(i + 1, m):
-                off += a[i, j] * a[i, j]
-        if not off > 1e-36 * diag:  # (also a zero or NaN matrix)
-            break
-        for p in range(m - 1):
-            for q in range(p + 1, m):
-                apq = a[p, q]
-                if apq == 0.0:
-                    continue
-                theta = (a[q, q] - a[p, p]) / (2.0 * apq)
-                t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
-                if theta < 0.0:
-                    t = -t
-                c = 1.0 / np.sqrt(t * t + 1.0)
-                s = t * c
-                for k in range(m):  # A <- A G, then G^T A, V <- V G
-                    akp, akq = a[k, p], a[k, q]
-                    a[k, p], a[k, q] = c * akp - s * akq, s * akp + c * akq
-                for k in range(m):
-                    apk, aqk = a[p, k], a[q, k]
-                    a[p, k], a[q, k] = c * apk - s * aqk, s * apk + c * aqk
-                for k in range(m):
-                    vkp, vkq = V[k, p], V[k, q]
-                    V[k, p], V[k, q] = c * vkp - s * vkq, s * vkp + c * vkq
-    order = np.empty(m, dtype=np.int64)  # ascending, by insertion
-    for i in range(m):
-        j = i
-        while j > 0 and a[order[j - 1], order[j - 1]] > a[i, i]:
-            order[j] = order[j - 1]
-            j -= 1
-        order[j] = i
-    lam = np.empty(m)
-    W = np.empty((m, m))
-    for j in range(m):
-        lam[j] = a[order[j], order[j]]
-        for i in range(m):
-            W[i, j] = V[i, order[j]]
-    return lam, W
-
-
-@njit(cache=True)
 def _cholesky(A):
     """(L, True) with L L^T = A, L lower triangular, for a symmetric ``A`` (its lower triangle
     read), by loops; (part of L, False) as soon as a pivot is not positive (or NaN)."""
@@ -460,5 +384,5 @@ def spd_solve(A, b):
 __all__ = [
     "add_scaled", "cmm", "cmmt", "cmtv", "cmv", "difference", "gram", "mm", "mv",
     "positive_definite", "put", "put_rows", "smallest_singular_value_above", "solve", "spd_solve",
-    "symmetric_eigen", "symmetric_solve_transposed",
+    "symmetric_solve_transposed",
 ]  # fmt: skip

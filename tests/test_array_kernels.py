@@ -12,7 +12,6 @@ from ffsm_pin._array_kernels import (
     mm,
     mv,
     spd_solve,
-    symmetric_eigen,
     symmetric_solve_transposed,
 )
 
@@ -121,30 +120,3 @@ def test_spd_solve_hands_what_is_not_positive_definite_to_lapack(rng):
         spd_solve(np.eye(3), np.array([1.0, np.nan, 0.0]))
     with pytest.raises(np.linalg.LinAlgError):
         spd_solve(np.diag([1.0, np.inf, 1.0]), b)
-
-
-@pytest.mark.parametrize("m", [2, 3, 6])
-def test_symmetric_eigen_is_lapacks_eigh_to_rounding(m, rng):
-    """Jacobi's eigenvalues are LAPACK's to rounding of |A| (ascending), its eigenvectors
-    orthonormal and V diag(lam) V^T = A to rounding; also for repeated eigenvalues (a
-    regressor's G = Y Y^T with equal rows' norms), a diagonal and a zero matrix, and widely
-    spread eigenvalues (1e-12 .. 1e4)."""
-    cases = []
-    for _ in range(200):
-        Y = rng.normal(size=(m, 3 * m + 5)) * 10.0 ** rng.uniform(-3, 3)
-        cases.append(Y @ Y.T)
-    Q = np.linalg.qr(rng.normal(size=(m, m)))[0]
-    cases.append(Q @ np.diag(np.r_[1.0, 1.0, np.arange(m - 2) + 2.0][:m]) @ Q.T)  # repeated
-    cases.append(Q @ np.diag(np.logspace(-12, 4, m)) @ Q.T)
-    cases.append(np.diag(rng.normal(size=m)))
-    cases.append(np.zeros((m, m)))
-    for A in cases:
-        lam, V = symmetric_eigen(A)
-        want = np.linalg.eigvalsh(A)
-        scale = max(np.abs(want).max(), 1e-300)
-        assert np.all(np.diff(lam) >= 0)
-        assert np.abs(lam - want).max() <= 16 * m * EPS * scale
-        assert np.abs(V.T @ V - np.eye(m)).max() <= 16 * m * EPS
-        assert np.abs(V @ np.diag(lam) @ V.T - A).max() <= 16 * m * EPS * scale
-    upper = np.triu(cases[0]) + np.tril(rng.normal(size=(m, m)), -1)  # the upper triangle read
-    assert np.array_equal(symmetric_eigen(upper)[0], symmetric_eigen(cases[0])[0])

@@ -44,11 +44,11 @@ from .._array_kernels import (
     smallest_singular_value_above,
     solve,
     spd_solve,
-    symmetric_eigen,
     symmetric_solve_transposed,
 )
 from .._arrays import contiguous_rows as _rows
 from .._docstrings import fill_doc
+from .._symmetric_kernels import symmetric_eigen
 from ..attitude._mrp_kernels import l_matrix
 from ..model._spatial_kinematics_kernels import attitude_rows, kinematics, position_jacobian, y_z
 from ..model._spatial_mass_kernels import add_ym, mass_matrix_by_sums, mass_times

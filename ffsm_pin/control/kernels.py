@@ -26,6 +26,7 @@ from numba import njit
 
 from .._array_kernels import gram, mv, spd_solve, symmetric_solve_transposed
 from .._docstrings import doc_entries, fill_doc
+from .._symmetric_kernels import smallest_eigenvalue
 from .null_space import GRADIENT_STEP, OBJECTIVE_CODE
 
 #: The complex step h of the control layer's exact derivatives (any tiny h: no subtractive
@@ -187,8 +188,7 @@ def damped_pinv(A, thr):
         The damping threshold [units of A].
     """
     G = gram(A)
-    eig = np.linalg.eigvalsh(np.ascontiguousarray(G.real))
-    sigma = np.sqrt(max(eig[0], 0.0))
+    sigma = np.sqrt(max(smallest_eigenvalue(G.real), 0.0))
     damping = 0.0
     if sigma < thr:
         damping = thr * thr - sigma * sigma
