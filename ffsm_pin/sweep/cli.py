@@ -87,8 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--batch-size",
         metavar="N",
         type=positive_int,
-        help="most cases a worker runs in one task, cases of one robot (default: about 4 "
-        "batches per worker, at most 8 cases each; docs/campaigns.md)",
+        help="most cases a worker runs in one task, cases of one robot and controller "
+        "(default: about 4 batches per worker, at most 8 cases each; docs/campaigns.md)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar (stdout: the folder)")
     return p

@@ -1,8 +1,8 @@
-"""Batches of cases (ffsm_pin.sweep.batches, engine.run_batch): grouped by robot, sized by a
-closed form, and each case of a batch gives exactly the outcome of its single task, a case that
-raises included (planar and spatial cases in one batch list). The same end to end, on a Dask
-cluster: a campaign run in batches and one case per task write the same rows, signals and run
-folders."""
+"""Batches of cases (ffsm_pin.sweep.batches, engine.run_batch): grouped by robot and controller
+type, sized by a closed form, and each case of a batch gives exactly the outcome of its single
+task, a case that raises included (planar and spatial cases in one batch list). The same end to
+end, on a Dask cluster: a campaign run in batches and one case per task write the same rows,
+signals and run folders."""
 
 from __future__ import annotations
 
@@ -64,7 +64,11 @@ def test_default_batch_size_closed_form():
 
 
 @pytest.mark.parametrize("size", [1, 2, 3, 5, 100])
-def test_batches_group_cases_by_robot(campaign_file, size):
+def test_batches_group_cases_by_robot_and_controller(campaign_file, size):
+    """Every case once, in the order given within a batch; a batch of one robot and one
+    controller type (a batch that straddles two types leaves a case alone at its cut, out of
+    lock-step); a robot's batches together; each (robot, controller) group cut into the
+    fewest batches of at most ``size``."""
     cases = expand(load_campaign(campaign_file(TWO_ROBOTS.format(duration=0.1))))
     shuffled = cases[1::2] + cases[0::2]  # the robots interleaved
     batches = make_batches(shuffled, size)
@@ -72,14 +76,18 @@ def test_batches_group_cases_by_robot(campaign_file, size):
     assert sorted(flat) == [c.index for c in cases]  # every case once
     for b in batches:
         assert 1 <= len(b) <= size
-        assert len({robot_key(c) for c in b}) == 1
+        assert len({kernel_key(c) for c in b}) == 1
         order = [shuffled.index(c) for c in b]
         assert order == sorted(order)  # in the order given
     keys = [robot_key(b[0]) for b in batches]
-    assert keys == sorted(keys, key=keys.index) and len(set(keys)) == 2  # groups not mixed
+    assert keys == sorted(keys, key=keys.index) and len(set(keys)) == 2  # robots not mixed
     per_robot = {k: sum(len(b) for b in batches if robot_key(b[0]) == k) for k in set(keys)}
     assert sorted(per_robot.values()) == [4, 4]
-    assert len(batches) == sum(-(-n // size) for n in per_robot.values())
+    per_kernel: dict = {}
+    for c in cases:
+        per_kernel[kernel_key(c)] = per_kernel.get(kernel_key(c), 0) + 1
+    assert len(per_kernel) == 6  # two robots x three controller types
+    assert len(batches) == sum(-(-n // size) for n in per_kernel.values())
 
 
 def _short(name: str, **changes) -> str:
