@@ -21,7 +21,7 @@ def symmetric_eigen(A):
     off-diagonal part is below 1e-18 of the diagonal's (quadratic convergence: 3-5 sweeps for
     3 x 3). The 3 x 3 exponentials of Eq. (28) and the smallest singular value of H_bm-hat
     (spatial): about 0.1 us against 1-1.5 us for LAPACK's call inside a kernel. Eigenvalues to
-    rounding of |A| like LAPACK's (tests/test_array_kernels.py), in another order of
+    rounding of |A| like LAPACK's (tests/test_symmetric_kernels.py), in another order of
     operations.
 
     Parameters
