@@ -78,9 +78,9 @@ def smallest_eigenvalue(A):
     float
         Its smallest eigenvalue.
     """
-    if A.shape[0] > JACOBI_LARGEST:
-        return np.linalg.eigvalsh(_symmetric_copy(A))[0]
     a = _symmetric_copy(A)
+    if a.shape[0] > JACOBI_LARGEST:
+        return np.linalg.eigvalsh(a)[0]
     _jacobi_sweeps(a, None)
     lam = a[0, 0]
     for i in range(1, a.shape[0]):

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 import traceback
 import warnings
@@ -252,9 +253,7 @@ def _simulated(scenario, setup, keep_dir, wall0: float, cpu0: float) -> dict[str
     return _outcome(scenario, setup, result, keep_dir, wall0, cpu0)
 
 
-_POOL: list[ChunkPool] = []  # the process's pool, made by the first case that runs here
-
-
+@functools.cache  # one per process, made by the first case that runs here
 def recorder_pool() -> ChunkPool:
     """The worker process's :class:`~ffsm_pin.sim.chunk_pool.ChunkPool`: its cases' recorders
     reuse the memory of the cases before them (benchmarks/README.md, "Recorder memory kept in
@@ -265,11 +264,9 @@ def recorder_pool() -> ChunkPool:
     ChunkPool
         The pool (one per process).
     """
-    if not _POOL:
-        from ..sim.chunk_pool import ChunkPool
+    from ..sim.chunk_pool import ChunkPool
 
-        _POOL.append(ChunkPool())
-    return _POOL[0]
+    return ChunkPool()
 
 
 def _cost(wall0: float, cpu0: float, shared=(0.0, 0.0)) -> dict[str, float]:
