@@ -20,8 +20,8 @@ then
   timer (``time.perf_counter`` around the call): the controller's ``step`` (for the shipped
   controllers their compiled period), the plant (``Plant.advance``: ABA, integrate, momentum
   projection), the exact measurement (``Sensor.measure``: Pinocchio's kinematics), the
-  sensors' noise (``Sensors.observe``), the actuators (``Actuators.apply``), the reply's
-  split and torque check (``checked_reply``), the state's check, the base acceleration for F_r, the
+  sensors' noise (``Sensors.observe``), the actuators (``Actuators.apply``), the checks of
+  the torque and of the state, the reply's split, the base acceleration for F_r, the
   recorder's commit and the after-run signals (momentum rows, F_r). ``loop glue`` is the
   wrapped run's loop time less its stages: the loop's own lines (recording a row, the stop
   checks). The wrapped run is slower by the timers themselves (``timer overhead``: the wrapped
@@ -59,8 +59,9 @@ STAGES = [
     ("measurement", "ffsm_pin.sim.measurement", "Sensor", "measure"),
     ("sensor noise", "ffsm_pin.sim.sensors", "Sensors", "observe"),
     ("actuators", "ffsm_pin.sim.actuators", "Actuators", "apply"),
+    ("torque check", "ffsm_pin.sim.loop", None, "checked_torque"),
     ("state check", "ffsm_pin.sim.plant", "Plant", "state_status"),
-    ("reply check", "ffsm_pin.sim.loop", None, "checked_reply"),  # split and torque check
+    ("reply split", "ffsm_pin.sim.loop", None, "split_reply"),
     ("base acceleration", "ffsm_pin.sim.measurement", "Sensor", "base_angular_acceleration"),
     ("recorder commit", "ffsm_pin.sim.recorder", "Recorder", "commit"),
     ("after-run signals", "ffsm_pin.sim.loop", None, "system_signals"),

@@ -215,15 +215,9 @@ class CompiledPeriod:
             raise ParameterError("step_row needs theta_d_true (the row's e of Eq. 54)")
 
     def _row_compiled(self, meas: Measurement, dt: float) -> RowOutput:
-        # (_require_truth and _run_compiled written out: a run's every period comes here,
-        # and each Python call costs about 0.1 us of a 10 us planar period)
-        if self.theta_d_true is None:
-            self._require_truth()
-        status, idx, value = period_of(self._period_box(), dt, self._kernel_meas(meas), self._aux)
-        out = self._out
-        if status != kernels.STATUS_OK or out.damping[0] != 0.0 or self._watch.since is not None:
-            self.settle(meas, status, idx, value, stacklevel=2)  # (warns at step_row's caller)
-        return RowOutput(out.u_m.copy(), self._row.copy())
+        self._require_truth()
+        self._run_compiled(meas, dt)
+        return RowOutput(self._out.u_m.copy(), self._row.copy())
 
     def step_compiled(self, meas: Measurement, dt: float) -> ControlOutput:
         """:meth:`step` by the compiled period; the outputs are copies.

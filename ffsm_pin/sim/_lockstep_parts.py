@@ -16,7 +16,7 @@ from ..control.interface import Measurement
 from ..errors import SimulationError
 from . import _lockstep_kernels
 from ._sensor_kernels import spatial_measurement
-from .reply import ControllerFault, checked_torque
+from .loop import ControllerFault, checked_torque
 from .sensors import BLOCK
 from .setup import Setup
 

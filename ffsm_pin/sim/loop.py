@@ -11,6 +11,7 @@ and the reason, and everything recorded so far.
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from collections.abc import Mapping
@@ -21,7 +22,13 @@ import numpy as np
 from ..control import _first_compile
 from ..control.backend import numba_available
 from ..control.diagnostics import reaction_torques
-from ..control.interface import Measurement, SignalLayout, SignalRow, recorded_name
+from ..control.interface import (
+    Measurement,
+    SignalLayout,
+    SignalRow,
+    recorded_name,
+    split_reply,
+)
 from ..errors import ParameterError, SimulationError
 from . import recorder
 from .capture_run import CaptureMotion, target_motions
@@ -36,7 +43,6 @@ from .recording import (
     spool_header,
     stop_outcome,
 )
-from .reply import ControllerFault, checked_reply
 from .result import RunResult
 from .setup import Setup
 from .storage import check_storage, rows_recorded
@@ -48,8 +54,54 @@ from .wheels_run import loop_plant
 _LOOP_COLUMNS = ("t", "q", "v", "w", "u_m", "u_cmd", "z_e", "z_e_dot", "q_b", "dw_b")
 _SEEN_COLUMNS = ("meas_q_b", "meas_q_m", "meas_w", "meas_z_e", "meas_z_e_dot")
 
+#: float64, the dtype a torque is checked against first (:func:`checked_torque`)
+_FLOAT64 = np.dtype(np.float64)
+
 #: [rad/s] the blow-up guard: a run stops when an angular rate of the plant exceeds it
 RATE_LIMIT = 1e4
+
+
+class ControllerFault(Exception):
+    """A controller broke the interface (a bad torque or signal); the run stops."""
+
+
+def checked_torque(u, n: int) -> np.ndarray:
+    """``u`` as the run applies it: real numbers, shape ``(n,)``, finite, or a
+    :class:`ControllerFault` that says which (the run's stop, cause ``"controller"``).
+
+    Parameters
+    ----------
+    u : array_like
+        The controller's torque [N m].
+    n : int
+        Joints.
+
+    Returns
+    -------
+    ndarray
+        ``u`` as float64.
+    """
+    if type(u) is np.ndarray and u.dtype is _FLOAT64 and u.shape == (n,):  # the usual reply
+        if all(map(math.isfinite, u.tolist())):  # (the checks below, in fewer calls)
+            return u
+    u = np.asarray(u)
+    if u.dtype.kind not in "fiu":  # (not bool, complex, strings or objects)
+        raise ControllerFault(
+            f"the controller returned a torque of dtype {u.dtype} ({u.tolist()!r:.80}); "
+            f"expected real numbers, shape ({n},), one per joint [N m]"
+        )
+    if u.dtype != np.float64:
+        u = u.astype(float)
+    if u.shape != (n,):
+        raise ControllerFault(
+            f"the controller returned a torque of shape {u.shape}; expected ({n},), one per "
+            "joint [N m]"
+        )
+    if not all(map(math.isfinite, u.tolist())):  # (np.isfinite(u).all(), three times dearer)
+        raise ControllerFault(
+            f"the controller returned a non-finite torque {u.tolist()} (shape ({n},))"
+        )
+    return u
 
 
 def _standard_shapes(setup: Setup) -> dict[str, tuple[int, ...]]:
@@ -235,7 +287,8 @@ def simulate(
             try:
                 if capture is not None:  # a grasp this period: the controller's on_capture
                     capture.notify(controller)
-                u_cmd, signals = checked_reply(controller.step(seen), n)
+                u_cmd, signals = split_reply(controller.step(seen))
+                u_cmd = checked_torque(u_cmd, n)
                 if wheels is not None:  # the controller's wheel torques, or the wheels' own
                     wheels.command(controller, seen)
                 if k == 0:  # the controller's signals: names and shapes from the first period
